@@ -1,0 +1,20 @@
+"""Lazy imports of optional dependencies with a helpful error."""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+
+
+def require(module: str, extra: str) -> ModuleType:
+    """Import ``module`` or raise an ImportError naming the extra that provides it.
+
+    Examples
+    --------
+    >>> require("numpy", "core").__name__
+    'numpy'
+    """
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError(f"{module} is needed for this feature: pip install 'monovisual3d[{extra}]'") from exc

@@ -1,0 +1,12 @@
+"""Command-line interface: ``monovisual3d`` (alias ``mv3d``).
+
+The CLI only parses arguments and calls the library. User errors end with
+exit code 2 and a one-line message; warnings are printed as one line each.
+"""
+
+from __future__ import annotations
+
+from . import core  # noqa: F401  (registers commands)
+from ._app import app, main
+
+__all__ = ["app", "main"]

@@ -1,0 +1,133 @@
+"""``localize`` and ``evaluate``."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from ..localize import DEFAULT_METHOD, METHODS
+from ..localize import localize as localize_fn
+from ..metrics import Metrics
+from ..metrics import evaluate as evaluate_fn
+from ..result import Result
+from ..truth import load_objects
+from ._app import app, console, handle_errors
+
+
+def print_objects(result: Result, title: str = "Localised objects") -> None:
+    """A readable table of the objects (positions in millimetres, base frame)."""
+    table = Table(title=f"{title} ({result.method}, base frame)")
+    for col in ("#", "x (mm)", "y (mm)", "z (mm)", "radius (mm)", "score"):
+        table.add_column(col, justify="right")
+    for i, o in enumerate(result.objects):
+        x, y, z = (1000 * o.position).tolist()
+        radius = f"{1000 * o.radius:.1f}" if o.radius is not None else "-"
+        table.add_row(str(i), f"{x:.1f}", f"{y:.1f}", f"{z:.1f}", radius, f"{o.score:.3g}")
+    console.print(table)
+
+
+def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation") -> None:
+    """Metric table, one column per configuration (millimetres and percent)."""
+    table = Table(title=title)
+    table.add_column("metric")
+    for name in rows:
+        table.add_column(name, justify="right")
+
+    def fmt(v: float | None, scale: float = 1.0, digits: int = 2) -> str:
+        return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v * scale:.{digits}f}"
+
+    spec: list[tuple[str, str, float, int]] = [
+        ("Euclidean mean (mm)", "euclidean_mean", 1e3, 2),
+        ("Euclidean median (mm)", "euclidean_median", 1e3, 2),
+        ("Euclidean max (mm)", "euclidean_max", 1e3, 2),
+        ("MAE (mm)", "mae", 1e3, 2),
+        ("MSE (mm^2)", "mse", 1e6, 2),
+        ("RMSE (mm)", "rmse", 1e3, 2),
+        ("MAPE (%)", "mape", 1.0, 2),
+        ("radius error (mm)", "radius_error_mean", 1e3, 2),
+        ("recall", "recall", 1.0, 3),
+        ("precision", "precision", 1.0, 3),
+    ]
+    for label, key, scale, digits in spec:
+        table.add_row(label, *(fmt(getattr(m, key), scale, digits) for m in rows.values()))
+    table.add_row("truth / estimates", *(f"{m.n_truth} / {m.n_estimates}" for m in rows.values()))
+    table.add_row("misses / false pos.", *(f"{m.misses} / {m.false_positives}" for m in rows.values()))
+    console.print(table)
+
+
+@app.command()
+@handle_errors
+def localize(
+    session: Annotated[Path, typer.Argument(help="Session file (JSON or YAML).")],
+    method: Annotated[str, typer.Option(help=f"Method: {', '.join(sorted(METHODS))}.")] = DEFAULT_METHOD,
+    kernel: Annotated[str | None, typer.Option(help="paper method: square or gaussian.")] = None,
+    centre: Annotated[str | None, typer.Option(help="paper method: weighted or geometric centre.")] = None,
+    resolution: Annotated[float | None, typer.Option(help="Grid cell size in metres.")] = None,
+    sigma_fraction: Annotated[float | None, typer.Option(help="paper method: Gaussian sigma / box size (0.5 or 1/3).")] = None,
+    k: Annotated[str | None, typer.Option(help="paper method: clusters: max, mode, min, last or a number.")] = None,
+    reach: Annotated[float | None, typer.Option(help="Manipulator reach R in metres (grid cube of side 2R).")] = None,
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the result JSON here.")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table or progress bar.")] = False,
+) -> None:
+    """Localise the objects of a session and print/write them."""
+    from rich.progress import Progress
+
+    options: dict[str, Any] = {}
+    for name, value in (
+        ("kernel", kernel),
+        ("centre", centre),
+        ("resolution", resolution),
+        ("sigma_fraction", sigma_fraction),
+        ("reach", reach),
+    ):
+        if value is not None:
+            options[name] = value
+    if k is not None:
+        options["k"] = int(k) if k.isdigit() else k
+    if quiet:
+        result = localize_fn(session, method=method, **options)
+    else:
+        with Progress(console=console, transient=True) as bar:
+            task = bar.add_task("filtering views", total=None)
+
+            def progress(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
+
+            result = localize_fn(session, method=method, progress=progress, **options)
+    if output is not None:
+        result.to_json(output)
+    if not quiet:
+        print_objects(result)
+        console.print(f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {output}" if output else ""))
+    elif output is None:
+        print(result.to_json())
+
+
+@app.command()
+@handle_errors
+def evaluate(
+    estimates: Annotated[Path, typer.Argument(help="Result JSON written by `localize --output`.")],
+    truth: Annotated[Path, typer.Argument(help='Truth JSON: {"objects": [{"position": [x, y, z], "radius": r}]}.')],
+    gate: Annotated[
+        float | None, typer.Option(help="Match gate in metres for recall/precision (default: true radius, >= 20 mm).")
+    ] = None,
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the metrics JSON here.")] = None,
+) -> None:
+    """Compare estimates with ground truth: Euclidean error, MAE, MSE, RMSE, MAPE, recall, precision."""
+    est = load_objects(estimates)
+    tru = load_objects(truth, allow_empty=False)
+    m = evaluate_fn(
+        est.positions,
+        tru.positions,
+        truth_radii=tru.radii if tru.has_radii else None,
+        estimate_radii=est.radii,
+        gate=gate,
+    )
+    print_metrics({str(estimates.name): m})
+    if output is not None:
+        Path(output).write_text(json.dumps(m.to_dict(), indent=2) + "\n")

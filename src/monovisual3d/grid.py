@@ -1,0 +1,136 @@
+"""Uniform voxel grids over the workspace.
+
+A grid has its own frame ``grid``: cell ``(i, j, k)`` (indices along grid x,
+y, z) has its centre at ``p_grid = ((i, j, k) + 0.5) * resolution``, and
+``T_base_grid`` places the grid in the base frame. Flat cell indices follow
+C order over ``(i, j, k)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import InputError
+from .frames import transform_points
+
+#: Default manipulator reach R (metres); the paper's grid is a cube of side 2R.
+DEFAULT_REACH_M = 0.6
+#: Working bytes per cell of the dense numpy filter (posterior + per-chunk temporaries, amortised).
+BYTES_PER_CELL = 16
+#: Largest grid the dense filter accepts by default.
+DEFAULT_MAX_BYTES = 4 * 1024**3
+
+
+@dataclass(frozen=True)
+class VoxelGrid:
+    """A uniform grid of cubic cells.
+
+    Parameters
+    ----------
+    T_base_grid : ndarray, shape (4, 4)
+        Pose of the grid frame in the base frame (may be rotated).
+    shape : tuple of int
+        Number of cells ``(ni, nj, nk)`` along grid x, y, z.
+    resolution : float
+        Cell edge length, metres.
+
+    Examples
+    --------
+    >>> g = VoxelGrid.from_bounds([0, 0, 0], [0.1, 0.1, 0.1], 0.05)
+    >>> g.shape, g.n_cells
+    ((2, 2, 2), 8)
+    """
+
+    T_base_grid: NDArray[np.float64]
+    shape: tuple[int, int, int]
+    resolution: float
+
+    @property
+    def n_cells(self) -> int:
+        return int(np.prod(self.shape))
+
+    @property
+    def size_m(self) -> NDArray[np.float64]:
+        """Extent along grid x, y, z, metres, shape (3,)."""
+        return np.asarray(self.shape, dtype=float) * self.resolution
+
+    @classmethod
+    def from_bounds(
+        cls, min_base: ArrayLike, max_base: ArrayLike, resolution: float, *, max_bytes: int = DEFAULT_MAX_BYTES
+    ) -> VoxelGrid:
+        """Axis-aligned grid covering ``[min_base, max_base]`` (metres, base frame)."""
+        lo = np.asarray(min_base, dtype=float)
+        hi = np.asarray(max_base, dtype=float)
+        _check_resolution(resolution)
+        shape = tuple(int(max(1, math.ceil((h - l) / resolution - 1e-9))) for l, h in zip(lo, hi))
+        check_grid_size(shape, resolution, max_bytes=max_bytes)
+        T = np.eye(4)
+        T[:3, 3] = lo
+        return cls(T, shape, float(resolution))  # type: ignore[arg-type]
+
+    @classmethod
+    def in_front_of_camera(
+        cls,
+        T_base_optical: ArrayLike,
+        resolution: float,
+        reach: float = DEFAULT_REACH_M,
+        *,
+        max_bytes: int = DEFAULT_MAX_BYTES,
+    ) -> VoxelGrid:
+        """The paper's decomposition: a cube of side ``2 * reach`` in front of the camera.
+
+        Centred on the optical axis, from the camera out to ``2 * reach`` along
+        it; the grid axes are the optical frame's axes.
+        """
+        _check_resolution(resolution)
+        if not (reach > 0 and math.isfinite(reach)):
+            raise InputError(f"reach: got {reach}, expected a positive number of metres")
+        n = int(math.ceil(2 * reach / resolution - 1e-9))
+        shape = (n, n, n)
+        check_grid_size(shape, resolution, max_bytes=max_bytes)
+        offset = np.eye(4)
+        offset[:3, 3] = [-reach, -reach, 0.0]
+        return cls(np.asarray(T_base_optical, dtype=float) @ offset, shape, float(resolution))
+
+    def centres_grid(self, flat_index: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Cell centres in the grid frame, shape (N, 3), metres."""
+        if flat_index is None:
+            flat_index = np.arange(self.n_cells)
+        ijk = np.stack(np.unravel_index(np.asarray(flat_index), self.shape), axis=-1)
+        return (ijk + 0.5) * self.resolution
+
+    def centres_base(self, flat_index: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Cell centres in the base frame, shape (N, 3), metres."""
+        return transform_points(self.T_base_grid, self.centres_grid(flat_index))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "T_base_grid": self.T_base_grid.tolist(),
+            "shape": list(self.shape),
+            "resolution_m": self.resolution,
+            "n_cells": self.n_cells,
+        }
+
+
+def check_grid_size(shape: tuple[int, ...], resolution: float, *, max_bytes: int = DEFAULT_MAX_BYTES) -> None:
+    """Refuse a grid whose dense filter would not fit in ``max_bytes``; suggest a resolution."""
+    n = int(np.prod(shape))
+    need = n * BYTES_PER_CELL
+    if need > max_bytes:
+        factor = (need / max_bytes) ** (1 / 3)
+        suggestion = resolution * factor * 1.05
+        raise InputError(
+            f"resolution: a {resolution * 1000:g} mm grid has {n:,} cells ({'x'.join(map(str, shape))}) and needs "
+            f"about {need / 1024**3:.1f} GiB, over the {max_bytes / 1024**3:.1f} GiB limit; use --resolution "
+            f"{suggestion:.4f} or larger, or a smaller workspace"
+        )
+
+
+def _check_resolution(resolution: float) -> None:
+    if not isinstance(resolution, (int, float)) or not (resolution > 0 and math.isfinite(resolution)):
+        raise InputError(f"resolution: got {resolution!r}, expected a positive number of metres")

@@ -1,0 +1,398 @@
+"""The session file: camera, views (pose + detections) and optional workspace.
+
+A session is the input contract of :func:`monovisual3d.localize`. It is read
+from JSON or YAML (same structure), validated on load, and every problem is
+reported as one line that names the file, the JSON path and what was expected,
+for example ``session.json: views[3].pose.quaternion_xyzw: norm 0.71, expected 1``.
+
+See the README ("Session format") for the full description.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .camera import Camera
+from .errors import InputError, InputWarning
+from .frames import (
+    T_base_optical_from_T_base_cameralink,
+    check_quaternion_xyzw,
+    check_transform,
+    position_quaternion_from_transform,
+    transform_from_position_quaternion,
+)
+
+POSE_FRAMES = ("optical", "camera_link")
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One detected object in one image.
+
+    Attributes
+    ----------
+    bbox_xyxy : ndarray, shape (4,), float64, pixels ``(x1, y1, x2, y2)``, x1 < x2, y1 < y2
+    score : float or None, detector confidence in [0, 1]
+    label : str or None
+    mask : dict or None
+        Optional instance mask: ``{"polygon": [[u, v], ...]}`` or COCO RLE
+        ``{"size": [height, width], "counts": ...}``.
+    """
+
+    bbox_xyxy: NDArray[np.float64]
+    score: float | None = None
+    label: str | None = None
+    mask: dict[str, Any] | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"bbox_xyxy": [float(v) for v in self.bbox_xyxy]}
+        if self.score is not None:
+            out["score"] = float(self.score)
+        if self.label is not None:
+            out["label"] = self.label
+        if self.mask is not None:
+            out["mask"] = self.mask
+        return out
+
+
+@dataclass(frozen=True)
+class View:
+    """One camera pose with the detections made there.
+
+    Attributes
+    ----------
+    T_base_optical : ndarray, shape (4, 4), the optical frame expressed in the base frame
+    detections : tuple of Detection
+    image : str or None, the image file the detections came from
+    stamp : float or None, seconds
+    """
+
+    T_base_optical: NDArray[np.float64]
+    detections: tuple[Detection, ...] = ()
+    image: str | None = None
+    stamp: float | None = None
+
+    @property
+    def boxes_xyxy(self) -> NDArray[np.float64]:
+        """All boxes, shape (N, 4), pixels."""
+        if not self.detections:
+            return np.zeros((0, 4))
+        return np.stack([d.bbox_xyxy for d in self.detections])
+
+    def to_dict(self) -> dict[str, Any]:
+        position, q = position_quaternion_from_transform(self.T_base_optical)
+        out: dict[str, Any] = {
+            "pose": {"position": position.tolist(), "quaternion_xyzw": q.tolist()},
+            "detections": [d.to_dict() for d in self.detections],
+        }
+        if self.image is not None:
+            out["image"] = self.image
+        if self.stamp is not None:
+            out["stamp"] = self.stamp
+        return out
+
+
+@dataclass(frozen=True)
+class Workspace:
+    """Axis-aligned box in the base frame, metres: ``min`` (3,), ``max`` (3,)."""
+
+    min: NDArray[np.float64]
+    max: NDArray[np.float64]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"min": self.min.tolist(), "max": self.max.tolist()}
+
+
+@dataclass(frozen=True)
+class Session:
+    """A validated session: camera, views and optional workspace."""
+
+    camera: Camera
+    views: tuple[View, ...]
+    workspace: Workspace | None = None
+    source: str | None = field(default=None, compare=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "camera": self.camera.to_dict(),
+            "pose_frame": "optical",
+            "views": [v.to_dict() for v in self.views],
+        }
+        if self.workspace is not None:
+            out["workspace"] = self.workspace.to_dict()
+        return out
+
+    def to_json(self, path: str | Path | None = None, indent: int = 2) -> str:
+        """The session as JSON text; also written to ``path`` when given."""
+        text = json.dumps(self.to_dict(), indent=indent)
+        if path is not None:
+            Path(path).write_text(text + "\n")
+        return text
+
+    save = to_json
+
+
+# ---------------------------------------------------------------------- loading
+def read_structured_file(path: str | Path) -> Any:
+    """Read JSON or YAML (by suffix) with a one-line error for malformed content."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: file not found")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, expected a JSON or YAML file")
+    text = path.read_text(encoding="utf-8", errors="replace")
+    if path.suffix.lower() in (".yaml", ".yml"):
+        import yaml
+
+        try:
+            return yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+            raise InputError(f"{path}: not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+
+
+def load_session(source: str | Path | dict[str, Any] | Session) -> Session:
+    """Load and validate a session from a JSON/YAML file or an already-parsed dict.
+
+    Parameters
+    ----------
+    source : path, dict or Session
+
+    Returns
+    -------
+    Session
+
+    Raises
+    ------
+    InputError
+        With a one-line message ``FILE: json.path: problem``.
+
+    Examples
+    --------
+    >>> s = load_session({"camera": {"width": 640, "height": 480, "hfov_deg": 69},
+    ...                   "views": [{"pose": {"position": [0, 0, 0], "quaternion_xyzw": [0, 0, 0, 1]},
+    ...                              "detections": [{"bbox_xyxy": [300, 220, 340, 260]}]}]})
+    >>> len(s.views)
+    1
+    """
+    if isinstance(source, Session):
+        return source
+    if isinstance(source, dict):
+        return session_from_dict(source, None)
+    data = read_structured_file(source)
+    return session_from_dict(data, str(source))
+
+
+def session_from_dict(data: Any, source: str | None = None) -> Session:
+    """Validate a parsed session object; errors are prefixed with ``source``."""
+    try:
+        return _session_from_dict(data, source)
+    except InputError as exc:
+        if source and not str(exc).startswith(f"{source}:"):
+            raise InputError(f"{source}: {exc}") from None
+        raise
+
+
+def _session_from_dict(data: Any, source: str | None) -> Session:
+    _expect_object(data, "(top level)")
+    _reject_unknown(data, {"camera", "pose_frame", "views", "workspace", "metadata"}, "")
+    if "camera" not in data:
+        raise InputError("camera: missing field, expected an object with width, height and fx/fy/cx/cy or hfov_deg")
+    camera = camera_from_dict(data["camera"])
+    pose_frame = data.get("pose_frame", "optical")
+    if pose_frame not in POSE_FRAMES:
+        raise InputError(f"pose_frame: got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
+    if "views" not in data:
+        raise InputError("views: missing field, expected a list of views")
+    views_data = data["views"]
+    if not isinstance(views_data, list):
+        raise InputError(f"views: expected a list, got {type(views_data).__name__}")
+    if not views_data:
+        raise InputError("views: empty, expected at least one view")
+    views = tuple(_view_from_dict(v, f"views[{i}]", camera, pose_frame, source) for i, v in enumerate(views_data))
+    workspace = None
+    if data.get("workspace") is not None:
+        workspace = workspace_from_dict(data["workspace"], "workspace")
+    return Session(camera=camera, views=views, workspace=workspace, source=source)
+
+
+def camera_from_dict(data: Any, where: str = "camera") -> Camera:
+    """Camera from ``{"width", "height", "fx", "fy", "cx", "cy" | "hfov_deg", "distortion"}``."""
+    _expect_object(data, where)
+    _reject_unknown(data, {"width", "height", "fx", "fy", "cx", "cy", "hfov_deg", "distortion", "model"}, where)
+    for name in ("width", "height"):
+        if name not in data:
+            raise InputError(f"{where}.{name}: missing field, expected a positive integer (pixels)")
+        value = data[name]
+        if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+            raise InputError(f"{where}.{name}: expected a positive integer (pixels), got {value!r}")
+    has_k = [k for k in ("fx", "fy", "cx", "cy") if k in data]
+    if "hfov_deg" in data:
+        if has_k:
+            raise InputError(f"{where}: give either hfov_deg or fx/fy/cx/cy, not both")
+        hfov = _number(data["hfov_deg"], f"{where}.hfov_deg")
+        if not 0 < hfov < 180:
+            raise InputError(f"{where}.hfov_deg: got {hfov}, expected a value in (0, 180) degrees")
+        cam = Camera.from_hfov(data["width"], data["height"], hfov)
+        model, coeffs = "none", ()
+    else:
+        missing = [k for k in ("fx", "fy", "cx", "cy") if k not in data]
+        if missing:
+            raise InputError(f"{where}.{missing[0]}: missing field, expected fx, fy, cx, cy (pixels) or hfov_deg")
+        vals = {k: _number(data[k], f"{where}.{k}") for k in ("fx", "fy", "cx", "cy")}
+        for k in ("fx", "fy"):
+            if vals[k] <= 0:
+                raise InputError(f"{where}.{k}: got {vals[k]}, expected a positive focal length in pixels")
+        cam = Camera(data["width"], data["height"], **vals)
+        model, coeffs = "none", ()
+    dist = data.get("distortion")
+    if dist is not None:
+        _expect_object(dist, f"{where}.distortion")
+        model = dist.get("model", "plumb_bob")
+        raw = dist.get("coefficients")
+        if not isinstance(raw, list):
+            raise InputError(f"{where}.distortion.coefficients: expected a list of numbers, got {raw!r}")
+        coeffs = tuple(_number(c, f"{where}.distortion.coefficients[{i}]") for i, c in enumerate(raw))
+    try:
+        return Camera(cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy, model, coeffs)
+    except InputError as exc:
+        msg = str(exc)
+        if msg.startswith("camera.") and where != "camera":
+            msg = where + msg[len("camera") :]
+        raise InputError(msg) from None
+
+
+def pose_from_dict(data: Any, where: str) -> NDArray[np.float64]:
+    """4x4 transform from ``{"position", "quaternion_xyzw"}`` or ``{"matrix"}``."""
+    _expect_object(data, where)
+    if "matrix" in data:
+        _reject_unknown(data, {"matrix"}, where)
+        return check_transform(data["matrix"], where=f"{where}.matrix")
+    _reject_unknown(data, {"position", "quaternion_xyzw"}, where)
+    if "position" not in data:
+        raise InputError(f"{where}.position: missing field, expected [x, y, z] in metres (or give 'matrix')")
+    if "quaternion_xyzw" not in data:
+        raise InputError(f"{where}.quaternion_xyzw: missing field, expected [qx, qy, qz, qw] (or give 'matrix')")
+    position = _vector(data["position"], 3, f"{where}.position")
+    q = check_quaternion_xyzw(data["quaternion_xyzw"], where=f"{where}.quaternion_xyzw")
+    return transform_from_position_quaternion(position, q)
+
+
+def workspace_from_dict(data: Any, where: str) -> Workspace:
+    _expect_object(data, where)
+    _reject_unknown(data, {"min", "max"}, where)
+    for k in ("min", "max"):
+        if k not in data:
+            raise InputError(f"{where}.{k}: missing field, expected [x, y, z] in metres, base frame")
+    lo = _vector(data["min"], 3, f"{where}.min")
+    hi = _vector(data["max"], 3, f"{where}.max")
+    if np.any(hi <= lo):
+        raise InputError(f"{where}: max {hi.tolist()} must exceed min {lo.tolist()} on every axis")
+    return Workspace(lo, hi)
+
+
+def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, source: str | None) -> View:
+    _expect_object(data, where)
+    _reject_unknown(data, {"pose", "detections", "image", "stamp", "name"}, where)
+    if "pose" not in data:
+        raise InputError(f"{where}.pose: missing field, expected position + quaternion_xyzw or matrix")
+    T = pose_from_dict(data["pose"], f"{where}.pose")
+    if pose_frame == "camera_link":
+        T = T_base_optical_from_T_base_cameralink(T)
+    dets_data = data.get("detections")
+    if dets_data is None:
+        raise InputError(f"{where}.detections: missing field, expected a list (may be empty)")
+    if not isinstance(dets_data, list):
+        raise InputError(f"{where}.detections: expected a list, got {type(dets_data).__name__}")
+    prefix = f"{source}: " if source else ""
+    if not dets_data:
+        warnings.warn(
+            InputWarning(f"{prefix}{where}: no detections; the view is kept and the paper method skips it (no boxes to score)"),
+            stacklevel=3,
+        )
+    dets = tuple(_detection_from_dict(d, f"{where}.detections[{j}]", camera, prefix) for j, d in enumerate(dets_data))
+    stamp = data.get("stamp")
+    if stamp is not None:
+        stamp = _number(stamp, f"{where}.stamp")
+    image = data.get("image")
+    if image is not None and not isinstance(image, str):
+        raise InputError(f"{where}.image: expected a file name (string), got {image!r}")
+    return View(T_base_optical=T, detections=dets, image=image, stamp=stamp)
+
+
+def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> Detection:
+    _expect_object(data, where)
+    _reject_unknown(data, {"bbox_xyxy", "score", "label", "mask", "class_id"}, where)
+    if "bbox_xyxy" not in data:
+        raise InputError(f"{where}.bbox_xyxy: missing field, expected [x1, y1, x2, y2] in pixels")
+    box = _vector(data["bbox_xyxy"], 4, f"{where}.bbox_xyxy")
+    x1, y1, x2, y2 = box
+    if x2 <= x1 or y2 <= y1:
+        raise InputError(f"{where}.bbox_xyxy: {box.tolist()} has x2 <= x1 or y2 <= y1, expected x1 < x2 and y1 < y2")
+    W, H = camera.width, camera.height
+    if x2 <= 0 or y2 <= 0 or x1 >= W or y1 >= H:
+        raise InputError(f"{where}.bbox_xyxy: {box.tolist()} lies entirely outside the {W}x{H} image")
+    clipped = np.array([max(x1, 0.0), max(y1, 0.0), min(x2, float(W)), min(y2, float(H))])
+    if not np.array_equal(clipped, box):
+        warnings.warn(
+            InputWarning(
+                f"{prefix}{where}.bbox_xyxy: {box.tolist()} extends past the {W}x{H} image; clipped to {clipped.tolist()}"
+            ),
+            stacklevel=4,
+        )
+    score = data.get("score")
+    if score is not None:
+        score = _number(score, f"{where}.score")
+        if not 0.0 <= score <= 1.0:
+            raise InputError(f"{where}.score: got {score}, expected a confidence in [0, 1]")
+    label = data.get("label")
+    if label is not None and not isinstance(label, str):
+        label = str(label)
+    mask = data.get("mask")
+    if mask is not None:
+        _expect_object(mask, f"{where}.mask")
+        if not ({"polygon"} <= set(mask) or {"counts", "size"} <= set(mask)):
+            raise InputError(f"{where}.mask: expected {{'polygon': [[u, v], ...]}} or COCO RLE {{'size': [h, w], 'counts': ...}}")
+    return Detection(bbox_xyxy=clipped, score=score, label=label, mask=mask)
+
+
+# ---------------------------------------------------------------------- helpers
+def _expect_object(data: Any, where: str) -> None:
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: expected an object, got {type(data).__name__}")
+
+
+def _reject_unknown(data: dict[str, Any], allowed: set[str], where: str) -> None:
+    unknown = sorted(set(data) - allowed)
+    if unknown:
+        path = f"{where}.{unknown[0]}" if where else unknown[0]
+        raise InputError(f"{path}: unknown field, expected one of {sorted(allowed)}")
+
+
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where}: expected a number, got {value!r}")
+    if not math.isfinite(value):
+        raise InputError(f"{where}: got {value}, expected a finite number")
+    return float(value)
+
+
+def _vector(value: Any, n: int, where: str) -> NDArray[np.float64]:
+    if not isinstance(value, (list, tuple)):
+        raise InputError(f"{where}: expected a list of {n} numbers, got {value!r}")
+    if len(value) != n:
+        raise InputError(f"{where}: expected {n} numbers, got {len(value)}")
+    return np.array([_number(v, f"{where}[{i}]") for i, v in enumerate(value)])
