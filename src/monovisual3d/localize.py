@@ -16,7 +16,7 @@ from .session import Session, Workspace, load_session
 
 #: Registered methods: name -> function(session, **options) -> Result.
 METHODS: dict[str, Callable[..., Result]] = {}
-DEFAULT_METHOD = "paper"
+DEFAULT_METHOD = "bayes"
 
 
 def register_method(name: str) -> Callable[[Callable[..., Result]], Callable[..., Result]]:

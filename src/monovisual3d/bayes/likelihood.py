@@ -1,0 +1,222 @@
+"""Generative box likelihood over sphere position and radius.
+
+A hypothesis is a sphere (centre ``c``, radius ``r``). In a view it predicts
+the box of its silhouette (:func:`predict_boxes`). An observed box is scored
+against the prediction edge by edge, in units of an edge noise
+``sigma = alpha * predicted size + sigma0``:
+
+``l(e) = max(-e^2 / 2, -floor)``
+
+where ``e`` is the signed normalised edge residual, positive when the
+observed edge lies INSIDE the predicted box (what occlusion does) and
+negative when outside, and ``floor`` is ``inward_floor`` or ``outward_floor``. The floors make the likelihood heavy-tailed: an
+occluded edge costs at most ``inward_floor`` nats, a box edge that pokes out
+of the predicted silhouette at most ``outward_floor``. An observed edge on the
+image border is censored: it only says that the predicted edge is at or
+beyond the border, so only outward residuals count there.
+
+Per view, a hypothesis takes the best-matching box (max over boxes of
+``match_bonus + sum of edge terms``) or, if none matches better, the miss
+term ``log(p_miss)``; a view in which the sphere is not predicted in the image
+(out of the field of view, or not entirely in front of the camera) carries no
+information and contributes 0. Scores are log-likelihood ratios (nats)
+against "no object here" and add across views.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..camera import Camera, distort_normalised
+from ..errors import InputError
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """Parameters of the box likelihood (see the module docstring).
+
+    Attributes
+    ----------
+    alpha : float, edge noise as a fraction of the predicted box size
+    sigma0_px : float, edge noise floor in pixels (quantisation)
+    inward_floor : float, nats: the most an edge inside the prediction (occlusion) can cost
+    outward_floor : float, nats: the most an edge outside the prediction can cost
+    match_bonus : float, nats: log-ratio of a perfectly matching box vs. no object
+    p_miss : float, probability that a visible object yields no box (missed or hidden)
+    border_px : float, an observed edge within this distance of the image border is censored
+    """
+
+    alpha: float = 0.05
+    sigma0_px: float = 1.0
+    inward_floor: float = 3.0
+    outward_floor: float = 6.0
+    match_bonus: float = 8.0
+    p_miss: float = 0.1
+    border_px: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 0 < self.p_miss < 1:
+            raise InputError(f"p_miss: got {self.p_miss}, expected a probability in (0, 1)")
+        if self.alpha < 0 or self.sigma0_px <= 0:
+            raise InputError("alpha must be >= 0 and sigma0_px > 0")
+
+    @property
+    def miss_term(self) -> float:
+        return float(np.log(self.p_miss))
+
+
+def predict_boxes(
+    camera: Camera, p_optical: NDArray[np.floating], radii: NDArray[np.floating]
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Predicted (unclipped) silhouette boxes of spheres.
+
+    Parameters
+    ----------
+    camera : Camera
+    p_optical : ndarray, shape (N, 3), sphere centres, metres, optical frame
+    radii : ndarray, shape (K,), metres
+
+    Returns
+    -------
+    boxes : ndarray, shape (N, K, 4), pixels ``(x1, y1, x2, y2)`` (NaN where not in front)
+    visible : ndarray, shape (N, K), bool: sphere entirely in front of the camera
+        and its box overlaps the image
+
+    Notes
+    -----
+    Exact for an undistorted pinhole. With distortion, the undistorted box's
+    four edge midpoints are distorted (a close approximation for the mild
+    distortion of calibrated cameras).
+    """
+    X = p_optical[:, 0:1]
+    Y = p_optical[:, 1:2]
+    Z = p_optical[:, 2:3]
+    r = np.asarray(radii, dtype=float)[None, :]
+    front = Z > r
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rho_x = np.sqrt(X * X + Z * Z)
+        rho_y = np.sqrt(Y * Y + Z * Z)
+        phi_x = np.arctan2(X, Z)
+        phi_y = np.arctan2(Y, Z)
+        hx = np.arcsin(np.clip(r / rho_x, 0.0, 1.0))
+        hy = np.arcsin(np.clip(r / rho_y, 0.0, 1.0))
+        x1, x2 = np.tan(phi_x - hx), np.tan(phi_x + hx)
+        y1, y2 = np.tan(phi_y - hy), np.tan(phi_y + hy)
+    if camera.distortion_model != "none":
+        xc = np.broadcast_to(X / Z, x1.shape)
+        yc = np.broadcast_to(Y / Z, y1.shape)
+        pts = np.stack([np.stack([x1, yc], -1), np.stack([x2, yc], -1), np.stack([xc, y1], -1), np.stack([xc, y2], -1)], axis=-2)
+        d = distort_normalised(pts, camera.distortion_model, camera.distortion_coefficients)
+        x1, x2, y1, y2 = d[..., 0, 0], d[..., 1, 0], d[..., 2, 1], d[..., 3, 1]
+    boxes = np.stack(
+        [camera.fx * x1 + camera.cx, camera.fy * y1 + camera.cy, camera.fx * x2 + camera.cx, camera.fy * y2 + camera.cy], axis=-1
+    )
+    boxes = np.where(front[..., None], boxes, np.nan)
+    visible = front & (boxes[..., 2] > 0) & (boxes[..., 0] < camera.width) & (boxes[..., 3] > 0) & (boxes[..., 1] < camera.height)
+    return boxes, visible
+
+
+def edge_residuals(
+    pred: NDArray[np.floating],
+    obs: NDArray[np.floating],
+    model: SensorModel,
+    width: int,
+    height: int,
+    extra_sigma_px: NDArray[np.floating] | float = 0.0,
+) -> NDArray[np.float64]:
+    """Signed normalised edge residuals, shape (..., 4): positive = observed edge inside the prediction.
+
+    Parameters
+    ----------
+    pred : ndarray, shape (..., 4), predicted boxes (unclipped), pixels
+    obs : ndarray, shape (4,), one observed box, pixels
+    extra_sigma_px : ndarray broadcastable to pred.shape[:-1], or float
+        Extra edge noise added in quadrature, e.g. the projected size of a grid
+        cell when the hypothesis stands for a whole cell rather than a point.
+    """
+    wx = pred[..., 2] - pred[..., 0]
+    wy = pred[..., 3] - pred[..., 1]
+    sx = model.alpha * wx + model.sigma0_px
+    sy = model.alpha * wy + model.sigma0_px
+    if np.any(extra_sigma_px):
+        sx = np.sqrt(sx * sx + extra_sigma_px * extra_sigma_px)
+        sy = np.sqrt(sy * sy + extra_sigma_px * extra_sigma_px)
+    d = np.stack([obs[0] - pred[..., 0], obs[1] - pred[..., 1], pred[..., 2] - obs[2], pred[..., 3] - obs[3]], axis=-1)
+    # censored edges (observed box touches the image border): only outward residuals count
+    censored = np.array(
+        [
+            obs[0] <= model.border_px,
+            obs[1] <= model.border_px,
+            obs[2] >= width - model.border_px,
+            obs[3] >= height - model.border_px,
+        ]
+    )
+    if censored.any():
+        d = np.where(censored, np.minimum(d, 0.0), d)
+    return d / np.stack([sx, sy, sx, sy], axis=-1)
+
+
+def edge_loglik(e: NDArray[np.floating], model: SensorModel) -> NDArray[np.float64]:
+    """Robust per-edge log-likelihood: ``max(-e^2/2, -floor)``, 0 at a perfect match.
+
+    ``floor`` is ``inward_floor`` for ``e > 0`` (observed edge inside the
+    prediction) and ``outward_floor`` otherwise. NaN (no prediction) scores
+    the outward floor.
+    """
+    floor = np.where(e > 0, model.inward_floor, model.outward_floor)
+    out = np.maximum(-0.5 * e * e, -floor)
+    return np.where(np.isnan(e), -model.outward_floor, out)
+
+
+def box_scores(
+    pred: NDArray[np.floating],
+    obs: NDArray[np.floating],
+    model: SensorModel,
+    width: int,
+    height: int,
+    extra_sigma_px: NDArray[np.floating] | float = 0.0,
+) -> NDArray[np.float64]:
+    """``match_bonus + sum of edge log-likelihoods`` of one observed box, shape pred.shape[:-1]."""
+    e = edge_residuals(pred, obs, model, width, height, extra_sigma_px)
+    return model.match_bonus + edge_loglik(e, model).sum(axis=-1)
+
+
+def view_scores(
+    pred: NDArray[np.floating],
+    visible: NDArray[np.bool_],
+    boxes_xyxy: NDArray[np.floating],
+    available: NDArray[np.bool_],
+    model: SensorModel,
+    width: int,
+    height: int,
+    extra_sigma_px: NDArray[np.floating] | float = 0.0,
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Per-view log-likelihood ratio of every hypothesis and its associated box.
+
+    Parameters
+    ----------
+    pred : ndarray, shape (..., 4), predicted boxes
+    visible : ndarray, shape (...), bool
+    boxes_xyxy : ndarray, shape (B, 4), the view's observed boxes
+    available : ndarray, shape (B,), bool: boxes not yet explained by an extracted object
+    model : SensorModel
+    extra_sigma_px : see :func:`edge_residuals`
+
+    Returns
+    -------
+    llr : ndarray, shape (...), nats: ``max(log p_miss, best box score)`` where visible, else 0
+    assoc : ndarray, shape (...), index of the associated box, -1 for a miss or not visible
+    """
+    best = np.full(visible.shape, model.miss_term)
+    assoc = np.full(visible.shape, -1, dtype=np.intp)
+    for j in np.flatnonzero(available):
+        s = box_scores(pred, boxes_xyxy[j], model, width, height, extra_sigma_px)
+        better = s > best
+        best = np.where(better, s, best)
+        assoc = np.where(better, j, assoc)
+    best = np.where(visible, best, 0.0)
+    assoc = np.where(visible, assoc, -1)
+    return best, assoc

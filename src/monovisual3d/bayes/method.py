@@ -1,0 +1,375 @@
+"""The ``bayes`` method: ghost-free, size-aware localisation (the default).
+
+Pipeline
+--------
+1. **Hypotheses.** State = (cell centre, radius bin). Cells come from a
+   coarse-to-fine search of the viewing-cone intersections
+   (:mod:`.search`); radii are ``n_radii`` log-spaced bins in
+   ``[radius_min, radius_max]``.
+2. **Score.** Each hypothesis gets the sum over views of the box
+   log-likelihood ratio of :mod:`.likelihood` (best-matching box per view, a
+   miss term, no information outside the field of view). The grid cell's own
+   projected size is added to the edge noise, so a cell is scored as the
+   region it stands for. ``exp(score)`` normalised over the hypotheses is the
+   posterior.
+3. **Extraction without k (greedy explaining-away).** Take the best
+   hypothesis; refine it (:mod:`.refine`); re-associate its boxes at the
+   refined sphere and refine again if they changed. It is **accepted** when
+   at least ``min_views`` views have a box associated to it and its refined
+   score is at least ``accept`` nats. An accepted object removes its boxes
+   from every view and the scores are recomputed; a rejected one suppresses
+   the hypotheses around it. Stop when the best remaining score is below
+   ``accept``. Ghosts (cone intersections of different fruit) lose: their
+   implied sizes disagree between views and they have no box in the other
+   views, and once the real fruit have taken the boxes, nothing is left.
+4. **Outputs.** Position, radius, position covariance (Gauss-Newton at the
+   refined solution), score (nats), and the association ``view -> detection``.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..camera import Camera
+from ..errors import InputError, InputWarning
+from ..frames import invert_transform, transform_points
+from ..grid import DEFAULT_REACH_M, VoxelGrid
+from ..localize import register_method
+from ..result import DetectedObject, Result
+from ..session import Session, View, Workspace
+from ._kernels import HAVE_NUMBA, score_hypotheses
+from .likelihood import SensorModel, predict_boxes, view_scores
+from .masks import contour_points
+from .refine import Observation, refine_sphere
+from .search import cone_counts, split_cells
+
+
+@dataclass(frozen=True)
+class BayesConfig:
+    """Options of the ``bayes`` method.
+
+    Attributes
+    ----------
+    resolution : float, metres, cell size of the scored grid (accuracy comes from the refinement)
+    coarse_resolution : float, metres, cell size of the first search level
+    radius_min, radius_max : float, metres, range of object radii
+    n_radii : int, log-spaced radius bins
+    reach : float, metres, manipulator reach R (paper's cube of side 2R) when no workspace is given
+    accept : float, nats, minimum refined score of an object
+    min_views : int, minimum number of views with an associated box
+    use_masks : bool, use instance masks in the refinement when detections carry them
+    alpha, sigma0_px, inward_floor, outward_floor, match_bonus, p_miss, border_px :
+        the sensor model, see :class:`monovisual3d.bayes.likelihood.SensorModel`
+    prune_slack : float, nats: at each search level, cells whose best score is below ``accept - prune_slack`` are dropped
+    max_hypotheses : int, cap on the (cell, radius) pairs scored at one level (memory bound)
+    """
+
+    resolution: float = 0.01
+    coarse_resolution: float = 0.04
+    radius_min: float = 0.01
+    radius_max: float = 0.08
+    n_radii: int = 16
+    reach: float = DEFAULT_REACH_M
+    accept: float = 8.0
+    min_views: int = 2
+    use_masks: bool = True
+    alpha: float = 0.05
+    sigma0_px: float = 1.0
+    inward_floor: float = 3.0
+    outward_floor: float = 6.0
+    match_bonus: float = 8.0
+    p_miss: float = 0.1
+    border_px: float = 1.0
+    prune_slack: float = 4.0
+    max_hypotheses: int = 8_000_000
+
+    def __post_init__(self) -> None:
+        if not (0 < self.radius_min < self.radius_max):
+            raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
+        if self.n_radii < 1:
+            raise InputError(f"n_radii: got {self.n_radii}, expected >= 1")
+        for name in ("resolution", "coarse_resolution", "reach"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and v > 0):
+                raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
+        if self.min_views < 2:
+            raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
+        self.sensor  # validates the sensor fields  # noqa: B018
+
+    @property
+    def sensor(self) -> SensorModel:
+        return SensorModel(
+            alpha=self.alpha,
+            sigma0_px=self.sigma0_px,
+            inward_floor=self.inward_floor,
+            outward_floor=self.outward_floor,
+            match_bonus=self.match_bonus,
+            p_miss=self.p_miss,
+            border_px=self.border_px,
+        )
+
+    @property
+    def radii(self) -> NDArray[np.float64]:
+        """Radius bins, shape (n_radii,), metres."""
+        if self.n_radii == 1:
+            return np.array([np.sqrt(self.radius_min * self.radius_max)])
+        return np.geomspace(self.radius_min, self.radius_max, self.n_radii)
+
+
+@dataclass
+class _ViewData:
+    index: int
+    view: View
+    T_optical_base: NDArray[np.float64]
+    boxes: NDArray[np.float64]
+    contours: list[NDArray[np.float64] | None]
+    available: NDArray[np.bool_]
+
+
+class BayesLocalizer:
+    """Stateful front end of the ``bayes`` method for incremental use.
+
+    Call :meth:`update` as views arrive and :meth:`estimate` whenever
+    estimates are needed (it re-runs the search and extraction over all views
+    so far, which takes milliseconds to a fraction of a second).
+
+    Parameters
+    ----------
+    camera : Camera
+    config : BayesConfig
+    workspace : Workspace, optional; else the paper's cube in front of the first view with a detection
+    """
+
+    def __init__(self, camera: Camera, config: BayesConfig | None = None, *, workspace: Workspace | None = None) -> None:
+        self.camera = camera
+        self.config = config or BayesConfig()
+        self.workspace = workspace
+        self.views: list[View] = []
+        self.grid: VoxelGrid | None = None
+        self.messages: list[str] = []
+        self.timing_s: dict[str, float] = {}
+        self.last_hypotheses: dict[str, Any] = {}
+
+    def update(self, view: View) -> None:
+        """Add one view."""
+        self.views.append(view)
+        if self.grid is None and view.detections:
+            cfg = self.config
+            if self.workspace is not None:
+                self.grid = VoxelGrid.from_bounds(self.workspace.min, self.workspace.max, cfg.coarse_resolution)
+            else:
+                self.grid = VoxelGrid.in_front_of_camera(view.T_base_optical, cfg.coarse_resolution, cfg.reach)
+
+    def _view_data(self) -> list[_ViewData]:
+        out = []
+        for i, v in enumerate(self.views):
+            if not v.detections:
+                continue
+            contours: list[NDArray[np.float64] | None] = []
+            for j, d in enumerate(v.detections):
+                if self.config.use_masks and d.mask is not None:
+                    try:
+                        contours.append(contour_points(d.mask))
+                    except InputError as exc:
+                        raise InputError(f"views[{i}].detections[{j}].{exc}") from None
+                else:
+                    contours.append(None)
+            out.append(
+                _ViewData(i, v, invert_transform(v.T_base_optical), v.boxes_xyxy, contours, np.ones(len(v.detections), bool))
+            )
+        return out
+
+    def estimate(self) -> list[DetectedObject]:
+        """Objects found in the views so far (see the module docstring for the algorithm)."""
+        cfg, cam, model = self.config, self.camera, self.config.sensor
+        vds = self._view_data()
+        if self.grid is None or len(vds) < cfg.min_views:
+            return []
+        t0 = time.perf_counter()
+        radii = cfg.radii
+        grid = self.grid
+        R, t = grid.T_base_grid[:3, :3], grid.T_base_grid[:3, 3]
+        centres_grid, cell = grid.centres_grid(), grid.resolution
+        n_scored = 0
+        floor = cfg.accept - cfg.prune_slack
+        while True:
+            centres = centres_grid @ R.T + t
+            keep = cone_counts(cam, [vd.view for vd in vds], centres, cell * np.sqrt(3) / 2) >= cfg.min_views
+            centres_grid, centres = centres_grid[keep], centres[keep]
+            if len(centres) * len(radii) > cfg.max_hypotheses:
+                raise InputError(
+                    f"resolution: {len(centres) * len(radii):,} hypotheses exceed max_hypotheses={cfg.max_hypotheses:,}; "
+                    "use a coarser --resolution, fewer radius bins or a smaller workspace"
+                )
+            n_scored += len(centres) * len(radii)
+            total, n_assoc = self._score(vds, centres, radii, cell, model)
+            good_cells = ((total >= floor) & (n_assoc >= cfg.min_views)).any(axis=1)
+            centres_grid, centres, total, n_assoc = (
+                centres_grid[good_cells],
+                centres[good_cells],
+                total[good_cells],
+                n_assoc[good_cells],
+            )
+            if cell <= cfg.resolution * (1 + 1e-9) or len(centres) == 0:
+                break
+            centres_grid = split_cells(centres_grid, cell)
+            cell /= 2
+        t1 = time.perf_counter()
+        self.last_hypotheses = {"cell_size": cell, "n_scored": int(n_scored), "n_cells_kept": len(centres)}
+        objects: list[DetectedObject] = []
+        active = np.ones(total.shape, dtype=bool)
+        max_iter = sum(len(vd.boxes) for vd in vds) * 3 + 10
+        for _ in range(max_iter):
+            scores = np.where(active & (n_assoc >= cfg.min_views), total, -np.inf)
+            if scores.size == 0:
+                break
+            c, k = np.unravel_index(int(np.argmax(scores)), scores.shape)
+            if not np.isfinite(scores[c, k]) or scores[c, k] < floor:
+                break
+            assoc = self._associate(vds, centres[c], float(radii[k]), model, cell)
+            obj = self._refine_and_check(vds, centres[c], float(radii[k]), assoc, model)
+            if obj is None:
+                near = np.linalg.norm(centres - centres[c], axis=1) <= max(2 * cell, radii[k])
+                active[near] = False
+                continue
+            objects.append(obj)
+            for vd in vds:
+                j = obj.associations.get(vd.index)
+                if j is not None:
+                    vd.available[j] = False
+            near = np.linalg.norm(centres - obj.position, axis=1) <= max(cell, 0.5 * float(obj.radius or 0))
+            active[near] = False
+            total, n_assoc = self._score(vds, centres, radii, cell, model)
+        t2 = time.perf_counter()
+        self.timing_s = {"search_score": t1 - t0, "extract_refine": t2 - t1}
+        objects.sort(key=lambda o: -o.score)
+        return objects
+
+    def _score(
+        self, vds: list[_ViewData], centres: NDArray[np.float64], radii: NDArray[np.float64], cell: float, model: SensorModel
+    ) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
+        """Total score and associated-view count of (cell, radius) hypotheses with the boxes still available.
+
+        The cell's projected half-diagonal is added to the edge noise, so a
+        cell is scored as the region it stands for.
+        """
+        blur = cell * np.sqrt(3) / 2
+        if HAVE_NUMBA:
+            return score_hypotheses(
+                self.camera,
+                [vd.T_optical_base for vd in vds],
+                [vd.boxes for vd in vds],
+                [vd.available for vd in vds],
+                centres,
+                radii,
+                model,
+                blur,
+            )
+        cam = self.camera
+        total = np.zeros((len(centres), len(radii)))
+        n_assoc = np.zeros((len(centres), len(radii)), dtype=np.int32)
+        for vd in vds:
+            p_opt = transform_points(vd.T_optical_base, centres)
+            pred, visible = predict_boxes(cam, p_opt, radii)
+            extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
+            llr, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height, extra)
+            total += llr
+            n_assoc += a >= 0
+        return total, n_assoc
+
+    def _associate(
+        self, vds: list[_ViewData], centre: NDArray[np.float64], radius: float, model: SensorModel, cell: float
+    ) -> list[int]:
+        """Best available box per view (-1: none) for one hypothesis."""
+        cam = self.camera
+        out = []
+        for vd in vds:
+            p_opt = vd.T_optical_base[:3, :3] @ centre + vd.T_optical_base[:3, 3]
+            pred, visible = predict_boxes(cam, p_opt[None, :], np.array([radius]))
+            extra = max(cam.fx, cam.fy) * cell * np.sqrt(3) / 2 / max(p_opt[2], 1e-6)
+            _, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height, extra)
+            out.append(int(a[0, 0]))
+        return out
+
+    def _refine_and_check(
+        self, vds: list[_ViewData], centre0: NDArray[np.float64], radius0: float, assoc0: list[int], model: SensorModel
+    ) -> DetectedObject | None:
+        cfg, cam = self.config, self.camera
+        assoc = assoc0
+        centre, radius = centre0, float(radius0)
+        refined = None
+        for _ in range(3):
+            obs = [
+                Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if cfg.use_masks else None)
+                for vd, j in zip(vds, assoc)
+                if j >= 0
+            ]
+            if len(obs) < cfg.min_views:
+                return None
+            refined = refine_sphere(cam, obs, centre, radius, model, use_masks=cfg.use_masks)
+            centre, radius = refined.centre, refined.radius
+            if not (cfg.radius_min * 0.5 <= radius <= cfg.radius_max * 2):
+                return None
+            new_assoc, llrs = [], []
+            for vd in vds:
+                p_opt = vd.T_optical_base[:3, :3] @ centre + vd.T_optical_base[:3, 3]
+                pred, visible = predict_boxes(cam, p_opt[None, :], np.array([radius]))
+                llr, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height)
+                new_assoc.append(int(a[0, 0]))
+                llrs.append(float(llr[0, 0]))
+            if new_assoc == assoc:
+                break
+            assoc = new_assoc
+        score = float(sum(llrs))
+        n_views = sum(a >= 0 for a in assoc)
+        if refined is None or n_views < cfg.min_views or score < cfg.accept:
+            return None
+        return DetectedObject(
+            position=centre,
+            score=score,
+            radius=radius,
+            covariance=refined.covariance,
+            associations={vd.index: a for vd, a in zip(vds, assoc) if a >= 0},
+            extra={"radius_std": refined.radius_std, "n_views": int(n_views)},
+        )
+
+
+@register_method("bayes")
+def localize_bayes(session: Session, *, progress: Callable[[int, int], None] | None = None, **options: Any) -> Result:
+    """The ghost-free, size-aware method (see :class:`BayesConfig` for the options)."""
+    known = {f.name for f in fields(BayesConfig)}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise InputError(f"{unknown[0]}: not an option of method 'bayes', expected one of {sorted(known)}")
+    config = BayesConfig(**options)
+    t0 = time.perf_counter()
+    loc = BayesLocalizer(session.camera, config, workspace=session.workspace)
+    for i, view in enumerate(session.views):
+        loc.update(view)
+        if progress is not None:
+            progress(i + 1, len(session.views))
+    n_with = sum(1 for v in session.views if v.detections)
+    messages = []
+    if n_with < config.min_views:
+        msg = f"only {n_with} view(s) have detections; at least {config.min_views} are needed to localise anything"
+        warnings.warn(InputWarning(msg), stacklevel=2)
+        messages.append(msg)
+    objects = loc.estimate()
+    t1 = time.perf_counter()
+    grid = loc.grid.to_dict() if loc.grid is not None else {}
+    grid.update(loc.last_hypotheses)
+    return Result(
+        objects=objects,
+        method="bayes",
+        grid=grid,
+        timing_s={**loc.timing_s, "total": t1 - t0},
+        config=asdict(config),
+        warnings=messages,
+    )
