@@ -39,7 +39,10 @@ def sphere_bbox_optical(
     array([269.75, 189.75, 370.25, 290.25])
     """
     c = np.asarray(centre_optical, dtype=float)
-    r = np.broadcast_to(np.asarray(radius, dtype=float), c.shape[:-1])
+    r = np.asarray(radius, dtype=float)
+    shape = np.broadcast_shapes(c.shape[:-1], r.shape)
+    c = np.broadcast_to(c, shape + (3,))
+    r = np.broadcast_to(r, shape)
     X, Y, Z = c[..., 0], c[..., 1], c[..., 2]
     ok = Z > r  # the whole sphere in front of the image plane's half-space
     if camera.distortion_model == "none":

@@ -1,0 +1,239 @@
+"""Tests of the ``bayes`` method (issue 4): ghosts, sizes, misses, truncation, clutter, masks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+import monovisual3d as mv
+from monovisual3d.bayes import BayesConfig
+from monovisual3d.bayes._kernels import HAVE_NUMBA, score_hypotheses
+from monovisual3d.bayes.likelihood import SensorModel, predict_boxes, view_scores
+from monovisual3d.bayes.masks import contour_points, decode_rle, encode_rle
+from monovisual3d.camera import Camera
+from monovisual3d.errors import InputError
+from monovisual3d.frames import invert_transform, look_at, transform_points
+from monovisual3d.session import Detection, Session, View, Workspace
+from monovisual3d.sphere import sphere_bbox, sphere_bbox_optical
+
+CAM = Camera.from_hfov(640, 480, 69.0)
+TARGET = np.array([0.7, 0.0, 0.5])
+WS = Workspace(np.array([0.45, -0.3, 0.2]), np.array([1.0, 0.3, 0.8]))
+
+
+def paper_like_poses(target=TARGET, d=0.5, off=0.15):
+    return [
+        look_at(target + [-d, 0, 0], target),
+        look_at(target + [-d + 0.05, off, -off], target),
+        look_at(target + [-d + 0.05, -off, off], target),
+    ]
+
+
+def session_for(centres, radii, poses, camera=CAM, workspace=WS, extra=None):
+    views = []
+    for i, T in enumerate(poses):
+        boxes = sphere_bbox(camera, T, np.asarray(centres), np.asarray(radii))
+        dets = [Detection(b) for b in boxes if np.all(np.isfinite(b))]
+        if extra and i in extra:
+            dets.append(Detection(np.asarray(extra[i], dtype=float)))
+        views.append(View(T, tuple(dets)))
+    return Session(camera, tuple(views), workspace)
+
+
+def test_single_sphere_centre_and_radius_submillimetre():
+    c, r = np.array([0.72, 0.03, 0.47]), 0.031
+    res = mv.localize(session_for([c], [r], paper_like_poses()))
+    assert res.method == "bayes"
+    assert len(res.objects) == 1
+    o = res.objects[0]
+    assert np.linalg.norm(o.position - c) < 1e-3
+    assert abs(o.radius - r) < 1e-3
+    assert o.covariance.shape == (3, 3)
+    assert np.all(np.linalg.eigvalsh(o.covariance) > 0)
+    assert o.associations == {0: 0, 1: 0, 2: 0}
+
+
+def test_ghost_pair_gives_exactly_two_objects_while_paper_posterior_has_ghosts():
+    # two fruit of different sizes seen from two views: the cone of A in view 0
+    # crosses the cone of B in view 1 (and vice versa) inside the workspace
+    A, B = np.array([0.70, -0.06, 0.50]), np.array([0.70, 0.06, 0.50])
+    rA, rB = 0.025, 0.045
+    poses = [look_at([0.25, -0.25, 0.5], [0.7, 0.0, 0.5]), look_at([0.25, 0.25, 0.5], [0.7, 0.0, 0.5])]
+    s = session_for([A, B], [rA, rB], poses)
+    res = mv.localize(s, method="bayes")
+    assert len(res.objects) == 2
+    est = res.positions
+    d = np.linalg.norm(est[:, None] - np.array([A, B])[None], axis=2)
+    assert d.min(axis=0).max() < 2e-3
+    # the paper method's posterior is as high at the ghost intersections as at the fruit
+    from monovisual3d.filter import HistogramFilter, PaperConfig
+
+    f = HistogramFilter(CAM, PaperConfig(kernel="square", resolution=0.01), workspace=WS)
+    for v in s.views:
+        f.update(v)
+    x = f.grid.centres_base()
+    p = f.posterior.ravel()
+    keep = p >= 0.5 * p.max()
+    far = np.min(np.linalg.norm(x[keep][:, None] - np.array([A, B])[None], axis=2), axis=1) > 0.08
+    assert far.sum() > 0, "expected ghost cells far from both fruit in the paper's posterior"
+
+
+def test_view_that_misses_a_fruit_does_not_erase_it():
+    A, B = np.array([0.70, -0.08, 0.45]), np.array([0.72, 0.08, 0.55])
+    poses = paper_like_poses() + [look_at(TARGET + [-0.4, 0.3, 0.0], TARGET)]
+    s = session_for([A, B], [0.03, 0.03], poses)
+    # drop B's detection from view 1 (missed / occluded there)
+    v1 = s.views[1]
+    dets = [d for d in v1.detections if abs(d.bbox_xyxy[0] - sphere_bbox(CAM, v1.T_base_optical, B, 0.03)[0]) > 1e-6]
+    assert len(dets) == 1
+    views = list(s.views)
+    views[1] = View(v1.T_base_optical, tuple(dets))
+    res = mv.localize(Session(CAM, tuple(views), WS))
+    assert len(res.objects) == 2
+    d = np.linalg.norm(res.positions[:, None] - np.array([A, B])[None], axis=2)
+    assert d.min(axis=0).max() < 2e-3
+
+
+def test_out_of_frame_view_is_no_information():
+    # fruit B is outside view 2's field of view: the other views still localise it
+    A, B = np.array([0.70, 0.0, 0.5]), np.array([0.70, 0.25, 0.5])
+    poses = [
+        look_at([0.2, 0.1, 0.5], [0.7, 0.12, 0.5]),
+        look_at([0.25, 0.35, 0.6], [0.7, 0.12, 0.5]),
+        look_at([0.3, -0.25, 0.5], [0.7, -0.15, 0.5]),
+    ]
+    s = session_for([A, B], [0.03, 0.03], poses)
+    assert len(s.views[2].detections) == 1  # B not visible in view 2
+    res = mv.localize(s)
+    assert len(res.objects) == 2
+    d = np.linalg.norm(res.positions[:, None] - np.array([A, B])[None], axis=2)
+    assert d.min(axis=0).max() < 2e-3
+
+
+def test_truncated_box_at_image_border_does_not_pull_estimate():
+    c, r = np.array([0.70, 0.0, 0.5]), 0.04
+    poses = paper_like_poses()
+    # a view in which the fruit is cut by the left image border
+    cam_pos = np.array([0.25, -0.1, 0.5])
+    yaw = np.arctan2(c[1] - cam_pos[1], c[0] - cam_pos[0]) - np.radians(34.5)  # fruit centre on the left border
+    T = look_at(cam_pos, cam_pos + [np.cos(yaw), np.sin(yaw), 0.0])
+    box = sphere_bbox(CAM, T, c, r)
+    assert box[0] == 0.0 and box[2] > 0  # clipped at the border
+    res = mv.localize(session_for([c], [r], poses + [T]))
+    assert len(res.objects) == 1
+    assert np.linalg.norm(res.objects[0].position - c) < 1e-3
+    assert abs(res.objects[0].radius - r) < 1e-3
+    assert 3 in res.objects[0].associations
+
+
+def test_false_positive_box_in_one_view_creates_no_object():
+    c = np.array([0.72, 0.02, 0.5])
+    s = session_for([c], [0.03], paper_like_poses(), extra={1: [100, 50, 160, 110]})
+    res = mv.localize(s)
+    assert len(res.objects) == 1
+    assert np.linalg.norm(res.objects[0].position - c) < 1e-3
+
+
+def test_masks_at_least_as_accurate_as_boxes_under_occlusion():
+    # the visible part of the fruit in view 0 is its left half (an occluder hides the right half)
+    c, r = np.array([0.72, 0.02, 0.5]), 0.035
+    poses = paper_like_poses()
+    rng = np.random.default_rng(3)
+    views_box, views_mask = [], []
+    for i, T in enumerate(poses):
+        mask = sphere_mask(CAM, T, c, r)
+        if i == 0:
+            cols = np.nonzero(mask.any(axis=0))[0]
+            mask[:, (cols.min() + cols.max()) // 2 :] = False
+        v, u = np.nonzero(mask)
+        box = np.array([u.min(), v.min(), u.max() + 1, v.max() + 1], dtype=float)
+        box += rng.normal(0, 0.5, 4)
+        views_box.append(View(T, (Detection(box),)))
+        views_mask.append(View(T, (Detection(box, mask=encode_rle(mask)),)))
+    err_box = np.linalg.norm(mv.localize(Session(CAM, tuple(views_box), WS)).objects[0].position - c)
+    err_mask = np.linalg.norm(mv.localize(Session(CAM, tuple(views_mask), WS)).objects[0].position - c)
+    assert err_mask <= err_box + 1e-4
+    assert err_mask < 2e-3
+
+
+def sphere_mask(camera, T_base_optical, centre, radius):
+    """Pixels whose centre ray hits the sphere (bool, (H, W))."""
+    u, v = np.meshgrid(np.arange(camera.width) + 0.5, np.arange(camera.height) + 0.5)
+    d = camera.rays(np.stack([u, v], -1))
+    c = transform_points(invert_transform(T_base_optical), centre)
+    cd = np.linalg.norm(c)
+    return (d @ (c / cd)) >= np.cos(np.arcsin(radius / cd))
+
+
+def test_rle_round_trip_and_contour():
+    rng = np.random.default_rng(0)
+    m = rng.random((7, 5)) > 0.5
+    assert_allclose(decode_rle(encode_rle(m)), m)
+    pts = contour_points({"polygon": [[0, 0], [10, 0], [10, 10], [0, 10]]}, max_points=8)
+    assert pts.shape == (8, 2)
+    with pytest.raises(InputError, match="mask.counts"):
+        decode_rle({"size": [2, 2], "counts": [1, 1]})
+
+
+def test_predict_boxes_matches_sphere_bbox():
+    rng = np.random.default_rng(1)
+    p = rng.uniform([-0.2, -0.2, 0.3], [0.2, 0.2, 1.0], (50, 3))
+    radii = np.array([0.02, 0.05])
+    pred, vis = predict_boxes(CAM, p, radii)
+    ref = sphere_bbox_optical(CAM, p[:, None, :], radii[None, :], clip=False)
+    assert_allclose(pred, ref, atol=1e-9)
+    cam_d = Camera(640, 480, 500, 500, 320, 240, "plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.0))
+    pred_d, _ = predict_boxes(cam_d, p, radii)
+    ref_d = sphere_bbox_optical(cam_d, p[:, None, :], radii[None, :], clip=False)
+    assert_allclose(pred_d, ref_d, atol=0.5)  # edge-midpoint approximation vs sampled rim
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+@pytest.mark.parametrize(
+    "distortion", [("none", ()), ("plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.003)), ("equidistant", (0.01, -0.02, 0.003, 0.0))]
+)
+def test_numba_kernel_matches_numpy_reference(distortion):
+    cam = Camera(640, 480, 480, 470, 322, 238, *distortion)
+    rng = np.random.default_rng(2)
+    poses = paper_like_poses()
+    truth = TARGET + rng.uniform(-0.1, 0.1, (4, 3))
+    boxes = [sphere_bbox(cam, T, truth, 0.03) for T in poses]
+    boxes = [b[np.all(np.isfinite(b), axis=1)] for b in boxes]
+    boxes[0] = np.vstack([boxes[0], [0, 10, 40, 80]])  # a border-touching box
+    avail = [np.ones(len(b), bool) for b in boxes]
+    avail[1][0] = False
+    centres = TARGET + rng.uniform(-0.15, 0.15, (500, 3))
+    radii = np.geomspace(0.01, 0.08, 7)
+    model = SensorModel()
+    T_ob = [invert_transform(T) for T in poses]
+    blur = 0.004
+    total, n_assoc = score_hypotheses(cam, T_ob, boxes, avail, centres, radii, model, blur)
+    ref_total = np.zeros_like(total)
+    ref_n = np.zeros_like(n_assoc)
+    for T, b, a in zip(T_ob, boxes, avail):
+        p_opt = transform_points(T, centres)
+        pred, vis = predict_boxes(cam, p_opt, radii)
+        extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
+        llr, assoc = view_scores(pred, vis, b, a, model, cam.width, cam.height, extra)
+        ref_total += llr
+        ref_n += assoc >= 0
+    assert_allclose(total, ref_total, rtol=1e-9, atol=1e-9)
+    assert_allclose(n_assoc, ref_n)
+
+
+def test_bad_options_are_clear():
+    s = session_for([TARGET], [0.03], paper_like_poses())
+    with pytest.raises(InputError, match="radius_min"):
+        mv.localize(s, radius_min=0.1, radius_max=0.05)
+    with pytest.raises(InputError, match="not an option of method 'bayes'"):
+        mv.localize(s, kernel="square")
+    with pytest.raises(InputError, match="min_views"):
+        BayesConfig(min_views=1)
+
+
+def test_single_view_localises_nothing_with_warning():
+    s = session_for([TARGET], [0.03], paper_like_poses()[:1])
+    with pytest.warns(mv.InputWarning, match="at least 2"):
+        res = mv.localize(s)
+    assert res.objects == []
