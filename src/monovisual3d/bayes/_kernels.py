@@ -82,20 +82,22 @@ def _score_kernel(
             zc = Z if Z > 1e-6 else 1e-6
             extra = fmax * blur_half_diag / zc
             extra2 = extra * extra
-            rho_x = math.sqrt(X * X + Z * Z)
-            rho_y = math.sqrt(Y * Y + Z * Z)
-            phi_x = math.atan2(X, Z)
-            phi_y = math.atan2(Y, Z)
+            # tan(phi -/+ h) without trigonometry: tan(phi) = X/Z, tan(h) = r / sqrt(rho^2 - r^2)
+            rho2_x = X * X + Z * Z
+            rho2_y = Y * Y + Z * Z
+            tx = X / zc
+            ty = Y / zc
             for kk in range(K):
                 r = radii[kk]
                 if not (Z > r):
                     continue
-                hx = math.asin(min(r / rho_x, 1.0))
-                hy = math.asin(min(r / rho_y, 1.0))
-                nx1 = math.tan(phi_x - hx)
-                nx2 = math.tan(phi_x + hx)
-                ny1 = math.tan(phi_y - hy)
-                ny2 = math.tan(phi_y + hy)
+                r2 = r * r
+                sx_ = r / math.sqrt(rho2_x - r2)
+                sy_ = r / math.sqrt(rho2_y - r2)
+                nx1 = (tx - sx_) / (1.0 + tx * sx_)
+                nx2 = (tx + sx_) / (1.0 - tx * sx_)
+                ny1 = (ty - sy_) / (1.0 + ty * sy_)
+                ny2 = (ty + sy_) / (1.0 - ty * sy_)
                 if code != 0:
                     xc = X / Z
                     yc = Y / Z
