@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +33,21 @@ from .frames import (
 POSE_FRAMES = ("optical", "camera_link")
 
 
-@dataclass(frozen=True)
+def _fields_equal(self: Any, other: object) -> bool:
+    """Dataclass equality that compares ndarray fields by value (the generated ``__eq__`` raises on arrays)."""
+    if other.__class__ is not self.__class__:
+        return NotImplemented
+    for f in fields(self):
+        a, b = getattr(self, f.name), getattr(other, f.name)
+        if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+            if not np.array_equal(a, b):
+                return False
+        elif a != b:
+            return False
+    return True
+
+
+@dataclass(frozen=True, eq=False)
 class Detection:
     """One detected object in one image.
 
@@ -52,6 +66,8 @@ class Detection:
     label: str | None = None
     mask: dict[str, Any] | None = None
 
+    __eq__ = _fields_equal  # ndarray fields: compare by value, not elementwise
+
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"bbox_xyxy": [float(v) for v in self.bbox_xyxy]}
         if self.score is not None:
@@ -63,7 +79,7 @@ class Detection:
         return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class View:
     """One camera pose with the detections made there.
 
@@ -79,6 +95,8 @@ class View:
     detections: tuple[Detection, ...] = ()
     image: str | None = None
     stamp: float | None = None
+
+    __eq__ = _fields_equal
 
     @property
     def boxes_xyxy(self) -> NDArray[np.float64]:
@@ -100,12 +118,14 @@ class View:
         return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Workspace:
     """Axis-aligned box in the base frame, metres: ``min`` (3,), ``max`` (3,)."""
 
     min: NDArray[np.float64]
     max: NDArray[np.float64]
+
+    __eq__ = _fields_equal
 
     def to_dict(self) -> dict[str, Any]:
         return {"min": self.min.tolist(), "max": self.max.tolist()}
@@ -237,7 +257,7 @@ def camera_from_dict(data: Any, where: str = "camera") -> Camera:
         if name not in data:
             raise InputError(f"{where}.{name}: missing field, expected a positive integer (pixels)")
         value = data[name]
-        if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value <= 0:
             raise InputError(f"{where}.{name}: expected a positive integer (pixels), got {value!r}")
     has_k = [k for k in ("fx", "fy", "cx", "cy") if k in data]
     if "hfov_deg" in data:
@@ -261,8 +281,11 @@ def camera_from_dict(data: Any, where: str = "camera") -> Camera:
     dist = data.get("distortion")
     if dist is not None:
         _expect_object(dist, f"{where}.distortion")
+        _reject_unknown(dist, {"model", "coefficients"}, f"{where}.distortion")
         model = dist.get("model", "plumb_bob")
         raw = dist.get("coefficients")
+        if isinstance(raw, np.ndarray) and raw.ndim == 1:
+            raw = raw.tolist()
         if not isinstance(raw, list):
             raise InputError(f"{where}.distortion.coefficients: expected a list of numbers, got {raw!r}")
         coeffs = tuple(_number(c, f"{where}.distortion.coefficients[{i}]") for i, c in enumerate(raw))
@@ -383,7 +406,7 @@ def _reject_unknown(data: dict[str, Any], allowed: set[str], where: str) -> None
 
 
 def _number(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise InputError(f"{where}: expected a number, got {value!r}")
     if not math.isfinite(value):
         raise InputError(f"{where}: got {value}, expected a finite number")
@@ -391,6 +414,8 @@ def _number(value: Any, where: str) -> float:
 
 
 def _vector(value: Any, n: int, where: str) -> NDArray[np.float64]:
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()
     if not isinstance(value, (list, tuple)):
         raise InputError(f"{where}: expected a list of {n} numbers, got {value!r}")
     if len(value) != n:
