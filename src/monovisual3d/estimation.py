@@ -37,6 +37,8 @@ def choose_k(counts: Sequence[int], rule: str | int = "max") -> int:
         if rule < 1:
             raise InputError(f"k: got {rule}, expected a positive number of objects")
         return int(rule)
+    if rule not in K_RULES:
+        raise InputError(f"k: got {rule!r}, expected a positive integer or one of {list(K_RULES)}")
     if not counts:
         return 0
     if rule == "max":

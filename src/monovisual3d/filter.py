@@ -9,6 +9,7 @@ each view arrives, and read :attr:`HistogramFilter.posterior` or
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -18,9 +19,9 @@ from numpy.typing import NDArray
 
 from .camera import Camera
 from .errors import InputError, InputWarning
-from .estimation import DEFAULT_KEEP_THRESHOLD, choose_k, kmeans_objects
+from .estimation import CENTRES, DEFAULT_KEEP_THRESHOLD, choose_k, kmeans_objects
 from .frames import invert_transform, transform_points
-from .grid import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, VoxelGrid
+from .grid import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, VoxelGrid, _check_resolution
 from .kernels import check_kernel, paper_view_likelihood
 from .result import DetectedObject
 from .session import View, Workspace
@@ -60,6 +61,16 @@ class PaperConfig:
         check_kernel(self.kernel)
         if not (self.sigma_fraction > 0):
             raise InputError(f"sigma_fraction: got {self.sigma_fraction}, expected a positive fraction of the box size")
+        # Validate every option up front: otherwise a bad centre/k/threshold only surfaces after the
+        # whole filter has run, and not at all when no view has a detection.
+        _check_resolution(self.resolution)
+        if not (isinstance(self.reach, (int, float)) and math.isfinite(self.reach) and self.reach > 0):
+            raise InputError(f"reach: got {self.reach!r}, expected a positive number of metres")
+        if self.centre not in CENTRES:
+            raise InputError(f"centre: got {self.centre!r}, expected one of {list(CENTRES)}")
+        if not (isinstance(self.keep_threshold, (int, float)) and 0.0 < self.keep_threshold <= 1.0):
+            raise InputError(f"keep_threshold: got {self.keep_threshold!r}, expected a value in (0, 1]")
+        choose_k([1], self.k)
 
 
 def project_grid(
@@ -204,6 +215,9 @@ class HistogramFilter:
         Keyword arguments override :class:`PaperConfig` fields for this call
         (``centre``, ``k``, ``keep_threshold``, ``weighted_kmeans``).
         """
+        unknown = sorted(set(overrides) - {"centre", "k", "keep_threshold", "weighted_kmeans"})
+        if unknown:  # a misspelt option (e.g. "center") must not be silently ignored
+            raise InputError(f"{unknown[0]}: not an estimate option, expected centre, k, keep_threshold or weighted_kmeans")
         if self.grid is None or self._posterior is None or not self.views_used:
             return []
         cfg = {**asdict(self.config), **overrides}
