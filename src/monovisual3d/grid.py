@@ -94,7 +94,8 @@ class VoxelGrid:
         shape = (n, n, n)
         check_grid_size(shape, resolution, max_bytes=max_bytes)
         offset = np.eye(4)
-        offset[:3, 3] = [-reach, -reach, 0.0]
+        half = 0.5 * n * resolution  # = reach when 2 * reach is a whole number of cells; keeps the axis centred otherwise
+        offset[:3, 3] = [-half, -half, 0.0]
         return cls(np.asarray(T_base_optical, dtype=float) @ offset, shape, float(resolution))
 
     def centres_grid(self, flat_index: ArrayLike | None = None) -> NDArray[np.float64]:
