@@ -141,7 +141,9 @@ def evaluate(
     if gate is not None:
         gates = np.full(len(ti), float(gate))
     elif truth_radii is not None:
-        gates = np.maximum(np.asarray(truth_radii, dtype=float)[ti], MIN_GATE_M)
+        r = np.asarray(truth_radii, dtype=float)[ti]
+        # An unknown (NaN) radius gets the unknown-radius gate; np.maximum alone would propagate NaN into a miss.
+        gates = np.where(np.isfinite(r), np.maximum(r, MIN_GATE_M), DEFAULT_GATE_M)
     else:
         gates = np.full(len(ti), DEFAULT_GATE_M)
     tp = int(np.sum(dist <= gates))
@@ -150,7 +152,7 @@ def evaluate(
     if truth_radii is not None and estimate_radii is not None and len(ei):
         er = np.asarray(estimate_radii, dtype=float)[ei]
         tr = np.asarray(truth_radii, dtype=float)[ti]
-        ok = np.isfinite(er)
+        ok = np.isfinite(er) & np.isfinite(tr)
         radius_error = float(np.mean(np.abs(er[ok] - tr[ok]))) if ok.any() else None
     return Metrics(
         n_truth=len(t),
