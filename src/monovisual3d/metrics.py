@@ -3,7 +3,10 @@
 The paper's metrics (its Eqs. 10-13) average over the M objects and the N = 3
 coordinates: ``MAE = mean |mu - mu_hat|``, ``MSE = mean (mu - mu_hat)^2``,
 ``RMSE = sqrt(MSE)`` and ``MAPE = 100 * mean |(mu - mu_hat) / mu|``; we add the
-mean Euclidean error that the paper's testbed table reports.
+mean Euclidean error that the paper's testbed table reports. MAPE divides by
+the true coordinate, so it depends on where the base frame's origin is; true
+coordinates that are exactly zero are left out of its mean (they would make
+it infinite).
 
 Matching: estimates and truth are paired by minimum total distance
 (:func:`scipy.optimize.linear_sum_assignment`). Error metrics use every pair,

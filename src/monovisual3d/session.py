@@ -212,6 +212,8 @@ def load_session(source: str | Path | dict[str, Any] | Session) -> Session:
         return source
     if isinstance(source, dict):
         return session_from_dict(source, None)
+    if not isinstance(source, (str, Path)):
+        raise InputError(f"load_session: expected a file path, a dict or a Session, got {type(source).__name__}")
     data = read_structured_file(source)
     return session_from_dict(data, str(source))
 
@@ -252,7 +254,7 @@ def _session_from_dict(data: Any, source: str | None) -> Session:
 def camera_from_dict(data: Any, where: str = "camera") -> Camera:
     """Camera from ``{"width", "height", "fx", "fy", "cx", "cy" | "hfov_deg", "distortion"}``."""
     _expect_object(data, where)
-    _reject_unknown(data, {"width", "height", "fx", "fy", "cx", "cy", "hfov_deg", "distortion", "model"}, where)
+    _reject_unknown(data, {"width", "height", "fx", "fy", "cx", "cy", "hfov_deg", "distortion"}, where)
     for name in ("width", "height"):
         if name not in data:
             raise InputError(f"{where}.{name}: missing field, expected a positive integer (pixels)")
