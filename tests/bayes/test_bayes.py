@@ -208,16 +208,17 @@ def test_numba_kernel_matches_numpy_reference(distortion):
     model = SensorModel()
     T_ob = [invert_transform(T) for T in poses]
     blur = 0.004
-    total, n_assoc = score_hypotheses(cam, T_ob, boxes, avail, centres, radii, model, blur)
+    total, n_assoc, assoc = score_hypotheses(cam, T_ob, boxes, avail, centres, radii, model, blur)
     ref_total = np.zeros_like(total)
     ref_n = np.zeros_like(n_assoc)
-    for T, b, a in zip(T_ob, boxes, avail):
+    for v, (T, b, a) in enumerate(zip(T_ob, boxes, avail)):
         p_opt = transform_points(T, centres)
         pred, vis = predict_boxes(cam, p_opt, radii)
         extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
-        llr, assoc = view_scores(pred, vis, b, a, model, cam.width, cam.height, extra)
+        llr, a_ref = view_scores(pred, vis, b, a, model, cam.width, cam.height, extra)
         ref_total += llr
-        ref_n += assoc >= 0
+        ref_n += a_ref >= 0
+        assert_allclose(assoc[v], a_ref)
     assert_allclose(total, ref_total, rtol=1e-9, atol=1e-9)
     assert_allclose(n_assoc, ref_n)
 

@@ -55,7 +55,7 @@ def _edge_ll(d: float, sigma: float, in_floor: float, out_floor: float) -> float
 
 
 def _score_kernel(
-    centres, radii, T_ob, boxes, nboxes, available, cam, code, coeffs, params, blur_half_diag, total, n_assoc
+    centres, radii, T_ob, boxes, nboxes, available, cam, code, coeffs, params, blur_half_diag, total, n_assoc, assoc
 ):  # pragma: no cover - jitted
     N = centres.shape[0]
     K = radii.shape[0]
@@ -75,6 +75,8 @@ def _score_kernel(
         for kk in range(K):
             total[n, kk] = 0.0
             n_assoc[n, kk] = 0
+            for v in range(V):
+                assoc[v, n, kk] = -1
         for v in range(V):
             X = T_ob[v, 0, 0] * centres[n, 0] + T_ob[v, 0, 1] * centres[n, 1] + T_ob[v, 0, 2] * centres[n, 2] + T_ob[v, 0, 3]
             Y = T_ob[v, 1, 0] * centres[n, 0] + T_ob[v, 1, 1] * centres[n, 1] + T_ob[v, 1, 2] * centres[n, 2] + T_ob[v, 1, 3]
@@ -117,40 +119,46 @@ def _score_kernel(
                     sx = math.sqrt(sx * sx + extra2)
                     sy = math.sqrt(sy * sy + extra2)
                 best = miss
-                found = False
+                found = -1
                 for j in range(nboxes[v]):
                     if not available[v, j]:
                         continue
                     bx1, by1, bx2, by2 = boxes[v, j, 0], boxes[v, j, 1], boxes[v, j, 2], boxes[v, j, 3]
                     d1 = bx1 - px1
-                    d2 = by1 - py1
-                    d3 = px2 - bx2
-                    d4 = py2 - by2
                     if bx1 <= border and d1 > 0:
                         d1 = 0.0
-                    if by1 <= border and d2 > 0:
-                        d2 = 0.0
+                    s = bonus + _edge_ll(d1, sx, in_floor, out_floor)
+                    if s <= best:  # the other edges can only lower the score
+                        continue
+                    d3 = px2 - bx2
                     if bx2 >= W - border and d3 > 0:
                         d3 = 0.0
+                    s += _edge_ll(d3, sx, in_floor, out_floor)
+                    if s <= best:
+                        continue
+                    d2 = by1 - py1
+                    if by1 <= border and d2 > 0:
+                        d2 = 0.0
+                    s += _edge_ll(d2, sy, in_floor, out_floor)
+                    if s <= best:
+                        continue
+                    d4 = py2 - by2
                     if by2 >= H - border and d4 > 0:
                         d4 = 0.0
-                    s = bonus
-                    s += _edge_ll(d1, sx, in_floor, out_floor)
-                    s += _edge_ll(d2, sy, in_floor, out_floor)
-                    s += _edge_ll(d3, sx, in_floor, out_floor)
                     s += _edge_ll(d4, sy, in_floor, out_floor)
                     if s > best:
                         best = s
-                        found = True
+                        found = j
                 total[n, kk] += best
-                if found:
+                if found >= 0:
                     n_assoc[n, kk] += 1
+                    assoc[v, n, kk] = found
 
 
 if HAVE_NUMBA:
     _distort_xy = numba.njit(cache=True, inline="always")(_distort_xy)
     _edge_ll = numba.njit(cache=True, inline="always")(_edge_ll)
-    _score_kernel = numba.njit(cache=True, parallel=True, fastmath=False)(_score_kernel)
+    _score_kernel = numba.njit(cache=True, parallel=True, fastmath=True)(_score_kernel)
 
 
 def pack_views(
@@ -212,12 +220,20 @@ def score_hypotheses(
     radii: NDArray[np.float64],
     model: SensorModel,
     blur_half_diagonal: float,
-) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
-    """Total score (N, K) and number of associated views (N, K) of every (centre, radius) hypothesis."""
+) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
+    """Score every (centre, radius) hypothesis against all views.
+
+    Returns
+    -------
+    total : ndarray, shape (N, K), nats
+    n_assoc : ndarray, shape (N, K), int32, views with an associated box
+    assoc : ndarray, shape (V, N, K), int16, associated box per view, -1 for none
+    """
     T, B, nb, A = pack_views(camera, T_optical_base, boxes, available)
     cam, code, coeffs = camera_arrays(camera)
     total = np.empty((len(centres_base), len(radii)))
     n_assoc = np.empty((len(centres_base), len(radii)), dtype=np.int32)
+    assoc = np.empty((len(boxes), len(centres_base), len(radii)), dtype=np.int16)
     _score_kernel(
         np.ascontiguousarray(centres_base, dtype=np.float64),
         np.ascontiguousarray(radii, dtype=np.float64),
@@ -232,5 +248,6 @@ def score_hypotheses(
         float(blur_half_diagonal),
         total,
         n_assoc,
+        assoc,
     )
-    return total, n_assoc
+    return total, n_assoc, assoc

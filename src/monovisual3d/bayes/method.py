@@ -209,14 +209,10 @@ class BayesLocalizer:
                     "use a coarser --resolution, fewer radius bins or a smaller workspace"
                 )
             n_scored += len(centres) * len(radii)
-            total, n_assoc = self._score(vds, centres, radii, cell, model)
+            total, n_assoc, assoc = self._score(vds, centres, radii, cell, model)
             good_cells = ((total >= floor) & (n_assoc >= cfg.min_views)).any(axis=1)
-            centres_grid, centres, total, n_assoc = (
-                centres_grid[good_cells],
-                centres[good_cells],
-                total[good_cells],
-                n_assoc[good_cells],
-            )
+            centres_grid, centres = centres_grid[good_cells], centres[good_cells]
+            total, n_assoc, assoc = total[good_cells], n_assoc[good_cells], assoc[:, good_cells]
             if cell <= cfg.resolution * (1 + 1e-9) or len(centres) == 0:
                 break
             centres_grid = split_cells(centres_grid, cell)
@@ -233,8 +229,8 @@ class BayesLocalizer:
             c, k = np.unravel_index(int(np.argmax(scores)), scores.shape)
             if not np.isfinite(scores[c, k]) or scores[c, k] < floor:
                 break
-            assoc = self._associate(vds, centres[c], float(radii[k]), model, cell)
-            obj = self._refine_and_check(vds, centres[c], float(radii[k]), assoc, model)
+            assoc_h = self._associate(vds, centres[c], float(radii[k]), model, cell)
+            obj = self._refine_and_check(vds, centres[c], float(radii[k]), assoc_h, model)
             if obj is None:
                 near = np.linalg.norm(centres - centres[c], axis=1) <= max(2 * cell, radii[k])
                 active[near] = False
@@ -246,7 +242,16 @@ class BayesLocalizer:
                     vd.available[j] = False
             near = np.linalg.norm(centres - obj.position, axis=1) <= max(cell, 0.5 * float(obj.radius or 0))
             active[near] = False
-            total, n_assoc = self._score(vds, centres, radii, cell, model)
+            # only hypotheses that were using one of the boxes just explained change score
+            affected = np.zeros(len(centres), dtype=bool)
+            for v, vd in enumerate(vds):
+                j = obj.associations.get(vd.index)
+                if j is not None:
+                    affected |= (assoc[v] == j).any(axis=1)
+            if affected.any():
+                sub = np.flatnonzero(affected)
+                t_sub, n_sub, a_sub = self._score(vds, centres[sub], radii, cell, model)
+                total[sub], n_assoc[sub], assoc[:, sub] = t_sub, n_sub, a_sub
         t2 = time.perf_counter()
         self.timing_s = {"search_score": t1 - t0, "extract_refine": t2 - t1}
         objects.sort(key=lambda o: -o.score)
@@ -254,11 +259,13 @@ class BayesLocalizer:
 
     def _score(
         self, vds: list[_ViewData], centres: NDArray[np.float64], radii: NDArray[np.float64], cell: float, model: SensorModel
-    ) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
-        """Total score and associated-view count of (cell, radius) hypotheses with the boxes still available.
+    ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
+        """Score (cell, radius) hypotheses with the boxes still available.
 
-        The cell's projected half-diagonal is added to the edge noise, so a
-        cell is scored as the region it stands for.
+        Returns the total score (N, K), the number of views with an associated
+        box (N, K) and the associated box per view (V, N, K; -1 for none). The
+        cell's projected half-diagonal is added to the edge noise, so a cell
+        is scored as the region it stands for.
         """
         blur = cell * np.sqrt(3) / 2
         if HAVE_NUMBA:
@@ -275,14 +282,16 @@ class BayesLocalizer:
         cam = self.camera
         total = np.zeros((len(centres), len(radii)))
         n_assoc = np.zeros((len(centres), len(radii)), dtype=np.int32)
-        for vd in vds:
+        assoc = np.empty((len(vds), len(centres), len(radii)), dtype=np.int16)
+        for v, vd in enumerate(vds):
             p_opt = transform_points(vd.T_optical_base, centres)
             pred, visible = predict_boxes(cam, p_opt, radii)
             extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
             llr, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height, extra)
             total += llr
             n_assoc += a >= 0
-        return total, n_assoc
+            assoc[v] = a
+        return total, n_assoc, assoc
 
     def _associate(
         self, vds: list[_ViewData], centre: NDArray[np.float64], radius: float, model: SensorModel, cell: float

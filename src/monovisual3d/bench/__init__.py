@@ -1,0 +1,1 @@
+"""Benchmarks shared by the CLI (`monovisual3d bench ...`) and benchmarks/*.py."""
