@@ -1,0 +1,322 @@
+"""Accuracy benchmark: fixed-seed simulated scenes, every method side by side.
+
+Conditions (the issue's list), each over several seeds:
+
+- ``paper-clean``: the paper's six-sphere scene, its three viewpoints, exact boxes;
+- ``paper-noise``: the same with the paper's noise (5 % box noise, 2 % drops);
+- ``greenhouse``: tomato trusses with leaves partly occluding fruit (exact visible boxes);
+- ``pose-error``: the paper scene, exact boxes, camera poses reported with 2 mm / 0.5 deg error (per axis, 1 std);
+- ``n-fruit-N`` for N in 1, 2, 4, 6, 10: random scenes, exact boxes.
+
+Methods: ``bayes`` (default), ``bayes+masks`` (the same with instance masks
+from the simulator's label images, where a condition provides them) and
+``paper`` (Gaussian kernel, sigma = size/2, weighted centre, 10 mm grid).
+
+Per condition and method, errors are pooled over all seeds: mean / median /
+max Euclidean error of the Hungarian-matched pairs (mm), recall and
+precision with the gate of :func:`monovisual3d.metrics.evaluate` (an
+estimate counts only within the true radius, >= 20 mm, of a fruit: ghosts
+are false positives), mean radius error (mm) and the median runtime of one
+``localize`` call (s). For ``paper-noise`` the table also gives the RMS error
+an efficient estimator could reach (the Cramer-Rao bound of the noise model
+for the views that saw each fruit), to tell estimator error from missing
+information.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import __version__
+from ..bayes.likelihood import predict_boxes
+from ..bayes.masks import encode_rle
+from ..errors import InputError
+from ..localize import localize
+from ..metrics import evaluate, match
+from ..session import Detection, Session, View
+from ..sim.noise import NoiseModel
+from ..sim.scene import Scene
+from ..sim.scenes import default_camera, greenhouse_scene, paper_scene, random_scene
+from ..sim.simulate import simulate_views
+
+#: Options of each benchmarked method (passed to :func:`monovisual3d.localize`).
+METHOD_OPTIONS: dict[str, dict[str, Any]] = {
+    "bayes": {"method": "bayes", "use_masks": False},
+    "bayes+masks": {"method": "bayes", "use_masks": True},
+    "paper": {"method": "paper", "kernel": "gaussian", "centre": "weighted", "resolution": 0.01},
+}
+
+#: The issue's targets for the default method: condition -> {metric: (op, value)}.
+TARGETS: dict[str, dict[str, tuple[str, float]]] = {
+    "paper-clean": {"mean_mm": ("<=", 1.5), "recall": (">=", 1.0), "precision": (">=", 1.0), "radius_mm": ("<=", 1.0)},
+    "paper-noise": {"mean_mm": ("<=", 4.0), "recall": (">=", 0.98), "precision": (">=", 0.98)},
+    "greenhouse": {"mean_mm": ("<=", 6.0), "recall": (">=", 0.95)},
+    "pose-error": {"mean_mm": ("<=", 8.0)},
+}
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One benchmark condition: a scene generator, a noise model, seeds, and whether masks are offered."""
+
+    name: str
+    description: str
+    scene: Callable[[int], Scene]
+    noise: NoiseModel
+    seeds: tuple[int, ...]
+    masks: bool = False
+
+
+def conditions(quick: bool = False) -> list[Condition]:
+    """The benchmark's conditions; ``quick`` uses fewer seeds and fruit counts (for tests)."""
+    n = 2 if quick else 10
+    seeds = tuple(range(n))
+    out = [
+        Condition("paper-clean", "paper scene, 3 paper views, exact boxes", lambda s: paper_scene(), NoiseModel(), (0,)),
+        Condition("paper-noise", "paper scene + 5% box noise, 2% drops", lambda s: paper_scene(), NoiseModel.paper(), seeds),
+        Condition(
+            "greenhouse",
+            "tomato truss, leaf occlusion, exact visible boxes",
+            lambda s: greenhouse_scene(rng=s),
+            NoiseModel(),
+            seeds,
+            masks=True,
+        ),
+        Condition(
+            "pose-error",
+            "paper scene, poses off by 2 mm / 0.5 deg",
+            lambda s: paper_scene(),
+            NoiseModel.from_mm_deg(pose_error_mm=2.0, pose_error_deg=0.5),
+            seeds,
+        ),
+    ]
+    for k in (1, 2, 6) if quick else (1, 2, 4, 6, 10):
+        out.append(
+            Condition(
+                f"n-fruit-{k}",
+                f"{k} random fruit, exact boxes",
+                lambda s, k=k: random_scene(k, rng=1000 + s),
+                NoiseModel(),
+                seeds[: max(1, n // 2)],
+            )
+        )
+    return out
+
+
+@dataclass
+class Pool:
+    """Errors pooled over the runs of one (condition, method)."""
+
+    errors: list[float] = field(default_factory=list)
+    radius_errors: list[float] = field(default_factory=list)
+    runtimes: list[float] = field(default_factory=list)
+    n_truth: int = 0
+    n_estimates: int = 0
+    true_positives: int = 0
+    bound_sq: list[float] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        e = np.asarray(self.errors) * 1e3
+        out: dict[str, Any] = {
+            "runs": len(self.runtimes),
+            "n_truth": self.n_truth,
+            "n_estimates": self.n_estimates,
+            "mean_mm": float(e.mean()) if len(e) else float("nan"),
+            "median_mm": float(np.median(e)) if len(e) else float("nan"),
+            "max_mm": float(e.max()) if len(e) else float("nan"),
+            "rms_mm": float(np.sqrt(np.mean(e**2))) if len(e) else float("nan"),
+            "recall": self.true_positives / self.n_truth if self.n_truth else float("nan"),
+            "precision": self.true_positives / self.n_estimates if self.n_estimates else float("nan"),
+            "radius_mm": float(np.mean(self.radius_errors) * 1e3) if self.radius_errors else None,
+            "runtime_s": float(np.median(self.runtimes)) if self.runtimes else float("nan"),
+        }
+        if self.bound_sq:
+            out["rms_bound_mm"] = float(np.sqrt(np.mean(self.bound_sq)) * 1e3)
+        return out
+
+
+def simulated_session(scene: Scene, noise: NoiseModel, seed: int, *, masks: bool) -> tuple[Session, list[Any]]:
+    """Simulate the paper's three views of ``scene``; with ``masks``, attach each true detection's visible mask (RLE)."""
+    camera = default_camera()
+    svs = simulate_views(scene, camera, noise=noise, rng=seed)
+    views = []
+    for sv in svs:
+        dets = []
+        for box, fruit in zip(sv.boxes_xyxy, sv.source):
+            mask = encode_rle(sv.rendering.labels == fruit) if masks and fruit >= 0 else None
+            dets.append(Detection(np.asarray(box, dtype=float), label="tomato", mask=mask))
+        views.append(View(sv.T_base_optical_reported, tuple(dets)))
+    return Session(camera, tuple(views)), svs
+
+
+def crlb_rms_sq(scene: Scene, svs: list[Any], box_sigma: float) -> list[float]:
+    """Per fruit: trace of the Cramer-Rao bound of its centre (m^2) under the relative box-noise model.
+
+    Only views in which the fruit was detected count; its box is the exact
+    silhouette box (border clipping ignored). Noise per box: centre std
+    ``box_sigma * size``, size std ``box_sigma * size`` (see
+    :mod:`monovisual3d.sim.noise`), i.e. edge covariance
+    ``sigma^2 size^2 [[1.25, 0.75], [0.75, 1.25]]`` per axis.
+    """
+    camera = default_camera()
+    out = []
+    for f, (c, r) in enumerate(zip(scene.centres, scene.radii)):
+        F = np.zeros((4, 4))
+        for sv in svs:
+            if f not in set(sv.source.tolist()):
+                continue
+            T_ob = np.linalg.inv(sv.T_base_optical_true)
+
+            def edges(p: NDArray[np.float64], T_ob: NDArray[np.float64] = T_ob) -> NDArray[np.float64]:
+                po = T_ob[:3, :3] @ p[:3] + T_ob[:3, 3]
+                return predict_boxes(camera, po[None], np.array([p[3]]))[0][0, 0]
+
+            p0 = np.r_[c, r]
+            J = np.stack([(edges(p0 + h) - edges(p0 - h)) / (2e-6) for h in np.eye(4) * 1e-6], axis=1)
+            b = edges(p0)
+            C = np.zeros((4, 4))
+            for i, j in ((0, 2), (1, 3)):
+                s2 = (box_sigma * (b[j] - b[i])) ** 2
+                C[np.ix_([i, j], [i, j])] = s2 * np.array([[1.25, 0.75], [0.75, 1.25]])
+            F += J.T @ np.linalg.solve(C, J)
+        try:
+            out.append(float(np.trace(np.linalg.inv(F)[:3, :3])))
+        except np.linalg.LinAlgError:
+            out.append(float("nan"))
+    return [v for v in out if np.isfinite(v)]
+
+
+def run_accuracy(
+    *,
+    quick: bool = False,
+    methods: tuple[str, ...] = ("bayes", "bayes+masks", "paper"),
+    only: tuple[str, ...] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """Run every condition (or those named in ``only``) with every method; returns a JSON-ready dict."""
+    unknown = sorted(set(methods) - set(METHOD_OPTIONS))
+    if unknown:
+        raise InputError(f"methods: unknown {unknown[0]!r}, expected some of {sorted(METHOD_OPTIONS)}")
+    conds = [c for c in conditions(quick) if only is None or c.name in only]
+    if only is not None and len(conds) != len(set(only)):
+        raise InputError(f"only: expected condition names from {[c.name for c in conditions(quick)]}, got {list(only)}")
+    results: dict[str, dict[str, Any]] = {}
+    for cond in conds:
+        pools = {m: Pool() for m in methods if m != "bayes+masks" or cond.masks}
+        for seed in cond.seeds:
+            scene = cond.scene(seed)
+            session, svs = simulated_session(scene, cond.noise, seed, masks=cond.masks)
+            for m, pool in pools.items():
+                opts = dict(METHOD_OPTIONS[m])
+                t0 = time.perf_counter()
+                res = localize(session, **opts)
+                pool.runtimes.append(time.perf_counter() - t0)
+                est = res.positions
+                est_r = np.array([o.radius if o.radius is not None else np.nan for o in res.objects])
+                met = evaluate(est, scene.centres, truth_radii=scene.radii, estimate_radii=est_r)
+                ei, ti = match(est, scene.centres)
+                pool.errors += np.linalg.norm(est[ei] - scene.centres[ti], axis=1).tolist()
+                ok = np.isfinite(est_r[ei]) if len(ei) else np.zeros(0, bool)
+                pool.radius_errors += np.abs(est_r[ei][ok] - scene.radii[ti][ok]).tolist()
+                pool.n_truth += met.n_truth
+                pool.n_estimates += met.n_estimates
+                pool.true_positives += met.true_positives
+                if m == "bayes" and cond.noise.box_sigma > 0 and cond.noise.pose_position_std == 0:
+                    pool.bound_sq += crlb_rms_sq(scene, svs, cond.noise.box_sigma)
+            if progress is not None:
+                progress(f"{cond.name} seed {seed}")
+        results[cond.name] = {
+            "description": cond.description,
+            "seeds": list(cond.seeds),
+            "methods": {m: p.summary() for m, p in pools.items()},
+        }
+    return {"benchmark": "accuracy", "quick": quick, "machine": machine_info(), "results": results, "targets": TARGETS}
+
+
+def machine_info() -> dict[str, Any]:
+    """Where a benchmark ran: CPU, cores, Python and library versions."""
+    import os
+
+    import numba
+    import scipy
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "numba": numba.__version__,
+        "monovisual3d": __version__,
+        "date": time.strftime("%Y-%m-%d"),
+    }
+
+
+def check_targets(results: dict[str, Any]) -> list[tuple[str, str, float, str, float, bool]]:
+    """(condition, metric, value, op, target, met) for each of the default method's targets."""
+    rows = []
+    for cond, targets in TARGETS.items():
+        if cond not in results["results"]:
+            continue
+        summary = results["results"][cond]["methods"].get("bayes", {})
+        for metric, (op, target) in targets.items():
+            value = summary.get(metric)
+            if value is None:
+                continue
+            met = value <= target + 1e-12 if op == "<=" else value >= target - 1e-12
+            rows.append((cond, metric, float(value), op, target, bool(met)))
+    return rows
+
+
+def format_markdown(results: dict[str, Any]) -> str:
+    """The benchmark table (Markdown), one row per condition and method, then the target check."""
+    m = results["machine"]
+    lines = [
+        f"Machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}, numba {m['numba']}; {m['date']}"
+        + (" (quick mode)" if results["quick"] else ""),
+        "",
+        "| condition | method | runs | mean mm | median mm | max mm | recall | precision | radius err mm | runtime s |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+
+    def f(v: Any, d: int = 2) -> str:
+        return "-" if v is None or (isinstance(v, float) and np.isnan(v)) else f"{v:.{d}f}"
+
+    for cond, block in results["results"].items():
+        for meth, s in block["methods"].items():
+            lines.append(
+                f"| {cond} | {meth} | {s['runs']} | {f(s['mean_mm'])} | {f(s['median_mm'])} | {f(s['max_mm'])} | "
+                f"{f(s['recall'], 3)} | {f(s['precision'], 3)} | {f(s['radius_mm'])} | {f(s['runtime_s'], 3)} |"
+            )
+    bounds = [
+        (c, b["methods"]["bayes"]) for c, b in results["results"].items() if "rms_bound_mm" in b["methods"].get("bayes", {})
+    ]
+    if bounds:
+        lines += ["", "| condition | bayes RMS error mm | Cramer-Rao RMS bound mm |", "|---|---:|---:|"]
+        lines += [f"| {c} | {f(s['rms_mm'])} | {f(s['rms_bound_mm'])} |" for c, s in bounds]
+    lines += ["", "| target (default method) | measured | target | met |", "|---|---:|---:|:---:|"]
+    for cond, metric, value, op, target, met in check_targets(results):
+        lines.append(f"| {cond} {metric} | {value:.3f} | {op} {target:g} | {'yes' if met else 'NO'} |")
+    return "\n".join(lines) + "\n"
+
+
+def save(results: dict[str, Any], path: str) -> None:
+    with open(path, "w") as fh:
+        json.dump(results, fh, indent=2)
