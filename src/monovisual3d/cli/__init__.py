@@ -6,7 +6,10 @@ exit code 2 and a one-line message; warnings are printed as one line each.
 
 from __future__ import annotations
 
-from . import core  # noqa: F401  (registers commands)
+from . import (
+    core,  # noqa: F401  (registers commands)
+    sim,  # noqa: F401
+)
 from ._app import app, main
 
 __all__ = ["app", "main"]

@@ -1,11 +1,44 @@
 """Simulation: scenes, a bounding-box camera, viewpoints and noise (numpy only).
 
+- :mod:`~monovisual3d.sim.scene`: the Scene/Sphere/Leaf/Stem dataclasses and their JSON;
+- :mod:`~monovisual3d.sim.scenes`: built-in scenes (paper, greenhouse, random);
+- :mod:`~monovisual3d.sim.raycast`: the bounding-box camera (exact ray casting, visible boxes);
+- :mod:`~monovisual3d.sim.viewpoints`: the paper's poses, permutations, rings, hemispheres;
+- :mod:`~monovisual3d.sim.noise`: the paper's box noise, missed detections, false positives, pose error;
+- :mod:`~monovisual3d.sim.simulate`: sessions and ground truth from all of the above.
+
 The photorealistic MuJoCo path lives in :mod:`monovisual3d.sim.mujoco_render`
 (extra ``[sim]``).
 """
 
 from __future__ import annotations
 
+from .noise import NoiseModel
+from .raycast import Rendering, render
 from .scene import Leaf, Scene, Sphere, Stem
+from .scenes import default_camera, greenhouse_scene, paper_scene, random_scene, scene_by_name, scene_target
+from .simulate import simulate, write_simulation
+from .viewpoints import hemisphere_poses, paper_poses, pose_permutations, poses_by_name, ring_poses
 
-__all__ = ["Leaf", "Scene", "Sphere", "Stem"]
+__all__ = [
+    "Leaf",
+    "NoiseModel",
+    "Rendering",
+    "Scene",
+    "Sphere",
+    "Stem",
+    "default_camera",
+    "greenhouse_scene",
+    "hemisphere_poses",
+    "paper_poses",
+    "paper_scene",
+    "pose_permutations",
+    "poses_by_name",
+    "random_scene",
+    "render",
+    "ring_poses",
+    "scene_by_name",
+    "scene_target",
+    "simulate",
+    "write_simulation",
+]

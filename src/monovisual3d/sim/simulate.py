@@ -1,0 +1,268 @@
+"""Simulated sessions: ray-cast a scene from camera poses, add noise, write the files.
+
+:func:`simulate` returns a :class:`~monovisual3d.session.Session` (what a robot
+would record: reported poses and detector boxes) and a truth dictionary (the
+scene's fruit in the ``monovisual3d evaluate`` format, plus per-view details:
+true pose, exact visible boxes, which fruit each detection came from).
+:func:`write_simulation` writes ``session.json``, ``truth.json``, ``scene.json``
+and, optionally, one PNG per view of what the camera saw.
+
+Order of the random draws (fixed, so a seed reproduces a run exactly): for
+each view in order, the reported pose, then the missed detections, the box
+noise and the false positives of that view.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..camera import Camera
+from ..errors import InputError
+from ..session import Detection, Session, View, Workspace
+from .noise import NoiseModel
+from .raycast import BACKGROUND, OCCLUDER, Rendering, render
+from .scene import Scene
+from .scenes import default_camera, scene_target
+from .viewpoints import check_poses, paper_poses
+
+#: Label of simulated detections.
+DETECTION_LABEL = "tomato"
+
+
+@dataclass(frozen=True)
+class SimulatedView:
+    """One simulated view with everything the simulator knows about it.
+
+    Attributes
+    ----------
+    T_base_optical_true : ndarray, shape (4, 4), the pose the image was rendered from
+    T_base_optical_reported : ndarray, shape (4, 4), the pose written to the session
+    rendering : Rendering, the label image and exact visible boxes
+    boxes_xyxy : ndarray, shape (K, 4), pixels, the reported (noisy) detections
+    source : ndarray, shape (K,), int64, fruit index of each detection, -1 for a false positive
+    """
+
+    T_base_optical_true: NDArray[np.float64]
+    T_base_optical_reported: NDArray[np.float64]
+    rendering: Rendering
+    boxes_xyxy: NDArray[np.float64]
+    source: NDArray[np.int64]
+
+
+def simulate_views(
+    scene: Scene,
+    camera: Camera | None = None,
+    poses: ArrayLike | None = None,
+    *,
+    noise: NoiseModel | None = None,
+    rng: np.random.Generator | int | None = None,
+    supersample: int = 1,
+    min_pixels: float = 1.0,
+) -> list[SimulatedView]:
+    """Render every pose and apply the noise model; the building block of :func:`simulate`.
+
+    Parameters are those of :func:`simulate`.
+
+    Returns
+    -------
+    list of SimulatedView, one per pose
+    """
+    if not isinstance(scene, Scene):
+        raise InputError(f"scene: expected a Scene, got {type(scene).__name__}")
+    camera = camera or default_camera()
+    P = paper_poses(scene_target(scene)) if poses is None else check_poses(poses)
+    noise = noise or NoiseModel()
+    if not isinstance(noise, NoiseModel):
+        raise InputError(f"noise: expected a NoiseModel, got {type(noise).__name__}")
+    rng = np.random.default_rng(rng)
+    out = []
+    for T_true in P:
+        rendering = render(scene, camera, T_true, supersample=supersample, min_pixels=min_pixels)
+        T_reported = noise.apply_to_pose(T_true, rng)
+        visible = np.flatnonzero(rendering.visible)
+        boxes, source = noise.apply_to_boxes(rendering.boxes_xyxy[visible], camera.size, rng)
+        fruit = np.full(len(source), -1, dtype=np.int64)
+        fruit[source >= 0] = visible[source[source >= 0]]
+        out.append(SimulatedView(T_true, T_reported, rendering, boxes, fruit))
+    return out
+
+
+def simulate(
+    scene: Scene,
+    camera: Camera | None = None,
+    poses: ArrayLike | None = None,
+    *,
+    noise: NoiseModel | None = None,
+    rng: np.random.Generator | int | None = None,
+    supersample: int = 1,
+    min_pixels: float = 1.0,
+    workspace: Workspace | None = None,
+) -> tuple[Session, dict[str, Any]]:
+    """Simulate a session: the bounding-box camera at each pose, with optional noise.
+
+    Parameters
+    ----------
+    scene : Scene
+    camera : Camera, default 640 x 480 pixels, 69 degrees horizontal field of view
+    poses : array_like, shape (N, 4, 4), true ``T_base_optical`` of each view;
+        default the paper's three poses around the scene's target
+    noise : NoiseModel, default none (exact boxes, exact poses)
+    rng : numpy Generator, seed or None
+    supersample : int, sub-pixel rays per pixel and axis (box accuracy 1 / supersample px)
+    min_pixels : float, visible area a fruit needs to be detected, pixels
+    workspace : Workspace, optional, written to the session
+
+    Returns
+    -------
+    session : Session
+        Reported poses and detections (``label`` "tomato", no score), views in pose order.
+    truth : dict
+        ``objects`` (fruit positions/radii/labels, the ``evaluate`` format), ``views``
+        (per view: ``T_base_optical_true``, ``T_base_optical_reported`` as 4x4 lists,
+        ``visible_bbox_xyxy`` exact boxes per fruit with None for hidden fruit,
+        ``visible_px`` per fruit, ``detection_fruit`` the fruit index of each
+        detection with -1 for false positives), ``noise`` and ``scene``.
+
+    Examples
+    --------
+    >>> from monovisual3d.sim.scenes import paper_scene
+    >>> session, truth = simulate(paper_scene(), rng=0)
+    >>> len(session.views), [len(v.detections) for v in session.views], len(truth["objects"])
+    (3, [6, 6, 6], 6)
+    """
+    views = simulate_views(scene, camera, poses, noise=noise, rng=rng, supersample=supersample, min_pixels=min_pixels)
+    camera = camera or default_camera()
+    return _session_and_truth(scene, camera, views, noise or NoiseModel(), workspace, images=None)
+
+
+def write_simulation(
+    directory: str | Path,
+    scene: Scene,
+    camera: Camera | None = None,
+    poses: ArrayLike | None = None,
+    *,
+    noise: NoiseModel | None = None,
+    rng: np.random.Generator | int | None = None,
+    supersample: int = 1,
+    min_pixels: float = 1.0,
+    workspace: Workspace | None = None,
+    images: bool = True,
+) -> dict[str, Path]:
+    """:func:`simulate` and write the results to ``directory`` (created if needed).
+
+    Files: ``session.json`` (load with :func:`monovisual3d.load_session`),
+    ``truth.json`` (see :func:`simulate`; usable with ``monovisual3d evaluate``),
+    ``scene.json`` (:meth:`Scene.load`), and with ``images`` one ``view_NN.png``
+    per view: the label image (background grey, occluders green, fruit in shades
+    of red) with the reported boxes drawn in yellow (false positives in cyan).
+
+    Returns
+    -------
+    dict
+        ``{"session": path, "truth": path, "scene": path, "view_00": path, ...}``
+    """
+    out_dir = Path(directory)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InputError(f"{out_dir}: exists and is not a directory")
+    views = simulate_views(scene, camera, poses, noise=noise, rng=rng, supersample=supersample, min_pixels=min_pixels)
+    camera = camera or default_camera()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = [f"view_{i:02d}.png" for i in range(len(views))] if images else None
+    session, truth = _session_and_truth(scene, camera, views, noise or NoiseModel(), workspace, images=names)
+    paths = {"session": out_dir / "session.json", "truth": out_dir / "truth.json", "scene": out_dir / "scene.json"}
+    session.to_json(paths["session"])
+    paths["truth"].write_text(json.dumps(truth, indent=2) + "\n")
+    scene.save(paths["scene"])
+    if names is not None:
+        for name, v in zip(names, views):
+            path = out_dir / name
+            write_png(path, view_image(v))
+            paths[name.removesuffix(".png")] = path
+    return paths
+
+
+def view_image(view: SimulatedView) -> NDArray[np.uint8]:
+    """RGB picture of a simulated view: label colours plus the reported boxes, shape (H, W, 3), uint8.
+
+    The picture has the label image's resolution (``supersample`` times the camera's).
+    """
+    labels = view.rendering.labels
+    s = view.rendering.supersample
+    img = np.empty(labels.shape + (3,), dtype=np.uint8)
+    img[labels == BACKGROUND] = (200, 200, 200)
+    img[labels == OCCLUDER] = (40, 140, 40)
+    fruit = labels >= 0
+    shade = (labels[fruit] * 37) % 100
+    img[fruit] = np.stack([220 - shade // 2, 30 + shade, 30 + shade // 2], axis=-1).astype(np.uint8)
+    H, W = labels.shape
+    for box, src in zip(view.boxes_xyxy, view.source):
+        colour = (255, 230, 0) if src >= 0 else (0, 220, 255)
+        x1, y1, x2, y2 = np.round(np.asarray(box) * s).astype(int)
+        x1, x2 = np.clip([x1, x2 - 1], 0, W - 1)
+        y1, y2 = np.clip([y1, y2 - 1], 0, H - 1)
+        img[y1, x1 : x2 + 1] = colour
+        img[y2, x1 : x2 + 1] = colour
+        img[y1 : y2 + 1, x1] = colour
+        img[y1 : y2 + 1, x2] = colour
+    return img
+
+
+def write_png(path: str | Path, image: NDArray[np.uint8]) -> None:
+    """Write an 8-bit grey (H, W) or RGB (H, W, 3) image as PNG (zlib only, no extra dependency)."""
+    img = np.ascontiguousarray(image, dtype=np.uint8)
+    if img.ndim == 2:
+        colour_type = 0
+    elif img.ndim == 3 and img.shape[2] == 3:
+        colour_type = 2
+    else:
+        raise InputError(f"image: expected shape (H, W) or (H, W, 3), got {img.shape}")
+    H, W = img.shape[:2]
+    raw = np.concatenate([np.zeros((H, 1), dtype=np.uint8), img.reshape(H, -1)], axis=1).tobytes()
+
+    def chunk(tag: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", W, H, 8, colour_type, 0, 0, 0)
+    Path(path).write_bytes(
+        b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b"")
+    )
+
+
+def _session_and_truth(
+    scene: Scene,
+    camera: Camera,
+    views: list[SimulatedView],
+    noise: NoiseModel,
+    workspace: Workspace | None,
+    images: list[str] | None,
+) -> tuple[Session, dict[str, Any]]:
+    session_views = []
+    truth_views = []
+    for i, v in enumerate(views):
+        dets = tuple(Detection(np.asarray(b, dtype=float), None, DETECTION_LABEL) for b in v.boxes_xyxy)
+        session_views.append(View(v.T_base_optical_reported, dets, images[i] if images else None))
+        truth_views.append(
+            {
+                "T_base_optical_true": v.T_base_optical_true.tolist(),
+                "T_base_optical_reported": v.T_base_optical_reported.tolist(),
+                "visible_bbox_xyxy": [None if not np.isfinite(b[0]) else [float(x) for x in b] for b in v.rendering.boxes_xyxy],
+                "visible_px": [float(x) for x in v.rendering.visible_px],
+                "detection_fruit": [int(x) for x in v.source],
+            }
+        )
+    session = Session(camera, tuple(session_views), workspace)
+    truth = {
+        **scene.truth_dict(),
+        "views": truth_views,
+        "noise": noise.to_dict(),
+        "scene": scene.to_dict(),
+    }
+    return session, truth
