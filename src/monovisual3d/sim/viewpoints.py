@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -346,8 +345,3 @@ def _check_count(n: int, where: str) -> int:
 def _check_angle(angle: float, where: str, max_value: float) -> None:
     if not (isinstance(angle, (int, float)) and math.isfinite(angle) and 0 <= angle <= max_value + 1e-12):
         raise InputError(f"{where}: got {angle!r} rad, expected a value in [0, {max_value:.4g}] rad")
-
-
-def as_pose_list(poses: ArrayLike | Sequence[ArrayLike]) -> list[NDArray[np.float64]]:
-    """A validated list of (4, 4) poses from an array (N, 4, 4) or a sequence of (4, 4)."""
-    return list(check_poses(np.asarray(poses, dtype=float)))
