@@ -32,6 +32,7 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
+from itertools import combinations
 from typing import Any
 
 import numpy as np
@@ -45,7 +46,7 @@ from ..localize import register_method
 from ..result import DetectedObject, Result
 from ..session import Session, View, Workspace
 from ._kernels import HAVE_NUMBA, score_hypotheses
-from .likelihood import SensorModel, predict_boxes, view_scores
+from .likelihood import SensorModel, box_scores, predict_boxes, view_scores
 from .masks import contour_points
 from .refine import Observation, refine_sphere
 from .search import cone_counts, split_cells
@@ -252,6 +253,7 @@ class BayesLocalizer:
                 sub = np.flatnonzero(affected)
                 t_sub, n_sub, a_sub = self._score(vds, centres[sub], radii, cell, model)
                 total[sub], n_assoc[sub], assoc[:, sub] = t_sub, n_sub, a_sub
+        objects = self._swap_pass(vds, objects, model)
         t2 = time.perf_counter()
         self.timing_s = {"search_score": t1 - t0, "extract_refine": t2 - t1}
         objects.sort(key=lambda o: -o.score)
@@ -348,6 +350,74 @@ class BayesLocalizer:
             associations={vd.index: a for vd, a in zip(vds, assoc) if a >= 0},
             extra={"radius_std": refined.radius_std, "n_views": int(n_views)},
         )
+
+    def _fit_fixed(
+        self, vds: list[_ViewData], centre0: NDArray[np.float64], radius0: float, assoc: list[int], model: SensorModel
+    ) -> DetectedObject | None:
+        """Refine one object with a fixed association and score it with that association."""
+        cfg, cam = self.config, self.camera
+        obs = [
+            Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if cfg.use_masks else None)
+            for vd, j in zip(vds, assoc)
+            if j >= 0
+        ]
+        if len(obs) < cfg.min_views:
+            return None
+        refined = refine_sphere(cam, obs, centre0, radius0, model, use_masks=cfg.use_masks)
+        if not (cfg.radius_min * 0.5 <= refined.radius <= cfg.radius_max * 2):
+            return None
+        score = 0.0
+        for vd, j in zip(vds, assoc):
+            p_opt = vd.T_optical_base[:3, :3] @ refined.centre + vd.T_optical_base[:3, 3]
+            pred, visible = predict_boxes(cam, p_opt[None, :], np.array([refined.radius]))
+            if not visible[0, 0]:
+                continue
+            s = box_scores(pred[0, 0], vd.boxes[j], model, cam.width, cam.height) if j >= 0 else -np.inf
+            score += max(float(s), model.miss_term)
+        return DetectedObject(
+            position=refined.centre,
+            score=score,
+            radius=refined.radius,
+            covariance=refined.covariance,
+            associations={vd.index: a for vd, a in zip(vds, assoc) if a >= 0},
+            extra={"radius_std": refined.radius_std, "n_views": len(obs)},
+        )
+
+    def _swap_pass(self, vds: list[_ViewData], objects: list[DetectedObject], model: SensorModel) -> list[DetectedObject]:
+        """Fix greedy association mistakes between fruit that overlap in a view (one hiding the other).
+
+        The greedy extraction can give a fruit the box of the fruit in front
+        of it (that box matches its full silhouette better than its own,
+        truncated box). For every view and every pair of objects whose
+        predicted boxes overlap there, swap their boxes in that view, refit
+        both, and keep the swap if their summed score grows by more than 1 nat.
+        """
+        cam = self.camera
+        for _ in range(2):
+            changed = False
+            for v, vd in enumerate(vds):
+                holders = [i for i, o in enumerate(objects) if vd.index in o.associations]
+                for ia, ib in combinations(holders, 2):
+                    a, b = objects[ia], objects[ib]
+                    boxes = []
+                    for o in (a, b):
+                        p_opt = vd.T_optical_base[:3, :3] @ o.position + vd.T_optical_base[:3, 3]
+                        boxes.append(predict_boxes(cam, p_opt[None, :], np.array([o.radius]))[0][0, 0])
+                    (ax1, ay1, ax2, ay2), (bx1, by1, bx2, by2) = boxes
+                    if min(ax2, bx2) <= max(ax1, bx1) or min(ay2, by2) <= max(ay1, by1):
+                        continue
+                    assoc_a = [a.associations.get(w.index, -1) for w in vds]
+                    assoc_b = [b.associations.get(w.index, -1) for w in vds]
+                    assoc_a[v], assoc_b[v] = assoc_b[v], assoc_a[v]
+                    new_a = self._fit_fixed(vds, a.position, float(a.radius), assoc_a, model)
+                    new_b = self._fit_fixed(vds, b.position, float(b.radius), assoc_b, model)
+                    if new_a is None or new_b is None or new_a.score + new_b.score <= a.score + b.score + 1.0:
+                        continue
+                    objects[ia], objects[ib] = new_a, new_b
+                    changed = True
+            if not changed:
+                break
+        return objects
 
 
 @register_method("bayes")
