@@ -95,9 +95,13 @@ def kmeans_objects(
     x = grid.centres_base(keep)
     k = min(k, len(keep))
     from sklearn.cluster import KMeans
+    from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
 
     km = KMeans(n_clusters=k, n_init=4, random_state=seed)
-    labels = km.fit_predict(x, sample_weight=w if weighted_kmeans else None)
+    # one thread: these clusterings are small, and BLAS/OpenMP thread pools on a busy
+    # 2-core machine made k-means 5-30x slower
+    with threadpool_limits(limits=1):
+        labels = km.fit_predict(x, sample_weight=w if weighted_kmeans else None)
     objects = []
     for j in range(k):
         sel = labels == j
