@@ -57,8 +57,9 @@ def check_quaternion_xyzw(
     array([0., 0., 0., 1.])
     """
     arr = _finite_array(q, (4,), where)
-    norm = float(np.linalg.norm(arr))
-    if abs(norm - 1.0) > tol:
+    with np.errstate(over="ignore"):  # huge entries: norm inf, reported below
+        norm = float(np.linalg.norm(arr))
+    if not abs(norm - 1.0) <= tol:
         raise InputError(f"{where}: norm {norm:.4g}, expected 1 (order is x, y, z, w)")
     return arr / norm
 
@@ -86,8 +87,9 @@ def check_transform(T: ArrayLike, *, where: str = "matrix", tol: float = ROTATIO
     """
     arr = _finite_array(T, (4, 4), where)
     R = arr[:3, :3]
-    err = float(np.max(np.abs(R.T @ R - np.eye(3))))
-    if err > tol:
+    with np.errstate(over="ignore", invalid="ignore"):  # huge entries give inf/NaN, rejected below (not > tol: NaN too)
+        err = float(np.max(np.abs(R.T @ R - np.eye(3))))
+    if not err <= tol:
         raise InputError(f"{where}: rotation block is not orthonormal (max |R^T R - I| = {err:.3g}, expected < {tol:g})")
     det = float(np.linalg.det(R))
     if det < 0:
@@ -212,6 +214,10 @@ def look_at(position: ArrayLike, target: ArrayLike, up: ArrayLike = (0.0, 0.0, 1
 
 
 def _finite_array(value: ArrayLike, shape: tuple[int, ...], where: str) -> NDArray[np.float64]:
+    # text, booleans and None are not numbers, even where numpy would convert them
+    if not _all_numbers(value):
+        got = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else repr(value)
+        raise InputError(f"{where}: expected numbers with shape {list(shape)}, got {got}")
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -221,3 +227,12 @@ def _finite_array(value: ArrayLike, shape: tuple[int, ...], where: str) -> NDArr
     if not np.all(np.isfinite(arr)):
         raise InputError(f"{where}: contains NaN or infinity")
     return arr
+
+
+def _all_numbers(value: object) -> bool:
+    """True when ``value`` is a number or nested lists/tuples/arrays of numbers (no bool, str, None)."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "iuf"
+    if isinstance(value, (list, tuple)):
+        return all(_all_numbers(v) for v in value)
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))

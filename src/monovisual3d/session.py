@@ -401,9 +401,10 @@ def _expect_object(data: Any, where: str) -> None:
 
 
 def _reject_unknown(data: dict[str, Any], allowed: set[str], where: str) -> None:
-    unknown = sorted(set(data) - allowed)
+    unknown = sorted(set(data) - allowed, key=str)  # YAML keys may be numbers or None, not only text
     if unknown:
-        path = f"{where}.{unknown[0]}" if where else unknown[0]
+        name = str(unknown[0]) if str(unknown[0]).isprintable() else repr(unknown[0])  # keep the message one line
+        path = f"{where}.{name}" if where else name
         raise InputError(f"{path}: unknown field, expected one of {sorted(allowed)}")
 
 
