@@ -9,6 +9,7 @@ from __future__ import annotations
 from . import (
     core,  # noqa: F401  (registers commands)
     experiments,  # noqa: F401
+    io,  # noqa: F401
     sim,  # noqa: F401
 )
 from ._app import app, main

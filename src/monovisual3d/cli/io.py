@@ -1,0 +1,181 @@
+"""``import`` and ``import-bag``: build a session file from real-world data."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ..errors import InputError
+from ..io.summary import ImportResult
+from ._app import app, console, handle_errors
+
+
+def _size(text: str | None) -> tuple[int, int] | None:
+    if text is None:
+        return None
+    from ..io.calibration import parse_image_size
+
+    return parse_image_size(text)
+
+
+def _crop(text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    parts = text.replace("x", ",").split(",")
+    if len(parts) != 4:
+        raise InputError(f"--crop: got {text!r}, expected X1,Y1,X2,Y2 in calibration pixels")
+    try:
+        return [float(p) for p in parts]
+    except ValueError:
+        raise InputError(f"--crop: got {text!r}, expected four numbers X1,Y1,X2,Y2") from None
+
+
+def _workspace(text: str | None) -> dict[str, list[float]] | None:
+    if text is None:
+        return None
+    try:
+        v = [float(p) for p in text.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 6:
+        raise InputError(f"--workspace: got {text!r}, expected XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in metres")
+    return {"min": v[:3], "max": v[3:]}
+
+
+def _report(result: ImportResult, output: Path) -> None:
+    result.session.to_json(output)
+    console.print(f"wrote {output}", highlight=False, soft_wrap=True)
+    for line in result.summary.lines():
+        console.print(f"  {line}", highlight=False, markup=False, soft_wrap=True)
+
+
+@app.command(name="import")
+@handle_errors
+def import_cmd(
+    camera: Annotated[
+        Path, typer.Option("--camera", help="Calibration: Kalibr, ROS camera_info, OpenCV, DepthAI or session camera.")
+    ],
+    poses: Annotated[Path, typer.Option("--poses", help="Poses: TUM (.txt), CSV or JSON list of 4x4 matrices.")],
+    detections: Annotated[Path, typer.Option("--detections", help="YOLO label folder/file, COCO JSON or CSV.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Session file to write (JSON).")],
+    hand_eye: Annotated[
+        Path | None, typer.Option("--hand-eye", help="T_ee_camera (eye-in-hand); the poses are then end-effector poses.")
+    ] = None,
+    camera_format: Annotated[
+        str | None, typer.Option("--camera-format", help="kalibr, ros, opencv, depthai, monovisual3d.")
+    ] = None,
+    camera_name: Annotated[
+        str | None, typer.Option("--camera-name", help="Kalibr cam0/cam1..., DepthAI socket (CAM_A, rgb...).")
+    ] = None,
+    image_size: Annotated[
+        str | None, typer.Option("--image-size", help="Size of the detector's images, WxH, if not the calibration's.")
+    ] = None,
+    resize: Annotated[str, typer.Option("--resize", help="How the images were resized: auto, stretch, crop (centre).")] = "auto",
+    crop: Annotated[
+        str | None, typer.Option("--crop", help="Region of the calibration image the images were cut from: X1,Y1,X2,Y2.")
+    ] = None,
+    pose_format: Annotated[str | None, typer.Option("--pose-format", help="tum, csv or json (default: by suffix).")] = None,
+    units: Annotated[str, typer.Option("--units", help="Unit of positions in the pose file: m, mm, cm.")] = "m",
+    hand_eye_units: Annotated[str, typer.Option("--hand-eye-units", help="Unit of the hand-eye translation: m, mm, cm.")] = "m",
+    pose_frame: Annotated[
+        str, typer.Option("--pose-frame", help="Camera frame of the poses: optical or camera_link.")
+    ] = "optical",
+    detections_format: Annotated[str | None, typer.Option("--detections-format", help="yolo, coco or csv.")] = None,
+    class_names: Annotated[
+        Path | None, typer.Option("--class-names", help="Class names: data.yaml, classes.txt or JSON.")
+    ] = None,
+    coco_images: Annotated[
+        Path | None, typer.Option("--coco-images", help="COCO file with the images list, for a bare COCO results list.")
+    ] = None,
+    label: Annotated[list[str] | None, typer.Option("--label", help="Keep only this label (repeatable).")] = None,
+    min_score: Annotated[float | None, typer.Option("--min-score", help="Drop detections scored below this.")] = None,
+    match: Annotated[str, typer.Option("--match", help="Pair poses and images by: auto, name, stamp, order.")] = "auto",
+    max_gap: Annotated[
+        float, typer.Option("--max-gap", help="Largest time (s) between an image and the poses used for it.")
+    ] = 0.1,
+    workspace: Annotated[
+        str | None, typer.Option("--workspace", help="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in metres, base frame.")
+    ] = None,
+) -> None:
+    """Build a session file from a calibration, poses and detections, and print what was skipped."""
+    from ..io.build import import_session
+
+    result = import_session(
+        camera,
+        poses,
+        detections,
+        hand_eye=hand_eye,
+        camera_format=camera_format,
+        camera_name=camera_name,
+        image_size=_size(image_size),
+        resize=resize,
+        crop_xyxy=_crop(crop),
+        pose_format=pose_format,
+        units=units,
+        hand_eye_units=hand_eye_units,
+        pose_frame=pose_frame,
+        detections_format=detections_format,
+        class_names=class_names,
+        coco_images=coco_images,
+        labels=label or None,
+        min_score=min_score,
+        match=match,
+        max_gap=max_gap,
+        workspace=_workspace(workspace),
+    )
+    _report(result, output)
+
+
+@app.command(name="import-bag")
+@handle_errors
+def import_bag_cmd(
+    bag: Annotated[Path, typer.Argument(help="ROS 1 .bag file or ROS 2 bag folder (sqlite3 or MCAP).")],
+    base_frame: Annotated[str, typer.Option("--base-frame", help="Robot base frame in TF.")],
+    camera_frame: Annotated[str, typer.Option("--camera-frame", help="Camera frame in TF (optical frame by default).")],
+    detections: Annotated[str, typer.Option("--detections", help="vision_msgs/Detection2DArray topic.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Session file to write (JSON).")],
+    camera_info: Annotated[
+        str | None, typer.Option("--camera-info", help="sensor_msgs/CameraInfo topic (found if only one).")
+    ] = None,
+    camera: Annotated[Path | None, typer.Option("--camera", help="Calibration file to use instead of camera_info.")] = None,
+    pose_frame: Annotated[
+        str, typer.Option("--pose-frame", help="Convention of --camera-frame: optical or camera_link.")
+    ] = "optical",
+    image_size: Annotated[
+        str | None, typer.Option("--image-size", help="Size of the detector's images, WxH, if not the calibration's.")
+    ] = None,
+    resize: Annotated[str, typer.Option("--resize", help="How the images were resized: auto, stretch, crop (centre).")] = "auto",
+    class_names: Annotated[
+        Path | None, typer.Option("--class-names", help="Names of numeric class ids: data.yaml, classes.txt or JSON.")
+    ] = None,
+    label: Annotated[list[str] | None, typer.Option("--label", help="Keep only this label (repeatable).")] = None,
+    min_score: Annotated[float | None, typer.Option("--min-score", help="Drop detections scored below this.")] = None,
+    max_gap: Annotated[
+        float, typer.Option("--max-gap", help="Largest time (s) between a detection and the TF samples used.")
+    ] = 0.1,
+    workspace: Annotated[
+        str | None, typer.Option("--workspace", help="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in metres, base frame.")
+    ] = None,
+) -> None:
+    """Build a session file from a ROS bag: TF poses, CameraInfo and Detection2DArray."""
+    from ..io.rosbag import read_bag
+
+    result = read_bag(
+        bag,
+        base_frame=base_frame,
+        camera_frame=camera_frame,
+        detections_topic=detections,
+        camera_info_topic=camera_info,
+        camera=camera,
+        pose_frame=pose_frame,
+        max_gap=max_gap,
+        min_score=min_score,
+        labels=label or None,
+        class_names=class_names,
+        image_size=_size(image_size),
+        resize=resize,
+        workspace=_workspace(workspace),
+    )
+    _report(result, output)

@@ -1,0 +1,251 @@
+"""Shared parsing helpers of the readers: text files, YAML (with OpenCV tags), numbers.
+
+Every helper raises :class:`~monovisual3d.errors.InputError` with a one-line
+message that names the source and the field; none lets another exception out
+for malformed content.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from ..errors import InputError
+
+#: Files larger than this are refused (calibrations, pose and detection lists are small).
+MAX_FILE_BYTES = 256 * 1024 * 1024
+#: Largest accepted |coordinate| of a position, metres: far beyond any robot, small enough to compute with.
+MAX_ABS_POSITION_M = 1e6
+#: Largest accepted |time stamp|, seconds (epoch times are ~1.7e9).
+MAX_ABS_STAMP_S = 1e12
+#: Largest accepted |angle| (rotation vector norm, roll/pitch/yaw), radians.
+MAX_ABS_ANGLE_RAD = 1e3
+
+
+def read_text(path: str | Path) -> str:
+    """Read a UTF-8 text file with a one-line error for missing, directory or binary files."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: file not found")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, expected a file")
+    try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise InputError(f"{path}: {size} bytes, larger than the {MAX_FILE_BYTES} bytes accepted")
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror})") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start})") from None
+    if "\x00" in text:
+        raise InputError(f"{path}: contains NUL bytes, expected a text file")
+    return text
+
+
+# ---------------------------------------------------------------------- YAML
+class _Loader(yaml.SafeLoader):
+    """Safe YAML loader that also reads OpenCV FileStorage files.
+
+    - ``!!opencv-matrix`` (and other ``!!opencv-*`` tags) become plain mappings
+      with ``type_id`` set, like OpenCV's JSON output.
+    - Floats without a dot (``1e-05``) are numbers, as in YAML 1.2 and OpenCV.
+    """
+
+
+def _construct_opencv(loader: yaml.SafeLoader, suffix: str, node: yaml.Node) -> dict[str, Any]:
+    if not isinstance(node, yaml.MappingNode):
+        raise yaml.constructor.ConstructorError(None, None, f"!!opencv-{suffix} must be a mapping", node.start_mark)
+    data = loader.construct_mapping(node, deep=True)
+    return {"type_id": f"opencv-{suffix}", **data}
+
+
+_Loader.add_multi_constructor("tag:yaml.org,2002:opencv-", _construct_opencv)
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+        |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+        |[-+]?\.(?:inf|Inf|INF)
+        |\.(?:nan|NaN|NAN))$""",
+        re.X,
+    ),
+    list("-+0123456789."),
+)
+
+_OPENCV_DIRECTIVE = re.compile(r"\A\s*%YAML[: ]?1\.\d+[^\n]*\n")
+
+
+def load_yaml(text: str, source: str) -> Any:
+    """Parse YAML text, accepting OpenCV FileStorage's ``%YAML:1.0`` header and ``!!opencv-matrix`` tags."""
+    text = _OPENCV_DIRECTIVE.sub("", text, count=1)
+    try:
+        return yaml.load(text, Loader=_Loader)  # a SafeLoader subclass: no arbitrary objects
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise InputError(f"{source}: not valid YAML{where}: {problem}") from None
+    except (ValueError, TypeError, OverflowError, RecursionError) as exc:  # PyYAML constructors on odd scalars
+        raise InputError(f"{source}: not valid YAML: {exc}") from None
+
+
+def load_json(text: str, source: str) -> Any:
+    """Parse JSON text with a one-line error."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{source}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    except (ValueError, RecursionError) as exc:
+        raise InputError(f"{source}: not valid JSON: {exc}") from None
+
+
+def load_structured(path: str | Path) -> Any:
+    """Read a JSON or YAML file; the suffix decides, otherwise the first character (``{``/``[``: JSON)."""
+    text = read_text(path)
+    suffix = Path(path).suffix.lower()
+    if suffix == ".json" or (suffix not in (".yaml", ".yml") and text.lstrip()[:1] in ("{", "[")):
+        return load_json(text, str(path))
+    return load_yaml(text, str(path))
+
+
+# ---------------------------------------------------------------------- values
+def where_join(where: str, key: str | int) -> str:
+    """JSON-path style join: ``where.key`` or ``where[3]``."""
+    if isinstance(key, int):
+        return f"{where}[{key}]"
+    return f"{where}.{key}" if where else str(key)
+
+
+def as_float(value: Any, where: str) -> float:
+    """A finite float from a number (not a bool) or a numeric string."""
+    if isinstance(value, bool) or value is None:
+        raise InputError(f"{where}: expected a number, got {value!r}")
+    if isinstance(value, str):
+        try:
+            out = float(value.strip())
+        except ValueError:
+            raise InputError(f"{where}: expected a number, got {_short(value)}") from None
+    elif isinstance(value, (int, float, np.integer, np.floating)):
+        try:
+            out = float(value)
+        except OverflowError:
+            raise InputError(f"{where}: number too large") from None
+    else:
+        raise InputError(f"{where}: expected a number, got {_short(value)}")
+    if not math.isfinite(out):
+        raise InputError(f"{where}: got {out}, expected a finite number")
+    return out
+
+
+def as_int(value: Any, where: str, minimum: int | None = None) -> int:
+    """An integer from an int, an integral float or a numeric string."""
+    x = as_float(value, where)
+    if not x.is_integer() or abs(x) > 2**53:
+        raise InputError(f"{where}: expected an integer, got {_short(value)}")
+    out = int(x)
+    if minimum is not None and out < minimum:
+        raise InputError(f"{where}: got {out}, expected an integer >= {minimum}")
+    return out
+
+
+def as_array(value: Any, where: str, shape: tuple[int, ...] | None = None, size: int | None = None) -> NDArray[np.float64]:
+    """A finite float array from nested lists (or an array), optionally with a fixed shape or size."""
+    if isinstance(value, (str, bytes, dict)) or value is None or isinstance(value, bool):
+        raise InputError(f"{where}: expected a list of numbers, got {_short(value)}")
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{where}: expected a list of numbers, got {_short(value)}") from None
+    if arr.dtype == object:
+        raise InputError(f"{where}: expected a list of numbers, got {_short(value)}")
+    if shape is not None and arr.shape != shape:
+        if arr.size == int(np.prod(shape)) and arr.ndim <= 1:
+            arr = arr.reshape(shape)
+        else:
+            raise InputError(f"{where}: expected shape {list(shape)}, got {list(arr.shape)}")
+    if size is not None and arr.size != size:
+        raise InputError(f"{where}: expected {size} numbers, got {arr.size}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{where}: contains NaN or infinity")
+    return arr
+
+
+def check_translations(T: NDArray[np.float64], where: str) -> None:
+    """Reject transforms (shape (..., 4, 4)) whose translation exceeds :data:`MAX_ABS_POSITION_M`."""
+    t = np.abs(np.asarray(T)[..., :3, 3])
+    if t.size and not np.max(t) <= MAX_ABS_POSITION_M:
+        i = int(np.argmax(np.max(t.reshape(-1, 3), axis=1)))
+        which = f" (pose {i})" if np.asarray(T).ndim == 3 else ""
+        raise InputError(f"{where}{which}: position coordinate {np.max(t):.3g} m, beyond {MAX_ABS_POSITION_M:g} m (wrong units?)")
+
+
+def check_stamp(value: float, where: str) -> float:
+    """A time stamp within :data:`MAX_ABS_STAMP_S` seconds."""
+    if not abs(value) <= MAX_ABS_STAMP_S:
+        raise InputError(f"{where}: stamp {value:.6g} s, beyond {MAX_ABS_STAMP_S:g} s")
+    return value
+
+
+def check_angles(values: Any, where: str) -> NDArray[np.float64]:
+    """Angles (radians) within :data:`MAX_ABS_ANGLE_RAD`."""
+    arr = np.asarray(values, dtype=float)
+    if not np.all(np.abs(arr) <= MAX_ABS_ANGLE_RAD):
+        raise InputError(
+            f"{where}: angle {np.max(np.abs(arr)):.3g} rad, beyond {MAX_ABS_ANGLE_RAD:g} rad (degrees given as radians?)"
+        )
+    return arr
+
+
+def expect_mapping(value: Any, where: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise InputError(f"{where}: expected a mapping (object), got {type(value).__name__}")
+    return value
+
+
+def expect_list(value: Any, where: str) -> list[Any]:
+    if not isinstance(value, list):
+        raise InputError(f"{where}: expected a list, got {type(value).__name__}")
+    return value
+
+
+def stamp_from_name(name: str) -> float | None:
+    """Seconds from a numeric file stem (``1700000000.25.png`` or nanoseconds ``1700000000250000000.png``).
+
+    Returns None for stems that are not a plain number.
+    """
+    stem = Path(name).name
+    for suffix in Path(stem).suffixes[::-1]:
+        if not re.fullmatch(r"\.\d+", suffix):
+            stem = stem[: -len(suffix)]
+        else:
+            break
+    if re.fullmatch(r"\d{16,20}", stem):
+        return int(stem) * 1e-9
+    if re.fullmatch(r"\d+(\.\d+)?", stem):
+        return float(stem)
+    return None
+
+
+def image_key(name: str) -> str:
+    """The key used to match an image with its poses and detections: the file name without folders and suffix."""
+    base = name.replace("\\", "/").rsplit("/", 1)[-1]
+    stem, dot, suffix = base.rpartition(".")
+    if dot and stem and not suffix.isdigit():
+        return stem
+    return base
+
+
+def _short(value: Any, n: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= n else text[: n - 3] + "..."

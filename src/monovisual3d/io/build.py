@@ -1,0 +1,320 @@
+"""Build a validated session from a camera, camera poses and per-image detections.
+
+:func:`build_session` works on objects already read; :func:`import_session`
+reads the files first (the ``monovisual3d import`` command). Both return an
+:class:`~monovisual3d.io.summary.ImportResult`: the session, validated by the
+same loader as session files, and a summary of what was skipped and why.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..camera import Camera
+from ..errors import InputError
+from ..frames import T_base_optical_from_T_base_cameralink
+from ..session import POSE_FRAMES, Workspace, session_from_dict, workspace_from_dict
+from ._parse import as_float, image_key
+from .calibration import read_calibration
+from .detections import ImageDetections, filter_detections, read_detections
+from .poses import PoseTrajectory, T_base_camera_from_T_base_ee, interpolate_poses, read_hand_eye, read_poses
+from .summary import ImportResult, ImportSummary
+
+MATCH_MODES = ("auto", "name", "stamp", "order")
+#: Default largest time between a detection and the pose samples used for it, seconds.
+DEFAULT_MAX_GAP = 0.1
+
+
+def build_session(
+    camera: Camera,
+    poses: PoseTrajectory,
+    detections: Sequence[ImageDetections],
+    *,
+    hand_eye: ArrayLike | None = None,
+    pose_frame: str = "optical",
+    match: str = "auto",
+    max_gap: float = DEFAULT_MAX_GAP,
+    min_score: float | None = None,
+    labels: Iterable[str] | None = None,
+    workspace: Workspace | dict[str, Any] | None = None,
+    summary: ImportSummary | None = None,
+) -> ImportResult:
+    """Pair poses with detections and validate the result as a session.
+
+    Parameters
+    ----------
+    camera : Camera, for the images the detections were made on
+    poses : PoseTrajectory, of the camera, or of the end effector when ``hand_eye`` is given
+    detections : list of ImageDetections
+    hand_eye : array_like, shape (4, 4), or None
+        ``T_ee_camera``: eye-in-hand calibration; then ``T_base_camera = T_base_ee @ T_ee_camera``.
+    pose_frame : {"optical", "camera_link"}
+        The camera frame the poses (or the hand-eye calibration) refer to:
+        ``optical`` (z forward, x right, y down) or ROS ``camera_link`` (x forward, y left, z up).
+    match : {"auto", "name", "stamp", "order"}
+        ``name``: a pose's ``image`` and a detection file share the file name (without folder and suffix);
+        every pose becomes a view (no detections when its image has none).
+        ``stamp``: each image's stamp is looked up in the trajectory (:func:`interpolate_poses`).
+        ``order``: the i-th pose goes with the i-th image (equal counts).
+        ``auto``: by name when both sides have names, else by stamp.
+    max_gap : float, seconds, for ``stamp`` matching
+    min_score, labels : detection filters, see :func:`filter_detections`
+    workspace : Workspace or {"min", "max"} or None
+    summary : ImportSummary to add to (a new one by default)
+
+    Returns
+    -------
+    ImportResult
+    """
+    summary = summary if summary is not None else ImportSummary()
+    if pose_frame not in POSE_FRAMES:
+        raise InputError(f"pose_frame: got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
+    if match not in MATCH_MODES:
+        raise InputError(f"match: got {match!r}, expected one of {list(MATCH_MODES)}")
+    if len(poses) == 0:
+        raise InputError("poses: empty")
+    frames = filter_detections(detections, min_score=min_score, labels=labels, summary=summary)
+    _check_image_sizes(frames, camera)
+    T_frame = poses.T_base_frame
+    if match == "auto":
+        if poses.images is not None and frames and all(f.image is not None for f in frames):
+            match = "name"
+        elif poses.stamps is not None and frames and all(f.stamp is not None for f in frames):
+            match = "stamp"
+        else:
+            raise InputError(
+                "cannot match poses to detections: give image names on both sides (match='name') "
+                "or stamps on both sides (match='stamp'), or match='order'"
+            )
+        summary.note(f"matched poses to detections by {'file name' if match == 'name' else 'time stamp'}")
+    pairs: list[tuple[NDArray[np.float64], ImageDetections]] = []
+    if match == "name":
+        pairs = _match_by_name(poses, frames, summary)
+    elif match == "stamp":
+        pairs = _match_by_stamp(poses, frames, max_gap, summary)
+    else:
+        if len(poses) != len(frames):
+            raise InputError(f"match='order': {len(poses)} poses but {len(frames)} images")
+        pairs = [(T_frame[i], f) for i, f in enumerate(frames)]
+    if not pairs:
+        raise InputError("no view left: no pose matches any image (see the skipped items above)")
+    T_all = np.stack([T for T, _ in pairs])
+    if hand_eye is not None:
+        T_all = T_base_camera_from_T_base_ee(T_all, read_hand_eye(hand_eye))
+        summary.note("composed T_base_camera = T_base_ee @ T_ee_camera (eye-in-hand)")
+    if pose_frame == "camera_link":
+        T_all = T_base_optical_from_T_base_cameralink(T_all)
+        summary.note("converted camera_link poses to the optical frame")
+    return assemble_session(camera, [(T, f) for T, (_, f) in zip(T_all, pairs)], workspace=workspace, summary=summary)
+
+
+def assemble_session(
+    camera: Camera,
+    pairs: Sequence[tuple[NDArray[np.float64], ImageDetections]],
+    *,
+    workspace: Workspace | dict[str, Any] | None = None,
+    summary: ImportSummary | None = None,
+) -> ImportResult:
+    """Validate ``(T_base_optical, detections)`` pairs as a session (the loader's checks and warnings apply).
+
+    Parameters
+    ----------
+    camera : Camera
+    pairs : list of (ndarray (4, 4) ``T_base_optical``, ImageDetections)
+    workspace : Workspace or {"min", "max"} or None
+    summary : ImportSummary to fill in
+
+    Returns
+    -------
+    ImportResult
+    """
+    summary = summary if summary is not None else ImportSummary()
+    if not pairs:
+        raise InputError("no view left to build a session from (see the skipped items)")
+    views = []
+    for T, frame in pairs:
+        _check_boxes_in_image(frame, camera)
+        view: dict[str, Any] = {"pose": {"matrix": np.asarray(T).tolist()}, "detections": [d.to_dict() for d in frame.detections]}
+        if frame.image is not None:
+            view["image"] = frame.image
+        if frame.stamp is not None:
+            view["stamp"] = float(frame.stamp)
+        views.append(view)
+    data: dict[str, Any] = {"camera": camera.to_dict(), "pose_frame": "optical", "views": views}
+    if workspace is not None:
+        ws = workspace_from_dict(workspace, "workspace") if isinstance(workspace, dict) else workspace
+        data["workspace"] = ws.to_dict()
+    session = session_from_dict(data, None)
+    summary.count_session(session)
+    return ImportResult(session, summary)
+
+
+def _match_by_name(
+    poses: PoseTrajectory, frames: Sequence[ImageDetections], summary: ImportSummary
+) -> list[tuple[NDArray[np.float64], ImageDetections]]:
+    if poses.images is None:
+        raise InputError(f"{poses.source}: match by name: the poses do not name their images (add an 'image' column)")
+    by_key: dict[str, ImageDetections] = {}
+    for f in frames:
+        if f.image is None:
+            raise InputError(f"match by name: detections of {f.name} have no image name")
+        key = image_key(f.image)
+        if key in by_key:
+            raise InputError(f"match by name: two detection sets for image {key!r} ({by_key[key].source}, {f.source})")
+        by_key[key] = f
+    pairs = []
+    used = set()
+    for i, (T, name) in enumerate(zip(poses.T_base_frame, poses.images)):
+        key = image_key(name)
+        f = by_key.get(key)
+        stamp = float(poses.stamps[i]) if poses.stamps is not None else None
+        if f is None:
+            f = ImageDetections(image=name, stamp=stamp)
+        else:
+            used.add(key)
+            f = ImageDetections(
+                image=name, stamp=f.stamp if f.stamp is not None else stamp, detections=f.detections, source=f.source
+            )
+        pairs.append((T, f))
+    for key, f in by_key.items():
+        if key not in used:
+            summary.skip("image", f.name, "no pose for this image", f"{len(f.detections)} detections")
+    return pairs
+
+
+def _match_by_stamp(
+    poses: PoseTrajectory, frames: Sequence[ImageDetections], max_gap: float, summary: ImportSummary
+) -> list[tuple[NDArray[np.float64], ImageDetections]]:
+    if poses.stamps is None:
+        raise InputError(f"{poses.source}: match by stamp: the poses have no time stamps")
+    missing = [f.name for f in frames if f.stamp is None]
+    if missing:
+        raise InputError(f"match by stamp: image {missing[0]} has no stamp (name files by time, or add a stamp column)")
+    max_gap = as_float(max_gap, "max_gap")
+    ordered = sorted(frames, key=lambda f: float(f.stamp))  # type: ignore[arg-type]
+    T, ok, why = interpolate_poses(poses.stamps, poses.T_base_frame, [f.stamp for f in ordered], max_gap)
+    pairs = []
+    for i, f in enumerate(ordered):
+        if ok[i]:
+            pairs.append((T[i], f))
+        else:
+            summary.skip("view", f.name, f"no pose within max_gap {max_gap:g} s", str(why[i]))
+    return pairs
+
+
+def _check_image_sizes(frames: Sequence[ImageDetections], camera: Camera) -> None:
+    for f in frames:
+        if f.image_size is not None and tuple(f.image_size) != camera.size:
+            w, h = f.image_size
+            raise InputError(
+                f"{f.source or 'detections'}: image {f.name} is {w}x{h} but the camera is {camera.width}x{camera.height}: "
+                f"state the detections' image size (image_size={w}x{h}) so the intrinsics are scaled"
+            )
+
+
+def _check_boxes_in_image(frame: ImageDetections, camera: Camera) -> None:
+    W, H = camera.size
+    for j, d in enumerate(frame.detections):
+        x1, y1, x2, y2 = (float(v) for v in d.bbox_xyxy)
+        if x2 <= 0 or y2 <= 0 or x1 >= W or y1 >= H:
+            raise InputError(
+                f"{frame.source or 'detections'}: image {frame.name}, detection {j}: box {[x1, y1, x2, y2]} lies outside "
+                f"the {W}x{H} image; do the boxes refer to another image size (image_size)?"
+            )
+
+
+# ---------------------------------------------------------------------- from files
+def import_session(
+    camera: str | Path | Camera | dict[str, Any],
+    poses: str | Path | PoseTrajectory,
+    detections: str | Path | Sequence[ImageDetections],
+    *,
+    hand_eye: str | Path | ArrayLike | dict[str, Any] | None = None,
+    camera_format: str | None = None,
+    camera_name: str | int | None = None,
+    image_size: tuple[int, int] | None = None,
+    resize: str = "auto",
+    crop_xyxy: ArrayLike | None = None,
+    pose_format: str | None = None,
+    units: str = "m",
+    hand_eye_units: str = "m",
+    pose_frame: str = "optical",
+    detections_format: str | None = None,
+    class_names: Any = None,
+    coco_images: str | Path | None = None,
+    labels: Iterable[str] | None = None,
+    min_score: float | None = None,
+    match: str = "auto",
+    max_gap: float = DEFAULT_MAX_GAP,
+    workspace: Workspace | dict[str, Any] | None = None,
+) -> ImportResult:
+    """Read a calibration, poses and detections from files and build a validated session.
+
+    Parameters
+    ----------
+    camera : calibration file (see :func:`~monovisual3d.io.read_calibration`) or a Camera
+    poses : pose file (TUM, CSV, JSON; see :func:`~monovisual3d.io.read_poses`) or a PoseTrajectory
+    detections : YOLO label folder/file, COCO JSON or CSV, or a list of ImageDetections
+    hand_eye : ``T_ee_camera`` file or matrix; the poses are then end-effector poses
+    camera_format, camera_name, image_size, resize, crop_xyxy : see :func:`~monovisual3d.io.read_calibration`
+    pose_format, units : see :func:`~monovisual3d.io.read_poses`
+    hand_eye_units : {"m", "mm", "cm"}, the unit of the hand-eye translation
+    pose_frame, match, max_gap, min_score, labels, workspace : see :func:`build_session`
+    detections_format, class_names : see :func:`~monovisual3d.io.read_detections`
+    coco_images : the COCO file with the ``images`` list, when ``detections`` is a bare COCO results list
+
+    Returns
+    -------
+    ImportResult
+
+    Examples
+    --------
+    >>> r = import_session("calib.yaml", "poses.csv", "labels/")  # doctest: +SKIP
+    >>> r.session.to_json("session.json"); print("\\n".join(r.summary.lines()))  # doctest: +SKIP
+    """
+    if isinstance(camera, Camera):
+        cam = camera
+        if image_size is not None:
+            from .calibration import camera_for_image_size
+
+            cam = camera_for_image_size(cam, image_size, resize)
+    else:
+        cam = read_calibration(
+            camera, format=camera_format, camera_name=camera_name, image_size=image_size, resize=resize, crop_xyxy=crop_xyxy
+        )
+    traj = poses if isinstance(poses, PoseTrajectory) else read_poses(poses, format=pose_format, units=units)
+    if isinstance(detections, (str, Path)):
+        frames = read_detections(
+            detections, format=detections_format, image_size=cam.size, class_names=class_names, images=coco_images
+        )
+        det_source = str(detections)
+    else:
+        frames = list(detections)
+        det_source = "detections"
+    T_ee_camera = None
+    if hand_eye is not None:
+        T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
+    summary = ImportSummary(source=det_source)
+    cam_source = str(camera) if not isinstance(camera, (Camera, dict)) else "given"
+    summary.note(f"camera: {cam_source}; poses: {traj.source or 'given'}; detections: {det_source}")
+    return build_session(
+        cam,
+        traj,
+        frames,
+        hand_eye=T_ee_camera,
+        pose_frame=pose_frame,
+        match=match,
+        max_gap=max_gap,
+        min_score=min_score,
+        labels=labels,
+        workspace=workspace,
+        summary=summary,
+    )
+
+
+__all__ = ["DEFAULT_MAX_GAP", "MATCH_MODES", "assemble_session", "build_session", "import_session"]

@@ -1,0 +1,435 @@
+"""ROS bags (extra ``[ros]``): ROS 1 ``.bag`` and ROS 2 (sqlite3, MCAP) via the ``rosbags`` library.
+
+:func:`read_bag` builds a session from
+
+- ``/tf`` and ``/tf_static`` (``tf2_msgs/TFMessage``): the transforms are chained from
+  the base frame to the camera frame at each detection's stamp (time-stamped
+  edges interpolated, linear + slerp, within ``max_gap``);
+- a ``sensor_msgs/CameraInfo`` topic for the intrinsics (or a calibration given directly);
+- a ``vision_msgs/Detection2DArray`` topic for the boxes.
+
+The vision_msgs layouts differ: ROS 1 (noetic) has ``bbox.center`` as
+``geometry_msgs/Pose2D`` (``x, y, theta``) and hypotheses ``id, score``;
+ROS 2 Humble and later have ``vision_msgs/Pose2D`` (``position.x, position.y, theta``)
+and ``hypothesis.class_id, hypothesis.score``. Both are read (by field names).
+When a bag does not carry the definitions of these messages, the definitions
+below are registered (:data:`VISION_MSGS_ROS1`, :data:`VISION_MSGS_ROS2`).
+No ROS installation is needed.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._extras import require
+from ..camera import Camera
+from ..errors import InputError, InputWarning
+from ..frames import T_base_optical_from_T_base_cameralink, transform_from_position_quaternion
+from ..session import POSE_FRAMES, Detection, Workspace
+from ._parse import MAX_ABS_POSITION_M
+from .build import DEFAULT_MAX_GAP, assemble_session
+from .calibration import camera_for_image_size, camera_from_camera_info, read_calibration
+from .detections import ImageDetections, filter_detections, load_class_names
+from .summary import ImportResult, ImportSummary
+from .tf import TransformTree, TransformUnavailable, normalise_frame
+
+#: vision_msgs definitions as in ROS 1 noetic (``.msg`` text per type).
+VISION_MSGS_ROS1: dict[str, str] = {
+    "vision_msgs/msg/Detection2DArray": "std_msgs/Header header\nvision_msgs/Detection2D[] detections\n",
+    "vision_msgs/msg/Detection2D": (
+        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\n"
+        "vision_msgs/BoundingBox2D bbox\nsensor_msgs/Image source_img\n"
+    ),
+    "vision_msgs/msg/ObjectHypothesisWithPose": "int64 id\nfloat64 score\ngeometry_msgs/PoseWithCovariance pose\n",
+    "vision_msgs/msg/BoundingBox2D": "geometry_msgs/Pose2D center\nfloat64 size_x\nfloat64 size_y\n",
+}
+#: vision_msgs definitions as in ROS 2 Humble and later.
+VISION_MSGS_ROS2: dict[str, str] = {
+    "vision_msgs/msg/Detection2DArray": "std_msgs/Header header\nvision_msgs/Detection2D[] detections\n",
+    "vision_msgs/msg/Detection2D": (
+        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\nvision_msgs/BoundingBox2D bbox\nstring id\n"
+    ),
+    "vision_msgs/msg/ObjectHypothesisWithPose": "vision_msgs/ObjectHypothesis hypothesis\ngeometry_msgs/PoseWithCovariance pose\n",
+    "vision_msgs/msg/ObjectHypothesis": "string class_id\nfloat64 score\n",
+    "vision_msgs/msg/BoundingBox2D": "vision_msgs/Pose2D center\nfloat64 size_x\nfloat64 size_y\n",
+    "vision_msgs/msg/Pose2D": "vision_msgs/Point2D position\nfloat64 theta\n",
+    "vision_msgs/msg/Point2D": "float64 x\nfloat64 y\n",
+}
+#: tf2_msgs/TFMessage, which the rosbags ROS 1 type store does not ship.
+TF2_MSGS: dict[str, str] = {"tf2_msgs/msg/TFMessage": "geometry_msgs/TransformStamped[] transforms\n"}
+
+
+def message_types(ros_version: int) -> dict[str, Any]:
+    """rosbags type definitions (parse trees) of vision_msgs and tf2_msgs for ROS 1 or ROS 2.
+
+    Register them in a rosbags typestore with ``typestore.register(message_types(2))``
+    (together with a store that has std_msgs, geometry_msgs and sensor_msgs).
+    """
+    typesys = require("rosbags.typesys", "ros")
+    defs = dict(VISION_MSGS_ROS1 if ros_version == 1 else VISION_MSGS_ROS2)
+    defs.update(TF2_MSGS)
+    out: dict[str, Any] = {}
+    for name, text in defs.items():
+        out.update(typesys.get_types_from_msg(text, name))
+    return out
+
+
+def typestore_for(ros_version: int) -> Any:
+    """A rosbags typestore with the standard messages (noetic or humble) plus :func:`message_types`."""
+    typesys = require("rosbags.typesys", "ros")
+    store = typesys.get_typestore(typesys.Stores.ROS1_NOETIC if ros_version == 1 else typesys.Stores.ROS2_HUMBLE)
+    types = message_types(ros_version)
+    store.register({k: v for k, v in types.items() if k not in store.fielddefs})
+    return store
+
+
+def _missing_closure(names: Iterable[str], target: Any, source: Any) -> dict[str, Any]:
+    """Definitions from ``source`` (a typestore) for ``names`` and their dependencies absent from ``target``."""
+    out: dict[str, Any] = {}
+    todo = [n for n in names if n not in target.fielddefs]
+    while todo:
+        name = todo.pop()
+        if name in out or name in target.fielddefs or name not in source.fielddefs:
+            continue
+        out[name] = source.fielddefs[name]
+        todo.extend(_referenced_types(source.fielddefs[name]))
+    return out
+
+
+def _referenced_types(node: Any) -> list[str]:
+    found: list[str] = []
+    if isinstance(node, str):
+        if "/msg/" in node:
+            found.append(node)
+    elif isinstance(node, (tuple, list)):
+        for item in node:
+            found.extend(_referenced_types(item))
+    return found
+
+
+def _bag_path(path: str | Path) -> Path:
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"{p}: bag not found")
+    if p.is_file() and p.suffix in (".db3", ".mcap") and (p.parent / "metadata.yaml").exists():
+        return p.parent
+    if p.is_dir() and not (p / "metadata.yaml").exists():
+        raise InputError(f"{p}: a folder without metadata.yaml; expected a ROS 2 bag folder or a ROS 1 .bag file")
+    if p.is_file() and p.suffix != ".bag":
+        raise InputError(f"{p}: expected a ROS 1 .bag file or a ROS 2 bag folder (with metadata.yaml)")
+    return p
+
+
+def read_bag(
+    path: str | Path,
+    *,
+    base_frame: str,
+    camera_frame: str,
+    detections_topic: str = "/detections",
+    camera_info_topic: str | None = None,
+    camera: Camera | str | Path | None = None,
+    tf_topics: tuple[str, ...] = ("/tf", "/tf_static"),
+    pose_frame: str = "optical",
+    max_gap: float = DEFAULT_MAX_GAP,
+    min_score: float | None = None,
+    labels: Iterable[str] | None = None,
+    class_names: Any = None,
+    image_size: tuple[int, int] | None = None,
+    resize: str = "auto",
+    workspace: Workspace | dict[str, Any] | None = None,
+) -> ImportResult:
+    """Build a session from a ROS 1 or ROS 2 bag.
+
+    Parameters
+    ----------
+    path : a ROS 1 ``.bag`` file or a ROS 2 bag folder (sqlite3 or MCAP storage)
+    base_frame : the robot base frame (e.g. ``base_link``)
+    camera_frame : the camera's frame in TF (e.g. ``camera_optical_frame``)
+    detections_topic : a ``vision_msgs/Detection2DArray`` topic
+    camera_info_topic : a ``sensor_msgs/CameraInfo`` topic; found automatically when the bag has exactly one
+    camera : a Camera or calibration file to use instead of camera_info
+    tf_topics : topics with ``tf2_msgs/TFMessage``; those named ``*tf_static`` are static
+    pose_frame : {"optical", "camera_link"}, the convention of ``camera_frame``
+    max_gap : float, seconds: largest time between a detection and the TF samples used for it
+    min_score, labels : detection filters
+    class_names : id -> name map for numeric class ids
+    image_size, resize : when the detections refer to a resized image (see :func:`camera_for_image_size`)
+    workspace : optional workspace of the session
+
+    Returns
+    -------
+    ImportResult
+        The session (one view per Detection2DArray message whose camera pose is
+        known) and a summary of what was skipped and why.
+
+    Examples
+    --------
+    >>> r = read_bag("run.bag", base_frame="base_link", camera_frame="camera_optical_frame")  # doctest: +SKIP
+    >>> r.session.to_json("session.json")  # doctest: +SKIP
+    """
+    require("rosbags", "ros")
+    from rosbags.highlevel import AnyReader
+
+    if pose_frame not in POSE_FRAMES:
+        raise InputError(f"pose_frame: got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
+    bag = _bag_path(path)
+    summary = ImportSummary(source=str(bag))
+    names = load_class_names(class_names) if class_names is not None else None
+    try:
+        reader = AnyReader([bag], default_typestore=typestore_for(2))
+        reader.open()
+    except InputError:
+        raise
+    except Exception as exc:  # rosbags raises its own errors, OSError, ValueError... for unreadable bags
+        raise InputError(f"{bag}: cannot open the bag: {_one_line(exc)}") from None
+    try:
+        return _read_open_bag(
+            reader,
+            bag,
+            summary,
+            base_frame=normalise_frame(base_frame),
+            camera_frame=normalise_frame(camera_frame),
+            detections_topic=detections_topic,
+            camera_info_topic=camera_info_topic,
+            camera=camera,
+            tf_topics=tf_topics,
+            pose_frame=pose_frame,
+            max_gap=max_gap,
+            min_score=min_score,
+            labels=labels,
+            names=names,
+            image_size=image_size,
+            resize=resize,
+            workspace=workspace,
+        )
+    except InputError:
+        raise
+    except Exception as exc:  # corrupt data found while reading (truncated chunks, bad lengths...)
+        raise InputError(f"{bag}: cannot read the bag ({type(exc).__name__}: {_one_line(exc)})") from None
+    finally:
+        try:
+            reader.close()
+        except Exception:  # closing the reader of a corrupt bag must not hide the error above
+            pass
+
+
+def _read_open_bag(reader: Any, bag: Path, summary: ImportSummary, **kw: Any) -> ImportResult:
+    ros_version = 2 if reader.is2 else 1
+    topics: dict[str, str] = {}
+    for c in reader.connections:
+        topics.setdefault(c.topic, c.msgtype)
+    det_topic = kw["detections_topic"]
+    det_types = sorted(t for t, m in topics.items() if m.endswith("/Detection2DArray"))
+    if det_topic not in topics:
+        raise InputError(f"{bag}: no topic {det_topic!r}; Detection2DArray topics in the bag: {det_types or 'none'}")
+    if not topics[det_topic].endswith("/Detection2DArray"):
+        raise InputError(f"{bag}: topic {det_topic!r} carries {topics[det_topic]}, expected vision_msgs/Detection2DArray")
+    _ensure_types(
+        reader,
+        ros_version,
+        [topics[det_topic]] + [m for m in topics.values() if m.endswith(("TFMessage", "tfMessage", "CameraInfo"))],
+    )
+    t0 = int(reader.start_time) if reader.connections else 0
+
+    # transforms ---------------------------------------------------------------
+    tree = TransformTree()
+    tf_conns = [c for c in reader.connections if c.topic in kw["tf_topics"] and c.msgtype.lower().endswith("tfmessage")]
+    if not tf_conns:
+        raise InputError(f"{bag}: no transforms: none of the topics {list(kw['tf_topics'])} is in the bag")
+    for conn, ns, raw in reader.messages(connections=tf_conns):
+        msg = _deserialize(reader, raw, conn, ns)
+        static = conn.topic.rstrip("/").endswith("tf_static")
+        for k, tr in enumerate(msg.transforms):
+            where = f"{bag}: {conn.topic} at {ns * 1e-9:.9f} s, transform {k}"
+            T = _transform_from_msg(tr, where)
+            stamp = None if static else (_stamp_ns(tr.header.stamp) - t0) * 1e-9
+            tree.add(tr.header.frame_id, tr.child_frame_id, T, stamp=stamp)
+    tree.check_connected(kw["base_frame"], kw["camera_frame"])
+
+    # camera -------------------------------------------------------------------
+    camera = _bag_camera(reader, bag, topics, summary, kw["camera"], kw["camera_info_topic"])
+    if kw["image_size"] is not None:
+        camera = camera_for_image_size(camera, kw["image_size"], kw["resize"])
+
+    # detections ---------------------------------------------------------------
+    frames: list[tuple[ImageDetections, float]] = []
+    det_conns = [c for c in reader.connections if c.topic == det_topic]
+    frame_ids: set[str] = set()
+    unstamped = 0
+    for conn, ns, raw in reader.messages(connections=det_conns):
+        msg = _deserialize(reader, raw, conn, ns)
+        stamp_ns = _stamp_ns(msg.header.stamp)
+        if stamp_ns == 0:
+            stamp_ns = ns
+            unstamped += 1
+        if msg.header.frame_id:
+            frame_ids.add(normalise_frame(msg.header.frame_id))
+        stamp = stamp_ns * 1e-9
+        dets = []
+        for j, d in enumerate(msg.detections):
+            det, problem = _detection_from_msg(d, kw["names"])
+            if det is None:
+                summary.skip("detection", f"stamp {stamp:.6f} #{j}", problem or "unusable")
+            else:
+                dets.append(det)
+        frames.append(
+            (
+                ImageDetections(image=None, stamp=stamp, detections=tuple(dets), source=f"{bag}:{det_topic}"),
+                (stamp_ns - t0) * 1e-9,
+            )
+        )
+    if not frames:
+        raise InputError(f"{bag}: topic {det_topic!r} has no messages")
+    if unstamped:
+        summary.note(f"{unstamped} detection messages had no header stamp; used the time they were recorded")
+    other = sorted(frame_ids - {kw["camera_frame"]})
+    if other:
+        warnings.warn(
+            InputWarning(
+                f"{bag}: detections are in frame {other[0]!r} but camera_frame is {kw['camera_frame']!r}; using camera_frame"
+            ),
+            stacklevel=3,
+        )
+    filtered = filter_detections([f for f, _ in frames], min_score=kw["min_score"], labels=kw["labels"], summary=summary)
+
+    # poses --------------------------------------------------------------------
+    pairs = []
+    max_gap = kw["max_gap"]
+    for f, (_, rel) in zip(filtered, frames):
+        try:
+            T = tree.lookup(kw["base_frame"], kw["camera_frame"], rel, max_gap)
+        except TransformUnavailable as exc:
+            summary.skip("view", f.name, f"transform not available within max_gap {max_gap:g} s", str(exc))
+            continue
+        if kw["pose_frame"] == "camera_link":
+            T = T_base_optical_from_T_base_cameralink(T)
+        pairs.append((T, f))
+    summary.note(f"poses from TF: {kw['base_frame']} -> {kw['camera_frame']} ({kw['pose_frame']} frame)")
+    return assemble_session(camera, pairs, workspace=kw["workspace"], summary=summary)
+
+
+def _ensure_types(reader: Any, ros_version: int, msgtypes: list[str]) -> None:
+    """Register the definitions of ``msgtypes`` (and dependencies) that the bag does not carry."""
+    missing = [m for m in msgtypes if m not in reader.typestore.fielddefs]
+    if not missing:
+        return
+    store = typestore_for(ros_version)
+    unknown = [m for m in missing if m not in store.fielddefs]
+    if unknown:
+        raise InputError(f"the bag has no definition of {unknown[0]} and none is built in")
+    reader.typestore.register(_missing_closure(missing, reader.typestore, store))
+
+
+def _deserialize(reader: Any, raw: bytes, conn: Any, ns: int) -> Any:
+    try:
+        return reader.deserialize(raw, conn.msgtype)
+    except Exception as exc:  # malformed data or a definition that does not match the bytes
+        raise InputError(
+            f"{conn.topic} at {ns * 1e-9:.9f} s: cannot decode {conn.msgtype} ({type(exc).__name__}: {_one_line(exc)}); "
+            "if the bag carries no message definitions, it may use another vision_msgs version"
+        ) from None
+
+
+def _one_line(exc: BaseException, limit: int = 300) -> str:
+    text = " ".join(str(exc).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _stamp_ns(stamp: Any) -> int:
+    sec = int(getattr(stamp, "sec", 0))
+    nsec = int(getattr(stamp, "nanosec", getattr(stamp, "nsec", 0)))
+    return sec * 1_000_000_000 + nsec
+
+
+def _transform_from_msg(tr: Any, where: str) -> NDArray[np.float64]:
+    t, r = tr.transform.translation, tr.transform.rotation
+    p = np.array([t.x, t.y, t.z], dtype=float)
+    q = np.array([r.x, r.y, r.z, r.w], dtype=float)
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+        raise InputError(f"{where}: contains NaN or infinity")
+    if not np.all(np.abs(p) <= MAX_ABS_POSITION_M):
+        raise InputError(f"{where}: translation {np.max(np.abs(p)):.3g} m, beyond {MAX_ABS_POSITION_M:g} m")
+    with np.errstate(over="ignore"):
+        norm = float(np.linalg.norm(q))
+    if not abs(norm - 1.0) <= 1e-3:
+        raise InputError(f"{where}: rotation quaternion norm {norm:.4g}, expected 1")
+    return transform_from_position_quaternion(p, q / norm)
+
+
+def _bag_camera(reader: Any, bag: Path, topics: dict[str, str], summary: ImportSummary, camera: Any, topic: str | None) -> Camera:
+    if camera is not None:
+        cam = camera if isinstance(camera, Camera) else read_calibration(camera)
+        summary.note("camera from the given calibration (camera_info not used)")
+        return cam
+    info_topics = sorted(t for t, m in topics.items() if m.endswith("/CameraInfo"))
+    if topic is None:
+        if len(info_topics) != 1:
+            raise InputError(
+                f"{bag}: {'no' if not info_topics else 'several'} CameraInfo topics {info_topics}: "
+                "give the camera_info topic or a calibration file"
+            )
+        topic = info_topics[0]
+        summary.note(f"camera from {topic}")
+    elif topic not in topics:
+        raise InputError(f"{bag}: no topic {topic!r}; CameraInfo topics in the bag: {info_topics or 'none'}")
+    conns = [c for c in reader.connections if c.topic == topic]
+    first = None
+    changed = False
+    for conn, ns, raw in reader.messages(connections=conns):
+        msg = _deserialize(reader, raw, conn, ns)
+        try:
+            cam = camera_from_camera_info(msg)
+        except InputError as exc:
+            raise InputError(f"{bag}: {topic} at {ns * 1e-9:.9f} s: {exc}") from None
+        if first is None:
+            first = cam
+        elif cam != first:
+            changed = True
+    if first is None:
+        raise InputError(f"{bag}: topic {topic!r} has no messages")
+    if changed:
+        warnings.warn(InputWarning(f"{bag}: {topic} changes during the recording; using its first message"), stacklevel=4)
+    return first
+
+
+def _detection_from_msg(d: Any, names: dict[int, str] | None) -> tuple[Detection | None, str | None]:
+    """A Detection from a vision_msgs/Detection2D (ROS 1 or ROS 2 layout), or None and the reason."""
+    bbox = d.bbox
+    centre = bbox.center
+    if hasattr(centre, "position"):
+        cx, cy = float(centre.position.x), float(centre.position.y)
+    else:
+        cx, cy = float(centre.x), float(centre.y)
+    theta = float(getattr(centre, "theta", 0.0))
+    w, h = float(bbox.size_x), float(bbox.size_y)
+    if not all(math.isfinite(v) for v in (cx, cy, w, h, theta)):
+        return None, "box is not finite"
+    if theta:
+        c, s = abs(math.cos(theta)), abs(math.sin(theta))
+        w, h = w * c + h * s, w * s + h * c
+    if w <= 0 or h <= 0:
+        return None, "box has no area"
+    score = label = None
+    best = -math.inf
+    for r in d.results:
+        hyp = getattr(r, "hypothesis", r)
+        s_ = float(getattr(hyp, "score", math.nan))
+        cid = getattr(hyp, "class_id", getattr(hyp, "id", None))
+        if math.isfinite(s_) and s_ > best:
+            best, score = s_, s_
+            label = None if cid is None or cid == "" else str(cid)
+    if score is not None and not 0.0 <= score <= 1.0:
+        return None, "score outside [0, 1]"
+    if label is not None and names and label.isdigit() and int(label) in names:
+        label = names[int(label)]
+    return Detection(np.array([cx - 0.5 * w, cy - 0.5 * h, cx + 0.5 * w, cy + 0.5 * h]), score=score, label=label), None
+
+
+__all__ = ["TF2_MSGS", "VISION_MSGS_ROS1", "VISION_MSGS_ROS2", "message_types", "read_bag", "typestore_for"]
