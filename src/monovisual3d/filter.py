@@ -45,6 +45,11 @@ class PaperConfig:
     keep_threshold : float, relative posterior threshold for the cells that are clustered
     weighted_kmeans : bool, use the posterior as k-means sample weights
     max_bytes : int, refuse grids whose filter needs more memory
+    backend : {"numpy", "numba", "torch"}, engine of the dense update: the numpy reference, the fused
+        numba kernel (float32 posterior, see :mod:`monovisual3d.engine.dense`) or torch (``device``)
+    device : str or None, torch device ("cpu", "cuda"; None: cuda when available); backend "torch" only
+    refine_to : float or None, metres: run the sparse coarse-to-fine path down to this resolution,
+        with ``resolution`` as the root level (see :mod:`monovisual3d.engine.sparse`)
     """
 
     kernel: str = "gaussian"
@@ -56,6 +61,9 @@ class PaperConfig:
     keep_threshold: float = DEFAULT_KEEP_THRESHOLD
     weighted_kmeans: bool = False
     max_bytes: int = DEFAULT_MAX_BYTES
+    backend: str = "numpy"
+    device: str | None = None
+    refine_to: float | None = None
 
     def __post_init__(self) -> None:
         check_kernel(self.kernel)
@@ -71,6 +79,9 @@ class PaperConfig:
         if not (isinstance(self.keep_threshold, (int, float)) and 0.0 < self.keep_threshold <= 1.0):
             raise InputError(f"keep_threshold: got {self.keep_threshold!r}, expected a value in (0, 1]")
         choose_k([1], self.k)
+        from .engine import check_backend
+
+        check_backend(self.backend, self.device, self.refine_to, self.resolution)
 
 
 def project_grid(
@@ -88,9 +99,24 @@ def project_grid(
 
 
 def paper_view_likelihood_grid(
-    grid: VoxelGrid, camera: Camera, view: View, kernel: str, sigma_fraction: float, chunk: int = CHUNK_CELLS
+    grid: VoxelGrid,
+    camera: Camera,
+    view: View,
+    kernel: str,
+    sigma_fraction: float,
+    chunk: int = CHUNK_CELLS,
+    *,
+    backend: str = "numpy",
 ) -> NDArray[np.float64]:
-    """The per-view likelihood of every cell, flat (n_cells,), not yet normalised."""
+    """The per-view likelihood of every cell, flat (n_cells,), not yet normalised.
+
+    ``backend="numba"`` or ``"torch"`` use the fast engine (:mod:`monovisual3d.engine`); this
+    function's numpy code is the reference they are tested against.
+    """
+    if backend != "numpy":
+        from .engine import likelihood_grid
+
+        return likelihood_grid(grid, camera, view, kernel, sigma_fraction, backend=backend)
     boxes = view.boxes_xyxy
     out = np.empty(grid.n_cells)
     for start in range(0, grid.n_cells, chunk):
@@ -197,8 +223,13 @@ class HistogramFilter:
             )
             self._posterior = np.full(self.grid.n_cells, 1.0 / self.grid.n_cells)
         assert self._posterior is not None
-        lik = paper_view_likelihood_grid(self.grid, self.camera, view, self.config.kernel, self.config.sigma_fraction)
-        post = paper_update(self._posterior, lik)
+        if self.config.backend != "numpy":
+            from .engine import paper_update_backend
+
+            post = paper_update_backend(self._posterior, self.grid, self.camera, view, self.config)
+        else:
+            lik = paper_view_likelihood_grid(self.grid, self.camera, view, self.config.kernel, self.config.sigma_fraction)
+            post = paper_update(self._posterior, lik)
         if post is None:
             self._warn(f"views[{index}]: no grid cell is consistent with this view's boxes and the previous views; view skipped")
             return False

@@ -48,7 +48,8 @@ def localize(
     **options
         Method options. For ``paper``: ``kernel``, ``sigma_fraction``,
         ``resolution``, ``reach``, ``centre``, ``k``, ``keep_threshold``,
-        ``weighted_kmeans``, ``max_bytes`` (see :class:`PaperConfig`).
+        ``weighted_kmeans``, ``max_bytes``, ``backend``, ``device``, ``refine_to``
+        (see :class:`PaperConfig`).
 
     Returns
     -------
@@ -82,6 +83,10 @@ def localize_paper(session: Session, *, progress: Callable[[int, int], None] | N
     if unknown:
         raise InputError(f"{unknown[0]}: not an option of method 'paper', expected one of {sorted(known)}")
     config = PaperConfig(**options)
+    if config.refine_to is not None:
+        from .engine.sparse import localize_paper_sparse
+
+        return localize_paper_sparse(session, config, progress=progress)
     t0 = time.perf_counter()
     filt = HistogramFilter(session.camera, config, workspace=session.workspace)
     for i, view in enumerate(session.views):
