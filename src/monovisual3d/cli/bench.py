@@ -1,0 +1,85 @@
+"""``bench``: benchmarks (``bench speed``; other benchmarks register on :data:`bench_app`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from ._app import app, console, handle_errors
+
+bench_app = typer.Typer(help="Benchmarks: speed of the histogram update (and more).", no_args_is_help=True)
+app.add_typer(bench_app, name="bench")
+
+
+@bench_app.command("speed")
+@handle_errors
+def speed(
+    quick: Annotated[bool, typer.Option("--quick", help="Small grids, two repetitions: a few seconds.")] = False,
+    output: Annotated[
+        Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
+    ] = None,
+    edges: Annotated[
+        str | None, typer.Option(help="Cells per grid axis, comma separated (default 63,126,252: 0.25/2/16 M cells).")
+    ] = None,
+    kernel: Annotated[str, typer.Option(help="Kernels, comma separated: square, gaussian.")] = "square,gaussian",
+    repeats: Annotated[
+        int | None, typer.Option(min=1, help="Timed repetitions after one warm-up (default 5; 2 with --quick).")
+    ] = None,
+    device: Annotated[
+        str | None, typer.Option(help="Torch device for the torch backend (cpu, cuda; default: cuda if available).")
+    ] = None,
+    refine_to: Annotated[float, typer.Option(help="Effective resolution (metres) of the sparse coarse-to-fine run.")] = 0.001,
+    no_scaling: Annotated[bool, typer.Option("--no-scaling", help="Skip the scaling with views and boxes.")] = False,
+) -> None:
+    """Time the per-view update: naive Python loop, numpy, fused numba, sparse, torch."""
+    from ..bench.speed import format_table, run_speed, write_json
+    from ..errors import InputError
+
+    try:
+        edge_t = tuple(int(e) for e in edges.split(",")) if edges else None
+    except ValueError:
+        raise InputError(f"--edges: got {edges!r}, expected integers separated by commas") from None
+    kernels = tuple(k.strip() for k in kernel.split(","))
+    for k in kernels:
+        if k not in ("square", "gaussian"):
+            raise InputError(f"--kernel: got {k!r}, expected square and/or gaussian")
+    result = run_speed(
+        quick=quick, edges=edge_t, kernels=kernels, repeats=repeats, torch_device=device, sparse_refine_to=refine_to,
+        scaling=not no_scaling, progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
+    )  # fmt: skip
+    meta = result["meta"]
+    table = Table(
+        title=f"Per-view update, {len(result['rows'][0:1]) and result['rows'][0]['views']} views, paper scene "
+        f"({meta['cpu']}, {meta['cores']} cores, numba {meta.get('numba')}, load {meta.get('load_average_1m', float('nan')):.1f})"
+    )
+    for col in ("method", "kernel", "cells", "ms/view median [min-max]", "CPU ms", "cells/s", "vs naive", "B/cell", "notes"):
+        table.add_column(col, justify="left" if col in ("method", "kernel", "notes") else "right", no_wrap=col != "notes")
+    for row in format_table(result):
+        table.add_row(*row)
+    console.print(table)
+    for r in result["sparse_fine"]:
+        console.print(
+            f"sparse {r['kernel']}: {r['refine_to_mm']:g} mm over {r['virtual_cells'] / 1e9:.2f} G virtual cells, "
+            f"{r['per_view_ms']['median']:.1f} ms/view, {r['active_cells']:,} active cells, "
+            f"{r['peak_bytes'] / 2**20:.0f} MiB peak, reached {1e3 * r['final_resolution_m']:g} mm"
+            + ("" if r["complete"] else " (stopped by max_cells)"),
+            highlight=False,
+        )
+    sc = result.get("scaling") or {}
+    for r in sc.get("views", []):
+        console.print(
+            f"views {r['views']}: sequential {r['sequential_ms']['median']:.1f} ms, one pass {r['one_pass_ms']['median']:.1f} ms "
+            f"({r['cells'] / 1e6:.2f} M cells, gaussian)",
+            highlight=False,
+        )
+    for r in sc.get("boxes", []):
+        console.print(
+            f"boxes {r['boxes']}: {r['per_view_ms']['median']:.2f} ms/view ({r['cells'] / 1e6:.2f} M cells, gaussian)",
+            highlight=False,
+        )
+    if output is not None:
+        write_json(result, str(output))
+        console.print(f"wrote {output}", highlight=False)
