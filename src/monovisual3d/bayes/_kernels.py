@@ -55,7 +55,21 @@ def _edge_ll(d: float, sigma: float, in_floor: float, out_floor: float) -> float
 
 
 def _score_kernel(
-    centres, radii, T_ob, boxes, nboxes, available, cam, code, coeffs, params, blur_half_diag, total, n_assoc, assoc
+    centres,
+    radii,
+    T_ob,
+    boxes,
+    nboxes,
+    available,
+    cam,
+    code,
+    coeffs,
+    params,
+    blur_half_diag,
+    extra_const_px,
+    total,
+    n_assoc,
+    assoc,
 ):  # pragma: no cover - jitted
     N = centres.shape[0]
     K = radii.shape[0]
@@ -83,7 +97,7 @@ def _score_kernel(
             Z = T_ob[v, 2, 0] * centres[n, 0] + T_ob[v, 2, 1] * centres[n, 1] + T_ob[v, 2, 2] * centres[n, 2] + T_ob[v, 2, 3]
             zc = Z if Z > 1e-6 else 1e-6
             extra = fmax * blur_half_diag / zc
-            extra2 = extra * extra
+            extra2 = extra * extra + extra_const_px * extra_const_px
             # tan(phi -/+ h) without trigonometry: tan(phi) = X/Z, tan(h) = r / sqrt(rho^2 - r^2)
             rho2_x = X * X + Z * Z
             rho2_y = Y * Y + Z * Z
@@ -220,8 +234,16 @@ def score_hypotheses(
     radii: NDArray[np.float64],
     model: SensorModel,
     blur_half_diagonal: float,
+    extra_const_px: float = 0.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
     """Score every (centre, radius) hypothesis against all views.
+
+    The edge noise of a hypothesis at depth ``Z`` in a view gets
+    ``f * blur_half_diagonal / Z`` and ``extra_const_px`` (pixels) added in
+    quadrature (``f = max(fx, fy)``): the projected size of the region a grid
+    cell stands for, and depth-independent terms such as the camera's
+    rotation uncertainty (a position uncertainty adds to ``blur_half_diagonal``
+    in quadrature, it scales with ``1 / Z`` the same way).
 
     Returns
     -------
@@ -246,6 +268,7 @@ def score_hypotheses(
         coeffs,
         model_params(model),
         float(blur_half_diagonal),
+        float(extra_const_px),
         total,
         n_assoc,
         assoc,

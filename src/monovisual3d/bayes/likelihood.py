@@ -77,7 +77,7 @@ def predict_boxes(
     ----------
     camera : Camera
     p_optical : ndarray, shape (N, 3), sphere centres, metres, optical frame
-    radii : ndarray, shape (K,), metres
+    radii : ndarray, shape (K,), metres, every radius at every centre; or shape (N, K), radii per centre
 
     Returns
     -------
@@ -94,7 +94,8 @@ def predict_boxes(
     X = p_optical[:, 0:1]
     Y = p_optical[:, 1:2]
     Z = p_optical[:, 2:3]
-    r = np.asarray(radii, dtype=float)[None, :]
+    r = np.asarray(radii, dtype=float)
+    r = r[None, :] if r.ndim == 1 else r
     front = Z > r
     with np.errstate(invalid="ignore", divide="ignore"):
         rho_x = np.sqrt(X * X + Z * Z)
@@ -119,6 +120,42 @@ def predict_boxes(
     return boxes, visible
 
 
+def pose_sigma_px(
+    camera: Camera, depth: NDArray[np.floating] | float, position_sigma: float, rotation_sigma: float
+) -> NDArray[np.float64]:
+    """Camera-pose uncertainty projected into the image: the edge noise it adds, pixels.
+
+    A position error of ``position_sigma`` (metres, per axis) shifts the image
+    of a point at ``depth`` by about ``f * position_sigma / depth`` pixels; a
+    rotation error of ``rotation_sigma`` (radians, per axis) shifts it by about
+    ``f * rotation_sigma``. The two add in quadrature. Adding the result to the
+    edge noise (in quadrature, ``extra_sigma_px`` of :func:`edge_residuals`)
+    keeps hypotheses from being rejected for box offsets that imperfect arm
+    kinematics or hand-eye calibration explain.
+
+    Parameters
+    ----------
+    camera : Camera, ``f = max(fx, fy)``
+    depth : float or ndarray, metres, optical z of the sphere centre (clamped at 1 mm)
+    position_sigma : float, metres
+    rotation_sigma : float, radians
+
+    Returns
+    -------
+    sigma_px : ndarray, shape of ``depth``, pixels
+
+    Examples
+    --------
+    >>> from monovisual3d.camera import Camera
+    >>> cam = Camera.from_hfov(640, 480, 69.0)
+    >>> round(float(pose_sigma_px(cam, 0.5, 0.0, 0.01)), 2)  # 10 mrad: f * 0.01 pixels at any depth
+    4.66
+    """
+    f = max(camera.fx, camera.fy)
+    z = np.maximum(np.asarray(depth, dtype=float), 1e-3)
+    return f * np.sqrt((position_sigma / z) ** 2 + rotation_sigma**2)
+
+
 def edge_residuals(
     pred: NDArray[np.floating],
     obs: NDArray[np.floating],
@@ -132,7 +169,7 @@ def edge_residuals(
     Parameters
     ----------
     pred : ndarray, shape (..., 4), predicted boxes (unclipped), pixels
-    obs : ndarray, shape (4,), one observed box, pixels
+    obs : ndarray, shape (4,), one observed box, or shape (..., 4) broadcastable to ``pred``, pixels
     extra_sigma_px : ndarray broadcastable to pred.shape[:-1], or float
         Extra edge noise added in quadrature, e.g. the projected size of a grid
         cell when the hypothesis stands for a whole cell rather than a point.
@@ -144,15 +181,20 @@ def edge_residuals(
     if np.any(extra_sigma_px):
         sx = np.sqrt(sx * sx + extra_sigma_px * extra_sigma_px)
         sy = np.sqrt(sy * sy + extra_sigma_px * extra_sigma_px)
-    d = np.stack([obs[0] - pred[..., 0], obs[1] - pred[..., 1], pred[..., 2] - obs[2], pred[..., 3] - obs[3]], axis=-1)
+    obs = np.asarray(obs, dtype=float)
+    d = np.stack(
+        [obs[..., 0] - pred[..., 0], obs[..., 1] - pred[..., 1], pred[..., 2] - obs[..., 2], pred[..., 3] - obs[..., 3]],
+        axis=-1,
+    )
     # censored edges (observed box touches the image border): only outward residuals count
-    censored = np.array(
+    censored = np.stack(
         [
-            obs[0] <= model.border_px,
-            obs[1] <= model.border_px,
-            obs[2] >= width - model.border_px,
-            obs[3] >= height - model.border_px,
-        ]
+            obs[..., 0] <= model.border_px,
+            obs[..., 1] <= model.border_px,
+            obs[..., 2] >= width - model.border_px,
+            obs[..., 3] >= height - model.border_px,
+        ],
+        axis=-1,
     )
     if censored.any():
         d = np.where(censored, np.minimum(d, 0.0), d)

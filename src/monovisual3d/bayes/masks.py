@@ -119,13 +119,19 @@ def _resample_closed(poly: NDArray[np.float64], n: int) -> NDArray[np.float64]:
 
 
 def mask_residuals(
-    camera: Camera, p_optical: NDArray[np.floating], radius: float, contour_uv: NDArray[np.floating], model: Any
+    camera: Camera,
+    p_optical: NDArray[np.floating],
+    radius: float,
+    contour_uv: NDArray[np.floating],
+    model: Any,
+    extra_sigma_px: float = 0.0,
 ) -> NDArray[np.float64]:
     """Normalised residuals of contour points against a sphere's silhouette, shape (M,).
 
     Residual = (angle between the point's viewing ray and the centre's ray minus
     the silhouette's angular radius) * focal length / sigma, with sigma as for a
-    box edge of the predicted silhouette's size. Positive: point outside the silhouette.
+    box edge of the predicted silhouette's size (and ``extra_sigma_px``, pixels,
+    added in quadrature). Positive: point outside the silhouette.
     """
     d = camera.rays(contour_uv)
     dist = float(np.linalg.norm(p_optical))
@@ -136,4 +142,6 @@ def mask_residuals(
     ang_s = np.arcsin(radius / dist)
     f = 0.5 * (camera.fx + camera.fy)
     sigma = model.alpha * 2 * f * np.tan(ang_s) + model.sigma0_px
+    if extra_sigma_px:
+        sigma = np.hypot(sigma, extra_sigma_px)
     return (ang - ang_s) * f / sigma

@@ -22,8 +22,19 @@ Pipeline
    ``accept``. Ghosts (cone intersections of different fruit) lose: their
    implied sizes disagree between views and they have no box in the other
    views, and once the real fruit have taken the boxes, nothing is left.
-4. **Outputs.** Position, radius, position covariance (Gauss-Newton at the
-   refined solution), score (nats), and the association ``view -> detection``.
+4. **Imperfect poses (optional).** With a stated pose uncertainty
+   (``pose_sigma_mm``, ``pose_sigma_deg``: 1-sigma per axis of the arm's
+   kinematics and hand-eye calibration), the edge noise of steps 2-3 gets the
+   pose uncertainty projected into pixels (``f * sigma_p / depth`` and
+   ``f * sigma_rot``, in quadrature, :func:`.likelihood.pose_sigma_px`), so
+   boxes shifted by pose error are not rejected; and after extraction all
+   objects are refined jointly with a small pose correction per view under
+   Gaussian priors of those sizes (:mod:`.bundle`). With both at 0 (the
+   default) the poses are taken as exact and neither happens.
+5. **Outputs.** Position, radius, position covariance (Gauss-Newton at the
+   refined solution, or the joint solution's marginal block), score (nats),
+   and the association ``view -> detection``. With a pose uncertainty, the
+   estimated pose corrections are in ``Result.config["pose_corrections"]``.
 """
 
 from __future__ import annotations
@@ -46,7 +57,8 @@ from ..localize import register_method
 from ..result import DetectedObject, Result
 from ..session import Session, View, Workspace
 from ._kernels import HAVE_NUMBA, score_hypotheses
-from .likelihood import SensorModel, box_scores, predict_boxes, view_scores
+from .bundle import bundle_adjust, correction_transform
+from .likelihood import SensorModel, box_scores, pose_sigma_px, predict_boxes, view_scores
 from .masks import contour_points
 from .refine import Observation, refine_sphere
 from .search import cone_counts, split_cells
@@ -70,6 +82,8 @@ class BayesConfig:
         the sensor model, see :class:`monovisual3d.bayes.likelihood.SensorModel`
     prune_slack : float, nats: at each search level, cells whose best score is below ``accept - prune_slack`` are dropped
     max_hypotheses : int, cap on the (cell, radius) pairs scored at one level (memory bound)
+    pose_sigma_mm : float, millimetres, stated 1-sigma error of each view's camera position per axis (0: exact)
+    pose_sigma_deg : float, degrees, stated 1-sigma error of each view's camera rotation per axis (0: exact)
     """
 
     resolution: float = 0.01
@@ -90,6 +104,8 @@ class BayesConfig:
     border_px: float = 1.0
     prune_slack: float = 4.0
     max_hypotheses: int = 8_000_000
+    pose_sigma_mm: float = 0.0
+    pose_sigma_deg: float = 0.0
 
     def __post_init__(self) -> None:
         if not (0 < self.radius_min < self.radius_max):
@@ -100,6 +116,10 @@ class BayesConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and v > 0):
                 raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
+        for name in ("pose_sigma_mm", "pose_sigma_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
+                raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
         if self.min_views < 2:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
         self.sensor  # validates the sensor fields  # noqa: B018
@@ -115,6 +135,20 @@ class BayesConfig:
             p_miss=self.p_miss,
             border_px=self.border_px,
         )
+
+    @property
+    def pose_position_sigma(self) -> float:
+        """Stated camera position uncertainty, metres per axis."""
+        return float(self.pose_sigma_mm) / 1000.0
+
+    @property
+    def pose_rotation_sigma(self) -> float:
+        """Stated camera rotation uncertainty, radians per axis."""
+        return float(np.radians(self.pose_sigma_deg))
+
+    @property
+    def poses_uncertain(self) -> bool:
+        return self.pose_sigma_mm > 0 or self.pose_sigma_deg > 0
 
     @property
     def radii(self) -> NDArray[np.float64]:
@@ -146,6 +180,11 @@ class BayesLocalizer:
     camera : Camera
     config : BayesConfig
     workspace : Workspace, optional; else the paper's cube in front of the first view with a detection
+
+    Attributes
+    ----------
+    pose_corrections : list of dict, the pose corrections of the last :meth:`estimate`
+        (empty unless a pose uncertainty is configured; see :func:`localize_bayes`)
     """
 
     def __init__(self, camera: Camera, config: BayesConfig | None = None, *, workspace: Workspace | None = None) -> None:
@@ -157,6 +196,7 @@ class BayesLocalizer:
         self.messages: list[str] = []
         self.timing_s: dict[str, float] = {}
         self.last_hypotheses: dict[str, Any] = {}
+        self.pose_corrections: list[dict[str, Any]] = []
 
     def update(self, view: View) -> None:
         """Add one view."""
@@ -256,6 +296,10 @@ class BayesLocalizer:
         objects = self._swap_pass(vds, objects, model)
         t2 = time.perf_counter()
         self.timing_s = {"search_score": t1 - t0, "extract_refine": t2 - t1}
+        self.pose_corrections = []
+        if cfg.poses_uncertain and objects:
+            objects = self._bundle(vds, objects, model)
+            self.timing_s["bundle"] = time.perf_counter() - t2
         objects.sort(key=lambda o: -o.score)
         return objects
 
@@ -270,7 +314,9 @@ class BayesLocalizer:
         is scored as the region it stands for.
         """
         blur = cell * np.sqrt(3) / 2
+        cfg = self.config
         if HAVE_NUMBA:
+            # the pose's position uncertainty scales with 1/depth like the cell blur; its rotation part is constant
             return score_hypotheses(
                 self.camera,
                 [vd.T_optical_base for vd in vds],
@@ -279,7 +325,8 @@ class BayesLocalizer:
                 centres,
                 radii,
                 model,
-                blur,
+                float(np.hypot(blur, cfg.pose_position_sigma)) if cfg.pose_position_sigma > 0 else blur,
+                max(self.camera.fx, self.camera.fy) * cfg.pose_rotation_sigma,
             )
         cam = self.camera
         total = np.zeros((len(centres), len(radii)))
@@ -289,6 +336,8 @@ class BayesLocalizer:
             p_opt = transform_points(vd.T_optical_base, centres)
             pred, visible = predict_boxes(cam, p_opt, radii)
             extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
+            if cfg.poses_uncertain:
+                extra = np.hypot(extra, self._pose_px(p_opt[:, 2:3]))
             llr, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height, extra)
             total += llr
             n_assoc += a >= 0
@@ -305,8 +354,81 @@ class BayesLocalizer:
             p_opt = vd.T_optical_base[:3, :3] @ centre + vd.T_optical_base[:3, 3]
             pred, visible = predict_boxes(cam, p_opt[None, :], np.array([radius]))
             extra = max(cam.fx, cam.fy) * cell * np.sqrt(3) / 2 / max(p_opt[2], 1e-6)
+            if self.config.poses_uncertain:
+                extra = float(np.hypot(extra, self._pose_px(p_opt[2])))
             _, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height, extra)
             out.append(int(a[0, 0]))
+        return out
+
+    def _pose_px(self, depth: NDArray[np.floating] | float) -> NDArray[np.float64] | float:
+        """Edge noise (pixels) of the stated pose uncertainty at ``depth`` (metres); exactly 0.0 when poses are exact."""
+        cfg = self.config
+        if not cfg.poses_uncertain:
+            return 0.0
+        return pose_sigma_px(self.camera, depth, cfg.pose_position_sigma, cfg.pose_rotation_sigma)
+
+    def _observations(self, vds: list[_ViewData], assoc: list[int], centre: NDArray[np.float64]) -> list[Observation]:
+        """Observations of the associated boxes (-1: none), with the pose noise at ``centre``'s depth in each view."""
+        use_masks = self.config.use_masks
+        out = []
+        for vd, j in zip(vds, assoc):
+            if j < 0:
+                continue
+            depth = float(vd.T_optical_base[2, :3] @ centre + vd.T_optical_base[2, 3])
+            out.append(
+                Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if use_masks else None, float(self._pose_px(depth)))
+            )
+        return out
+
+    def _bundle(self, vds: list[_ViewData], objects: list[DetectedObject], model: SensorModel) -> list[DetectedObject]:
+        """Refine all objects jointly with a pose correction per view (:mod:`.bundle`); sets ``pose_corrections``."""
+        cfg = self.config
+        obs = [
+            (i, v, Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if cfg.use_masks else None))
+            for i, o in enumerate(objects)
+            for v, vd in enumerate(vds)
+            if (j := o.associations.get(vd.index, -1)) >= 0
+        ]
+        b = bundle_adjust(
+            self.camera,
+            obs,
+            np.stack([o.position for o in objects]),
+            np.array([float(o.radius) for o in objects]),
+            model,
+            position_sigma=cfg.pose_position_sigma,
+            rotation_sigma=cfg.pose_rotation_sigma,
+            use_masks=cfg.use_masks,
+            n_views=len(vds),
+        )
+        out = []
+        for i, o in enumerate(objects):
+            if not (np.all(np.isfinite(b.centres[i])) and cfg.radius_min * 0.5 <= b.radii[i] <= cfg.radius_max * 2):
+                out.append(o)  # keep the per-object solution rather than a diverged joint one
+                continue
+            extra = {**o.extra, "radius_std": float(b.radius_std[i]), "pose_corrected": True}
+            out.append(
+                DetectedObject(
+                    position=b.centres[i],
+                    score=o.score,
+                    radius=float(b.radii[i]),
+                    covariance=b.covariances[i],
+                    associations=o.associations,
+                    n_cells=o.n_cells,
+                    extra=extra,
+                )
+            )
+        for v, vd in enumerate(vds):
+            T_corrected = correction_transform(b.rotvec_optical[v], b.translation_optical[v]) @ vd.T_optical_base
+            self.pose_corrections.append(
+                {
+                    "view": vd.index,
+                    "rotvec_optical_rad": b.rotvec_optical[v].tolist(),
+                    "translation_optical_m": b.translation_optical[v].tolist(),
+                    "std_rotvec_optical_rad": b.pose_std[v, :3].tolist(),
+                    "std_translation_optical_m": b.pose_std[v, 3:].tolist(),
+                    "T_base_optical_corrected": invert_transform(T_corrected).tolist(),
+                }
+            )
         return out
 
     def _refine_and_check(
@@ -317,11 +439,7 @@ class BayesLocalizer:
         centre, radius = centre0, float(radius0)
         refined = None
         for _ in range(3):
-            obs = [
-                Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if cfg.use_masks else None)
-                for vd, j in zip(vds, assoc)
-                if j >= 0
-            ]
+            obs = self._observations(vds, assoc, centre)
             if len(obs) < cfg.min_views:
                 return None
             refined = refine_sphere(cam, obs, centre, radius, model, use_masks=cfg.use_masks)
@@ -332,7 +450,7 @@ class BayesLocalizer:
             for vd in vds:
                 p_opt = vd.T_optical_base[:3, :3] @ centre + vd.T_optical_base[:3, 3]
                 pred, visible = predict_boxes(cam, p_opt[None, :], np.array([radius]))
-                llr, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height)
+                llr, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height, self._pose_px(p_opt[2]))
                 new_assoc.append(int(a[0, 0]))
                 llrs.append(float(llr[0, 0]))
             if new_assoc == assoc:
@@ -356,11 +474,7 @@ class BayesLocalizer:
     ) -> DetectedObject | None:
         """Refine one object with a fixed association and score it with that association."""
         cfg, cam = self.config, self.camera
-        obs = [
-            Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if cfg.use_masks else None)
-            for vd, j in zip(vds, assoc)
-            if j >= 0
-        ]
+        obs = self._observations(vds, assoc, centre0)
         if len(obs) < cfg.min_views:
             return None
         refined = refine_sphere(cam, obs, centre0, radius0, model, use_masks=cfg.use_masks)
@@ -372,7 +486,7 @@ class BayesLocalizer:
             pred, visible = predict_boxes(cam, p_opt[None, :], np.array([refined.radius]))
             if not visible[0, 0]:
                 continue
-            s = box_scores(pred[0, 0], vd.boxes[j], model, cam.width, cam.height) if j >= 0 else -np.inf
+            s = box_scores(pred[0, 0], vd.boxes[j], model, cam.width, cam.height, self._pose_px(p_opt[2])) if j >= 0 else -np.inf
             score += max(float(s), model.miss_term)
         return DetectedObject(
             position=refined.centre,
@@ -422,7 +536,15 @@ class BayesLocalizer:
 
 @register_method("bayes")
 def localize_bayes(session: Session, *, progress: Callable[[int, int], None] | None = None, **options: Any) -> Result:
-    """The ghost-free, size-aware method (see :class:`BayesConfig` for the options)."""
+    """The ghost-free, size-aware method (see :class:`BayesConfig` for the options).
+
+    With ``pose_sigma_mm`` or ``pose_sigma_deg`` > 0, ``Result.config["pose_corrections"]``
+    lists, per view with detections, the estimated correction of its reported pose:
+    ``view`` (index in the session), ``rotvec_optical_rad`` and ``translation_optical_m``
+    (``p_optical_true = exp([rotvec]x) @ p_optical_reported + translation``, see
+    :mod:`monovisual3d.bayes.bundle`), their posterior std ``std_rotvec_optical_rad`` and
+    ``std_translation_optical_m``, and ``T_base_optical_corrected`` (4x4 nested lists).
+    """
     known = {f.name for f in fields(BayesConfig)}
     unknown = sorted(set(options) - known)
     if unknown:
@@ -449,6 +571,6 @@ def localize_bayes(session: Session, *, progress: Callable[[int, int], None] | N
         method="bayes",
         grid=grid,
         timing_s={**loc.timing_s, "total": t1 - t0},
-        config=asdict(config),
+        config={**asdict(config), "pose_corrections": loc.pose_corrections} if config.poses_uncertain else asdict(config),
         warnings=messages,
     )

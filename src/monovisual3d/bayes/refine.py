@@ -9,7 +9,7 @@ edge more than ~3 sigma off (occluded, truncated) stops pulling the estimate.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,11 +24,22 @@ from .masks import mask_residuals
 
 @dataclass
 class Observation:
-    """One associated detection: the view's ``T_optical_base``, its box, and optional mask contour points."""
+    """One associated detection.
+
+    Attributes
+    ----------
+    T_optical_base : ndarray, shape (4, 4), the view's pose (as reported)
+    bbox_xyxy : ndarray, shape (4,), pixels
+    contour_uv : ndarray, shape (M, 2), pixels, mask outline points, or None
+    extra_sigma_px : float, pixels, extra edge noise added in quadrature (e.g. the
+        camera-pose uncertainty projected into the image, see
+        :func:`monovisual3d.bayes.likelihood.pose_sigma_px`); 0 by default
+    """
 
     T_optical_base: NDArray[np.float64]
     bbox_xyxy: NDArray[np.float64]
     contour_uv: NDArray[np.float64] | None = None
+    extra_sigma_px: float = 0.0
 
 
 @dataclass
@@ -43,7 +54,11 @@ class Refined:
     success: bool
 
 
-def _loss(floor: float):
+def robust_loss(floor: float) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """The redescending loss of the module docstring as a :func:`scipy.optimize.least_squares` callable.
+
+    ``rho(z)`` of the squared residual ``z``; returns shape (3, len(z)): rho, rho', rho''.
+    """
     eps = float(np.exp(-floor))
 
     def rho(z: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -57,21 +72,35 @@ def _loss(floor: float):
     return rho
 
 
+def observation_residuals(
+    camera: Camera,
+    p_optical: NDArray[np.floating],
+    radius: float,
+    observation: Observation,
+    model: SensorModel,
+    use_masks: bool = True,
+) -> NDArray[np.float64]:
+    """Normalised residuals of one observation for a sphere at ``p_optical`` (3,), metres, optical frame.
+
+    Shape (4,) for a box (edges x1, y1, x2, y2), (M,) for a mask's contour points.
+    """
+    if use_masks and observation.contour_uv is not None:
+        return mask_residuals(camera, p_optical, radius, observation.contour_uv, model, observation.extra_sigma_px)
+    pred, _ = predict_boxes(camera, p_optical[None, :], np.array([radius]))
+    e = edge_residuals(pred[0, 0], observation.bbox_xyxy, model, camera.width, camera.height, observation.extra_sigma_px)
+    return np.nan_to_num(e, nan=1e3)
+
+
 def residuals(
     params: NDArray[np.floating], camera: Camera, observations: Sequence[Observation], model: SensorModel, use_masks: bool = True
 ) -> NDArray[np.float64]:
     """Stacked normalised residuals for ``params = (x, y, z, log r)`` (base frame, metres)."""
     c = params[:3]
     r = float(np.exp(params[3]))
-    out = []
-    for ob in observations:
-        p_opt = ob.T_optical_base[:3, :3] @ c + ob.T_optical_base[:3, 3]
-        if use_masks and ob.contour_uv is not None:
-            out.append(mask_residuals(camera, p_opt, r, ob.contour_uv, model))
-            continue
-        pred, _ = predict_boxes(camera, p_opt[None, :], np.array([r]))
-        e = edge_residuals(pred[0, 0], ob.bbox_xyxy, model, camera.width, camera.height)
-        out.append(np.nan_to_num(e, nan=1e3))
+    out = [
+        observation_residuals(camera, ob.T_optical_base[:3, :3] @ c + ob.T_optical_base[:3, 3], r, ob, model, use_masks)
+        for ob in observations
+    ]
     return np.concatenate(out) if out else np.zeros(0)
 
 
@@ -95,9 +124,9 @@ def refine_sphere(
     """
     x0 = np.concatenate([np.asarray(centre0, dtype=float), [np.log(max(radius0, 1e-4))]])
     fun = lambda p: residuals(p, camera, observations, model, use_masks)  # noqa: E731
-    sol = least_squares(fun, x0, loss=_loss(model.inward_floor), method="trf", x_scale=np.array([0.01, 0.01, 0.01, 0.1]))
+    sol = least_squares(fun, x0, loss=robust_loss(model.inward_floor), method="trf", x_scale=np.array([0.01, 0.01, 0.01, 0.1]))
     f = sol.fun
-    w = _loss(model.inward_floor)(f * f)[1]
+    w = robust_loss(model.inward_floor)(f * f)[1]
     J = sol.jac
     H = J.T @ (w[:, None] * J)
     try:
