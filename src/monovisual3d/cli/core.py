@@ -10,6 +10,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
+from ..errors import InputError
 from ..localize import DEFAULT_METHOD, METHODS
 from ..localize import localize as localize_fn
 from ..metrics import Metrics
@@ -71,6 +72,12 @@ def localize(
     sigma_fraction: Annotated[float | None, typer.Option(help="paper method: Gaussian sigma / box size (0.5 or 1/3).")] = None,
     k: Annotated[str | None, typer.Option(help="paper method: clusters: max, mode, min, last or a number.")] = None,
     reach: Annotated[float | None, typer.Option(help="Manipulator reach R in metres (grid cube of side 2R).")] = None,
+    pose_sigma_mm: Annotated[
+        float | None, typer.Option(help="bayes method: 1-sigma error of each camera position per axis, mm (arm + hand-eye).")
+    ] = None,
+    pose_sigma_deg: Annotated[
+        float | None, typer.Option(help="bayes method: 1-sigma error of each camera rotation per axis, degrees.")
+    ] = None,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the result JSON here.")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table or progress bar.")] = False,
 ) -> None:
@@ -89,6 +96,13 @@ def localize(
             options[name] = value
     if k is not None:
         options["k"] = int(k) if k.isdigit() else k
+    for name, value in (("pose_sigma_mm", pose_sigma_mm), ("pose_sigma_deg", pose_sigma_deg)):
+        if value is not None:
+            if method != "bayes":
+                raise InputError(
+                    f"--{name.replace('_', '-')}: only the bayes method models pose uncertainty, got --method {method}"
+                )
+            options[name] = value
     if quiet:
         result = localize_fn(session, method=method, **options)
     else:
