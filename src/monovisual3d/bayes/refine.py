@@ -118,17 +118,18 @@ def refine_sphere(
     Returns
     -------
     Refined
-        ``covariance`` is ``(J^T W J)^-1`` at the solution (W: the loss's
-        inlier weights), the Gauss-Newton approximation of the posterior
+        ``covariance`` is ``(J^T J)^-1`` at the solution, with ``J`` the
+        Jacobian scipy returns already scaled by the robust loss (outliers
+        carry little weight): the Gauss-Newton approximation of the posterior
         covariance of the position.
     """
     x0 = np.concatenate([np.asarray(centre0, dtype=float), [np.log(max(radius0, 1e-4))]])
     fun = lambda p: residuals(p, camera, observations, model, use_masks)  # noqa: E731
     sol = least_squares(fun, x0, loss=robust_loss(model.inward_floor), method="trf", x_scale=np.array([0.01, 0.01, 0.01, 0.1]))
-    f = sol.fun
-    w = robust_loss(model.inward_floor)(f * f)[1]
+    # scipy returns the Jacobian already scaled by the robust loss (J^T J is its
+    # Gauss-Newton Hessian), so no further weighting here
     J = sol.jac
-    H = J.T @ (w[:, None] * J)
+    H = J.T @ J
     try:
         cov_full = np.linalg.inv(H)
     except np.linalg.LinAlgError:
