@@ -194,9 +194,9 @@ class DenseHistogramBatch:
     """Dense posteriors of one or more grids in one buffer, updated with one kernel call.
 
     Each grid starts uniform. The stored values are the posterior up to a
-    factor (linear: rescaled to a maximum near 1 at the next update; log space:
-    log values shifted by the previous maximum), so an update is one pass over
-    memory. :meth:`posterior` normalises on request.
+    factor (linear: the previous update's sum, divided out during the next
+    update; log space: log values shifted by the previous maximum), so an update
+    is one pass over memory. :meth:`posterior` normalises on request.
 
     Parameters
     ----------
@@ -328,9 +328,9 @@ class DenseHistogramBatch:
                 live = tm > floor
                 self._total[s] = m + float(np.log(np.sum(ts[live] * np.exp(tm[live] - m))))
                 self._scale[s] = m
-            else:
+            else:  # stored values sum to 1 after the next update's in_scale: far from float32's limits
                 self._total[s] = float(ts.sum())
-                self._scale[s] = 1.0 / m
+                self._scale[s] = 1.0 / self._total[s]
             ok.append(True)
         return ok
 

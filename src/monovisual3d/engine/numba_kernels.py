@@ -25,12 +25,11 @@ tile and view:
    other tiles are evaluated per cell, in rows along k written so that LLVM
    can vectorise them (branch-free projection, a branch-free ``exp``).
 
-The posterior multiply and the per-tile sum and maximum are done in the same
-pass. The maximum normalisation of the paper (Eq. 5) cancels in the final
-normalisation (``prior * L / m / sum(prior * L / m) = prior * L / sum(prior * L)``),
-so no second pass over the likelihood is needed; the caller rescales lazily by
-passing ``in_scale`` (linear storage: a factor, usually 1 / previous max) to the
-next call. Per-tile partial sums are added in a fixed order, so the results do
+The posterior multiply and the per-tile sums are done in the same pass. The
+maximum normalisation of the paper (Eq. 5) cancels in the final normalisation
+(``prior * L / m / sum(prior * L / m) = prior * L / sum(prior * L)``), so no
+second pass over the likelihood is needed; the caller normalises lazily by
+passing ``in_scale`` (linear storage: 1 / previous sum) to the next call. Per-tile partial sums are added in a fixed order, so the results do
 not depend on the number of threads.
 
 Accuracy
@@ -345,6 +344,69 @@ def project_cells(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb):  #
 
 
 @njit(**_O)
+def project_cells32(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb):  # pragma: no cover - compiled
+    """Float32 twin of :func:`project_cells` (8 SIMD lanes) for the float32 Gaussian path.
+
+    The corner of the tile is transformed in float64; offsets, division and
+    distortion run in float32 (pixel error about 1e-4 px for cells within a
+    metre or so). The equidistant model falls back to :func:`project_cells`.
+    """
+    if model == 3:
+        project_cells(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb)
+        return
+    bx = _F(T[0, 0] * gx + T[0, 1] * gy + T[0, 2] * gz + T[0, 3])
+    by = _F(T[1, 0] * gx + T[1, 1] * gy + T[1, 2] * gz + T[1, 3])
+    bz = _F(T[2, 0] * gx + T[2, 1] * gy + T[2, 2] * gz + T[2, 3])
+    ax = _F(T[0, 0] * res)
+    ay = _F(T[0, 1] * res)
+    az = _F(T[0, 2] * res)
+    bxi = _F(T[1, 0] * res)
+    byi = _F(T[1, 1] * res)
+    bzi = _F(T[1, 2] * res)
+    cxi = _F(T[2, 0] * res)
+    cyi = _F(T[2, 1] * res)
+    czi = _F(T[2, 2] * res)
+    fx = _F(intr[0])
+    fy = _F(intr[1])
+    cx = _F(intr[2])
+    cy = _F(intr[3])
+    far = _F(FAR_PX)
+    one = _F(1.0)
+    zero = _F(0.0)
+    two = _F(2.0)
+    if model == 0:
+        for e in range(n):
+            z = bz + fi[e] * cxi + fj[e] * cyi + fk[e] * czi
+            front = z > zero
+            iz = one / (z if front else one)
+            x = (bx + fi[e] * ax + fj[e] * ay + fk[e] * az) * iz
+            y = (by + fi[e] * bxi + fj[e] * byi + fk[e] * bzi) * iz
+            ub[e] = fx * x + cx if front else far
+            vb[e] = fy * y + cy if front else far
+        return
+    k1 = _F(d[0])
+    k2 = _F(d[1])
+    p1 = _F(d[2])
+    p2 = _F(d[3])
+    k3 = _F(d[4])
+    k4 = _F(d[5])
+    k5 = _F(d[6])
+    k6 = _F(d[7])
+    for e in range(n):
+        z = bz + fi[e] * cxi + fj[e] * cyi + fk[e] * czi
+        front = z > zero
+        iz = one / (z if front else one)
+        x = (bx + fi[e] * ax + fj[e] * ay + fk[e] * az) * iz
+        y = (by + fi[e] * bxi + fj[e] * byi + fk[e] * bzi) * iz
+        r2 = x * x + y * y
+        radial = (one + r2 * (k1 + r2 * (k2 + r2 * k3))) / (one + r2 * (k4 + r2 * (k5 + r2 * k6)))
+        xd = x * radial + two * p1 * x * y + p2 * (r2 + two * x * x)
+        yd = y * radial + p1 * (r2 + two * y * y) + two * p2 * x * y
+        ub[e] = fx * xd + cx if front else far
+        vb[e] = fy * yd + cy if front else far
+
+
+@njit(**_O)
 def add_box_row(kernel, par, q_cut, ub, vb, n, acc):  # pragma: no cover - compiled
     """``acc[t] += k(ub[t], vb[t])`` for one box, t < n, float64 (branch free)."""
     if kernel == 0:
@@ -477,40 +539,18 @@ def mixture_point(Ts, intrs, dist_id, dists, kern_id, inv_n, box_off, box_par, q
 
 
 # ---------------------------------------------------------------------- dense update
-@njit(**_O)
-def _cells_likelihood(
-    T,
-    intr,
-    dist_id,
-    dist,
-    kern_id,
-    inv_n,
-    box_par,
-    q_cut,
-    v0,
-    nv,
-    sel,
-    nsel,
-    cconst,
-    precise,
-    gx,
-    gy,
-    gz,
-    res,
-    n,
-    fi,
-    fj,
-    fk,
-    ub,
-    vb,
-    acc,
-    ub32,
-    vb32,
-    acc32,
-    lk,
-):  # pragma: no cover - compiled
-    """``lk[e] = prod_v L_v`` at the ``n`` cells ``(gx, gy, gz) + res * (fi, fj, fk)[e]`` (boxes pre-selected per view)."""  # fmt: skip
-    for e in range(n):
+@njit(inline="always", **_O)
+def _cells_likelihood(vp, q_cut, v0, nv, sel, nsel, cconst, precise, gx, gy, gz, res, m, F, F32, buf, buf32):  # pragma: no cover
+    """``lk = buf[3, :m] = prod_v L_v`` at the cells ``(gx, gy, gz) + res * F[:, e]`` (boxes pre-selected per view).
+
+    ``vp`` is the tuple of view arrays of :func:`dense_update`; ``F``/``F32`` (3, m) hold the cell
+    offsets in float64/float32; ``buf`` (4, m) and ``buf32`` (3, m) are scratch (u, v, acc[, lk]).
+    Arguments are packed so that the call can be inlined (numba does not inline calls with more
+    than 30 arguments) and costs nothing per tile.
+    """
+    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach = vp
+    lk = buf[3]
+    for e in range(m):
         lk[e] = 1.0
     for vv in range(nv):
         v = v0 + vv
@@ -519,89 +559,63 @@ def _cells_likelihood(
         c0 = cconst[vv]
         if cnt == 0:
             c = c0 * f
-            for e in range(n):
+            for e in range(m):
                 lk[e] *= c
         elif kern_id[v] == 1 and not precise:
-            project_cells(T[v], intr[v], dist_id[v], dist[v], gx, gy, gz, res, n, fi, fj, fk, ub32, vb32)
-            for e in range(n):
+            ub32 = buf32[0]
+            vb32 = buf32[1]
+            acc32 = buf32[2]
+            project_cells32(T[v], intr[v], dist_id[v], dist[v], gx, gy, gz, res, m, F32[0], F32[1], F32[2], ub32, vb32)
+            for e in range(m):
                 acc32[e] = c0
             for c in range(cnt):
-                add_gauss_row32(box_par[sel[vv, c]], q_cut, ub32, vb32, n, acc32)
-            for e in range(n):
+                add_gauss_row32(box_par[sel[vv, c]], q_cut, ub32, vb32, m, acc32)
+            for e in range(m):
                 lk[e] *= acc32[e] * f
         else:
-            project_cells(T[v], intr[v], dist_id[v], dist[v], gx, gy, gz, res, n, fi, fj, fk, ub, vb)
-            for e in range(n):
+            ub = buf[0]
+            vb = buf[1]
+            acc = buf[2]
+            project_cells(T[v], intr[v], dist_id[v], dist[v], gx, gy, gz, res, m, F[0], F[1], F[2], ub, vb)
+            for e in range(m):
                 acc[e] = c0
             for c in range(cnt):
-                add_box_row(kern_id[v], box_par[sel[vv, c]], q_cut, ub, vb, n, acc)
-            for e in range(n):
+                add_box_row(kern_id[v], box_par[sel[vv, c]], q_cut, ub, vb, m, acc)
+            for e in range(m):
                 lk[e] *= acc[e] * f
 
 
 @njit(**_O)
-def _tile_offsets(ni, nj, nk, fi, fj, fk):  # pragma: no cover - compiled
-    """Cell offsets of an ``ni x nj x nk`` tile in C order, as floats."""
+def _tile_offsets(ni, nj, nk, F, F32):  # pragma: no cover - compiled
+    """Cell offsets of an ``ni x nj x nk`` tile in C order into ``F`` (3, m) float64 and ``F32`` float32."""
     e = 0
     for i in range(ni):
         for j in range(nj):
             for k in range(nk):
-                fi[e] = i
-                fj[e] = j
-                fk[e] = k
+                F[0, e] = i
+                F[1, e] = j
+                F[2, e] = k
+                F32[0, e] = i
+                F32[1, e] = j
+                F32[2, e] = k
                 e += 1
 
 
-@njit(**_O)
-def _tile_update(
-    src,
-    dst,
-    inplace,
-    prior_one,
-    base0,
-    nj,
-    nk,
-    i0,
-    i1,
-    j0,
-    j1,
-    k0,
-    k1,
-    res,
-    in_scale,
-    log_space,
-    live,
-    T,
-    intr,
-    dist_id,
-    dist,
-    kern_id,
-    inv_n,
-    box_off,
-    box_par,
-    box_reach,
-    q_cut,
-    v0,
-    nv,
-    precise,
-    sel,
-    nsel,
-    cconst,
-    fi,
-    fj,
-    fk,
-    offs_shape,
-    ub,
-    vb,
-    acc,
-    ub32,
-    vb32,
-    acc32,
-    lk,
-):  # pragma: no cover - compiled
-    """Update one tile in place; returns (sum, max) as described in :func:`dense_update`."""  # fmt: skip
+@njit(inline="always", **_O)
+def _tile_update(src, dst, flags, geo, res, in_scale, vp, q_cut, sel, nsel, cconst, F, F32, buf, buf32):  # pragma: no cover
+    """Update one tile; returns (sum, max) as described in :func:`dense_update`.
+
+    ``flags = (inplace, prior_one, log_space, live, precise)``,
+    ``geo = (base0, nj, nk, i0, i1, j0, j1, k0, k1, tile_j, tile_k, v0, nv)``, ``vp`` the view arrays.
+    The full tile is evaluated (cells past the grid's edge are computed and not written) so that
+    the offsets ``F`` are the same for every tile.
+    """
+    inplace, prior_one, log_space, live, precise = flags
+    base0, nj, nk, i0, i1, j0, j1, k0, k1, tile_j, tile_k, v0, nv = geo
+    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach = vp
     floor = -np.inf if log_space else 0.0
     nrow = k1 - k0
+    live_in = live
     if live and not prior_one:
         # a tile whose prior is zero everywhere stays zero: skip the views
         any_mass = False
@@ -616,9 +630,7 @@ def _tile_update(
                     break
             if any_mass:
                 break
-        if not any_mass:
-            live = False
-            inplace = inplace or prior_one  # cells are already zero in src; dst still needs writing
+        live = any_mass
     dead = not live
     all_const = True
     cprod = 1.0
@@ -650,33 +662,28 @@ def _tile_update(
         else:
             all_const = False
     if dead:
-        if not inplace or live:
+        if not (inplace and not live_in):  # in place, a tile known dead is already zero
             for i in range(i0, i1):
                 for j in range(j0, j1):
                     base = base0 + (i * nj + j) * nk + k0
                     for t in range(nrow):
                         dst[base + t] = floor
         return 0.0, floor
-    tsum = 0.0
-    tmax = floor
-    m = (i1 - i0) * (j1 - j0) * nrow
+    lk = buf[3]
     if all_const:
-        for e in range(m):
+        for e in range(lk.shape[0]):
             lk[e] = cprod
     else:
-        if offs_shape[0] != i1 - i0 or offs_shape[1] != j1 - j0 or offs_shape[2] != nrow:
-            _tile_offsets(i1 - i0, j1 - j0, nrow, fi, fj, fk)
-            offs_shape[0] = i1 - i0
-            offs_shape[1] = j1 - j0
-            offs_shape[2] = nrow
         _cells_likelihood(
-            T, intr, dist_id, dist, kern_id, inv_n, box_par, q_cut, v0, nv, sel, nsel, cconst, precise,
-            (i0 + 0.5) * res, (j0 + 0.5) * res, (k0 + 0.5) * res, res, m, fi, fj, fk, ub, vb, acc, ub32, vb32, acc32, lk,
+            vp, q_cut, v0, nv, sel, nsel, cconst, precise,
+            (i0 + 0.5) * res, (j0 + 0.5) * res, (k0 + 0.5) * res, res, F.shape[1], F, F32, buf, buf32,
         )  # fmt: skip
-    e0 = 0
+    tsum = 0.0
+    tmax = floor
     for i in range(i0, i1):
         for j in range(j0, j1):
             base = base0 + (i * nj + j) * nk + k0
+            e0 = ((i - i0) * tile_j + (j - j0)) * tile_k
             if log_space:
                 for t in range(nrow):
                     prior = 0.0 if prior_one else src[base + t] - in_scale
@@ -684,23 +691,26 @@ def _tile_update(
                     dst[base + t] = nl
                     tmax = max(tmax, nl)
             else:
+                # linear storage: only the sum is reduced (a max reduction does not vectorise without
+                # the nnan fast-math flag); values are >= 0, so a zero sum means a zero tile
                 rs = 0.0
-                rm = 0.0
                 if prior_one:
                     for t in range(nrow):
                         p = in_scale * lk[e0 + t]
                         dst[base + t] = p
                         rs += p
-                        rm = max(rm, p)
+                elif inplace:  # read and write through one array: LLVM then sees no aliasing and vectorises
+                    for t in range(nrow):
+                        p = dst[base + t] * in_scale * lk[e0 + t]
+                        dst[base + t] = p
+                        rs += p
                 else:
                     for t in range(nrow):
                         p = src[base + t] * in_scale * lk[e0 + t]
                         dst[base + t] = p
                         rs += p
-                        rm = max(rm, p)
                 tsum += rs
-                tmax = max(tmax, rm)
-            e0 += nrow
+                tmax = tsum
     if log_space and tmax > -np.inf:
         for i in range(i0, i1):
             for j in range(j0, j1):
@@ -711,6 +721,43 @@ def _tile_update(
                     rs += exp_neg(min(q, EXP_NEG_MAX)) if q <= EXP_NEG_MAX else 0.0
                 tsum += rs
     return tsum, tmax
+
+
+#: Tiles handled per call of :func:`_tile_range` (a call with this many array arguments costs about
+#: half a microsecond, so it is made once per group of tiles, not once per tile).
+TILES_PER_TASK = 16
+
+
+@njit(**_O)
+def _tile_range(g0, g1, src, dst, flags, value_offsets, shapes, resolutions, in_scale, view_offsets, vp, q_cut, tile, tile_offsets,
+                tile_live, tile_sum, tile_max, sel, nsel, cconst, F, F32, buf, buf32):  # pragma: no cover - compiled  # fmt: skip
+    """Tiles ``g0:g1`` of :func:`dense_update` (one task: one thread, its scratch arrays)."""
+    inplace, prior_one, log_space, precise = flags
+    for g in range(g0, g1):
+        s = np.searchsorted(tile_offsets, g, side="right") - 1
+        local = g - tile_offsets[s]
+        ni = shapes[s, 0]
+        nj = shapes[s, 1]
+        nk = shapes[s, 2]
+        ntj = (nj + tile[1] - 1) // tile[1]
+        ntk = (nk + tile[2] - 1) // tile[2]
+        ti = local // (ntj * ntk)
+        rem = local - ti * ntj * ntk
+        tj = rem // ntk
+        tk = rem - tj * ntk
+        i0 = ti * tile[0]
+        j0 = tj * tile[1]
+        k0 = tk * tile[2]
+        geo = (
+            value_offsets[s], nj, nk, i0, min(i0 + tile[0], ni), j0, min(j0 + tile[1], nj), k0, min(k0 + tile[2], nk),
+            tile[1], tile[2], view_offsets[s], view_offsets[s + 1] - view_offsets[s],
+        )  # fmt: skip
+        ts, tm = _tile_update(
+            src, dst, (inplace, prior_one, log_space, tile_live[g], precise), geo, resolutions[s], in_scale[s], vp, q_cut,
+            sel, nsel, cconst, F, F32, buf, buf32,
+        )  # fmt: skip
+        tile_sum[g] = ts
+        tile_max[g] = tm
 
 
 @njit(parallel=True, **_O)
@@ -762,8 +809,9 @@ def dense_update(
     tile_offsets : ndarray, shape (S + 1,), int64, tiles of grid s
     tile_live : ndarray, shape (n_tiles,), bool, False where the tile's prior is known to be zero
         (its ``dst`` cells are then set to zero, or ``-inf`` in log space, without reading ``src``)
-    tile_sum, tile_max : ndarray, shape (n_tiles,), float64, outputs. Linear: sum and max of the
-        new values. Log: max of the new log values and ``sum(exp(value - max))``.
+    tile_sum, tile_max : ndarray, shape (n_tiles,), float64, outputs. Linear: the sum of the new
+        values, in both (values are >= 0: a tile is zero exactly when its sum is). Log: the max of the
+        new log values and ``sum(exp(value - max))``.
     n_threads : int, at least the largest thread id + 1 (``numba.config.NUMBA_NUM_THREADS``; passed
         in because calling ``numba.get_num_threads`` here would defeat caching)
     precise : bool, evaluate the Gaussian in float64 (else float32, 8 SIMD lanes, relative error
@@ -780,36 +828,21 @@ def dense_update(
     sel = np.empty((n_threads, max_views, max_boxes), dtype=np.int64)
     nsel = np.empty((n_threads, max_views), dtype=np.int64)
     cconst = np.empty((n_threads, max_views))
-    buf = np.empty((n_threads, 7, m))
+    buf = np.empty((n_threads, 4, m))
     buf32 = np.empty((n_threads, 3, m), dtype=np.float32)
-    offs_shape = np.zeros((n_threads, 3), dtype=np.int64)
-    for g in prange(n_tiles):
+    F = np.empty((3, m))
+    F32 = np.empty((3, m), dtype=np.float32)
+    _tile_offsets(tile[0], tile[1], tile[2], F, F32)
+    vp = (T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach)
+    flags = (inplace, prior_one, log_space, precise)
+    n_tasks = (n_tiles + TILES_PER_TASK - 1) // TILES_PER_TASK
+    for c in prange(n_tasks):
         tid = numba.get_thread_id()
-        s = np.searchsorted(tile_offsets, g, side="right") - 1
-        local = g - tile_offsets[s]
-        ni = shapes[s, 0]
-        nj = shapes[s, 1]
-        nk = shapes[s, 2]
-        ntj = (nj + tile[1] - 1) // tile[1]
-        ntk = (nk + tile[2] - 1) // tile[2]
-        ti = local // (ntj * ntk)
-        rem = local - ti * ntj * ntk
-        tj = rem // ntk
-        tk_ = rem - tj * ntk
-        i0 = ti * tile[0]
-        j0 = tj * tile[1]
-        k0 = tk_ * tile[2]
-        ts, tm = _tile_update(
-            src, dst, inplace, prior_one, value_offsets[s], nj, nk,
-            i0, min(i0 + tile[0], ni), j0, min(j0 + tile[1], nj), k0, min(k0 + tile[2], nk),
-            resolutions[s], in_scale[s], log_space, tile_live[g],
-            T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach, q_cut,
-            view_offsets[s], view_offsets[s + 1] - view_offsets[s], precise,
-            sel[tid], nsel[tid], cconst[tid], buf[tid, 4], buf[tid, 5], buf[tid, 6], offs_shape[tid],
-            buf[tid, 0], buf[tid, 1], buf[tid, 2], buf32[tid, 0], buf32[tid, 1], buf32[tid, 2], buf[tid, 3],
+        _tile_range(
+            c * TILES_PER_TASK, min((c + 1) * TILES_PER_TASK, n_tiles), src, dst, flags, value_offsets, shapes,
+            resolutions, in_scale, view_offsets, vp, q_cut, tile, tile_offsets, tile_live, tile_sum, tile_max,
+            sel[tid], nsel[tid], cconst[tid], F, F32, buf[tid], buf32[tid],
         )  # fmt: skip
-        tile_sum[g] = ts
-        tile_max[g] = tm
 
 
 @njit(parallel=True, **_O)
