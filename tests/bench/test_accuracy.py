@@ -51,3 +51,17 @@ def test_bad_names_are_rejected():
         run_accuracy(quick=True, methods=("nope",))
     with pytest.raises(InputError, match="only"):
         run_accuracy(quick=True, only=("nope",))
+
+
+def test_cli_bench_accuracy_prints_the_table(tmp_path):
+    from typer.testing import CliRunner
+
+    from monovisual3d.cli import app
+
+    out = tmp_path / "acc.json"
+    res = CliRunner().invoke(app, ["bench", "accuracy", "--methods", "bayes", "--only", "n-fruit-1", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "| n-fruit-1 | bayes |" in res.output
+    assert json.loads(out.read_text())["results"]["n-fruit-1"]["methods"]["bayes"]["recall"] == 1.0
+    bad = CliRunner().invoke(app, ["bench", "accuracy", "--methods", "nope"])
+    assert bad.exit_code == 2 and "methods" in bad.output

@@ -7,6 +7,7 @@ exit code 2 and a one-line message; warnings are printed as one line each.
 from __future__ import annotations
 
 from . import (
+    accuracy,  # noqa: F401
     bench,  # noqa: F401
     core,  # noqa: F401  (registers commands)
     experiments,  # noqa: F401

@@ -1,0 +1,39 @@
+"""``bench accuracy``: the accuracy benchmark of the localisation methods."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ._app import console, handle_errors
+from .bench import bench_app
+
+
+@bench_app.command("accuracy")
+@handle_errors
+def accuracy(
+    quick: Annotated[bool, typer.Option("--quick", help="Fewer seeds and fruit counts (about a minute).")] = False,
+    methods: Annotated[str, typer.Option(help="Methods, comma separated: bayes, bayes+masks, paper.")] = "bayes,bayes+masks,paper",
+    only: Annotated[str | None, typer.Option(help="Only these conditions, comma separated (e.g. paper-clean,greenhouse).")] = None,
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")] = None,
+) -> None:
+    """Fixed-seed simulated scenes: error, recall, precision, radius error and runtime per method."""
+    from rich.progress import Progress
+
+    from ..bench.accuracy import format_markdown, run_accuracy, save
+
+    with Progress(console=console, transient=True) as bar:
+        task = bar.add_task("accuracy benchmark", total=None)
+        results = run_accuracy(
+            quick=quick,
+            methods=tuple(m.strip() for m in methods.split(",")),
+            only=tuple(c.strip() for c in only.split(",")) if only else None,
+            progress=lambda msg: bar.update(task, description=msg),
+        )
+    # plain Markdown, so the table can be pasted as it is (the README's table comes from here)
+    print(format_markdown(results))
+    if output is not None:
+        save(results, str(output))
+        console.print(f"wrote {output}")
