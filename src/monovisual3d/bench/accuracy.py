@@ -53,7 +53,7 @@ from ..sim.simulate import simulate_views
 METHOD_OPTIONS: dict[str, dict[str, Any]] = {
     "bayes": {"method": "bayes", "use_masks": False},
     "bayes+masks": {"method": "bayes", "use_masks": True},
-    "paper": {"method": "paper", "kernel": "gaussian", "centre": "weighted", "resolution": 0.01},
+    "paper": {"method": "paper", "kernel": "gaussian", "centre": "weighted", "resolution": 0.01, "backend": "numba"},
 }
 
 #: Camera-pose error of the ``pose-error`` condition (1 std per axis), also the uncertainty stated to the method.
