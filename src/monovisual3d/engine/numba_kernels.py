@@ -860,6 +860,60 @@ def exp_shift(values, offset, out):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------- sparse (cells at any level)
+@njit(**_O)
+def sphere_bounds(T, intr, n, cm0, cm1, cm2, rho, uc, vc, ru, rv):  # pragma: no cover - compiled
+    """Pixel centre and half extents bounding the projection of balls (no distortion; vectorised).
+
+    A ball of radius ``rho`` around ``cm`` (grid frame) maps to points ``q + d``,
+    ``|d| <= rho``, in the optical frame; with ``z_q - rho > 0`` every point has
+    ``|x - x_q| <= rho * sqrt(1 + x_q**2) / (z_q - rho)`` (Cauchy-Schwarz on
+    ``(d_x, d_z) . (1, -x_q)``), likewise for y. Balls reaching the camera plane
+    get :data:`FAR_PX` half extents (no bound).
+    """
+    fx = intr[0]
+    fy = intr[1]
+    cx = intr[2]
+    cy = intr[3]
+    for e in range(n):
+        X = T[0, 0] * cm0[e] + T[0, 1] * cm1[e] + T[0, 2] * cm2[e] + T[0, 3]
+        Y = T[1, 0] * cm0[e] + T[1, 1] * cm1[e] + T[1, 2] * cm2[e] + T[1, 3]
+        Z = T[2, 0] * cm0[e] + T[2, 1] * cm1[e] + T[2, 2] * cm2[e] + T[2, 3]
+        zl = Z - rho[e]
+        ok = zl > 1e-9
+        iz = 1.0 / (Z if ok else 1.0)
+        izl = 1.0 / (zl if ok else 1.0)
+        xq = X * iz
+        yq = Y * iz
+        uc[e] = fx * xq + cx if ok else 0.0
+        vc[e] = fy * yq + cy if ok else 0.0
+        ru[e] = fx * rho[e] * math.sqrt(1.0 + xq * xq) * izl if ok else FAR_PX
+        rv[e] = fy * rho[e] * math.sqrt(1.0 + yq * yq) * izl if ok else FAR_PX
+
+
+@njit(**_O)
+def add_box_upper_row(kernel, par, q_cut, uc, vc, ru, rv, n, acc):  # pragma: no cover - compiled
+    """``acc[e] +=`` the maximum of one box's kernel over the rectangle ``uc +- ru, vc +- rv`` (branch free)."""
+    if kernel == 0:
+        x1 = par[0]
+        y1 = par[1]
+        x2 = par[2]
+        y2 = par[3]
+        for e in range(n):
+            hit = (uc[e] + ru[e] >= x1) & (uc[e] - ru[e] <= x2) & (vc[e] + rv[e] >= y1) & (vc[e] - rv[e] <= y2)
+            acc[e] += 1.0 if hit else 0.0
+    else:
+        cu = par[0]
+        cv = par[1]
+        a = par[2]
+        b = par[3]
+        for e in range(n):
+            du = max(abs(uc[e] - cu) - ru[e], 0.0)
+            dv = max(abs(vc[e] - cv) - rv[e], 0.0)
+            q = a * du * du + b * dv * dv
+            e_ = exp_neg(min(q, q_cut))
+            acc[e] += e_ if q <= q_cut else 0.0
+
+
 #: Candidate cells evaluated together (vector loops) by :func:`octree_eval`.
 OCTREE_CHUNK = 256
 
@@ -943,30 +997,73 @@ def octree_eval(
                 for e in range(n):
                     lp[e] += np.log(lk[e])
                     lk[e] = 1.0
-        for e in range(n):
-            c = c0 + e
-            out_log_point[c] = lp[e]
-            if scale == 1:
-                out_log_upper[c] = lp[e]
-                continue
-            lo0 = ijk[c, 0] * scale
-            lo1 = ijk[c, 1] * scale
-            lo2 = ijk[c, 2] * scale
-            hi0 = min(lo0 + scale, shape[0]) - 1
-            hi1 = min(lo1 + scale, shape[1]) - 1
-            hi2 = min(lo2 + scale, shape[2]) - 1
-            lu = 0.0
+        if scale == 1:  # fine cells: the bound is the value
+            for e in range(n):
+                out_log_point[c0 + e] = lp[e]
+                out_log_upper[c0 + e] = lp[e]
+            continue
+        # bound over each cell: views without distortion use a bounding sphere, vectorised over the
+        # chunk; views with distortion the interval bound of pixel_bounds, cell by cell
+        lu = np.zeros(n)
+        any_dist = False
+        for v in range(view_lo, view_hi):
+            any_dist |= dist_id[v] != 0
+        if view_hi > view_lo and not any_dist:
+            cm0 = np.empty(n)
+            cm1 = np.empty(n)
+            cm2 = np.empty(n)
+            rho = np.empty(n)
+            for e in range(n):
+                c = c0 + e
+                a0 = (ijk[c, 0] * scale + 0.5) * res
+                a1 = (ijk[c, 1] * scale + 0.5) * res
+                a2 = (ijk[c, 2] * scale + 0.5) * res
+                b0 = (min(ijk[c, 0] * scale + scale, shape[0]) - 0.5) * res
+                b1 = (min(ijk[c, 1] * scale + scale, shape[1]) - 0.5) * res
+                b2 = (min(ijk[c, 2] * scale + scale, shape[2]) - 0.5) * res
+                cm0[e] = 0.5 * (a0 + b0)
+                cm1[e] = 0.5 * (a1 + b1)
+                cm2[e] = 0.5 * (a2 + b2)
+                rho[e] = 0.5 * math.sqrt((b0 - a0) ** 2 + (b1 - a1) ** 2 + (b2 - a2) ** 2)
+            for e in range(n):
+                lk[e] = 1.0
             for v in range(view_lo, view_hi):
-                if lu < log_cut:
-                    break
-                ok, ul, uh, vl, vh = pixel_bounds(
-                    T, intr, dist, v, dist_id[v],
-                    (lo0 + 0.5) * res, (hi0 + 0.5) * res, (lo1 + 0.5) * res, (hi1 + 0.5) * res,
-                    (lo2 + 0.5) * res, (hi2 + 0.5) * res,
-                )  # fmt: skip
-                up = 0.0
+                sphere_bounds(T[v], intr[v], n, cm0, cm1, cm2, rho, ub, vb, fi, fj)
+                for e in range(n):
+                    acc[e] = 0.0
                 for b in range(box_off[v], box_off[v + 1]):
-                    ub_, _ = box_upper(kern_id[v], box_par, box_reach, b, q_cut, ok, ul, uh, vl, vh)
-                    up += ub_
-                lu += np.log(min(up * inv_n[v], 1.0))
-            out_log_upper[c] = lu
+                    add_box_upper_row(kern_id[v], box_par[b], q_cut, ub, vb, fi, fj, n, acc)
+                f = inv_n[v]
+                for e in range(n):
+                    lk[e] *= min(acc[e] * f, 1.0)
+                if (v - view_lo) % 16 == 15 or v == view_hi - 1:
+                    for e in range(n):
+                        lu[e] += np.log(lk[e])
+                        lk[e] = 1.0
+        else:
+            for e in range(n):
+                c = c0 + e
+                lo0 = ijk[c, 0] * scale
+                lo1 = ijk[c, 1] * scale
+                lo2 = ijk[c, 2] * scale
+                hi0 = min(lo0 + scale, shape[0]) - 1
+                hi1 = min(lo1 + scale, shape[1]) - 1
+                hi2 = min(lo2 + scale, shape[2]) - 1
+                bound = 0.0
+                for v in range(view_lo, view_hi):
+                    if bound < log_cut:
+                        break
+                    ok, ul, uh, vl, vh = pixel_bounds(
+                        T, intr, dist, v, dist_id[v],
+                        (lo0 + 0.5) * res, (hi0 + 0.5) * res, (lo1 + 0.5) * res, (hi1 + 0.5) * res,
+                        (lo2 + 0.5) * res, (hi2 + 0.5) * res,
+                    )  # fmt: skip
+                    up = 0.0
+                    for b in range(box_off[v], box_off[v + 1]):
+                        ub_, _ = box_upper(kern_id[v], box_par, box_reach, b, q_cut, ok, ul, uh, vl, vh)
+                        up += ub_
+                    bound += np.log(min(up * inv_n[v], 1.0))
+                lu[e] = bound
+        for e in range(n):
+            out_log_point[c0 + e] = lp[e]
+            out_log_upper[c0 + e] = lu[e]
