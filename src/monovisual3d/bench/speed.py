@@ -45,6 +45,8 @@ FULL_EDGES = (63, 126, 252)
 QUICK_EDGES = (32, 63)
 #: Side of the paper's cube, metres (2 x reach 0.6 m).
 CUBE_M = 1.2
+#: Methods of the headline table, in order.
+METHODS = ("naive-python", "numpy", "numba", "numba-filter", "sparse", "torch")
 
 
 @dataclass
@@ -282,6 +284,100 @@ def _row(method: str, kernel: str, grid: VoxelGrid, t: Timing, n_views: int, **e
     return out
 
 
+def _naive_row(
+    rows: list[dict[str, Any]], grid: VoxelGrid, camera: Camera, views: list[View], kernel: str,
+    rng: np.random.Generator, naive_cells: int, once: bool,
+) -> None:  # fmt: skip
+    """The per-cell Python loop on a random subsample of cells, extrapolated to the grid."""
+    n = grid.n_cells
+    cells = rng.choice(n, size=min(naive_cells, n), replace=False)
+    prior = np.full(n, 1.0 / n)
+    t = time_call(partial(_run_naive, grid, camera, views, kernel, cells, prior), 1 if once else 2, warmup=0)
+    f = n / len(cells)
+    t = Timing([w * f for w in t.wall], [c * f for c in t.cpu])
+    rows.append(_row("naive-python", kernel, grid, t, len(views), extrapolated_from_cells=len(cells), state_bytes_per_cell=8))
+
+
+def _numpy_row(
+    rows: list[dict[str, Any]], grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, repeats: int, big: bool
+) -> None:
+    """The numpy reference; its temporaries are measured with tracemalloc in a separate run."""
+    from ..filter import paper_update, paper_view_likelihood_grid
+
+    n = grid.n_cells
+    t = time_call(partial(_run_numpy, grid, camera, views, kernel), 1 if big else repeats, warmup=0 if big else 1)
+    tracemalloc.start()
+    tracemalloc.reset_peak()
+    p0 = np.full(n, 1.0 / n)
+    base = tracemalloc.get_traced_memory()[0]
+    paper_update(p0, paper_view_likelihood_grid(grid, camera, views[0], kernel, 0.5))
+    peak = tracemalloc.get_traced_memory()[1] - base
+    tracemalloc.stop()
+    rows.append(_row("numpy", kernel, grid, t, len(views), state_bytes_per_cell=8, peak_temp_bytes=int(peak)))
+
+
+def _numba_row(
+    rows: list[dict[str, Any]],
+    grid: VoxelGrid,
+    camera: Camera,
+    views: list[View],
+    kernel: str,
+    repeats: int,
+    meta: dict[str, Any],
+) -> None:
+    """The fused kernel's own state (float32, lazy normalisation); the reset to uniform is not timed."""
+    from ..engine.dense import DenseHistogram
+
+    h = DenseHistogram(grid, kernel=kernel)
+    t, first = Timing(), []
+    for r in range(repeats + 1):
+        h.reset()
+        c0, w0 = time.process_time(), time.perf_counter()
+        h.update_views(camera, views[0])
+        w1 = time.perf_counter()
+        for v in views[1:]:
+            h.update_views(camera, v)
+        if r:  # the first run is the warm-up
+            t.wall.append(time.perf_counter() - w0)
+            t.cpu.append(time.process_time() - c0)
+            first.append(w1 - w0)
+    rows.append(
+        _row(
+            "numba", kernel, grid, t, len(views), state_bytes_per_cell=h.memory_bytes / grid.n_cells,
+            first_view_ms=statistics.median(first) * 1e3, first_view_min_ms=min(first) * 1e3,
+            numba_threads=meta.get("numba_threads"),
+        )
+    )  # fmt: skip
+
+
+def _sparse_row(
+    rows: list[dict[str, Any]], grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, repeats: int
+) -> None:
+    """The coarse-to-fine path at the dense grid's resolution (root 16 cells up, threshold 1e-3)."""
+    from ..engine.params import pack_views
+
+    packed = pack_views(grid, camera, views, kernel, 0.5)
+    last: dict[str, Any] = {}
+    t = time_call(partial(_run_sparse, grid, packed, 4, 1e-3, last), repeats)
+    st = last["s"].stats
+    rows.append(
+        _row(
+            "sparse", kernel, grid, t, len(views), threshold=1e-3, active_cells=st["active_cells"],
+            peak_bytes=st["peak_bytes"], complete=st["complete"], final_resolution_mm=st["final_resolution_m"] * 1e3,
+        )
+    )  # fmt: skip
+
+
+def _torch_row(
+    rows: list[dict[str, Any]], grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, repeats: int, device: Any
+) -> None:
+    from ..engine.torch_backend import TorchDenseHistogram
+
+    h = TorchDenseHistogram(grid, kernel=kernel, device=str(device))
+    t = time_call(partial(_run_torch, h, camera, views), 1 if device.type == "cpu" else repeats)
+    rows.append(_row(f"torch-{device.type}", kernel, grid, t, len(views), state_bytes_per_cell=h.memory_bytes / grid.n_cells))
+
+
 def run_speed(
     *,
     quick: bool = False,
@@ -292,6 +388,8 @@ def run_speed(
     torch_device: str | None = None,
     sparse_refine_to: float = 0.001,
     scaling: bool = True,
+    threads: int | None = None,
+    methods: tuple[str, ...] = METHODS,
     progress: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Run the benchmark; returns a JSON-serialisable dict (``meta``, ``rows``, ``scaling``).
@@ -306,12 +404,16 @@ def run_speed(
     torch_device : torch device (default cuda when available, else cpu); torch runs only if importable
     sparse_refine_to : metres, effective resolution of the sparse path
     scaling : also run the scaling with views and boxes
+    threads : numba threads (default: numba's, usually one per core)
+    methods : which of :data:`METHODS` to run (torch only where importable)
     progress : callable(str), told what runs next
     """
-    from ..engine.dense import DenseHistogram
+    if threads is not None:
+        import numba
+
+        numba.set_num_threads(int(threads))
     from ..engine.params import pack_views
     from ..engine.sparse import levels_between
-    from ..filter import paper_update, paper_view_likelihood_grid
 
     say = progress or (lambda s: None)
     edges = tuple(edges or (QUICK_EDGES if quick else FULL_EDGES))
@@ -333,94 +435,37 @@ def run_speed(
 
     for edge in edges:
         grid = paper_grid(views, edge)
-        n = grid.n_cells
-        big = n > 4_000_000
+        big = grid.n_cells > 4_000_000
         for kernel in kernels:
             tag = f"{edge}^3 {kernel}"
-            # naive per-cell loop, subsample, extrapolated
-            say(f"naive {tag}")
-            cells = rng.choice(n, size=min(naive_cells, n), replace=False)
-            prior = np.full(n, 1.0 / n)
-
-            tn = time_call(partial(_run_naive, grid, camera, views, kernel, cells, prior), 1 if big or quick else 2, warmup=0)
-            f = n / len(cells)
-            tn = Timing([w * f for w in tn.wall], [c * f for c in tn.cpu])
-            rows.append(_row("naive-python", kernel, grid, tn, n_v, extrapolated_from_cells=len(cells), state_bytes_per_cell=8))
-
-            # numpy reference
-            say(f"numpy {tag}")
-
-            tr = time_call(partial(_run_numpy, grid, camera, views, kernel), 1 if big else repeats, warmup=0 if big else 1)
-            tracemalloc.start()
-            tracemalloc.reset_peak()
-            p0 = np.full(n, 1.0 / n)
-            base = tracemalloc.get_traced_memory()[0]
-            paper_update(p0, paper_view_likelihood_grid(grid, camera, views[0], kernel, 0.5))
-            peak = tracemalloc.get_traced_memory()[1] - base
-            tracemalloc.stop()
-            rows.append(_row("numpy", kernel, grid, tr, n_v, state_bytes_per_cell=8, peak_temp_bytes=int(peak)))
-
-            # fused numba, engine state (float32, lazy normalisation); the reset to uniform is not timed
-            say(f"numba {tag}")
-            h = DenseHistogram(grid, kernel=kernel)
-            tf, first = Timing(), []
-            for r in range(repeats + 1):
-                h.reset()
-                c0, w0 = time.process_time(), time.perf_counter()
-                h.update_views(camera, views[0])
-                w1 = time.perf_counter()
-                for v in views[1:]:
-                    h.update_views(camera, v)
-                if r:  # the first run is the warm-up
-                    tf.wall.append(time.perf_counter() - w0)
-                    tf.cpu.append(time.process_time() - c0)
-                    first.append(w1 - w0)
-            rows.append(
-                _row(
-                    "numba", kernel, grid, tf, n_v, state_bytes_per_cell=h.memory_bytes / n,
-                    first_view_ms=statistics.median(first) * 1e3, numba_threads=meta.get("numba_threads"),
-                )
-            )  # fmt: skip
-            del h
-
-            # fused numba through HistogramFilter's path (float64 prior in, normalised float32 out)
-            say(f"numba-filter {tag}")
-
-            tq = time_call(partial(_run_filter_path, grid, camera, views, kernel), repeats)
-            rows.append(_row("numba-filter", kernel, grid, tq, n_v, state_bytes_per_cell=4))
-
-            # sparse coarse-to-fine at the same resolution as the dense grid (root 4 levels up)
-            say(f"sparse {tag}")
-            packed = pack_views(grid, camera, views, kernel, 0.5)
-            last: dict[str, Any] = {}
-            ts = time_call(partial(_run_sparse, grid, packed, 4, 1e-3, last), repeats)
-            st = last["s"].stats
-            rows.append(
-                _row(
-                    "sparse", kernel, grid, ts, n_v, threshold=1e-3, active_cells=st["active_cells"],
-                    peak_bytes=st["peak_bytes"], complete=st["complete"], final_resolution_mm=st["final_resolution_m"] * 1e3,
-                )
-            )  # fmt: skip
-
-            # torch
-            if torch_dev is not None and not (big and torch_dev.type == "cpu"):
+            if "naive-python" in methods:
+                say(f"naive {tag}")
+                _naive_row(rows, grid, camera, views, kernel, rng, naive_cells, big or quick)
+            if "numpy" in methods:
+                say(f"numpy {tag}")
+                _numpy_row(rows, grid, camera, views, kernel, repeats, big)
+            if "numba" in methods:
+                say(f"numba {tag}")
+                _numba_row(rows, grid, camera, views, kernel, repeats, meta)
+            if "numba-filter" in methods:
+                say(f"numba-filter {tag}")
+                tq = time_call(partial(_run_filter_path, grid, camera, views, kernel), repeats)
+                rows.append(_row("numba-filter", kernel, grid, tq, n_v, state_bytes_per_cell=4))
+            if "sparse" in methods:
+                say(f"sparse {tag}")
+                _sparse_row(rows, grid, camera, views, kernel, repeats)
+            if "torch" in methods and torch_dev is not None and not (big and torch_dev.type == "cpu"):
                 say(f"torch-{torch_dev.type} {tag}")
-                from ..engine.torch_backend import TorchDenseHistogram
-
-                ht = TorchDenseHistogram(grid, kernel=kernel, device=str(torch_dev))
-
-                tq = time_call(partial(_run_torch, ht, camera, views), 1 if torch_dev.type == "cpu" else repeats)
-                rows.append(_row(f"torch-{torch_dev.type}", kernel, grid, tq, n_v, state_bytes_per_cell=ht.memory_bytes / n))
-                del ht
+                _torch_row(rows, grid, camera, views, kernel, repeats, torch_dev)
 
     # sparse at 1 mm effective resolution over the same cube (no dense grid could hold it: 1.7 G cells)
     sparse_fine: list[dict[str, Any]] = []
     fine = VoxelGrid.in_front_of_camera(views[0].T_base_optical, sparse_refine_to, CUBE_M / 2, max_bytes=2**62)
-    for kernel in kernels:
+    for kernel in kernels if "sparse" in methods else ():
         say(f"sparse {sparse_refine_to * 1e3:g} mm {kernel}")
         packed = pack_views(fine, camera, views, kernel, 0.5)
         levels = levels_between(0.016, sparse_refine_to)
-        last = {}
+        last: dict[str, Any] = {}
         t = time_call(partial(_run_sparse, fine, packed, levels, 1e-3, last), 1 if quick else max(2, repeats // 2))
         st = last["s"].stats
         sparse_fine.append(
@@ -490,8 +535,8 @@ def format_table(result: dict[str, Any]) -> list[list[str]]:
                 f"{pv['median']:.2f} [{pv['min']:.2f}-{pv['max']:.2f}]",
                 f"{pv['cpu_median']:.2f}",
                 f"{r['cells_per_s'] / 1e6:,.0f} M",
-                f"{speedup:,.0f}x",
-                f"{r.get('state_bytes_per_cell', math.nan):.1f}",
+                f"{speedup:,.0f}x" if math.isfinite(speedup) else "-",
+                f"{r['state_bytes_per_cell']:.1f}" if "state_bytes_per_cell" in r else "-",
                 extra,
             ]
         )

@@ -33,6 +33,10 @@ def speed(
     ] = None,
     refine_to: Annotated[float, typer.Option(help="Effective resolution (metres) of the sparse coarse-to-fine run.")] = 0.001,
     no_scaling: Annotated[bool, typer.Option("--no-scaling", help="Skip the scaling with views and boxes.")] = False,
+    threads: Annotated[int | None, typer.Option(min=1, help="numba threads (default: one per core).")] = None,
+    methods: Annotated[
+        str, typer.Option(help="Methods, comma separated: naive-python, numpy, numba, numba-filter, sparse, torch.")
+    ] = "naive-python,numpy,numba,numba-filter,sparse,torch",
 ) -> None:
     """Time the per-view update: naive Python loop, numpy, fused numba, sparse, torch."""
     from ..bench.speed import format_table, run_speed, write_json
@@ -42,17 +46,23 @@ def speed(
         edge_t = tuple(int(e) for e in edges.split(",")) if edges else None
     except ValueError:
         raise InputError(f"--edges: got {edges!r}, expected integers separated by commas") from None
+    from ..bench.speed import METHODS
+
+    chosen = tuple(m.strip() for m in methods.split(","))
+    for m in chosen:
+        if m not in METHODS:
+            raise InputError(f"--methods: got {m!r}, expected some of {', '.join(METHODS)}")
     kernels = tuple(k.strip() for k in kernel.split(","))
     for k in kernels:
         if k not in ("square", "gaussian"):
             raise InputError(f"--kernel: got {k!r}, expected square and/or gaussian")
     result = run_speed(
         quick=quick, edges=edge_t, kernels=kernels, repeats=repeats, torch_device=device, sparse_refine_to=refine_to,
-        scaling=not no_scaling, progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
+        scaling=not no_scaling, threads=threads, methods=chosen, progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
     )  # fmt: skip
     meta = result["meta"]
     table = Table(
-        title=f"Per-view update, {len(result['rows'][0:1]) and result['rows'][0]['views']} views, paper scene "
+        title="Per-view update, mean of the paper's 3 views, paper scene "
         f"({meta['cpu']}, {meta['cores']} cores, numba {meta.get('numba')}, load {meta.get('load_average_1m', float('nan')):.1f})"
     )
     for col in ("method", "kernel", "cells", "ms/view median [min-max]", "CPU ms", "cells/s", "vs naive", "B/cell", "notes"):
