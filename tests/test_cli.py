@@ -165,3 +165,15 @@ def test_evaluate_bad_inputs(runner: CliRunner, tmp_path: Path) -> None:
 def test_console_scripts_are_registered() -> None:
     scripts = {ep.name: ep.value for ep in entry_points(group="console_scripts") if ep.name in ("monovisual3d", "mv3d")}
     assert scripts == {"monovisual3d": "monovisual3d.cli:main", "mv3d": "monovisual3d.cli:main"}
+
+
+def test_paper_only_options_are_rejected_for_bayes(runner: CliRunner) -> None:
+    result = runner.invoke(app, ["localize", str(example_session_path()), "--kernel", "square"])
+    assert result.exit_code == 2
+    assert "--kernel: applies to --method paper only, got --method bayes" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_evaluate_rejects_a_non_positive_gate(runner: CliRunner) -> None:
+    result = runner.invoke(app, ["evaluate", str(example_truth_path()), str(example_truth_path()), "--gate", "-1"])
+    assert result.exit_code == 2 and "--gate" in result.output

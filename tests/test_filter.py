@@ -183,7 +183,7 @@ def test_view_that_no_cell_projects_into_is_skipped() -> None:
     f = HistogramFilter(cam, PaperConfig(kernel="square"), grid=grid)
     before = f.posterior.copy()
     away = look_at([0.0, 0.0, 0.0], [-1.0, 0.0, 0.0])  # looking away from the grid
-    with pytest.warns(InputWarning, match=r"views\[0\]: no grid cell is consistent with this view's boxes"):
+    with pytest.warns(InputWarning, match=r"views\[0\]: none of this view.s boxes looks into the grid"):
         assert not f.update(view(away, [300.0, 220.0, 340.0, 260.0]))
     assert_allclose(f.posterior, before)
     assert f.views_used == [] and f.estimate() == []

@@ -537,3 +537,48 @@ def test_nan_from_json_text_is_rejected(tmp_path: Path, valid_session: dict[str,
     path.write_text(json.dumps(valid_session).replace('462.4, "cx"', 'NaN, "cx"'))
     with pytest.raises(InputError, match="^" + re.escape(f"{path}: camera.fy: got nan, expected a finite number")):
         load_session(path)
+
+
+# ---------------------------------------------------------------------- masks are validated at load
+def _session_with_mask(mask):
+    return {
+        "camera": {"width": 640, "height": 480, "hfov_deg": 69.0},
+        "views": [
+            {
+                "pose": {"position": [0, 0, 0], "quaternion_xyzw": [0, 0, 0, 1]},
+                "detections": [{"bbox_xyxy": [300, 220, 340, 260], "mask": mask}],
+            }
+        ],
+    }
+
+
+@pytest.mark.parametrize(
+    ("mask", "match"),
+    [
+        ({"polygon": [[1, 2], [3], [4, 5]]}, r"views\[0\]\.detections\[0\]\.mask\.polygon\[1\]: expected 2 numbers"),
+        ({"polygon": "abc"}, r"mask\.polygon: expected a list of at least 3"),
+        ({"polygon": [[1, 2], [3, 4]]}, r"mask\.polygon: expected a list of at least 3"),
+        ({"size": [480, 640], "counts": "zzz!!"}, r"mask\.counts: not a valid COCO compressed RLE"),
+        ({"size": [480, 640], "counts": [1, 2]}, r"mask\.counts: run lengths sum to 3"),
+        (
+            {"size": [100, 100], "counts": [10000]},
+            r"mask\.size: got \[100, 100\], expected the image size \[height, width\] = \[480, 640\]",
+        ),
+        ({"size": [480, 640], "counts": [307200]}, r"mask\.counts: the mask is empty"),
+    ],
+)
+def test_bad_masks_fail_at_load_with_the_file_name(tmp_path, mask, match):
+    import json
+
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(_session_with_mask(mask)))
+    with pytest.raises(InputError, match=match) as info:
+        load_session(path)
+    assert str(info.value).startswith(f"{path}: ")
+
+
+def test_far_camera_position_warns_about_millimetres():
+    data = _session_with_mask({"polygon": [[300, 220], [340, 220], [320, 260]]})
+    data["views"][0]["pose"]["position"] = [100.0, 0.0, 450.0]
+    with pytest.warns(InputWarning, match=r"views\[0\]\.pose\.position: camera 461 m from the base origin; positions are metres"):
+        load_session(data)

@@ -147,6 +147,17 @@ def paper_update(prior: NDArray[np.floating], likelihood: NDArray[np.floating]) 
     return post / s
 
 
+def view_sees_grid(grid: VoxelGrid, camera: Camera, view: View, step: int = 4) -> bool:
+    """Whether any grid cell can project into one of the view's boxes (checked on every ``step``-th cell per axis)."""
+    from .bayes.search import cone_counts  # late import: bayes imports this module's package
+
+    sub = [np.arange(0, n, step) for n in grid.shape]
+    ijk = np.stack(np.meshgrid(*sub, indexing="ij"), axis=-1).reshape(-1, 3)
+    centres = transform_points(grid.T_base_grid, (ijk + 0.5) * grid.resolution)
+    half_diagonal = step * grid.resolution * np.sqrt(3) / 2
+    return bool(cone_counts(camera, [view], centres, half_diagonal, widen=0.0).any())
+
+
 class HistogramFilter:
     """Incremental histogram filter over a voxel grid (the paper's method).
 
@@ -223,6 +234,12 @@ class HistogramFilter:
             )
             self._posterior = np.full(self.grid.n_cells, 1.0 / self.grid.n_cells)
         assert self._posterior is not None
+        if not view_sees_grid(self.grid, self.camera, view):
+            self._warn(
+                f"views[{index}]: none of this view's boxes looks into the grid (workspace); view skipped "
+                "(check the workspace, pose units (metres) and quaternion order (x, y, z, w))"
+            )
+            return False
         if self.config.backend != "numpy":
             from .engine import paper_update_backend
 

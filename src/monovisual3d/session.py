@@ -31,6 +31,8 @@ from .frames import (
 )
 
 POSE_FRAMES = ("optical", "camera_link")
+#: A camera farther than this from the base origin (metres) is flagged: probably millimetres.
+MAX_PLAUSIBLE_DISTANCE_M = 20.0
 
 
 def _fields_equal(self: Any, other: object) -> bool:
@@ -335,6 +337,16 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
     if "pose" not in data:
         raise InputError(f"{where}.pose: missing field, expected position + quaternion_xyzw or matrix")
     T = pose_from_dict(data["pose"], f"{where}.pose")
+    distance = float(np.linalg.norm(T[:3, 3]))
+    if distance > MAX_PLAUSIBLE_DISTANCE_M:
+        key = "matrix" if "matrix" in data["pose"] else "position"
+        where_src = f"{source}: " if source else ""
+        warnings.warn(
+            InputWarning(
+                f"{where_src}{where}.pose.{key}: camera {distance:.0f} m from the base origin; positions are metres (millimetres by mistake?)"
+            ),
+            stacklevel=3,
+        )
     if pose_frame == "camera_link":
         T = T_base_optical_from_T_base_cameralink(T)
     dets_data = data.get("detections")
@@ -345,7 +357,7 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
     prefix = f"{source}: " if source else ""
     if not dets_data:
         warnings.warn(
-            InputWarning(f"{prefix}{where}: no detections; the view is kept and the paper method skips it (no boxes to score)"),
+            InputWarning(f"{prefix}{where}: no detections; the view is kept, but it has no box to localise with"),
             stacklevel=3,
         )
     dets = tuple(_detection_from_dict(d, f"{where}.detections[{j}]", camera, prefix) for j, d in enumerate(dets_data))
@@ -388,10 +400,38 @@ def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> 
         label = str(label)
     mask = data.get("mask")
     if mask is not None:
-        _expect_object(mask, f"{where}.mask")
-        if not ({"polygon"} <= set(mask) or {"counts", "size"} <= set(mask)):
-            raise InputError(f"{where}.mask: expected {{'polygon': [[u, v], ...]}} or COCO RLE {{'size': [h, w], 'counts': ...}}")
+        _check_mask(mask, f"{where}.mask", camera)
     return Detection(bbox_xyxy=clipped, score=score, label=label, mask=mask)
+
+
+def _check_mask(mask: Any, where: str, camera: Camera) -> None:
+    """Validate an instance mask now, so that a bad mask fails at load with the session's file name."""
+    _expect_object(mask, where)
+    if "polygon" in mask:
+        _reject_unknown(mask, {"polygon"}, where)
+        poly = mask["polygon"]
+        if not isinstance(poly, list) or len(poly) < 3:
+            raise InputError(f"{where}.polygon: expected a list of at least 3 [u, v] points (pixels)")
+        for i, pt in enumerate(poly):
+            _vector(pt, 2, f"{where}.polygon[{i}]")
+        return
+    if not {"counts", "size"} <= set(mask):
+        raise InputError(f"{where}: expected {{'polygon': [[u, v], ...]}} or COCO RLE {{'size': [h, w], 'counts': ...}}")
+    _reject_unknown(mask, {"counts", "size"}, where)
+    size = mask["size"]
+    expected = [camera.height, camera.width]
+    if not isinstance(size, list) or len(size) != 2 or [v for v in size if isinstance(v, bool) or not isinstance(v, int)]:
+        raise InputError(f"{where}.size: expected [height, width] = {expected}, got {size!r}")
+    if size != expected:
+        raise InputError(f"{where}.size: got {size}, expected the image size [height, width] = {expected}")
+    from .bayes.masks import decode_rle  # late import: the bayes package imports this module
+
+    try:
+        pixels = decode_rle(mask)
+    except InputError as exc:
+        raise InputError(f"{where}.{str(exc).removeprefix('mask.')}") from None
+    if not pixels.any():
+        raise InputError(f"{where}.counts: the mask is empty, expected the detection's pixels")
 
 
 # ---------------------------------------------------------------------- helpers

@@ -238,3 +238,15 @@ def test_single_view_localises_nothing_with_warning():
     with pytest.warns(mv.InputWarning, match="at least 2"):
         res = mv.localize(s)
     assert res.objects == []
+
+
+def test_inconsistent_views_warn_instead_of_silently_finding_nothing():
+    # the same fruit, but one view's pose given in millimetres by mistake
+    s = session_for([TARGET], [0.03], paper_like_poses())
+    T = s.views[1].T_base_optical.copy()
+    T[:3, 3] *= 1000.0
+    views = (s.views[0], View(T, s.views[1].detections), View(s.views[2].T_base_optical.copy() * 1, ()))
+    with pytest.warns(mv.InputWarning, match="no object is consistent across them"):
+        res = mv.localize(Session(CAM, views))
+    assert res.objects == []
+    assert any("no object is consistent" in w for w in res.warnings)

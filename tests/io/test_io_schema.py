@@ -86,7 +86,7 @@ GOOD = {
     "null_workspace": doc(workspace=None),
     "empty_detections": doc(views__0__detections=[]),
     "polygon_mask": doc(views__0__detections__0__mask={"polygon": [[300, 220], [340, 220], [320, 260]]}),
-    "rle_mask": doc(views__0__detections__0__mask={"size": [480, 640], "counts": "abc"}),
+    "rle_mask": doc(views__0__detections__0__mask={"size": [480, 640], "counts": [1000, 50, 306150]}),
     "nulls": doc(views__0__detections__0__score=None, views__0__image=None, views__0__stamp=None),
     "extras": doc(metadata={"anything": [1, 2]}, views__0__name="v0", views__0__stamp=12.5, views__0__image="a.png"),
     "numeric_label": doc(views__0__detections__0__label=3, views__0__detections__0__class_id=3),

@@ -39,7 +39,10 @@ def decode_rle(rle: dict[str, Any]) -> NDArray[np.bool_]:
         raise InputError("mask.size: expected [height, width]") from None
     counts = rle.get("counts")
     if isinstance(counts, str):
-        counts = _decode_compressed_counts(counts)
+        try:
+            counts = _decode_compressed_counts(counts)
+        except IndexError:
+            raise InputError("mask.counts: not a valid COCO compressed RLE string") from None
     if not isinstance(counts, list) or not all(isinstance(c, int) and c >= 0 for c in counts):
         raise InputError("mask.counts: expected a list of non-negative run lengths or a COCO compressed string")
     if sum(counts) != h * w:

@@ -563,6 +563,13 @@ def localize_bayes(session: Session, *, progress: Callable[[int, int], None] | N
         warnings.warn(InputWarning(msg), stacklevel=2)
         messages.append(msg)
     objects = loc.estimate()
+    if n_with >= config.min_views and not objects:
+        msg = (
+            f"{n_with} views have detections but no object is consistent across them; check that positions are metres, "
+            "quaternions are (x, y, z, w), pose_frame is right, and that the views look at the same fruit"
+        )
+        warnings.warn(InputWarning(msg), stacklevel=2)
+        messages.append(msg)
     t1 = time.perf_counter()
     grid = loc.grid.to_dict() if loc.grid is not None else {}
     grid.update(loc.last_hypotheses)

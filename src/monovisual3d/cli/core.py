@@ -96,6 +96,10 @@ def localize(
             options[name] = value
     if k is not None:
         options["k"] = int(k) if k.isdigit() else k
+    if method != "paper":
+        for name in ("kernel", "centre", "sigma_fraction", "k", "reach"):
+            if name in options and not (name == "reach" and method == "bayes"):
+                raise InputError(f"--{name.replace('_', '-')}: applies to --method paper only, got --method {method}")
     for name, value in (("pose_sigma_mm", pose_sigma_mm), ("pose_sigma_deg", pose_sigma_deg)):
         if value is not None:
             if method != "bayes":
@@ -126,13 +130,15 @@ def localize(
 @handle_errors
 def evaluate(
     estimates: Annotated[Path, typer.Argument(help="Result JSON written by `localize --output`.")],
-    truth: Annotated[Path, typer.Argument(help='Truth JSON: {"objects": [{"position": [x, y, z], "radius": r}]}.')],
+    truth: Annotated[Path, typer.Argument(help='Truth JSON: {"objects": \\[{"position": \\[x, y, z], "radius": r}]}.')],
     gate: Annotated[
         float | None, typer.Option(help="Match gate in metres for recall/precision (default: true radius, >= 20 mm).")
     ] = None,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the metrics JSON here.")] = None,
 ) -> None:
     """Compare estimates with ground truth: Euclidean error, MAE, MSE, RMSE, MAPE, recall, precision."""
+    if gate is not None and not gate > 0:
+        raise InputError(f"--gate: got {gate}, expected a positive distance in metres")
     est = load_objects(estimates)
     tru = load_objects(truth, allow_empty=False)
     m = evaluate_fn(
