@@ -250,3 +250,22 @@ def test_inconsistent_views_warn_instead_of_silently_finding_nothing():
         res = mv.localize(Session(CAM, views))
     assert res.objects == []
     assert any("no object is consistent" in w for w in res.warnings)
+
+
+def test_batched_box_residuals_equal_the_per_observation_ones():
+    from monovisual3d.bayes.refine import Observation, box_residuals_batch, observation_residuals
+
+    rng = np.random.default_rng(5)
+    poses = paper_like_poses()
+    c, r = TARGET + rng.normal(0, 0.02, 3), 0.03
+    obs = []
+    for i, T in enumerate(poses):
+        b = sphere_bbox(CAM, T, c + rng.normal(0, 0.003, 3), r * 1.05) + rng.normal(0, 1.0, 4)
+        if i == 1:
+            b[0] = 0.0  # a censored (border) edge
+        obs.append(Observation(invert_transform(T), b, None, extra_sigma_px=0.7 * i))
+    model = SensorModel()
+    loop = np.concatenate(
+        [observation_residuals(CAM, ob.T_optical_base[:3, :3] @ c + ob.T_optical_base[:3, 3], r, ob, model) for ob in obs]
+    )
+    assert_allclose(box_residuals_batch(CAM, c, r, obs, model), loop, rtol=1e-12, atol=1e-12)

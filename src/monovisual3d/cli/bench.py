@@ -90,6 +90,13 @@ def speed(
             f"boxes {r['boxes']}: {r['per_view_ms']['median']:.2f} ms/view ({r['cells'] / 1e6:.2f} M cells, gaussian)",
             highlight=False,
         )
+    for r in result.get("end_to_end", []):
+        sec = r["seconds"]
+        console.print(
+            f"end-to-end localize, paper scene (6 fruit, 3 views), {r['config']}: {1e3 * sec['median']:.0f} ms "
+            f"[{1e3 * sec['min']:.0f}-{1e3 * sec['max']:.0f}]",
+            highlight=False,
+        )
     if output is not None:
         write_json(result, str(output))
         console.print(f"wrote {output}", highlight=False)
