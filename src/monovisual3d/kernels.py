@@ -97,21 +97,28 @@ def paper_view_likelihood_slow(
     import math
 
     out = np.zeros(len(uv))
-    n = len(boxes_xyxy)
     for i in range(len(uv)):
         u, v = float(uv[i, 0]), float(uv[i, 1])
-        if not (math.isfinite(u) and math.isfinite(v)):
-            continue
-        acc = 0.0
-        for x1, y1, x2, y2 in boxes_xyxy:
-            if kernel == "square":
-                acc += 1.0 if (x1 <= u <= x2 and y1 <= v <= y2) else 0.0
-            else:
-                sx, sy = sigma_fraction * (x2 - x1), sigma_fraction * (y2 - y1)
-                du, dv = u - 0.5 * (x1 + x2), v - 0.5 * (y1 + y2)
-                acc += math.exp(-(du * du / (2 * sx * sx) + dv * dv / (2 * sy * sy)))
-        out[i] = acc / n
+        if math.isfinite(u) and math.isfinite(v):
+            out[i] = paper_cell_likelihood(u, v, boxes_xyxy, kernel, sigma_fraction)
     return out
+
+
+def paper_cell_likelihood(
+    u: float, v: float, boxes_xyxy: NDArray[np.floating] | list[tuple[float, ...]], kernel: str, sigma_fraction: float
+) -> float:
+    """The paper's mixture (Eq. 1) for one projected cell ``(u, v)``, box by box in plain Python (Algorithm 1's inner loop)."""
+    import math
+
+    acc = 0.0
+    for x1, y1, x2, y2 in boxes_xyxy:
+        if kernel == "square":
+            acc += 1.0 if (x1 <= u <= x2 and y1 <= v <= y2) else 0.0
+        else:
+            sx, sy = sigma_fraction * (x2 - x1), sigma_fraction * (y2 - y1)
+            du, dv = u - 0.5 * (x1 + x2), v - 0.5 * (y1 + y2)
+            acc += math.exp(-(du * du / (2 * sx * sx) + dv * dv / (2 * sy * sy)))
+    return acc / len(boxes_xyxy)
 
 
 def check_kernel(kernel: str) -> None:

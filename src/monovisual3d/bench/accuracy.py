@@ -28,7 +28,6 @@ information.
 from __future__ import annotations
 
 import json
-import platform
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -37,7 +36,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import __version__
 from ..bayes.likelihood import predict_boxes
 from ..bayes.masks import encode_rle
 from ..errors import InputError
@@ -48,6 +46,7 @@ from ..sim.noise import NoiseModel
 from ..sim.scene import Scene
 from ..sim.scenes import default_camera, greenhouse_scene, paper_scene, random_scene
 from ..sim.simulate import simulate_views
+from .speed import machine_metadata
 
 #: Options of each benchmarked method (passed to :func:`monovisual3d.localize`).
 METHOD_OPTIONS: dict[str, dict[str, Any]] = {
@@ -260,35 +259,7 @@ def run_accuracy(
             "options": cond.options,
             "methods": {m: p.summary() for m, p in pools.items()},
         }
-    return {"benchmark": "accuracy", "quick": quick, "machine": machine_info(), "results": results, "targets": TARGETS}
-
-
-def machine_info() -> dict[str, Any]:
-    """Where a benchmark ran: CPU, cores, Python and library versions."""
-    import os
-
-    import numba
-    import scipy
-
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return {
-        "cpu": cpu,
-        "cores": os.cpu_count(),
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "scipy": scipy.__version__,
-        "numba": numba.__version__,
-        "monovisual3d": __version__,
-        "date": time.strftime("%Y-%m-%d"),
-    }
+    return {"benchmark": "accuracy", "quick": quick, "machine": machine_metadata(), "results": results, "targets": TARGETS}
 
 
 def check_targets(results: dict[str, Any]) -> list[tuple[str, str, float, str, float, bool]]:
@@ -311,7 +282,8 @@ def format_markdown(results: dict[str, Any]) -> str:
     """The benchmark table (Markdown), one row per condition and method, then the target check."""
     m = results["machine"]
     lines = [
-        f"Machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}, numba {m['numba']}; {m['date']}"
+        f"Machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}, numba {m.get('numba')}; "
+        f"{m['date_utc'][:10]}, load average {m.get('load_average_1m', float('nan')):.1f}"
         + (" (quick mode)" if results["quick"] else ""),
         "",
         "| condition | method | runs | mean mm | median mm | max mm | recall | precision | radius err mm | runtime s |",

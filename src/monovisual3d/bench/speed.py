@@ -37,6 +37,7 @@ import numpy as np
 from .. import __version__
 from ..camera import Camera
 from ..grid import VoxelGrid
+from ..kernels import paper_cell_likelihood
 from ..session import Detection, View
 
 #: Grid edges (cells per axis) of the full benchmark: 63**3 = 0.25 M, 126**3 = 2 M, 252**3 = 16 M.
@@ -185,7 +186,6 @@ def naive_update(
     fx, fy, cx, cy = camera.fx, camera.fy, camera.cx, camera.cy
     model, d = camera.distortion_model, list(camera.distortion_coefficients) + [0.0] * 8
     boxes = view.boxes_xyxy.tolist()
-    n = len(boxes)
     ni, nj, nk = grid.shape
     res = grid.resolution
     total = 0.0
@@ -208,15 +208,7 @@ def naive_update(
                 y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y,
             )
         u, v = fx * x + cx, fy * y + cy
-        acc = 0.0
-        for x1, y1, x2, y2 in boxes:
-            if kernel == "square":
-                acc += 1.0 if (x1 <= u <= x2 and y1 <= v <= y2) else 0.0
-            else:
-                sx, sy = sigma_fraction * (x2 - x1), sigma_fraction * (y2 - y1)
-                du, dv = u - 0.5 * (x1 + x2), v - 0.5 * (y1 + y2)
-                acc += math.exp(-(du * du / (2 * sx * sx) + dv * dv / (2 * sy * sy)))
-        p = prior[c] * acc / n
+        p = prior[c] * paper_cell_likelihood(u, v, boxes, kernel, sigma_fraction)
         prior[c] = p
         total += p
     return total
