@@ -486,6 +486,7 @@ def run_speed(
 #: End-to-end configurations: name -> localize options.
 END_TO_END: dict[str, dict[str, Any]] = {
     "bayes (default)": {"method": "bayes"},
+    "bayes, 2 cm scored grid": {"method": "bayes", "resolution": 0.02},
     "paper, square, 1 cm, numba": {"method": "paper", "kernel": "square", "resolution": 0.01, "backend": "numba"},
     "paper, gaussian, 1 cm, numba": {"method": "paper", "kernel": "gaussian", "resolution": 0.01, "backend": "numba"},
     "paper, gaussian, 1 cm, numpy": {"method": "paper", "kernel": "gaussian", "resolution": 0.01},
