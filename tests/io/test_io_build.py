@@ -124,13 +124,15 @@ def test_build_session_errors(tmp_path):
         build_session(scene.CAMERA, traj, frames)
     frames = [ImageDetections("img_000.png", image_size=(1280, 960), source="r.json")]
     with pytest.raises(
-        InputError, match=r"r.json: image img_000.png is 1280x960 but the camera is 640x480: .*image_size=1280x960"
+        InputError,
+        match=r"r.json: image img_000.png is 1280x960 but the calibration is 640x480: "
+        r"pass --image-size 1280x960 \(image_size=\(1280, 960\)\)",
     ):
         build_session(scene.CAMERA, traj, frames)
-    with pytest.raises(InputError, match="match by stamp: the poses have no time stamps"):
+    with pytest.raises(InputError, match=r"p.json: --match stamp \(match='stamp'\): the poses have no time stamps"):
         build_session(scene.CAMERA, read_poses(tmp_path / "p.json"), [ImageDetections(None, 1.0)], match="stamp")
-    with pytest.raises(InputError, match="match='order': 4 poses but 1 images"):
-        build_session(scene.CAMERA, traj, [ImageDetections("a.png")], match="order")
+    with pytest.raises(InputError, match=r"poses.csv: --match order \(match='order'\): 4 poses but a.txt has 1 images"):
+        build_session(scene.CAMERA, traj, [ImageDetections("a.png", source="a.txt")], match="order")
 
 
 def scene_pose_file(tmp_path):
@@ -165,3 +167,83 @@ def test_cli_import_reports_errors_in_one_line(tmp_path):
     assert "poses.txt: line 1: 7 values, expected 8" in res.output
     assert "Traceback" not in res.output
     assert not (tmp_path / "s.json").exists()
+
+
+def test_csv_boxes_of_smaller_images_stop_the_import(fixtures, tmp_path):
+    """Boxes in 640x480 pixels against the OAK's 4056x3040 calibration: the import stops and names --image-size."""
+    args = ["import", "--camera", str(fixtures / "depthai_oak1.json"), "--poses", str(fixtures / "poses.csv")]
+    args += ["--detections", str(fixtures / "detections.csv"), "-o", str(tmp_path / "s.json")]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 2, res.output
+    message = res.stderr.strip().splitlines()[-1]
+    assert message.startswith(f"error: {fixtures / 'detections.csv'}: all 3 boxes lie within x <= 413, y <= 270 px")
+    assert "4056x3040 calibration image" in message and "--image-size WxH" in message
+    assert not (tmp_path / "s.json").exists()
+    # stated: the camera is scaled to the detector's images and the boxes stay as they are
+    with pytest.warns(InputWarning, match=r"views\[2\]: no detections"):  # img_002 has none in the fixture
+        res = CliRunner().invoke(app, [*args, "--image-size", "640x480"])
+        assert res.exit_code == 0, res.output
+        session = load_session(tmp_path / "s.json")
+    assert session.camera.size == (640, 480)
+    assert_allclose(session.views[0].boxes_xyxy[0], [288, 210, 352, 270])
+    # boxes that really are in calibration pixels are accepted once the size is stated
+    with pytest.warns(InputWarning, match=r"views\[2\]: no detections"):
+        res = CliRunner().invoke(app, [*args, "--image-size", "4056x3040"])
+        assert res.exit_code == 0, res.output
+        assert load_session(tmp_path / "s.json").camera.size == (4056, 3040)
+
+
+def test_box_extent_check_applies_to_given_frames_without_a_size(fixtures):
+    frames = [ImageDetections(f"img_00{i}.png", detections=(Detection(np.array([100.0, 80, 140, 120])),)) for i in range(3)]
+    with pytest.raises(InputError, match=r"all 3 boxes lie within x <= 140, y <= 120 px.*--image-size WxH"):
+        import_session(fixtures / "depthai_oak1.json", fixtures / "poses.csv", frames)
+    result = import_session(fixtures / "depthai_oak1.json", fixtures / "poses.csv", frames, image_size=(640, 480))
+    assert result.session.camera.size == (640, 480)
+
+
+def test_yolo_summary_says_which_size_the_boxes_were_scaled_to(tmp_path):
+    poses = scene.camera_poses()
+    scene.write_camera_info_yaml(tmp_path / "camera.yaml")
+    scene.write_pose_csv(tmp_path / "poses.csv", poses)
+    scene.write_yolo_labels(tmp_path / "labels", poses)
+    result = import_session(tmp_path / "camera.yaml", tmp_path / "poses.csv", tmp_path / "labels")
+    assert any(
+        n.startswith("YOLO boxes are normalised: scaled to 640x480 pixels, the calibration's image size")
+        for n in result.summary.notes
+    )
+    result = import_session(tmp_path / "camera.yaml", tmp_path / "poses.csv", tmp_path / "labels", image_size=(320, 240))
+    assert "YOLO boxes are normalised: scaled to 320x240 pixels, the size given by --image-size" in result.summary.notes
+
+
+def test_tum_poses_with_yolo_labels_named_by_frame_need_match_order(tmp_path, reference_positions):
+    poses = scene.camera_poses()
+    scene.write_camera_info_yaml(tmp_path / "camera.yaml")
+    scene.write_tum(tmp_path / "poses.txt", poses, [scene.T0 + i for i in range(4)])
+    scene.write_yolo_labels(tmp_path / "labels", poses)  # img_000.txt ...: names, no stamps
+    with pytest.raises(InputError) as err:
+        import_session(tmp_path / "camera.yaml", tmp_path / "poses.txt", tmp_path / "labels")
+    message = str(err.value)
+    assert f"cannot match the poses of {tmp_path / 'poses.txt'} (stamps, no image names)" in message
+    assert f"to the detections of {tmp_path / 'labels'} (image names, no stamps)" in message
+    assert message.endswith("pass --match order (match='order')")
+    result = import_session(tmp_path / "camera.yaml", tmp_path / "poses.txt", tmp_path / "labels", match="order")
+    assert "paired poses and images in order (--match order): pose 0 with img_000, ..., pose 3 with img_003" in (
+        result.summary.notes
+    )
+    assert_same_views(result.session, scene.direct_session_dict())
+
+
+def test_cli_errors_name_the_file_and_the_options(fixtures, tmp_path):
+    args = ["import", "--camera", str(fixtures / "depthai_oak1.json"), "--poses", str(fixtures / "poses.csv")]
+    args += ["--detections", str(fixtures / "detections.csv"), "-o", str(tmp_path / "s.json")]
+    res = CliRunner().invoke(app, [*args, "--image-size", "1920x1080"])
+    assert res.exit_code == 2
+    assert f"error: {fixtures / 'depthai_oak1.json'}: --image-size (image_size): the detections' 1920x1080" in res.stderr
+    assert "--resize stretch or --resize crop" in res.stderr and "--crop X1,Y1,X2,Y2" in res.stderr
+    args[4] = str(fixtures / "poses_tum.txt")
+    res = CliRunner().invoke(app, [*args, "--image-size", "640x480", "--match", "order"])
+    assert res.exit_code == 2
+    assert f"{fixtures / 'poses_tum.txt'}: --match order (match='order'): 4 poses but" in res.stderr
+    res = CliRunner().invoke(app, [*args, "--image-size", "640x480", "--max-gap", "-1"])
+    assert res.exit_code == 2
+    assert "--max-gap (max_gap): got -1.0" in res.stderr

@@ -238,7 +238,7 @@ def test_format_is_detected_from_content(fixtures, name, fmt):
 def test_unrecognised_and_explicit_formats(fixtures):
     with pytest.raises(InputError, match=r"calibration: unrecognised calibration \(top-level keys \['foo'\]\)"):
         read_calibration({"foo": 1})
-    with pytest.raises(InputError, match=r"format: got 'matlab', expected one of"):
+    with pytest.raises(InputError, match=r"ros_camera_info.yaml: --camera-format \(format\): got 'matlab', expected one of"):
         read_calibration(fixtures / "ros_camera_info.yaml", format="matlab")
     cam = read_calibration({"width": 640, "height": 480, "fx": 500, "fy": 500, "cx": 320, "cy": 240})
     assert cam.cx == 320.0  # this project's own convention: no shift
@@ -268,7 +268,7 @@ def test_crop_camera_and_explicit_isp_crop(fixtures, rng):
     isp = read_calibration(fixtures / "depthai_oak1.json", crop_xyxy=(108, 440, 3948, 2600), image_size=(1920, 1080))
     p = points_in_view(rng, 50, 0.2)
     assert_allclose(isp.project(p), (cam.project(p) - [108, 440]) / 2, atol=1e-9)
-    with pytest.raises(InputError, match="crop_xyxy: .* is not a region inside the 4056x3040 image"):
+    with pytest.raises(InputError, match=r"--crop \(crop_xyxy\): .* is not a region inside the 4056x3040 image"):
         crop_camera(cam, (0, 0, 5000, 100))
 
 

@@ -176,7 +176,7 @@ def test_filter_records_every_left_out_detection():
         ("detection", "no label"): 1,
     }
     assert any("no score and were kept" in n for n in summary.notes)
-    with pytest.raises(InputError, match=r"min_score: got 2.0, expected a value in \[0, 1\]"):
+    with pytest.raises(InputError, match=r"--min-score \(min_score\): got 2.0, expected a value in \[0, 1\]"):
         filter_detections([], min_score=2)
 
 

@@ -141,7 +141,7 @@ def test_interpolation_gap_rules(rng):
     assert why[1] == "poses 0.5 s before and 0.5 s after, both more than max_gap 0.1 s"
     assert why[3] == "0.5 s before the first pose, more than max_gap 0.1 s"
     assert why[4] == "0.15 s after the last pose, more than max_gap 0.1 s"
-    with pytest.raises(InputError, match="max_gap: got -1.0, expected seconds >= 0"):
+    with pytest.raises(InputError, match=r"--max-gap \(max_gap\): got -1.0, expected seconds >= 0"):
         interpolate_poses(st, T, [0.0], max_gap=-1)
     with pytest.raises(InputError, match="stamps must be strictly increasing"):
         interpolate_poses([0.0, 0.0, 1.0], T, [0.0], max_gap=1)

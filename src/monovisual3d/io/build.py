@@ -21,13 +21,23 @@ from ..frames import T_base_optical_from_T_base_cameralink
 from ..session import POSE_FRAMES, Workspace, session_from_dict, workspace_from_dict
 from ._parse import as_float, image_key
 from .calibration import read_calibration
-from .detections import ImageDetections, filter_detections, read_detections
-from .poses import PoseTrajectory, T_base_camera_from_T_base_ee, interpolate_poses, read_hand_eye, read_poses
+from .detections import ImageDetections, _detection_format, filter_detections, read_detections
+from .poses import (
+    POSITION_UNITS,
+    PoseTrajectory,
+    T_base_camera_from_T_base_ee,
+    interpolate_poses,
+    read_hand_eye,
+    read_poses,
+)
 from .summary import ImportResult, ImportSummary
 
 MATCH_MODES = ("auto", "name", "stamp", "order")
 #: Default largest time between a detection and the pose samples used for it, seconds.
 DEFAULT_MAX_GAP = 0.1
+#: Pixel boxes of a source that states no image size, all inside this fraction of the calibration's width
+#: and height (from the top-left corner), are taken to be in pixels of smaller images: the import stops.
+SMALL_BOX_REGION = 0.5
 
 
 def build_session(
@@ -73,11 +83,16 @@ def build_session(
     """
     summary = summary if summary is not None else ImportSummary()
     if pose_frame not in POSE_FRAMES:
-        raise InputError(f"pose_frame: got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
+        raise InputError(f"--pose-frame (pose_frame): got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
     if match not in MATCH_MODES:
-        raise InputError(f"match: got {match!r}, expected one of {list(MATCH_MODES)}")
+        raise InputError(f"--match (match): got {match!r}, expected one of {list(MATCH_MODES)}")
+    max_gap = as_float(max_gap, "--max-gap (max_gap)")
+    if not max_gap >= 0:
+        raise InputError(f"--max-gap (max_gap): got {max_gap}, expected seconds >= 0")
+    pose_source = poses.source or "poses"
+    det_source = summary.source or _detections_source(detections)
     if len(poses) == 0:
-        raise InputError("poses: empty")
+        raise InputError(f"{pose_source}: no poses")
     frames = filter_detections(detections, min_score=min_score, labels=labels, summary=summary)
     _check_image_sizes(frames, camera)
     T_frame = poses.T_base_frame
@@ -88,19 +103,27 @@ def build_session(
             match = "stamp"
         else:
             raise InputError(
-                "cannot match poses to detections: give image names on both sides (match='name') "
-                "or stamps on both sides (match='stamp'), or match='order'"
+                f"cannot match the poses of {pose_source} ({_what_names(poses.images is not None, poses.stamps is not None)}) "
+                f"to the detections of {det_source} ({_what_names(*_frames_have_names_stamps(frames))}): "
+                "matching by name needs image names on both sides (--match name, match='name') and by time, stamps "
+                "on both sides (--match stamp, match='stamp'); to pair the i-th pose with the i-th image, "
+                "pass --match order (match='order')"
             )
         summary.note(f"matched poses to detections by {'file name' if match == 'name' else 'time stamp'}")
     pairs: list[tuple[NDArray[np.float64], ImageDetections]] = []
     if match == "name":
-        pairs = _match_by_name(poses, frames, summary)
+        pairs = _match_by_name(poses, frames, summary, det_source)
     elif match == "stamp":
-        pairs = _match_by_stamp(poses, frames, max_gap, summary)
+        pairs = _match_by_stamp(poses, frames, max_gap, summary, det_source)
     else:
         if len(poses) != len(frames):
-            raise InputError(f"match='order': {len(poses)} poses but {len(frames)} images")
+            raise InputError(
+                f"{pose_source}: --match order (match='order'): {len(poses)} poses but {det_source} has "
+                f"{len(frames)} images; pairing in order needs one pose per image"
+            )
         pairs = [(T_frame[i], f) for i, f in enumerate(frames)]
+        last = f", ..., pose {len(frames) - 1} with {frames[-1].name}" if len(frames) > 1 else ""
+        summary.note(f"paired poses and images in order (--match order): pose 0 with {frames[0].name}{last}")
     if not pairs:
         raise InputError("no view left: no pose matches any image (see the skipped items above)")
     T_all = np.stack([T for T, _ in pairs])
@@ -154,18 +177,44 @@ def assemble_session(
     return ImportResult(session, summary)
 
 
+def _detections_source(frames: Sequence[ImageDetections]) -> str:
+    """The file(s) detections were read from, for messages."""
+    sources = sorted({f.source for f in frames if f.source})
+    if not sources:
+        return "the detections"
+    return sources[0] if len(sources) == 1 else f"{sources[0]} (and {len(sources) - 1} more files)"
+
+
+def _frames_have_names_stamps(frames: Sequence[ImageDetections]) -> tuple[bool, bool]:
+    return bool(frames) and all(f.image is not None for f in frames), bool(frames) and all(f.stamp is not None for f in frames)
+
+
+def _what_names(names: bool, stamps: bool) -> str:
+    return {
+        (True, True): "image names and stamps",
+        (True, False): "image names, no stamps",
+        (False, True): "stamps, no image names",
+        (False, False): "neither image names nor stamps",
+    }[(names, stamps)]
+
+
 def _match_by_name(
-    poses: PoseTrajectory, frames: Sequence[ImageDetections], summary: ImportSummary
+    poses: PoseTrajectory, frames: Sequence[ImageDetections], summary: ImportSummary, det_source: str
 ) -> list[tuple[NDArray[np.float64], ImageDetections]]:
     if poses.images is None:
-        raise InputError(f"{poses.source}: match by name: the poses do not name their images (add an 'image' column)")
+        raise InputError(
+            f"{poses.source or 'poses'}: --match name (match='name'): the poses do not name their images "
+            "(add an 'image' column, or pass --match stamp or --match order)"
+        )
     by_key: dict[str, ImageDetections] = {}
     for f in frames:
         if f.image is None:
-            raise InputError(f"match by name: detections of {f.name} have no image name")
+            raise InputError(
+                f"{f.source or det_source}: --match name (match='name'): the detections of {f.name} have no image name"
+            )
         key = image_key(f.image)
         if key in by_key:
-            raise InputError(f"match by name: two detection sets for image {key!r} ({by_key[key].source}, {f.source})")
+            raise InputError(f"{det_source}: two detection sets for image {key!r} ({by_key[key].source}, {f.source})")
         by_key[key] = f
     pairs = []
     used = set()
@@ -188,14 +237,19 @@ def _match_by_name(
 
 
 def _match_by_stamp(
-    poses: PoseTrajectory, frames: Sequence[ImageDetections], max_gap: float, summary: ImportSummary
+    poses: PoseTrajectory, frames: Sequence[ImageDetections], max_gap: float, summary: ImportSummary, det_source: str
 ) -> list[tuple[NDArray[np.float64], ImageDetections]]:
     if poses.stamps is None:
-        raise InputError(f"{poses.source}: match by stamp: the poses have no time stamps")
-    missing = [f.name for f in frames if f.stamp is None]
+        raise InputError(
+            f"{poses.source or 'poses'}: --match stamp (match='stamp'): the poses have no time stamps "
+            "(pass --match name or --match order)"
+        )
+    missing = [f for f in frames if f.stamp is None]
     if missing:
-        raise InputError(f"match by stamp: image {missing[0]} has no stamp (name files by time, or add a stamp column)")
-    max_gap = as_float(max_gap, "max_gap")
+        raise InputError(
+            f"{missing[0].source or det_source}: --match stamp (match='stamp'): image {missing[0].name} has no stamp "
+            "(name the files by time, add a stamp column, or pass --match name or --match order)"
+        )
     ordered = sorted(frames, key=lambda f: float(f.stamp))  # type: ignore[arg-type]
     T, ok, why = interpolate_poses(poses.stamps, poses.T_base_frame, [f.stamp for f in ordered], max_gap)
     pairs = []
@@ -212,9 +266,51 @@ def _check_image_sizes(frames: Sequence[ImageDetections], camera: Camera) -> Non
         if f.image_size is not None and tuple(f.image_size) != camera.size:
             w, h = f.image_size
             raise InputError(
-                f"{f.source or 'detections'}: image {f.name} is {w}x{h} but the camera is {camera.width}x{camera.height}: "
-                f"state the detections' image size (image_size={w}x{h}) so the intrinsics are scaled"
+                f"{f.source or 'detections'}: image {f.name} is {w}x{h} but the calibration is {camera.width}x{camera.height}: "
+                f"pass --image-size {w}x{h} (image_size=({w}, {h})) so the intrinsics are scaled to the detector's images"
             )
+
+
+def check_box_extent(frames: Sequence[ImageDetections], camera: Camera, source: str = "detections") -> None:
+    """Stop when pixel boxes that state no image size all lie in a small corner of the camera's image.
+
+    Boxes in pixels of images smaller than the calibration's (a detector run on
+    640x480 images against a 4056x3040 calibration) all fall inside the top-left
+    part of the calibration image. When every box of the frames without an
+    ``image_size`` lies within :data:`SMALL_BOX_REGION` of the width and the
+    height, the boxes are taken to refer to other images and an InputError asks
+    for their size (``--image-size WxH``); boxes that really are in calibration
+    pixels are accepted by stating the calibration's own size.
+
+    Parameters
+    ----------
+    frames : list of ImageDetections
+    camera : Camera, as it will be used (after any ``image_size``/``crop_xyxy``)
+    source : str, the detections' file for the message
+
+    Raises
+    ------
+    InputError
+        Naming the file, the extent of the boxes and the option ``--image-size``.
+
+    Examples
+    --------
+    >>> from monovisual3d.session import Detection
+    >>> f = ImageDetections("a.png", detections=(Detection(np.array([300.0, 200, 340, 250])),))
+    >>> check_box_extent([f], Camera(640, 480, 500.0, 500.0, 320.0, 240.0))  # fine: the box reaches x = 340 of 640
+    """
+    boxes = [np.asarray(d.bbox_xyxy, dtype=float) for f in frames if f.image_size is None for d in f.detections]
+    if not boxes:
+        return
+    b = np.stack(boxes)
+    x_max, y_max = float(b[:, 2].max()), float(b[:, 3].max())
+    W, H = camera.size
+    if x_max <= SMALL_BOX_REGION * W and y_max <= SMALL_BOX_REGION * H:
+        raise InputError(
+            f"{source}: all {len(b)} boxes lie within x <= {x_max:.0f}, y <= {y_max:.0f} px, the top-left corner of the "
+            f"{W}x{H} calibration image: they look like pixels of smaller images; state the detector's image size with "
+            f"--image-size WxH (image_size=(w, h)), or --image-size {W}x{H} if the boxes really are in calibration pixels"
+        )
 
 
 def _check_boxes_in_image(frame: ImageDetections, camera: Camera) -> None:
@@ -224,7 +320,8 @@ def _check_boxes_in_image(frame: ImageDetections, camera: Camera) -> None:
         if x2 <= 0 or y2 <= 0 or x1 >= W or y1 >= H:
             raise InputError(
                 f"{frame.source or 'detections'}: image {frame.name}, detection {j}: box {[x1, y1, x2, y2]} lies outside "
-                f"the {W}x{H} image; do the boxes refer to another image size (image_size)?"
+                f"the {W}x{H} image; do the boxes refer to another image size? pass it with --image-size WxH "
+                "(image_size=(w, h))"
             )
 
 
@@ -268,6 +365,17 @@ def import_session(
     detections_format, class_names : see :func:`~monovisual3d.io.read_detections`
     coco_images : the COCO file with the ``images`` list, when ``detections`` is a bare COCO results list
 
+    Notes
+    -----
+    The boxes must be in pixels of the camera as used: the calibration's, or
+    ``image_size`` (``--image-size``) when the detector saw other images. YOLO's
+    normalised boxes are scaled to that size (said in the summary's notes).
+    Pixel boxes whose source states no image size (CSV; COCO without ``width``/
+    ``height``) are checked with :func:`check_box_extent` when ``image_size`` is
+    not given: boxes all in a small corner of the calibration image stop the
+    import. Sources that state their size (COCO, Ultralytics results) must match
+    the camera.
+
     Returns
     -------
     ImportResult
@@ -288,20 +396,36 @@ def import_session(
             camera, format=camera_format, camera_name=camera_name, image_size=image_size, resize=resize, crop_xyxy=crop_xyxy
         )
     traj = poses if isinstance(poses, PoseTrajectory) else read_poses(poses, format=pose_format, units=units)
+    size_note = None
+    pixel_boxes = True  # boxes in pixels of an unstated image size (CSV, COCO without sizes): see check_box_extent
     if isinstance(detections, (str, Path)):
-        frames = read_detections(
-            detections, format=detections_format, image_size=cam.size, class_names=class_names, images=coco_images
-        )
         det_source = str(detections)
+        fmt = detections_format.lower() if detections_format else _detection_format(Path(detections))
+        frames = read_detections(detections, format=fmt, image_size=cam.size, class_names=class_names, images=coco_images)
+        if fmt == "yolo":
+            pixel_boxes = False
+            if image_size is not None:
+                given = "the size given by --image-size"
+            elif crop_xyxy is not None:
+                given = "the size of the --crop region"
+            else:
+                given = "the calibration's image size (right for resized whole images; cropped ones need --crop)"
+            size_note = f"YOLO boxes are normalised: scaled to {cam.width}x{cam.height} pixels, {given}"
     else:
         frames = list(detections)
-        det_source = "detections"
+        det_source = _detections_source(frames)
+    if image_size is None and pixel_boxes:
+        check_box_extent(frames, cam, det_source)
     T_ee_camera = None
     if hand_eye is not None:
+        if hand_eye_units not in POSITION_UNITS:
+            raise InputError(f"--hand-eye-units (hand_eye_units): got {hand_eye_units!r}, expected one of {list(POSITION_UNITS)}")
         T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
     summary = ImportSummary(source=det_source)
     cam_source = str(camera) if not isinstance(camera, (Camera, dict)) else "given"
     summary.note(f"camera: {cam_source}; poses: {traj.source or 'given'}; detections: {det_source}")
+    if size_note is not None:
+        summary.note(size_note)
     return build_session(
         cam,
         traj,
@@ -317,4 +441,12 @@ def import_session(
     )
 
 
-__all__ = ["DEFAULT_MAX_GAP", "MATCH_MODES", "assemble_session", "build_session", "import_session"]
+__all__ = [
+    "DEFAULT_MAX_GAP",
+    "MATCH_MODES",
+    "SMALL_BOX_REGION",
+    "assemble_session",
+    "build_session",
+    "check_box_extent",
+    "import_session",
+]

@@ -113,7 +113,7 @@ def read_calibration(
             format = "ros"
     fmt = calibration_format(data, where) if format is None else format.lower()
     if fmt not in CALIBRATION_FORMATS:
-        raise InputError(f"{where}: format: got {format!r}, expected one of {list(CALIBRATION_FORMATS)}")
+        raise InputError(f"{where}: --camera-format (format): got {format!r}, expected one of {list(CALIBRATION_FORMATS)}")
     try:
         if fmt == "kalibr":
             camera = camera_from_kalibr(data, camera_name)
@@ -173,7 +173,7 @@ def calibration_format(data: Any, where: str = "calibration") -> str:
         return "monovisual3d"
     raise InputError(
         f"{where}: unrecognised calibration (top-level keys {sorted(map(str, keys))[:8]}); "
-        f"expected one of {list(CALIBRATION_FORMATS)}, or pass the format explicitly"
+        f"expected one of {list(CALIBRATION_FORMATS)}, or name the format with --camera-format (format=...)"
     )
 
 
@@ -199,14 +199,18 @@ def camera_from_kalibr(data: Any, camera_name: str | int | None = None) -> Camer
         raise InputError("no camera entries (cam0, cam1, ...) in the Kalibr camchain")
     if camera_name is None:
         if len(cams) > 1:
-            raise InputError(f"the camchain holds {len(cams)} cameras {sorted(cams)}: choose one with camera_name")
+            raise InputError(
+                f"the camchain holds {len(cams)} cameras {sorted(cams)}: choose one with --camera-name (camera_name)"
+            )
         name = next(iter(cams))
     else:
         name = str(camera_name)
         if name not in cams:
             by_topic = [k for k, v in cams.items() if isinstance(v, dict) and v.get("rostopic") == name]
             if not by_topic:
-                raise InputError(f"camera_name: no camera {name!r} in the camchain, expected one of {sorted(cams)}")
+                raise InputError(
+                    f"--camera-name (camera_name): no camera {name!r} in the camchain, expected one of {sorted(cams)}"
+                )
             name = by_topic[0]
     cam = expect_mapping(cams[name], name)
     model = str(cam.get("camera_model", "pinhole"))
@@ -365,7 +369,10 @@ def _image_size_of(data: dict[str, Any], fallback: tuple[int, int] | None) -> tu
             return as_int(size[0], f"{k}[0]", minimum=1), as_int(size[1], f"{k}[1]", minimum=1)
     if fallback is not None:
         return _check_size(fallback, "image_size")
-    raise InputError("image_width/image_height: missing; the calibration does not give its image size (pass image_size)")
+    raise InputError(
+        "image_width/image_height: missing; the calibration does not give its image size "
+        "(pass it with --image-size WxH, image_size=(w, h))"
+    )
 
 
 # ---------------------------------------------------------------------- DepthAI
@@ -410,7 +417,8 @@ def camera_from_depthai(data: Any, socket: str | int | None = None) -> Camera:
         name = str(socket).strip().lower().replace("camerabordsocket.", "").replace("cameraboardsocket.", "")
         if name not in DEPTHAI_SOCKETS:
             raise InputError(
-                f"camera_name: unknown DepthAI socket {socket!r}, expected a number or one of {sorted(DEPTHAI_SOCKETS)}"
+                f"--camera-name (camera_name): unknown DepthAI socket {socket!r}, "
+                f"expected a number or one of {sorted(DEPTHAI_SOCKETS)}"
             )
         number = DEPTHAI_SOCKETS[name]
     if number not in sockets:
@@ -483,9 +491,9 @@ def camera_for_image_size(camera: Camera, image_size: tuple[int, int], resize: s
     >>> camera_for_image_size(cam, (640, 480)).fx
     500.0
     """
-    w, h = _check_size(image_size, "image_size")
+    w, h = _check_size(image_size, "--image-size (image_size)")
     if resize not in RESIZE_MODES:
-        raise InputError(f"resize: got {resize!r}, expected one of {list(RESIZE_MODES)}")
+        raise InputError(f"--resize (resize): got {resize!r}, expected one of {list(RESIZE_MODES)}")
     W, H = camera.size
     if (w, h) == (W, H):
         return camera
@@ -493,8 +501,9 @@ def camera_for_image_size(camera: Camera, image_size: tuple[int, int], resize: s
     if resize == "auto":
         if abs(sx - sy) * max(W, H) > 1.0:
             raise InputError(
-                f"image_size: the detections' {w}x{h} images and the {W}x{H} calibration differ in aspect ratio; "
-                "say how the images were made: resize='stretch' or 'crop' (centre crop), or give crop_xyxy"
+                f"--image-size (image_size): the detections' {w}x{h} images and the {W}x{H} calibration differ in "
+                "aspect ratio; say how the images were made: --resize stretch or --resize crop (centre crop) "
+                "(resize='stretch' or 'crop'), or the region they were cut from with --crop X1,Y1,X2,Y2 (crop_xyxy)"
             )
         resize = "stretch"
     if resize == "stretch":
@@ -521,10 +530,12 @@ def crop_camera(camera: Camera, crop_xyxy: ArrayLike) -> Camera:
     >>> crop_camera(Camera(640, 480, 500.0, 500.0, 320.0, 240.0), (100, 50, 420, 290)).cx
     220.0
     """
-    box = as_array(crop_xyxy, "crop_xyxy", size=4).ravel()
-    x1, y1, x2, y2 = (as_int(v, f"crop_xyxy[{i}]") for i, v in enumerate(box))
+    box = as_array(crop_xyxy, "--crop (crop_xyxy)", size=4).ravel()
+    x1, y1, x2, y2 = (as_int(v, f"--crop (crop_xyxy[{i}])") for i, v in enumerate(box))
     if not (0 <= x1 < x2 <= camera.width and 0 <= y1 < y2 <= camera.height):
-        raise InputError(f"crop_xyxy: {[x1, y1, x2, y2]} is not a region inside the {camera.width}x{camera.height} image")
+        raise InputError(
+            f"--crop (crop_xyxy): {[x1, y1, x2, y2]} is not a region inside the {camera.width}x{camera.height} image"
+        )
     return Camera(
         x2 - x1,
         y2 - y1,
@@ -614,8 +625,8 @@ def parse_image_size(text: str) -> tuple[int, int]:
     """``"640x480"`` -> ``(640, 480)`` (also ``640,480``)."""
     m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)
     if not m:
-        raise InputError(f"image size: got {text!r}, expected WIDTHxHEIGHT such as 640x480")
-    return _check_size((int(m.group(1)), int(m.group(2))), "image size")
+        raise InputError(f"--image-size: got {text!r}, expected WIDTHxHEIGHT such as 640x480")
+    return _check_size((int(m.group(1)), int(m.group(2))), "--image-size")
 
 
 def _getter(obj: Any) -> Any:

@@ -93,13 +93,13 @@ def read_detections(
     fmt = format.lower() if format else _detection_format(path)
     if fmt == "yolo":
         if image_size is None:
-            raise InputError(f"{path}: YOLO boxes are normalised: the image size is needed (image_size)")
+            raise InputError(f"{path}: YOLO boxes are normalised: the image size is needed (image_size=(w, h))")
         return read_yolo_labels(path, image_size, class_names=class_names)
     if fmt == "coco":
         return read_coco(path, images=images, class_names=class_names)
     if fmt == "csv":
         return read_detections_csv(path, class_names=class_names)
-    raise InputError(f"{path}: format: got {format!r}, expected one of {list(DETECTION_FORMATS)}")
+    raise InputError(f"{path}: --detections-format (format): got {format!r}, expected one of {list(DETECTION_FORMATS)}")
 
 
 def _detection_format(path: Path) -> str:
@@ -114,7 +114,10 @@ def _detection_format(path: Path) -> str:
         return "coco"
     if suffix in (".csv", ".tsv"):
         return "csv"
-    raise InputError(f"{path}: cannot tell the detection format from the suffix {suffix!r}: give yolo, coco or csv")
+    raise InputError(
+        f"{path}: cannot tell the detection format from the suffix {suffix!r}: "
+        "pass --detections-format yolo, coco or csv (format=...)"
+    )
 
 
 # ---------------------------------------------------------------------- class names
@@ -326,7 +329,8 @@ def read_coco(
                 raise InputError(f"{w_r}.image_id: {iid!r} is not in the images list")
             if not isinstance(iid, str):
                 raise InputError(
-                    f"{w_r}.image_id: numeric id {iid!r} and no images list: give the COCO file's images (images=...)"
+                    f"{w_r}.image_id: numeric id {iid!r} and no images list: give the COCO file that has the images "
+                    "with --coco-images FILE (images=... in read_coco, coco_images=... in import_session)"
                 )
             by_id[iid] = ImageDetections(image=iid, stamp=stamp_from_name(iid), source=where)
             dets[iid] = []
@@ -510,9 +514,9 @@ def filter_detections(
     ['tomato']
     """
     if min_score is not None:
-        min_score = as_float(min_score, "min_score")
+        min_score = as_float(min_score, "--min-score (min_score)")
         if not 0.0 <= min_score <= 1.0:
-            raise InputError(f"min_score: got {min_score}, expected a value in [0, 1]")
+            raise InputError(f"--min-score (min_score): got {min_score}, expected a value in [0, 1]")
     wanted = None if labels is None else {str(x) for x in labels}
     if wanted is not None and not wanted:
         wanted = None

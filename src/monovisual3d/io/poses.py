@@ -113,7 +113,7 @@ def read_poses(source: str | Path, *, format: str | None = None, units: str = "m
         return read_pose_csv(path, units=units)
     if fmt == "json":
         return read_pose_json(path, units=units)
-    raise InputError(f"{path}: format: got {format!r}, expected one of {list(POSE_FORMATS)}")
+    raise InputError(f"{path}: --pose-format (format): got {format!r}, expected one of {list(POSE_FORMATS)}")
 
 
 def _pose_format(path: Path) -> str:
@@ -127,7 +127,7 @@ def _pose_format(path: Path) -> str:
 
 def _scale(units: str) -> float:
     if units not in POSITION_UNITS:
-        raise InputError(f"units: got {units!r}, expected one of {list(POSITION_UNITS)}")
+        raise InputError(f"--units (units): got {units!r}, expected one of {list(POSITION_UNITS)}")
     return POSITION_UNITS[units]
 
 
@@ -392,9 +392,9 @@ def interpolate_poses(
     st = np.asarray(stamps, dtype=float).ravel()
     Ts = np.asarray(T, dtype=float)
     q = np.asarray(query, dtype=float).ravel()
-    max_gap = as_float(max_gap, "max_gap")
+    max_gap = as_float(max_gap, "--max-gap (max_gap)")
     if max_gap < 0:
-        raise InputError(f"max_gap: got {max_gap}, expected seconds >= 0")
+        raise InputError(f"--max-gap (max_gap): got {max_gap}, expected seconds >= 0")
     if st.size == 0 or Ts.shape != (st.size, 4, 4):
         raise InputError(f"interpolate_poses: {st.size} stamps and poses of shape {Ts.shape}, expected (N, 4, 4)")
     if np.any(np.diff(st) <= 0):
