@@ -57,18 +57,40 @@ def test_simulate_rejects_bad_options(tmp_path):
     cases = [
         (["--scene", "orchard"], "scene: got 'orchard'"),
         (["--views", "ring:x"], "ring:N"),
-        (["--views", "cube:3"], "views: got 'cube:3'"),
-        (["--drop", "1.5"], "drop_probability: got 1.5"),
-        (["--noise", "-0.1"], "box_sigma: got -0.1"),
-        (["--pose-error-mm", "-1"], "pose_error_mm"),
+        (["--views", "cube:3"], "--views: got 'cube:3'"),
+        (["--views", "ring:0"], "--views: got 'ring:0', expected ring:N with N >= 1 views"),
+        (["--views", "hemisphere:5:120"], "--views: got 'hemisphere:5:120', expected the largest angle"),
+        (["--distance", "0"], "--distance (distance): got 0.0"),
+        (["--drop", "1.5"], "--drop (noise.drop_probability): got 1.5"),
+        (["--noise", "-0.1"], "--noise (noise.box_sigma): got -0.1"),
+        (["--false-positives", "-1"], "--false-positives (noise.false_positive_rate): got -1.0"),
+        (["--pose-error-mm", "-1"], "--pose-error-mm (pose_error_mm): got -1.0"),
         (["--scene", "paper", "--n-fruit", "2"], "paper scene has 6 spheres"),
         (["--scene", "random", "--n-fruit", "0"], "--n-fruit: got 0"),
-        (["--scene", str(tmp_path / "missing.json")], "file not found"),
-        (["--hfov-deg", "200"], "hfov_deg"),
-        (["--supersample", "0"], "supersample: got 0"),
+        (["--hfov-deg", "200"], "--hfov-deg: got 200.0, expected degrees in (0, 180)"),
+        (["--supersample", "0"], "--supersample (supersample): got 0"),
     ]
     for extra, message in cases:
         result = runner.invoke(app, ["simulate", *extra, "--output", str(tmp_path / "x")])
         assert result.exit_code == 2, (extra, result.output)
         assert message in result.output, (extra, result.output)
         assert "Traceback" not in result.output
+
+
+def test_simulate_scene_file_errors_name_the_file_once_and_say_what_a_scene_needs(tmp_path):
+    def error(path):
+        result = runner.invoke(app, ["simulate", "--scene", str(path), "--output", str(tmp_path / "x")])
+        assert result.exit_code == 2, result.output
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"error: {path}: "), result.stderr
+        return lines[0].removeprefix(f"error: {path}: ")
+
+    assert error(tmp_path / "missing_scene.json") == "file not found"
+    session = {"camera": {"width": 640, "height": 480, "hfov_deg": 69}, "views": []}
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    message = error(tmp_path / "session.json")
+    assert message.startswith('a session file (it has \'views\'), not a scene; a scene file holds {"objects": [{"position"')
+    (tmp_path / "bad.json").write_text(json.dumps({"objects": [{"position": [0.6, 0, 0.4], "radius": -1}]}))
+    assert error(tmp_path / "bad.json") == "objects[0].radius: expected a positive number of metres, got -1"
+    (tmp_path / "leaf.json").write_text(json.dumps({"objects": [], "occluders": [{"type": "leaf", "centre": [0, 0, 0]}]}))
+    assert error(tmp_path / "leaf.json").startswith("occluders[0].axis_u: missing field, a leaf needs ['centre', 'axis_u'")

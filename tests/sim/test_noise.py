@@ -149,10 +149,10 @@ def test_clip_boxes_to_image():
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"box_sigma": -0.1}, "noise.box_sigma: got -0.1"),
+        ({"box_sigma": -0.1}, r"--noise \(noise.box_sigma\): got -0.1"),
         ({"box_sigma": float("nan")}, "noise.box_sigma"),
-        ({"drop_probability": 1.5}, "noise.drop_probability: got 1.5"),
-        ({"false_positive_rate": -1}, "noise.false_positive_rate"),
+        ({"drop_probability": 1.5}, r"--drop \(noise.drop_probability\): got 1.5"),
+        ({"false_positive_rate": -1}, r"--false-positives \(noise.false_positive_rate\)"),
         ({"false_positive_size_px": (50, 10)}, "noise.false_positive_size_px"),
         ({"pose_position_std": -0.001}, "noise.pose_position_std"),
     ],

@@ -254,7 +254,7 @@ def test_boxes_from_labels_edge_convention():
 
 def test_bad_inputs_are_rejected():
     scene = one_sphere([0.6, 0.0, 0.45], 0.05)
-    with pytest.raises(InputError, match="supersample: got 0"):
+    with pytest.raises(InputError, match=r"--supersample \(supersample\): got 0"):
         render(scene, CAM, T, supersample=0)
     with pytest.raises(InputError, match="T_base_optical"):
         render(scene, CAM, np.eye(3))

@@ -119,8 +119,8 @@ def test_poses_by_name():
     for bad, message in [
         ("rings:3", "views: got 'rings:3'"),
         ("ring:x", "ring:N or ring:N:ANGLE_DEG"),
-        ("ring:0", "n: got 0"),
-        ("ring:3:100", "cone_angle"),
+        ("ring:0", "--views: got 'ring:0', expected ring:N with N >= 1 views"),
+        ("ring:3:100", r"--views: got 'ring:3:100', expected the cone half-angle ANGLE_DEG in \[0, 90\] degrees"),
         ("hemisphere", "views: got 'hemisphere'"),
     ]:
         with pytest.raises(InputError, match=message):

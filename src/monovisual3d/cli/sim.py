@@ -53,7 +53,10 @@ def simulate(
     if n_fruit is not None and n_fruit < 1:
         raise InputError(f"--n-fruit: got {n_fruit}, expected a positive integer")
     rng = np.random.default_rng(seed)
-    camera = Camera.from_hfov(640, 480, hfov_deg)
+    try:
+        camera = Camera.from_hfov(640, 480, hfov_deg)
+    except InputError:
+        raise InputError(f"--hfov-deg: got {hfov_deg!r}, expected degrees in (0, 180)") from None
     scene_path = Path(scene)
     if scene_path.suffix.lower() in (".json", ".yaml", ".yml"):
         if n_fruit is not None:

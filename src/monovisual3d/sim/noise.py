@@ -51,6 +51,21 @@ PAPER_BOX_SIGMA = 0.05
 PAPER_DROP_PROBABILITY = 0.02
 #: Size floor of the multiplicative size noise.
 MIN_SIZE_FACTOR = 0.1
+#: The ``monovisual3d simulate`` option of each noise parameter, for messages.
+CLI_OPTIONS = {
+    "box_sigma": "--noise",
+    "drop_probability": "--drop",
+    "false_positive_rate": "--false-positives",
+    "pose_error_mm": "--pose-error-mm",
+    "pose_error_deg": "--pose-error-deg",
+}
+
+
+def _option(name: str) -> str:
+    """``--noise (noise.box_sigma)``: the CLI option and the NoiseModel field, for messages."""
+    if name.startswith("pose_error_"):  # parameters of NoiseModel.from_mm_deg, not fields
+        return f"{CLI_OPTIONS[name]} ({name})"
+    return f"{CLI_OPTIONS[name]} (noise.{name})" if name in CLI_OPTIONS else f"noise.{name}"
 
 
 @dataclass(frozen=True)
@@ -91,11 +106,11 @@ class NoiseModel:
         for name in ("box_sigma", "false_positive_rate", "pose_position_std", "pose_rotation_std"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= 0):
-                raise InputError(f"noise.{name}: got {value!r}, expected a finite number >= 0")
+                raise InputError(f"{_option(name)}: got {value!r}, expected a finite number >= 0")
             object.__setattr__(self, name, float(value))
         p = self.drop_probability
         if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 <= p <= 1.0:
-            raise InputError(f"noise.drop_probability: got {p!r}, expected a probability in [0, 1]")
+            raise InputError(f"{_option('drop_probability')}: got {p!r}, expected a probability in [0, 1]")
         object.__setattr__(self, "drop_probability", float(p))
         try:
             lo, hi = (float(v) for v in self.false_positive_size_px)
@@ -125,7 +140,7 @@ class NoiseModel:
         """Constructor with the pose errors in millimetres and degrees (as the CLI takes them)."""
         for name, value in (("pose_error_mm", pose_error_mm), ("pose_error_deg", pose_error_deg)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise InputError(f"noise.{name}: got {value!r}, expected a finite number >= 0")
+                raise InputError(f"{_option(name)}: got {value!r}, expected a finite number >= 0")
         return cls(
             box_sigma=box_sigma,
             drop_probability=drop_probability,

@@ -446,5 +446,5 @@ def _unit(v: ArrayLike, where: str) -> NDArray[np.float64]:
 
 def _check_supersample(supersample: int) -> int:
     if isinstance(supersample, bool) or not isinstance(supersample, (int, np.integer)) or not 1 <= supersample <= 16:
-        raise InputError(f"supersample: got {supersample!r}, expected an integer from 1 to 16")
+        raise InputError(f"--supersample (supersample): got {supersample!r}, expected an integer from 1 to 16")
     return int(supersample)

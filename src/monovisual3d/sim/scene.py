@@ -111,35 +111,109 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Scene:
-        try:
-            fruits = tuple(
-                Sphere(np.asarray(o["position"], dtype=float), float(o["radius"]), o.get("label", "tomato"))
-                for o in data["objects"]
-            )
-            occ: list[Occluder] = []
-            for o in data.get("occluders", []):
-                if o["type"] == "leaf":
-                    occ.append(
-                        Leaf(
-                            np.asarray(o["centre"], float),
-                            np.asarray(o["axis_u"], float),
-                            np.asarray(o["axis_v"], float),
-                            tuple(o["half_size"]),  # type: ignore[arg-type]
-                        )
-                    )
-                elif o["type"] == "stem":
-                    occ.append(Stem(np.asarray(o["start"], float), np.asarray(o["end"], float), float(o["radius"])))
-                else:
-                    raise InputError(f"occluders: unknown type {o['type']!r}, expected 'leaf' or 'stem'")
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"scene: malformed scene description ({exc})") from None
-        return cls(fruits, tuple(occ), data.get("name", "scene"), data.get("metadata", {}))
+        """A scene from its dict (:meth:`to_dict`): ``objects`` (the fruit) and optional ``occluders``.
+
+        ``objects`` is a list of ``{"position": [x, y, z], "radius": r}`` (metres,
+        base frame; optional ``label``); ``occluders`` a list of leaves
+        ``{"type": "leaf", "centre", "axis_u", "axis_v", "half_size"}`` and stems
+        ``{"type": "stem", "start", "end", "radius"}``.
+
+        Raises
+        ------
+        InputError
+            One line naming the field (``objects[2].radius``) and what was expected.
+
+        Examples
+        --------
+        >>> Scene.from_dict({"objects": [{"position": [0.6, 0.0, 0.45], "radius": 0.03}]}).radii.tolist()
+        [0.03]
+        """
+        if not isinstance(data, dict):
+            raise InputError(f"expected a scene object {SCENE_FIELDS}, got {type(data).__name__}")
+        if "objects" not in data:
+            if "views" in data:
+                raise InputError(f"a session file (it has 'views'), not a scene; a scene file holds {SCENE_FIELDS}")
+            raise InputError(f"objects: missing field; a scene file holds {SCENE_FIELDS}")
+        objects = data["objects"]
+        if not isinstance(objects, list):
+            raise InputError(f"objects: expected a list of fruit {FRUIT_FIELDS}, got {type(objects).__name__}")
+        fruits = tuple(_sphere(o, f"objects[{i}]") for i, o in enumerate(objects))
+        occluders = data.get("occluders", [])
+        if not isinstance(occluders, list):
+            raise InputError(f"occluders: expected a list of leaves and stems, got {type(occluders).__name__}")
+        occ = tuple(_occluder(o, f"occluders[{i}]") for i, o in enumerate(occluders))
+        name = data.get("name", "scene")
+        metadata = data.get("metadata", {})
+        if not isinstance(metadata, dict):
+            raise InputError(f"metadata: expected an object, got {type(metadata).__name__}")
+        return cls(fruits, occ, str(name), metadata)
 
     @classmethod
     def load(cls, path: str | Path) -> Scene:
+        """Read a scene file (JSON or YAML, :meth:`from_dict`'s format, as :meth:`save` writes it)."""
         from ..session import read_structured_file
 
+        data = read_structured_file(path)  # its errors name the file already
         try:
-            return cls.from_dict(read_structured_file(path))
+            return cls.from_dict(data)
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
+
+
+#: What a scene file holds, for messages.
+SCENE_FIELDS = '{"objects": [{"position": [x, y, z], "radius": r}, ...], "occluders": [...] (optional)}'
+FRUIT_FIELDS = '{"position": [x, y, z], "radius": r, "label": "tomato" (optional)}'
+
+
+def _sphere(o: Any, where: str) -> Sphere:
+    if not isinstance(o, dict):
+        raise InputError(f"{where}: expected a fruit {FRUIT_FIELDS}, got {type(o).__name__}")
+    for k in ("position", "radius"):
+        if k not in o:
+            raise InputError(f"{where}.{k}: missing field, expected a fruit {FRUIT_FIELDS}")
+    radius = _positive(o["radius"], f"{where}.radius")
+    label = o.get("label", "tomato")
+    if not isinstance(label, str):
+        raise InputError(f"{where}.label: expected a string, got {label!r}")
+    return Sphere(_vec(o["position"], 3, f"{where}.position"), radius, label)
+
+
+def _occluder(o: Any, where: str) -> Occluder:
+    if not isinstance(o, dict):
+        raise InputError(f"{where}: expected an object with type 'leaf' or 'stem', got {type(o).__name__}")
+    kind = o.get("type")
+    fields = {"leaf": ("centre", "axis_u", "axis_v", "half_size"), "stem": ("start", "end", "radius")}
+    if kind not in fields:
+        raise InputError(f"{where}.type: got {kind!r}, expected 'leaf' or 'stem'")
+    for k in fields[kind]:
+        if k not in o:
+            raise InputError(f"{where}.{k}: missing field, a {kind} needs {list(fields[kind])}")
+    if kind == "leaf":
+        hu, hv = (
+            _positive(float(v), f"{where}.half_size[{i}]") for i, v in enumerate(_vec(o["half_size"], 2, f"{where}.half_size"))
+        )
+        return Leaf(
+            _vec(o["centre"], 3, f"{where}.centre"),
+            _vec(o["axis_u"], 3, f"{where}.axis_u"),
+            _vec(o["axis_v"], 3, f"{where}.axis_v"),
+            (hu, hv),
+        )
+    return Stem(
+        _vec(o["start"], 3, f"{where}.start"), _vec(o["end"], 3, f"{where}.end"), _positive(o["radius"], f"{where}.radius")
+    )
+
+
+def _vec(value: Any, n: int, where: str) -> NDArray[np.float64]:
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        a = np.zeros(0)
+    if isinstance(value, (str, bytes)) or a.shape != (n,) or not np.all(np.isfinite(a)):
+        raise InputError(f"{where}: expected {n} finite numbers (metres), got {value!r}")
+    return a
+
+
+def _positive(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (np.isfinite(value) and value > 0):
+        raise InputError(f"{where}: expected a positive number of metres, got {value!r}")
+    return float(value)

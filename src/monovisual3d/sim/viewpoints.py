@@ -275,6 +275,7 @@ def poses_by_name(
     """
     spec = spec.strip()
     name, _, rest = spec.partition(":")
+    _check_positive(distance, "--distance (distance)")
     if name == "paper" and not rest:
         return paper_poses(target, distance=distance, view_direction=view_direction)
     if name in ("ring", "hemisphere") and rest:
@@ -283,9 +284,14 @@ def poses_by_name(
             n = int(parts[0])
             angle_deg = float(parts[1]) if len(parts) > 1 else None
         except ValueError:
-            raise InputError(f"views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG with N an integer") from None
+            raise InputError(f"--views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG with N an integer") from None
         if len(parts) > 2:
-            raise InputError(f"views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG")
+            raise InputError(f"--views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG")
+        if n < 1:
+            raise InputError(f"--views: got {spec!r}, expected {name}:N with N >= 1 views")
+        if angle_deg is not None and not 0.0 <= angle_deg <= 90.0:
+            what = "cone half-angle" if name == "ring" else "largest angle from the axis"
+            raise InputError(f"--views: got {spec!r}, expected the {what} ANGLE_DEG in [0, 90] degrees")
         if name == "ring":
             angle = math.radians(angle_deg) if angle_deg is not None else DEFAULT_RING_ANGLE
             return ring_poses(target, n, distance=distance, cone_angle=angle, view_direction=view_direction)
@@ -294,7 +300,7 @@ def poses_by_name(
     if Path(spec).suffix.lower() in (".json", ".yaml", ".yml"):
         return load_poses(spec, target)
     raise InputError(
-        f"views: got {spec!r}, expected paper, ring:N[:ANGLE_DEG], hemisphere:N[:ANGLE_DEG] or a pose file (.json/.yaml)"
+        f"--views: got {spec!r}, expected paper, ring:N[:ANGLE_DEG], hemisphere:N[:ANGLE_DEG] or a pose file (.json/.yaml)"
     )
 
 
