@@ -35,6 +35,16 @@ def test_demo_succeeds_and_prints_tables(demo_run: tuple[Path, object]) -> None:
     assert "Found " in text and str(out / "result.json") in "".join(text.split())
 
 
+def test_demo_text_is_not_wrapped_when_stdout_is_not_a_terminal(demo_run: tuple[Path, object]) -> None:
+    _, result = demo_run
+    lines = result.stdout.splitlines()  # type: ignore[attr-defined]
+    intro = next(line for line in lines if line.startswith("monovisual3d demo (seed 0)"))
+    assert intro.endswith("with the 'bayes' method from the 2D boxes alone..."), intro
+    scene = next(line for line in lines if line.startswith("Scene: "))
+    assert scene.endswith("% missed)."), scene
+    assert any(line.endswith("- what the camera saw, with the detected boxes numbered as in session.json") for line in lines)
+
+
 def test_demo_writes_its_files(demo_run: tuple[Path, object]) -> None:
     out, _ = demo_run
     for name in ("session.json", "truth.json", "result.json", "scene.json"):
@@ -75,7 +85,9 @@ def test_demo_rejects_bad_input(tmp_path: Path) -> None:
         run_demo(tmp_path, method="nope", figure=False)
     result = CliRunner().invoke(app, ["demo", "--output", str(tmp_path / "x"), "--method", "nope"])
     assert result.exit_code == 2
-    assert "error: method" in result.stderr
+    assert result.stderr.startswith("error: --method (method): got 'nope', expected one of ['bayes', 'paper']")
+    assert result.stdout == ""  # validated before the intro is printed
+    assert not (tmp_path / "x").exists()
     (tmp_path / "file").write_text("")
     with pytest.raises(InputError, match="not a directory"):
         run_demo(tmp_path / "file", figure=False)

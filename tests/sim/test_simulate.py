@@ -132,6 +132,31 @@ def test_written_png_decodes_to_the_same_pixels(tmp_path):
     assert_array_equal(back, img)
 
 
+def test_view_image_draws_thick_blue_boxes_numbered_by_detection_index():
+    from monovisual3d.sim.raycast import BACKGROUND, Rendering
+    from monovisual3d.sim.simulate import BOX_COLOUR, FALSE_POSITIVE_COLOUR, TAG_TEXT_COLOUR, SimulatedView
+
+    labels = np.full((120, 160), BACKGROUND, dtype=np.int32)
+    labels[40:80, 30:70] = 0  # one red fruit under the first box
+    boxes = np.array([[30.0, 40, 70, 80], [100, 60, 150, 110]])
+    rendering = Rendering(labels, boxes[:1], np.array([1600.0]))
+    view = SimulatedView(np.eye(4), np.eye(4), rendering, boxes, np.array([0, -1]))
+    img = view_image(view)
+    # 2 px lines inside the box edges, in blue; the fruit shows inside them
+    for x1, y1, x2, y2 in boxes.astype(int)[:1]:
+        assert (img[y1 + 20, x1 : x1 + 2] == BOX_COLOUR).all() and (img[y1 + 20, x2 - 2 : x2] == BOX_COLOUR).all()
+        assert (img[y2 - 2 : y2, x1 + 20] == BOX_COLOUR).all()
+        assert not (img[y1 + 20, x1 + 2] == BOX_COLOUR).all() and not (img[y1 + 20, x1 - 1] == BOX_COLOUR).all()
+        assert img[60, 50].tolist() == img[y1 + 20, x1 + 2].tolist() and img[60, 50, 0] > 150  # red fruit
+    assert (img[85, 149] == FALSE_POSITIVE_COLOUR).all()
+    # the index tag above each box's top-left corner: "0" is a ring of white font dots, "1" a vertical stroke
+    tag0 = img[40 - 12 : 40, 30 : 30 + 8]
+    assert (tag0 == TAG_TEXT_COLOUR).all(axis=-1).sum() == 12 * 4  # 12 dots of the 3x5 "0", 2x2 pixels each
+    tag1 = img[60 - 12 : 60, 100 : 100 + 8]
+    assert (tag1 == TAG_TEXT_COLOUR).all(axis=-1).sum() == 8 * 4  # 8 dots of the 3x5 "1"
+    assert (tag1 == FALSE_POSITIVE_COLOUR).all(axis=-1).any()
+
+
 def test_bad_inputs_are_rejected(tmp_path):
     with pytest.raises(InputError, match="scene: expected a Scene"):
         simulate({"objects": []})

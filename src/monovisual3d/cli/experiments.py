@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from ..localize import DEFAULT_METHOD, METHODS
 from ._app import app, console, handle_errors
@@ -25,13 +26,16 @@ def demo(
     detector noise (5 % box noise, 2 % missed detections). The fruit are
     localised from the boxes alone and compared with the true positions.
     """
-    from ..experiments.demo import run_demo
+    from ..experiments.demo import check_demo_options, run_demo
     from .core import print_metrics, print_objects
 
+    check_demo_options(output, seed=seed, method=method)  # before the intro: a bad option prints only the error
+    # soft_wrap: explanatory lines stay whole when stdout is not a terminal (rich would wrap them at 80 columns)
     console.print(
         f"[bold]monovisual3d demo[/] (seed {seed}): simulating a greenhouse tomato truss seen from 3 camera poses, "
         f"then localising the fruit with the '{method}' method from the 2D boxes alone...",
         highlight=False,
+        soft_wrap=True,
     )
     with console.status("simulating, localising and evaluating..."):
         d = run_demo(output, seed=seed, method=method)
@@ -41,19 +45,21 @@ def demo(
         f"detections per view: {', '.join(map(str, n_boxes))} (noise: {100 * d.noise.box_sigma:g} % box noise, "
         f"{100 * d.noise.drop_probability:g} % missed).",
         highlight=False,
+        soft_wrap=True,
     )
     print_objects(d.result, title="Localised fruit")
     print_metrics({d.result.method: d.metrics}, title="Errors vs. truth")
     for w in d.result.warnings:
-        console.print(f"[yellow]warning:[/] {w}", highlight=False)
+        console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
     for note in d.notes:
-        console.print(f"[yellow]note:[/] {note}", highlight=False)
+        console.print(f"[yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
     console.print(
         f"Found {d.metrics.true_positives} of {d.metrics.n_truth} fruit, mean error "
         f"{1e3 * d.metrics.euclidean_mean:.1f} mm, in {d.seconds['total']:.1f} s.",
         highlight=False,
+        soft_wrap=True,
     )
-    console.print(f"Saved to {output}/:", highlight=False)
+    console.print(f"Saved to {output}/:", highlight=False, markup=False, soft_wrap=True)
     descriptions = {
         "session": "what the robot recorded (camera, poses, boxes); re-run with `monovisual3d localize`",
         "truth": "the true fruit; compare with `monovisual3d evaluate result.json truth.json`",
@@ -62,8 +68,10 @@ def demo(
         "figure": "3D view and top view of the true (green) and estimated (red) fruit and the cameras",
     }
     for name, path in d.files.items():
-        what = descriptions.get(name, "what the camera saw, with the detected boxes" if name.startswith("view_") else "")
-        console.print(f"  {path}" + (f"  - {what}" if what else ""), highlight=False)
+        what = descriptions.get(
+            name, "what the camera saw, with the detected boxes numbered as in session.json" if name.startswith("view_") else ""
+        )
+        console.print(f"  {path}" + (f"  - {what}" if what else ""), highlight=False, markup=False, soft_wrap=True)
 
 
 @app.command()

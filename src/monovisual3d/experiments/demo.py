@@ -54,6 +54,29 @@ class DemoResult:
     notes: list[str] = field(default_factory=list)
 
 
+def check_demo_options(output: str | Path = DEFAULT_OUTPUT, *, seed: int = 0, method: str = DEFAULT_METHOD) -> Path:
+    """Validate the demo's options before anything is printed or written; returns the output folder.
+
+    Raises
+    ------
+    InputError
+        Naming the option (``--method (method): got 'foo', ...``).
+
+    Examples
+    --------
+    >>> check_demo_options("mv3d-demo", seed=1, method="paper").name
+    'mv3d-demo'
+    """
+    if method not in METHODS:
+        raise InputError(f"--method (method): got {method!r}, expected one of {sorted(METHODS)}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"--seed (seed): got {seed!r}, expected an integer >= 0")
+    out = Path(output)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: --output (output): exists and is not a directory")
+    return out
+
+
 def run_demo(
     output: str | Path = DEFAULT_OUTPUT,
     *,
@@ -90,13 +113,7 @@ def run_demo(
     >>> d.metrics.recall  # doctest: +SKIP
     1.0
     """
-    if method not in METHODS:
-        raise InputError(f"method: got {method!r}, expected one of {sorted(METHODS)}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"seed: got {seed!r}, expected an integer >= 0")
-    out = Path(output)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"{out}: exists and is not a directory")
+    out = check_demo_options(output, seed=seed, method=method)
     noise = NoiseModel.paper() if noise is None else noise
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()

@@ -35,6 +35,26 @@ from .viewpoints import check_poses, paper_poses
 
 #: Label of simulated detections.
 DETECTION_LABEL = "tomato"
+#: Colours of the view pictures (RGB): boxes in blue, which stands out on red fruit, green leaves and the grey
+#: background; false positives in magenta; the detection index in white on a tag of the box's colour.
+BOX_COLOUR = (0, 70, 255)
+FALSE_POSITIVE_COLOUR = (230, 0, 230)
+TAG_TEXT_COLOUR = (255, 255, 255)
+#: Box line width in pixels of the camera image (times ``supersample`` in the picture).
+BOX_LINE_PX = 2
+#: 3x5 bitmaps of the digits 0-9 (rows top to bottom, 3 bits each), for the detection index.
+_DIGITS = (
+    (7, 5, 5, 5, 7),
+    (2, 6, 2, 2, 7),
+    (7, 1, 7, 4, 7),
+    (7, 1, 7, 1, 7),
+    (5, 5, 7, 1, 1),
+    (7, 4, 7, 1, 7),
+    (7, 4, 7, 5, 7),
+    (7, 1, 2, 2, 2),
+    (7, 5, 7, 5, 7),
+    (7, 5, 7, 1, 7),
+)
 
 
 @dataclass(frozen=True)
@@ -161,8 +181,9 @@ def write_simulation(
     Files: ``session.json`` (load with :func:`monovisual3d.load_session`),
     ``truth.json`` (see :func:`simulate`; usable with ``monovisual3d evaluate``),
     ``scene.json`` (:meth:`Scene.load`), and with ``images`` one ``view_NN.png``
-    per view: the label image (background grey, occluders green, fruit in shades
-    of red) with the reported boxes drawn in yellow (false positives in cyan).
+    per view (:func:`view_image`): the label image (background grey, occluders
+    green, fruit in shades of red) with the reported boxes, numbered by their
+    index in the view's detections.
 
     Returns
     -------
@@ -192,7 +213,18 @@ def write_simulation(
 def view_image(view: SimulatedView) -> NDArray[np.uint8]:
     """RGB picture of a simulated view: label colours plus the reported boxes, shape (H, W, 3), uint8.
 
-    The picture has the label image's resolution (``supersample`` times the camera's).
+    Background grey, occluders green, fruit in shades of red. Each reported box
+    is drawn :data:`BOX_LINE_PX` pixels wide inside its edges, in
+    :data:`BOX_COLOUR` (false positives in :data:`FALSE_POSITIVE_COLOUR`), with
+    its index in the view's detections (``session.json``'s order) written on a
+    tag at its top-left corner. The picture has the label image's resolution
+    (``supersample`` times the camera's).
+
+    Examples
+    --------
+    >>> from monovisual3d.sim.scenes import paper_scene
+    >>> view_image(simulate_views(paper_scene(), rng=0)[0]).shape
+    (480, 640, 3)
     """
     labels = view.rendering.labels
     s = view.rendering.supersample
@@ -203,16 +235,42 @@ def view_image(view: SimulatedView) -> NDArray[np.uint8]:
     shade = (labels[fruit] * 37) % 100
     img[fruit] = np.stack([220 - shade // 2, 30 + shade, 30 + shade // 2], axis=-1).astype(np.uint8)
     H, W = labels.shape
-    for box, src in zip(view.boxes_xyxy, view.source):
-        colour = (255, 230, 0) if src >= 0 else (0, 220, 255)
-        x1, y1, x2, y2 = np.round(np.asarray(box) * s).astype(int)
-        x1, x2 = np.clip([x1, x2 - 1], 0, W - 1)
-        y1, y2 = np.clip([y1, y2 - 1], 0, H - 1)
-        img[y1, x1 : x2 + 1] = colour
-        img[y2, x1 : x2 + 1] = colour
-        img[y1 : y2 + 1, x1] = colour
-        img[y1 : y2 + 1, x2] = colour
+    t = BOX_LINE_PX * s
+    for j, (box, src) in enumerate(zip(view.boxes_xyxy, view.source)):
+        colour = BOX_COLOUR if src >= 0 else FALSE_POSITIVE_COLOUR
+        x1, y1, x2, y2 = (int(v) for v in np.round(np.asarray(box, dtype=float) * s))
+        x1, y1 = max(x1, 0), max(y1, 0)
+        x2, y2 = min(x2, W), min(y2, H)  # exclusive ends
+        if x2 <= x1 or y2 <= y1:
+            continue
+        img[y1 : min(y1 + t, y2), x1:x2] = colour
+        img[max(y2 - t, y1) : y2, x1:x2] = colour
+        img[y1:y2, x1 : min(x1 + t, x2)] = colour
+        img[y1:y2, max(x2 - t, x1) : x2] = colour
+        _draw_tag(img, str(j), x1, y1, colour, scale=s)
     return img
+
+
+def _draw_tag(img: NDArray[np.uint8], text: str, x: int, y: int, colour: tuple[int, int, int], scale: int = 1) -> None:
+    """Write the digits ``text`` (2x-size 3x5 font, times ``scale``) on a filled tag whose top-left corner is at ``(x, y)``.
+
+    The tag sits on the box's top-left corner, inside the box when there is no room above it; it is clipped to the image.
+    """
+    k = 2 * scale  # pixels per font dot
+    pad = scale
+    w = len(text) * 4 * k - k + 2 * pad
+    h = 5 * k + 2 * pad
+    H, W = img.shape[:2]
+    top = y - h if y - h >= 0 else y
+    tag = np.empty((h, w, 3), dtype=np.uint8)
+    tag[:] = colour
+    for i, ch in enumerate(text):
+        bits = np.array([[(row >> (2 - c)) & 1 for c in range(3)] for row in _DIGITS[int(ch)]], dtype=bool)
+        glyph = np.kron(bits, np.ones((k, k), dtype=bool))
+        x0 = pad + i * 4 * k
+        tag[pad : pad + 5 * k, x0 : x0 + 3 * k][glyph] = TAG_TEXT_COLOUR
+    y_end, x_end = min(top + h, H), min(x + w, W)
+    img[top:y_end, x:x_end] = tag[: y_end - top, : x_end - x]
 
 
 def write_png(path: str | Path, image: NDArray[np.uint8]) -> None:
