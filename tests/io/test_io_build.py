@@ -131,7 +131,9 @@ def test_build_session_errors(tmp_path):
         build_session(scene.CAMERA, traj, frames)
     with pytest.raises(InputError, match=r"p.json: --match stamp \(match='stamp'\): the poses have no time stamps"):
         build_session(scene.CAMERA, read_poses(tmp_path / "p.json"), [ImageDetections(None, 1.0)], match="stamp")
-    with pytest.raises(InputError, match=r"poses.csv: --match order \(match='order'\): 4 poses but a.txt has 1 images"):
+    with pytest.raises(
+        InputError, match=r"poses.csv: --match order \(match='order'\): 4 poses but 1 images in the detections \(a.txt\)"
+    ):
         build_session(scene.CAMERA, traj, [ImageDetections("a.png", source="a.txt")], match="order")
 
 
@@ -223,8 +225,8 @@ def test_tum_poses_with_yolo_labels_named_by_frame_need_match_order(tmp_path, re
     with pytest.raises(InputError) as err:
         import_session(tmp_path / "camera.yaml", tmp_path / "poses.txt", tmp_path / "labels")
     message = str(err.value)
-    assert f"cannot match the poses of {tmp_path / 'poses.txt'} (stamps, no image names)" in message
-    assert f"to the detections of {tmp_path / 'labels'} (image names, no stamps)" in message
+    assert f"cannot match the poses ({tmp_path / 'poses.txt'}: stamps, no image names)" in message
+    assert f"to the detections ({tmp_path / 'labels'}: image names, no stamps)" in message
     assert message.endswith("pass --match order (match='order')")
     result = import_session(tmp_path / "camera.yaml", tmp_path / "poses.txt", tmp_path / "labels", match="order")
     assert "paired poses and images in order (--match order): pose 0 with img_000, ..., pose 3 with img_003" in (

@@ -103,8 +103,8 @@ def build_session(
             match = "stamp"
         else:
             raise InputError(
-                f"cannot match the poses of {pose_source} ({_what_names(poses.images is not None, poses.stamps is not None)}) "
-                f"to the detections of {det_source} ({_what_names(*_frames_have_names_stamps(frames))}): "
+                f"cannot match the poses ({pose_source}: {_what_names(poses.images is not None, poses.stamps is not None)}) "
+                f"to the detections ({det_source}: {_what_names(*_frames_have_names_stamps(frames))}): "
                 "matching by name needs image names on both sides (--match name, match='name') and by time, stamps "
                 "on both sides (--match stamp, match='stamp'); to pair the i-th pose with the i-th image, "
                 "pass --match order (match='order')"
@@ -118,8 +118,8 @@ def build_session(
     else:
         if len(poses) != len(frames):
             raise InputError(
-                f"{pose_source}: --match order (match='order'): {len(poses)} poses but {det_source} has "
-                f"{len(frames)} images; pairing in order needs one pose per image"
+                f"{pose_source}: --match order (match='order'): {len(poses)} poses but {len(frames)} images in the "
+                f"detections ({det_source}); pairing in order needs one pose per image"
             )
         pairs = [(T_frame[i], f) for i, f in enumerate(frames)]
         last = f", ..., pose {len(frames) - 1} with {frames[-1].name}" if len(frames) > 1 else ""
@@ -181,7 +181,7 @@ def _detections_source(frames: Sequence[ImageDetections]) -> str:
     """The file(s) detections were read from, for messages."""
     sources = sorted({f.source for f in frames if f.source})
     if not sources:
-        return "the detections"
+        return "given"
     return sources[0] if len(sources) == 1 else f"{sources[0]} (and {len(sources) - 1} more files)"
 
 
@@ -421,7 +421,7 @@ def import_session(
         if hand_eye_units not in POSITION_UNITS:
             raise InputError(f"--hand-eye-units (hand_eye_units): got {hand_eye_units!r}, expected one of {list(POSITION_UNITS)}")
         T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
-    summary = ImportSummary(source=det_source)
+    summary = ImportSummary(source="" if det_source == "given" else det_source)
     cam_source = str(camera) if not isinstance(camera, (Camera, dict)) else "given"
     summary.note(f"camera: {cam_source}; poses: {traj.source or 'given'}; detections: {det_source}")
     if size_note is not None:
