@@ -15,9 +15,15 @@ from .bench import bench_app
 @handle_errors
 def accuracy(
     quick: Annotated[bool, typer.Option("--quick", help="Fewer seeds and fruit counts (about a minute).")] = False,
-    methods: Annotated[str, typer.Option(help="Methods, comma separated: bayes, bayes+masks, paper.")] = "bayes,bayes+masks,paper",
-    only: Annotated[str | None, typer.Option(help="Only these conditions, comma separated (e.g. paper-clean,greenhouse).")] = None,
-    output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")] = None,
+    methods: Annotated[
+        str, typer.Option(help="Methods, comma separated: bayes, bayes+masks, paper.")
+    ] = "bayes,bayes+masks,paper",
+    only: Annotated[
+        str | None, typer.Option(help="Only these conditions, comma separated (e.g. paper-clean,greenhouse).")
+    ] = None,
+    output: Annotated[
+        Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
+    ] = None,
 ) -> None:
     """Fixed-seed simulated scenes: error, recall, precision, radius error and runtime per method."""
     from rich.progress import Progress
