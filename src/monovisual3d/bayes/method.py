@@ -128,15 +128,8 @@ class BayesConfig:
 
     @property
     def sensor(self) -> SensorModel:
-        return SensorModel(
-            alpha=self.alpha,
-            sigma0_px=self.sigma0_px,
-            inward_floor=self.inward_floor,
-            outward_floor=self.outward_floor,
-            match_bonus=self.match_bonus,
-            p_miss=self.p_miss,
-            border_px=self.border_px,
-        )
+        """The sensor-model fields of this config as a :class:`SensorModel`."""
+        return SensorModel(**{f.name: getattr(self, f.name) for f in fields(SensorModel)})
 
     @property
     def pose_position_sigma(self) -> float:
