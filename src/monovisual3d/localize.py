@@ -99,6 +99,14 @@ def localize_paper(session: Session, *, progress: Callable[[int, int], None] | N
     if not filt.views_used:
         filt.messages.append("no view had a usable detection: nothing localised")
     grid = filt.grid.to_dict() if filt.grid is not None else {}
+    return paper_result(objects, grid, config, (t0, t1, t2), list(filt.messages))
+
+
+def paper_result(
+    objects: list[Any], grid: dict[str, Any], config: PaperConfig, times: tuple[float, float, float], warnings: list[str]
+) -> Result:
+    """The paper method's :class:`Result` (dense and sparse paths): times are (start, filtered, estimated)."""
+    t0, t1, t2 = times
     cfg = {k: (v if not isinstance(v, np.generic) else v.item()) for k, v in config.__dict__.items()}
     return Result(
         objects=objects,
@@ -106,5 +114,5 @@ def localize_paper(session: Session, *, progress: Callable[[int, int], None] | N
         grid=grid,
         timing_s={"filter": t1 - t0, "estimate": t2 - t1, "total": t2 - t0},
         config=cfg,
-        warnings=list(filt.messages),
+        warnings=warnings,
     )

@@ -336,7 +336,7 @@ def localize_paper_sparse(
     if threshold is None:
         threshold = 0.01 * float(config.keep_threshold)
     from ..estimation import choose_k, kmeans_objects
-    from ..result import Result
+    from ..localize import paper_result
 
     fine = float(config.refine_to)
     t0 = time.perf_counter()
@@ -402,12 +402,4 @@ def localize_paper_sparse(
     t2 = time.perf_counter()
     grid_dict = grid.to_dict() if grid is not None else {}
     grid_dict["sparse"] = {k: v for k, v in stats.items()}
-    cfg = {k: (v if not isinstance(v, np.generic) else v.item()) for k, v in config.__dict__.items()}
-    return Result(
-        objects=objects,
-        method="paper",
-        grid=grid_dict,
-        timing_s={"filter": t1 - t0, "estimate": t2 - t1, "total": t2 - t0},
-        config=cfg,
-        warnings=messages,
-    )
+    return paper_result(objects, grid_dict, config, (t0, t1, t2), messages)
