@@ -223,6 +223,47 @@ def test_numba_kernel_matches_numpy_reference(distortion):
     assert_allclose(n_assoc, ref_n)
 
 
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+def test_kernel_mask_scores_only_the_selected_hypotheses():
+    rng = np.random.default_rng(3)
+    poses = paper_like_poses()
+    boxes = [sphere_bbox(CAM, T, TARGET[None], 0.03) for T in poses]
+    avail = [np.ones(len(b), bool) for b in boxes]
+    T_ob = [invert_transform(T) for T in poses]
+    centres = TARGET + rng.uniform(-0.05, 0.05, (200, 3))
+    radii = np.geomspace(0.01, 0.08, 5)
+    model = SensorModel()
+    full = score_hypotheses(CAM, T_ob, boxes, avail, centres, radii, model, 0.002)
+    mask = rng.random((200, 5)) < 0.4
+    total, n_assoc, assoc = score_hypotheses(CAM, T_ob, boxes, avail, centres, radii, model, 0.002, mask=mask)
+    assert_allclose(total[mask], full[0][mask], rtol=0, atol=0)
+    assert_allclose(n_assoc[mask], full[1][mask])
+    assert_allclose(assoc[:, mask], full[2][:, mask])
+    assert np.all(total[~mask] == -np.inf) and np.all(n_assoc[~mask] == 0) and np.all(assoc[:, ~mask] == -1)
+    with pytest.raises(ValueError, match=r"mask: shape \(200, 4\), expected \(200, 5\)"):
+        score_hypotheses(CAM, T_ob, boxes, avail, centres, radii, model, 0.002, mask=mask[:, :4])
+
+
+def test_refinement_jacobian_matches_scipy_forward_differences():
+    from scipy.optimize._numdiff import approx_derivative
+
+    from monovisual3d.bayes.refine import Observation, _BoxResiduals
+
+    rng = np.random.default_rng(6)
+    obs = [
+        Observation(invert_transform(T), sphere_bbox(CAM, T, TARGET[None], 0.031)[0] + rng.normal(0, 1.0, 4), None, 0.5 * i)
+        for i, T in enumerate(paper_like_poses())
+    ]
+    f = _BoxResiduals(CAM, obs, SensorModel())
+    for _ in range(5):
+        x = np.concatenate([TARGET + rng.normal(0, 0.01, 3), [np.log(0.03)]])
+        ref = approx_derivative(f, x, method="2-point")
+        assert_allclose(f.jacobian(x), ref, rtol=1e-12, atol=1e-12)
+        batch = f.batch(np.stack([x[:3], x[:3] + 0.01]), np.exp([x[3], x[3] + 0.1]))
+        assert_allclose(batch[0], f(x), rtol=0, atol=0)
+        assert_allclose(batch[1], f(x + [0.01, 0.01, 0.01, 0.1]), rtol=1e-12, atol=1e-12)
+
+
 def test_bad_options_are_clear():
     s = session_for([TARGET], [0.03], paper_like_poses())
     with pytest.raises(InputError, match="radius_min"):

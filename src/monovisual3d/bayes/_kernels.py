@@ -57,6 +57,7 @@ def _edge_ll(d: float, sigma: float, in_floor: float, out_floor: float) -> float
 def _score_kernel(
     centres,
     radii,
+    mask,
     T_ob,
     boxes,
     nboxes,
@@ -91,6 +92,8 @@ def _score_kernel(
             n_assoc[n, kk] = 0
             for v in range(V):
                 assoc[v, n, kk] = -1
+            if not mask[n, kk]:
+                total[n, kk] = -math.inf
         for v in range(V):
             X = T_ob[v, 0, 0] * centres[n, 0] + T_ob[v, 0, 1] * centres[n, 1] + T_ob[v, 0, 2] * centres[n, 2] + T_ob[v, 0, 3]
             Y = T_ob[v, 1, 0] * centres[n, 0] + T_ob[v, 1, 1] * centres[n, 1] + T_ob[v, 1, 2] * centres[n, 2] + T_ob[v, 1, 3]
@@ -104,6 +107,8 @@ def _score_kernel(
             tx = X / zc
             ty = Y / zc
             for kk in range(K):
+                if not mask[n, kk]:
+                    continue
                 r = radii[kk]
                 if not (Z > r):
                     continue
@@ -235,6 +240,7 @@ def score_hypotheses(
     model: SensorModel,
     blur_half_diagonal: float,
     extra_const_px: float = 0.0,
+    mask: NDArray[np.bool_] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
     """Score every (centre, radius) hypothesis against all views.
 
@@ -244,6 +250,10 @@ def score_hypotheses(
     cell stands for, and depth-independent terms such as the camera's
     rotation uncertainty (a position uncertainty adds to ``blur_half_diagonal``
     in quadrature, it scales with ``1 / Z`` the same way).
+
+    ``mask`` (N, K) bool, optional, selects the hypotheses to score; the others
+    get ``total = -inf``, ``n_assoc = 0`` and no association (the search uses
+    it to skip the radii a parent cell already ruled out).
 
     Returns
     -------
@@ -256,9 +266,14 @@ def score_hypotheses(
     total = np.empty((len(centres_base), len(radii)))
     n_assoc = np.empty((len(centres_base), len(radii)), dtype=np.int32)
     assoc = np.empty((len(boxes), len(centres_base), len(radii)), dtype=np.int16)
+    if mask is None:
+        mask = np.ones(total.shape, dtype=np.bool_)
+    elif mask.shape != total.shape:
+        raise ValueError(f"mask: shape {mask.shape}, expected {total.shape} (centres, radii)")
     _score_kernel(
         np.ascontiguousarray(centres_base, dtype=np.float64),
         np.ascontiguousarray(radii, dtype=np.float64),
+        np.ascontiguousarray(mask, dtype=np.bool_),
         T,
         B,
         nb,

@@ -63,6 +63,8 @@ from .masks import contour_points
 from .refine import Observation, refine_sphere
 from .search import cone_counts, split_cells
 
+_RADIUS_MARGIN_BINS = 1
+
 
 @dataclass(frozen=True)
 class BayesConfig:
@@ -241,22 +243,31 @@ class BayesLocalizer:
         centres_grid, cell = grid.centres_grid(), grid.resolution
         n_scored = 0
         floor = cfg.accept - cfg.prune_slack
+        mask = np.ones((len(centres_grid), len(radii)), dtype=bool)
         while True:
             centres = centres_grid @ R.T + t
             keep = cone_counts(cam, [vd.view for vd in vds], centres, cell * np.sqrt(3) / 2) >= cfg.min_views
-            centres_grid, centres = centres_grid[keep], centres[keep]
-            if len(centres) * len(radii) > cfg.max_hypotheses:
+            centres_grid, centres, mask = centres_grid[keep], centres[keep], mask[keep]
+            n_hyp = int(mask.sum())
+            if n_hyp > cfg.max_hypotheses:
                 raise InputError(
-                    f"resolution: {len(centres) * len(radii):,} hypotheses exceed max_hypotheses={cfg.max_hypotheses:,}; "
+                    f"resolution: {n_hyp:,} hypotheses exceed max_hypotheses={cfg.max_hypotheses:,}; "
                     "use a coarser --resolution, fewer radius bins or a smaller workspace"
                 )
-            n_scored += len(centres) * len(radii)
-            total, n_assoc, assoc = self._score(vds, centres, radii, cell, model)
-            good_cells = ((total >= floor) & (n_assoc >= cfg.min_views)).any(axis=1)
-            centres_grid, centres = centres_grid[good_cells], centres[good_cells]
+            n_scored += n_hyp
+            total, n_assoc, assoc = self._score(vds, centres, radii, cell, model, mask)
+            # scores only fall as boxes are taken, so a hypothesis below the floor never matters again
+            mask = (total >= floor) & (n_assoc >= cfg.min_views)
+            good_cells = mask.any(axis=1)
+            centres_grid, centres, mask = centres_grid[good_cells], centres[good_cells], mask[good_cells]
             total, n_assoc, assoc = total[good_cells], n_assoc[good_cells], assoc[:, good_cells]
             if cell <= cfg.resolution * (1 + 1e-9) or len(centres) == 0:
                 break
+            # children inherit the radii their parent kept, widened by one bin (the
+            # parent's score is blurred in position, not in radius)
+            for _ in range(_RADIUS_MARGIN_BINS):
+                mask = mask | np.pad(mask[:, 1:], ((0, 0), (0, 1))) | np.pad(mask[:, :-1], ((0, 0), (1, 0)))
+            mask = np.repeat(mask, 8, axis=0)  # split_cells puts cell i's children at rows 8i..8i+7
             centres_grid = split_cells(centres_grid, cell)
             cell /= 2
         t1 = time.perf_counter()
@@ -315,7 +326,7 @@ class BayesLocalizer:
                     affected |= (assoc[v] == j).any(axis=1)
             if affected.any():
                 sub = np.flatnonzero(affected)
-                t_sub, n_sub, a_sub = self._score(vds, centres[sub], radii, cell, model)
+                t_sub, n_sub, a_sub = self._score(vds, centres[sub], radii, cell, model, mask[sub])
                 total[sub], n_assoc[sub], assoc[:, sub] = t_sub, n_sub, a_sub
         objects = self._swap_pass(vds, objects, model)
         t2 = time.perf_counter()
@@ -328,11 +339,17 @@ class BayesLocalizer:
         return objects
 
     def _score(
-        self, vds: list[_ViewData], centres: NDArray[np.float64], radii: NDArray[np.float64], cell: float, model: SensorModel
+        self,
+        vds: list[_ViewData],
+        centres: NDArray[np.float64],
+        radii: NDArray[np.float64],
+        cell: float,
+        model: SensorModel,
+        mask: NDArray[np.bool_],
     ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
-        """Score (cell, radius) hypotheses with the boxes still available.
+        """Score the (cell, radius) hypotheses selected by ``mask`` (N, K) with the boxes still available.
 
-        Returns the total score (N, K), the number of views with an associated
+        Returns the total score (N, K; -inf where not selected), the number of views with an associated
         box (N, K) and the associated box per view (V, N, K; -1 for none). The
         cell's projected half-diagonal is added to the edge noise, so a cell
         is scored as the region it stands for.
@@ -351,6 +368,7 @@ class BayesLocalizer:
                 model,
                 float(np.hypot(blur, cfg.pose_position_sigma)) if cfg.pose_position_sigma > 0 else blur,
                 max(self.camera.fx, self.camera.fy) * cfg.pose_rotation_sigma,
+                mask,
             )
         cam = self.camera
         total = np.zeros((len(centres), len(radii)))
@@ -366,23 +384,21 @@ class BayesLocalizer:
             total += llr
             n_assoc += a >= 0
             assoc[v] = a
+        total[~mask], n_assoc[~mask], assoc[:, ~mask] = -np.inf, 0, -1
         return total, n_assoc, assoc
 
     def _associate(
         self, vds: list[_ViewData], centre: NDArray[np.float64], radius: float, model: SensorModel, cell: float
     ) -> list[int]:
-        """Best available box per view (-1: none) for one hypothesis."""
-        cam = self.camera
-        out = []
-        for vd in vds:
-            p_opt = vd.T_optical_base[:3, :3] @ centre + vd.T_optical_base[:3, 3]
-            pred, visible = predict_boxes(cam, p_opt[None, :], np.array([radius]))
-            extra = max(cam.fx, cam.fy) * cell * np.sqrt(3) / 2 / max(p_opt[2], 1e-6)
-            if self.config.poses_uncertain:
-                extra = float(np.hypot(extra, self._pose_px(p_opt[2])))
-            _, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height, extra)
-            out.append(int(a[0, 0]))
-        return out
+        """Best available box per view (-1: none) for one hypothesis scored as a grid cell of size ``cell``."""
+        return self._score_one(vds, centre, radius, model, cell)[1]
+
+    def _score_one(
+        self, vds: list[_ViewData], centre: NDArray[np.float64], radius: float, model: SensorModel, cell: float = 0.0
+    ) -> tuple[float, list[int]]:
+        """Score (nats) and best available box per view (-1: none) of one sphere; ``cell`` > 0 blurs it as a grid cell."""
+        total, _, assoc = self._score(vds, centre[None, :], np.array([radius]), cell, model, np.ones((1, 1), dtype=bool))
+        return float(total[0, 0]), [int(a) for a in assoc[:, 0, 0]]
 
     def _pose_px(self, depth: NDArray[np.floating] | float) -> NDArray[np.float64] | float:
         """Edge noise (pixels) of the stated pose uncertainty at ``depth`` (metres); exactly 0.0 when poses are exact."""
@@ -470,17 +486,10 @@ class BayesLocalizer:
             centre, radius = refined.centre, refined.radius
             if not (cfg.radius_min * 0.5 <= radius <= cfg.radius_max * 2):
                 return None
-            new_assoc, llrs = [], []
-            for vd in vds:
-                p_opt = vd.T_optical_base[:3, :3] @ centre + vd.T_optical_base[:3, 3]
-                pred, visible = predict_boxes(cam, p_opt[None, :], np.array([radius]))
-                llr, a = view_scores(pred, visible, vd.boxes, vd.available, model, cam.width, cam.height, self._pose_px(p_opt[2]))
-                new_assoc.append(int(a[0, 0]))
-                llrs.append(float(llr[0, 0]))
+            score, new_assoc = self._score_one(vds, centre, radius, model)
             if new_assoc == assoc:
                 break
             assoc = new_assoc
-        score = float(sum(llrs))
         n_views = sum(a >= 0 for a in assoc)
         if refined is None or n_views < cfg.min_views or score < cfg.accept:
             return None

@@ -106,18 +106,22 @@ def residuals(
     return np.concatenate(out) if out else np.zeros(0)
 
 
-def _pinhole_sphere_boxes(camera: Camera, p_optical: NDArray[np.floating], radius: float) -> NDArray[np.float64]:
+def _pinhole_sphere_boxes(
+    camera: Camera, p_optical: NDArray[np.floating], radius: NDArray[np.floating] | float
+) -> NDArray[np.float64]:
     """:func:`predict_boxes` for one radius and no distortion, in a few numpy operations (the refinement's hot path).
 
     Same maths as the fused kernel: ``tan(phi -/+ h) = (t -/+ s) / (1 +/- t s)`` with ``t = X / Z`` and
-    ``s = tan(h) = r / sqrt(X^2 + Z^2 - r^2)``. Shape (M, 4); NaN where the sphere is not entirely in front.
+    ``s = tan(h) = r / sqrt(X^2 + Z^2 - r^2)``. ``p_optical`` has shape (..., 3) and ``radius`` broadcasts
+    against ``p_optical[..., 0]``; returns shape (..., 4), NaN where the sphere is not entirely in front.
     """
-    X, Y, Z = p_optical[:, 0], p_optical[:, 1], p_optical[:, 2]
-    r2 = radius * radius
+    X, Y, Z = p_optical[..., 0], p_optical[..., 1], p_optical[..., 2]
+    r = np.broadcast_to(radius, X.shape)
+    r2 = r * r
     with np.errstate(invalid="ignore", divide="ignore"):
         tx, ty = X / Z, Y / Z
-        sx = radius / np.sqrt(X * X + Z * Z - r2)
-        sy = radius / np.sqrt(Y * Y + Z * Z - r2)
+        sx = r / np.sqrt(X * X + Z * Z - r2)
+        sy = r / np.sqrt(Y * Y + Z * Z - r2)
         out = np.stack(
             [
                 camera.fx * (tx - sx) / (1 + tx * sx) + camera.cx,
@@ -125,10 +129,68 @@ def _pinhole_sphere_boxes(camera: Camera, p_optical: NDArray[np.floating], radiu
                 camera.fx * (tx + sx) / (1 - tx * sx) + camera.cx,
                 camera.fy * (ty + sy) / (1 - ty * sy) + camera.cy,
             ],
-            axis=1,
+            axis=-1,
         )
-    out[~(Z > radius)] = np.nan
+    out[~(Z > r)] = np.nan
     return out
+
+
+class _BoxResiduals:
+    """Box-edge residuals of a fixed set of box observations for many ``(x, y, z, log r)`` at once.
+
+    The observations are stacked once; :meth:`__call__` evaluates a batch of
+    parameter vectors in one numpy pass, which makes the forward-difference
+    Jacobian (:meth:`jacobian`) one call instead of four.
+    """
+
+    def __init__(self, camera: Camera, observations: Sequence[Observation], model: SensorModel) -> None:
+        self.camera, self.model = camera, model
+        T = np.stack([ob.T_optical_base[:3, :4] for ob in observations])
+        self.R, self.t = T[:, :, :3], T[:, :, 3]
+        obs = np.stack([np.asarray(ob.bbox_xyxy, dtype=float) for ob in observations])
+        self.obs = obs
+        self.extra2 = np.array([float(np.asarray(ob.extra_sigma_px)) for ob in observations]) ** 2
+        b = model.border_px
+        self.censored = np.stack(
+            [obs[:, 0] <= b, obs[:, 1] <= b, obs[:, 2] >= camera.width - b, obs[:, 3] >= camera.height - b], axis=1
+        )
+
+    def batch(self, centres_base: NDArray[np.floating], radii: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Residuals for centres (P, 3), metres, base frame, and radii (P,), metres: shape (P, 4 M)."""
+        cam, model = self.camera, self.model
+        p_opt = np.einsum("mij,pj->pmi", self.R, centres_base) + self.t  # (P, M, 3)
+        if cam.distortion_model == "none":
+            pred = _pinhole_sphere_boxes(cam, p_opt, radii[:, None])
+        else:
+            pred = np.stack([predict_boxes(cam, p, np.array([r]))[0][:, 0, :] for p, r in zip(p_opt, radii)])
+        sx = model.alpha * (pred[..., 2] - pred[..., 0]) + model.sigma0_px
+        sy = model.alpha * (pred[..., 3] - pred[..., 1]) + model.sigma0_px
+        if np.any(self.extra2):
+            sx = np.sqrt(sx * sx + self.extra2)
+            sy = np.sqrt(sy * sy + self.extra2)
+        obs = self.obs
+        d = np.stack(
+            [obs[:, 0] - pred[..., 0], obs[:, 1] - pred[..., 1], pred[..., 2] - obs[:, 2], pred[..., 3] - obs[:, 3]], axis=-1
+        )
+        d = np.where(self.censored, np.minimum(d, 0.0), d)
+        e = d / np.stack([sx, sy, sx, sy], axis=-1)
+        return np.nan_to_num(e, nan=1e3).reshape(len(e), -1)
+
+    def __call__(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Residuals (4 M,) for ``params = (x, y, z, log r)``."""
+        return self.batch(params[None, :3], np.exp(params[None, 3]))[0]
+
+    def jacobian(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Forward-difference Jacobian (4 M, 4) with scipy's default ``2-point`` steps, in one batched call."""
+        h = _FD_REL_STEP * np.where(params >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(params))
+        h = (params + h) - params  # the step actually taken in floating point
+        P = np.vstack([params, params + np.diag(h)])
+        f = self.batch(P[:, :3], np.exp(P[:, 3]))
+        return ((f[1:] - f[0]) / h[:, None]).T
+
+
+#: scipy's relative step for ``jac="2-point"``: sqrt of the float64 machine epsilon.
+_FD_REL_STEP = float(np.sqrt(np.finfo(float).eps))
 
 
 def box_residuals_batch(
@@ -136,25 +198,7 @@ def box_residuals_batch(
 ) -> NDArray[np.float64]:
     """Box-edge residuals of all observations at once, shape (4 M,): the same values and order as
     :func:`observation_residuals` observation by observation (one numpy pass; the refinement's hot path)."""
-    T = np.stack([ob.T_optical_base[:3, :4] for ob in observations])
-    obs = np.stack([ob.bbox_xyxy for ob in observations])
-    extra = np.array([float(np.asarray(ob.extra_sigma_px)) for ob in observations])
-    p_opt = np.einsum("mij,j->mi", T[:, :, :3], centre_base) + T[:, :, 3]
-    if camera.distortion_model == "none":
-        pred = _pinhole_sphere_boxes(camera, p_opt, radius)
-    else:
-        pred = predict_boxes(camera, p_opt, np.array([radius]))[0][:, 0, :]
-    sx = model.alpha * (pred[:, 2] - pred[:, 0]) + model.sigma0_px
-    sy = model.alpha * (pred[:, 3] - pred[:, 1]) + model.sigma0_px
-    if np.any(extra):
-        sx = np.sqrt(sx * sx + extra * extra)
-        sy = np.sqrt(sy * sy + extra * extra)
-    d = np.stack([obs[:, 0] - pred[:, 0], obs[:, 1] - pred[:, 1], pred[:, 2] - obs[:, 2], pred[:, 3] - obs[:, 3]], axis=1)
-    b = model.border_px
-    censored = np.stack([obs[:, 0] <= b, obs[:, 1] <= b, obs[:, 2] >= camera.width - b, obs[:, 3] >= camera.height - b], axis=1)
-    d = np.where(censored, np.minimum(d, 0.0), d)
-    e = d / np.stack([sx, sy, sx, sy], axis=1)
-    return np.nan_to_num(e, nan=1e3).ravel()
+    return _BoxResiduals(camera, observations, model).batch(np.asarray(centre_base, float)[None], np.array([radius]))[0]
 
 
 def refine_sphere(
@@ -177,8 +221,16 @@ def refine_sphere(
         covariance of the position.
     """
     x0 = np.concatenate([np.asarray(centre0, dtype=float), [np.log(max(radius0, 1e-4))]])
-    fun = lambda p: residuals(p, camera, observations, model, use_masks)  # noqa: E731
-    sol = least_squares(fun, x0, loss=robust_loss(model.inward_floor), method="trf", x_scale=np.array([0.01, 0.01, 0.01, 0.1]))
+    if observations and not (use_masks and any(ob.contour_uv is not None for ob in observations)):
+        # boxes only: residuals and the forward-difference Jacobian in batched numpy passes
+        boxes = _BoxResiduals(camera, observations, model)
+        fun, jac = boxes, boxes.jacobian
+    else:
+        fun = lambda p: residuals(p, camera, observations, model, use_masks)  # noqa: E731
+        jac = "2-point"
+    sol = least_squares(
+        fun, x0, jac=jac, loss=robust_loss(model.inward_floor), method="trf", x_scale=np.array([0.01, 0.01, 0.01, 0.1])
+    )
     # scipy returns the Jacobian already scaled by the robust loss (J^T J is its
     # Gauss-Newton Hessian), so no further weighting here
     J = sol.jac

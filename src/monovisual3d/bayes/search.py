@@ -63,6 +63,9 @@ def cone_counts(
 
 
 def split_cells(centres_grid: NDArray[np.floating], size: float) -> NDArray[np.float64]:
-    """Octree split: the 8 children (cell size ``size / 2``) of each cell centre, shape (8N, 3)."""
+    """Octree split: the 8 children (cell size ``size / 2``) of each cell centre, shape (8N, 3).
+
+    The children of input row ``i`` are output rows ``8 i`` to ``8 i + 7``.
+    """
     child = size / 2
     return (centres_grid[:, None, :] + _CHILD_OFFSETS[None, :, :] * child).reshape(-1, 3)
