@@ -244,6 +244,29 @@ def test_kernel_mask_scores_only_the_selected_hypotheses():
         score_hypotheses(CAM, T_ob, boxes, avail, centres, radii, model, 0.002, mask=mask[:, :4])
 
 
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+@pytest.mark.parametrize("distortion", [("none", ()), ("plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.003))])
+def test_fused_cone_counts_match_numpy_reference(distortion):
+    from monovisual3d.bayes._kernels import cone_counts_fused
+    from monovisual3d.bayes.search import cone_counts
+
+    cam = Camera(640, 480, 480, 470, 322, 238, *distortion)
+    rng = np.random.default_rng(4)
+    poses = paper_like_poses()
+    truth = TARGET + rng.uniform(-0.1, 0.1, (5, 3))
+    views = [View(T, tuple(Detection(b) for b in sphere_bbox(cam, T, truth, 0.03) if np.all(np.isfinite(b)))) for T in poses]
+    views.append(View(poses[0], ()))  # a view without detections counts for nothing
+    # points all around, some behind the cameras and some within a cell of the image plane
+    centres = np.vstack([TARGET + rng.uniform(-0.3, 0.3, (3000, 3)), poses[0][:3, 3] + rng.uniform(-0.02, 0.02, (200, 3))])
+    for half_diag in (0.0, 0.01, 0.05):
+        ref = cone_counts(cam, views, centres, half_diag)
+        fused = cone_counts_fused(
+            cam, [invert_transform(v.T_base_optical) for v in views], [v.boxes_xyxy for v in views], centres, half_diag
+        )
+        assert_allclose(fused, ref)
+        assert 0 < np.count_nonzero(ref) < len(ref)
+
+
 def test_refinement_jacobian_matches_scipy_forward_differences():
     from scipy.optimize._numdiff import approx_derivative
 

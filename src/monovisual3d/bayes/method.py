@@ -56,7 +56,7 @@ from ..grid import DEFAULT_REACH_M, VoxelGrid
 from ..localize import register_method
 from ..result import DetectedObject, Result
 from ..session import Session, View, Workspace
-from ._kernels import HAVE_NUMBA, score_hypotheses
+from ._kernels import HAVE_NUMBA, cone_counts_fused, score_hypotheses
 from .bundle import bundle_adjust, correction_transform
 from .likelihood import SensorModel, box_scores, pose_sigma_px, predict_boxes, view_scores
 from .masks import contour_points
@@ -246,7 +246,13 @@ class BayesLocalizer:
         mask = np.ones((len(centres_grid), len(radii)), dtype=bool)
         while True:
             centres = centres_grid @ R.T + t
-            keep = cone_counts(cam, [vd.view for vd in vds], centres, cell * np.sqrt(3) / 2) >= cfg.min_views
+            if HAVE_NUMBA:
+                counts = cone_counts_fused(
+                    cam, [vd.T_optical_base for vd in vds], [vd.boxes for vd in vds], centres, cell * np.sqrt(3) / 2
+                )
+            else:
+                counts = cone_counts(cam, [vd.view for vd in vds], centres, cell * np.sqrt(3) / 2)
+            keep = counts >= cfg.min_views
             centres_grid, centres, mask = centres_grid[keep], centres[keep], mask[keep]
             n_hyp = int(mask.sum())
             if n_hyp > cfg.max_hypotheses:
