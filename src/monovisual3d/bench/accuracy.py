@@ -11,7 +11,8 @@ Conditions (the issue's list), each over several seeds:
 - ``n-fruit-N`` for N in 1, 2, 4, 6, 10: random scenes, exact boxes.
 
 Methods: ``bayes`` (default), ``bayes+masks`` (the same with instance masks
-from the simulator's label images, where a condition provides them) and
+from the simulator's label images, where a condition provides them),
+``bayes-2cm`` (``bayes`` scoring on a 2 cm grid; not run unless asked) and
 ``paper`` (Gaussian kernel, sigma = size/2, weighted centre, 10 mm grid).
 
 Per condition and method, errors are pooled over all seeds: mean / median /
@@ -52,6 +53,7 @@ from .speed import machine_metadata
 METHOD_OPTIONS: dict[str, dict[str, Any]] = {
     "bayes": {"method": "bayes", "use_masks": False},
     "bayes+masks": {"method": "bayes", "use_masks": True},
+    "bayes-2cm": {"method": "bayes", "use_masks": False, "resolution": 0.02},
     "paper": {"method": "paper", "kernel": "gaussian", "centre": "weighted", "resolution": 0.01, "backend": "numba"},
 }
 
