@@ -19,7 +19,7 @@ from monovisual3d.bayes.refine import Observation, refine_sphere
 from monovisual3d.bench.accuracy import conditions
 from monovisual3d.camera import Camera
 from monovisual3d.cli import app
-from monovisual3d.errors import InputError
+from monovisual3d.errors import InputError, InputWarning
 from monovisual3d.frames import invert_transform, look_at, transform_points
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_pose
@@ -296,3 +296,26 @@ def test_cli_passes_pose_sigma_to_bayes_only(tmp_path):
     assert out["config"]["pose_sigma_mm"] == 2.0 and len(out["config"]["pose_corrections"]) == 3
     res = runner.invoke(app, ["localize", str(path), "--method", "paper", "--pose-sigma-mm", "2", "-q"])
     assert res.exit_code == 2 and "only the bayes method" in res.stderr
+
+
+def test_cli_accept_sets_the_acceptance_score(tmp_path):
+    path = tmp_path / "s.json"
+    views = [
+        {"pose": {"matrix": T.tolist()}, "detections": [{"bbox_xyxy": sphere_bbox(CAM, T, CENTRES[1], RADII[1]).tolist()}]}
+        for T in POSES
+    ]
+    path.write_text(json.dumps({"camera": CAM.to_dict(), "views": views}))
+    runner = CliRunner()
+    res = runner.invoke(app, ["localize", str(path), "--accept", "12", "-q"])
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    assert out["config"]["accept"] == 12.0 and len(out["objects"]) == 1
+    score = out["objects"][0]["score"]
+    # above the fruit's own score nothing is reported (with a warning, not an error)
+    with pytest.warns(InputWarning, match="objects scoring below accept="):
+        res = runner.invoke(app, ["localize", str(path), "--accept", f"{score + 1:.3f}", "-q"])
+    assert res.exit_code == 0 and json.loads(res.stdout)["objects"] == []
+    res = runner.invoke(app, ["localize", str(path), "--method", "paper", "--accept", "12", "-q"])
+    assert res.exit_code == 2 and "--accept: only the bayes method" in res.stderr
+    res = runner.invoke(app, ["localize", str(path), "--accept", "nan", "-q"])
+    assert res.exit_code == 2 and "accept: got nan, expected a finite number >= 0" in res.stderr

@@ -44,6 +44,11 @@ def test_conditions_cover_the_issue_list():
     names = {c.name for c in conditions()}
     assert {"paper-clean", "paper-noise", "greenhouse", "pose-error"} <= names
     assert {f"n-fruit-{k}" for k in (1, 2, 4, 6, 10)} <= names
+    by_name = {c.name: c for c in conditions()}
+    assert by_name["greenhouse-clutter"].noise.false_positive_rate > 0
+    assert by_name["greenhouse-noise"].noise.box_sigma > 0 and by_name["greenhouse-noise"].noise.false_positive_rate == 0
+    # the Cramer-Rao bound assumes unoccluded fruit and no clutter
+    assert {c.name for c in conditions() if c.crlb} == {"paper-noise"}
 
 
 def test_bad_names_are_rejected():

@@ -126,7 +126,7 @@ class BayesConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and v > 0):
                 raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
-        for name in ("pose_sigma_mm", "pose_sigma_deg"):
+        for name in ("pose_sigma_mm", "pose_sigma_deg", "accept"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
@@ -605,7 +605,8 @@ def localize_bayes(session: Session, *, progress: Callable[[int, int], None] | N
     if n_with >= config.min_views and not objects:
         msg = (
             f"{n_with} views have detections but no object is consistent across them; check that positions are metres, "
-            "quaternions are (x, y, z, w), pose_frame is right, and that the views look at the same fruit"
+            "quaternions are (x, y, z, w), pose_frame is right, and that the views look at the same fruit "
+            f"(objects scoring below accept={config.accept:g} nats are not reported)"
         )
         warnings.warn(InputWarning(msg), stacklevel=2)
         messages.append(msg)

@@ -16,7 +16,7 @@ from .bench import bench_app
 def accuracy(
     quick: Annotated[bool, typer.Option("--quick", help="Fewer seeds and fruit counts (about a minute).")] = False,
     methods: Annotated[
-        str, typer.Option(help="Methods, comma separated: bayes, bayes+masks, bayes-2cm, paper.")
+        str, typer.Option(help="Methods, comma separated: bayes, bayes+masks, bayes-2cm, bayes-strict, paper.")
     ] = "bayes,bayes+masks,paper",
     only: Annotated[
         str | None, typer.Option(help="Only these conditions, comma separated (e.g. paper-clean,greenhouse).")

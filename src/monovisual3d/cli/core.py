@@ -78,6 +78,13 @@ def localize(
     pose_sigma_deg: Annotated[
         float | None, typer.Option(help="bayes method: 1-sigma error of each camera rotation per axis, degrees.")
     ] = None,
+    accept: Annotated[
+        float | None,
+        typer.Option(
+            help="bayes method: minimum score (nats) of a reported object (default 8); "
+            "raise it (e.g. 12) when the detector gives false positives, at the cost of missing occluded fruit."
+        ),
+    ] = None,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the result JSON here.")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table or progress bar.")] = False,
 ) -> None:
@@ -100,12 +107,11 @@ def localize(
         for name in ("kernel", "centre", "sigma_fraction", "k", "reach"):
             if name in options and not (name == "reach" and method == "bayes"):
                 raise InputError(f"--{name.replace('_', '-')}: applies to --method paper only, got --method {method}")
-    for name, value in (("pose_sigma_mm", pose_sigma_mm), ("pose_sigma_deg", pose_sigma_deg)):
+    for name, value in (("pose_sigma_mm", pose_sigma_mm), ("pose_sigma_deg", pose_sigma_deg), ("accept", accept)):
         if value is not None:
             if method != "bayes":
-                raise InputError(
-                    f"--{name.replace('_', '-')}: only the bayes method models pose uncertainty, got --method {method}"
-                )
+                what = "models pose uncertainty" if name != "accept" else "has an acceptance score"
+                raise InputError(f"--{name.replace('_', '-')}: only the bayes method {what}, got --method {method}")
             options[name] = value
     if quiet:
         result = localize_fn(session, method=method, **options)
