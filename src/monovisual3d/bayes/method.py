@@ -22,6 +22,10 @@ Pipeline
    ``accept``. Ghosts (cone intersections of different fruit) lose: their
    implied sizes disagree between views and they have no box in the other
    views, and once the real fruit have taken the boxes, nothing is left.
+   Two local repairs of the greedy association follow: overlapping objects
+   swap their boxes in a view when that fits both better, and a fruit left
+   with one view gets back a box a neighbour took when the neighbour can do
+   without it (the total score must grow by more than ``accept``).
 4. **Imperfect poses (optional).** With a stated pose uncertainty
    (``pose_sigma_mm``, ``pose_sigma_deg``: 1-sigma per axis of the arm's
    kinematics and hand-eye calibration), the edge noise of steps 2-3 gets the
@@ -277,6 +281,8 @@ class BayesLocalizer:
             centres_grid = split_cells(centres_grid, cell)
             cell /= 2
         t1 = time.perf_counter()
+        # the grid scores with every box available, for the steal pass after the extraction
+        initial = (total.copy(), n_assoc.copy(), assoc.copy())
         self.last_hypotheses = {"cell_size": cell, "n_scored": int(n_scored), "n_cells_kept": len(centres)}
         objects: list[DetectedObject] = []
         active = np.ones(total.shape, dtype=bool)
@@ -335,6 +341,7 @@ class BayesLocalizer:
                 t_sub, n_sub, a_sub = self._score(vds, centres[sub], radii, cell, model, mask[sub])
                 total[sub], n_assoc[sub], assoc[:, sub] = t_sub, n_sub, a_sub
         objects = self._swap_pass(vds, objects, model)
+        objects = self._steal_pass(vds, objects, model, centres, radii, cell, initial)
         t2 = time.perf_counter()
         self.timing_s = {"search_score": t1 - t0, "extract_refine": t2 - t1}
         self.pose_corrections = []
@@ -535,6 +542,86 @@ class BayesLocalizer:
             associations={vd.index: a for vd, a in zip(vds, assoc) if a >= 0},
             extra={"radius_std": refined.radius_std, "n_views": len(obs)},
         )
+
+    def _steal_pass(
+        self,
+        vds: list[_ViewData],
+        objects: list[DetectedObject],
+        model: SensorModel,
+        centres: NDArray[np.float64],
+        radii: NDArray[np.float64],
+        cell: float,
+        initial: tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]],
+    ) -> list[DetectedObject]:
+        """Give a fruit back the box a neighbour took when the neighbour can do without it.
+
+        The greedy extraction can give a fruit the box of a neighbour that lost
+        its own box in that view (occluded or missed): the neighbour is then
+        left with one view and never accepted. Candidates are grid hypotheses
+        (scored with every box available, before extraction) that use at
+        least one box nobody took and at least one box an accepted object
+        holds. For the best few, the holders give up those boxes and are refit
+        without them, the candidate is refined with the boxes left to it, and
+        the move is kept when both stay acceptable and the summed score grows
+        by more than ``accept`` (what a new object must earn in the extraction).
+        """
+        cfg = self.config
+        total0, n0, assoc0 = initial
+        if not objects or total0.size == 0:
+            return objects
+        holder: dict[tuple[int, int], int] = {}
+        for i, o in enumerate(objects):
+            for v, vd in enumerate(vds):
+                j = o.associations.get(vd.index)
+                if j is not None:
+                    holder[(v, j)] = i
+        # per view, a lookup over box index (+ one slot for -1): is the box free / held?
+        free = [np.append(vd.available, False) for vd in vds]
+        if not any(f.any() for f in free):
+            return objects
+        held = [np.append(~vd.available, False) for vd in vds]
+        n_free = sum(f[a] for f, a in zip(free, assoc0))
+        n_held = sum(h[a] for h, a in zip(held, assoc0))
+        ok = (total0 >= cfg.accept - cfg.prune_slack) & (n0 >= cfg.min_views) & (n_free >= 1) & (n_held >= 1)
+        tried = np.zeros(len(centres), dtype=bool)
+        for _ in range(cfg.lookahead):
+            sc = np.where(ok & ~tried[:, None], total0, -np.inf)
+            if not np.isfinite(sc.max(initial=-np.inf)):
+                break
+            c, k = np.unravel_index(int(np.argmax(sc)), sc.shape)
+            tried |= np.linalg.norm(centres - centres[c], axis=1) <= max(2 * cell, radii[k])
+            wanted = [int(a) for a in assoc0[:, c, k]]
+            stolen = [(v, j) for v, j in enumerate(wanted) if j >= 0 and (v, j) in holder]
+            for v, j in stolen:
+                vds[v].available[j] = True
+            new = self._refine_and_check(vds, centres[c], float(radii[k]), wanted, model)
+            losers: dict[int, DetectedObject | None] = {}
+            if new is not None:
+                taken = {(v, new.associations[vd.index]) for v, vd in enumerate(vds) if vd.index in new.associations}
+                for i in sorted({holder[b] for b in taken if b in holder}):
+                    o = objects[i]
+                    keep = [-1 if (v, j) in taken else j for v, vd in enumerate(vds) for j in [o.associations.get(vd.index, -1)]]
+                    refit = self._fit_fixed(vds, o.position, float(o.radius), keep, model)
+                    losers[i] = refit if refit is not None and refit.score >= cfg.accept else None
+            gain = (
+                new.score + sum(o.score for o in losers.values() if o is not None) - sum(objects[i].score for i in losers)
+                if new is not None and losers and all(o is not None for o in losers.values())
+                else -np.inf
+            )
+            for v, j in stolen:
+                vds[v].available[j] = False
+            # a new object must pay for itself, as in the extraction: its score counts above ``accept``
+            if gain <= cfg.accept or new is None:
+                continue
+            for i, o in losers.items():
+                objects[i] = o  # type: ignore[assignment]
+            objects.append(new)
+            for v, vd in enumerate(vds):
+                j = new.associations.get(vd.index)
+                if j is not None:
+                    vd.available[j] = False
+                    holder[(v, j)] = len(objects) - 1
+        return objects
 
     def _swap_pass(self, vds: list[_ViewData], objects: list[DetectedObject], model: SensorModel) -> list[DetectedObject]:
         """Fix greedy association mistakes between fruit that overlap in a view (one hiding the other).
