@@ -366,3 +366,20 @@ def test_steal_pass_gives_a_fruit_back_the_box_a_neighbour_took(monkeypatch):
     assert found(res) and m.recall == 1.0 and m.precision == 1.0
     monkeypatch.setattr(BayesLocalizer, "_steal_pass", lambda self, vds, objects, *a: objects)
     assert not found(mv.localize(session, use_masks=False))
+
+
+def test_radius_pruning_of_the_search_keeps_the_estimates(monkeypatch):
+    # children inherit only the radius bins their parent kept (+-1): with every bin kept instead,
+    # the estimates must be the same
+    import monovisual3d.bayes.method as bm
+    from monovisual3d.sim.noise import NoiseModel
+    from monovisual3d.sim.scenes import paper_scene
+    from monovisual3d.sim.simulate import simulate
+
+    session, _ = simulate(paper_scene(), noise=NoiseModel.paper(), rng=3)
+    pruned = mv.localize(session)
+    monkeypatch.setattr(bm, "_RADIUS_MARGIN_BINS", BayesConfig().n_radii)
+    full = mv.localize(session)
+    assert full.grid["n_scored"] > pruned.grid["n_scored"]
+    assert len(pruned.objects) == len(full.objects) == 6
+    assert_allclose(pruned.positions, full.positions, atol=1e-9)
