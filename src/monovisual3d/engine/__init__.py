@@ -3,7 +3,7 @@
 Modules (each imports its heavy dependency only when used):
 
 - :mod:`.params`: views, boxes and grids packed as flat arrays (numpy only; shared by all backends).
-- :mod:`.numba_kernels`: the fused, parallel CPU kernels (extra ``[fast]``).
+- :mod:`.numba_kernels`: the fused, parallel CPU kernels (numba, a core dependency).
 - :mod:`.dense`: dense updates with the numba kernels: the twins of the numpy reference used by
   ``PaperConfig(backend="numba")``, and :class:`~.dense.DenseHistogramBatch` (many views, many grids).
 - :mod:`.sparse`: coarse-to-fine updates on an active set of cells (``PaperConfig(refine_to=...)``).
