@@ -267,24 +267,38 @@ def test_fused_cone_counts_match_numpy_reference(distortion):
         assert 0 < np.count_nonzero(ref) < len(ref)
 
 
-def test_refinement_jacobian_matches_scipy_forward_differences():
+def test_refinement_residuals_and_jacobian_match_the_references():
     from scipy.optimize._numdiff import approx_derivative
 
-    from monovisual3d.bayes.refine import Observation, _BoxResiduals
+    from monovisual3d.bayes.refine import Observation, _SphereResiduals, residuals
 
     rng = np.random.default_rng(6)
+    poses = paper_like_poses()
     obs = [
         Observation(invert_transform(T), sphere_bbox(CAM, T, TARGET[None], 0.031)[0] + rng.normal(0, 1.0, 4), None, 0.5 * i)
-        for i, T in enumerate(paper_like_poses())
+        for i, T in enumerate(poses)
     ]
-    f = _BoxResiduals(CAM, obs, SensorModel())
-    for _ in range(5):
-        x = np.concatenate([TARGET + rng.normal(0, 0.01, 3), [np.log(0.03)]])
-        ref = approx_derivative(f, x, method="2-point")
-        assert_allclose(f.jacobian(x), ref, rtol=1e-12, atol=1e-12)
-        batch = f.batch(np.stack([x[:3], x[:3] + 0.01]), np.exp([x[3], x[3] + 0.1]))
-        assert_allclose(batch[0], f(x), rtol=0, atol=0)
-        assert_allclose(batch[1], f(x + [0.01, 0.01, 0.01, 0.1]), rtol=1e-12, atol=1e-12)
+    # one view with a mask outline instead: points on the true silhouette, a few pixels of noise
+    u0, v0, u1, v1 = sphere_bbox(CAM, poses[1], TARGET[None], 0.031)[0]
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    contour = np.c_[(u0 + u1) / 2 + (u1 - u0) / 2 * np.cos(t), (v0 + v1) / 2 + (v1 - v0) / 2 * np.sin(t)] + rng.normal(
+        0, 0.5, (40, 2)
+    )
+    obs[1] = Observation(obs[1].T_optical_base, obs[1].bbox_xyxy, contour, 0.3)
+    model = SensorModel()
+    for use_masks in (False, True):
+        f = _SphereResiduals(CAM, obs, model, use_masks)
+        order = [0, 2, 1] if use_masks else [0, 1, 2]  # boxes first, then masks
+        for _ in range(3):
+            x = np.concatenate([TARGET + rng.normal(0, 0.01, 3), [np.log(0.03)]])
+            ref = residuals(x, CAM, [obs[i] for i in order], model, use_masks)
+            assert_allclose(f(x), ref, rtol=1e-10, atol=1e-10)
+            # same steps as scipy; a batched matrix product may round differently in the last bit, which
+            # forward differences amplify by 1 / step ~ 1e8 (eps * |f| / h ~ 1e-5 for |f| ~ 100)
+            assert_allclose(f.jacobian(x), approx_derivative(f, x, method="2-point"), rtol=1e-5, atol=1e-4)
+            batch = f.batch(np.stack([x[:3], x[:3] + 0.01]), np.exp([x[3], x[3] + 0.1]))
+            assert_allclose(batch[0], f(x), rtol=0, atol=0)
+            assert_allclose(batch[1], f(x + [0.01, 0.01, 0.01, 0.1]), rtol=1e-12, atol=1e-12)
 
 
 def test_bad_options_are_clear():

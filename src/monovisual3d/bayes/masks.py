@@ -136,15 +136,41 @@ def mask_residuals(
     box edge of the predicted silhouette's size (and ``extra_sigma_px``, pixels,
     added in quadrature). Positive: point outside the silhouette.
     """
-    d = camera.rays(contour_uv)
-    dist = float(np.linalg.norm(p_optical))
-    if dist <= radius or p_optical[2] <= 0:
-        return np.full(len(contour_uv), 1e3)
-    c = p_optical / dist
-    ang = np.arccos(np.clip(d @ c, -1.0, 1.0))
-    ang_s = np.arcsin(radius / dist)
+    p = np.asarray(p_optical, dtype=float)[None, :]
+    return mask_residuals_rays(camera, p, np.array([float(radius)]), camera.rays(contour_uv), model, extra_sigma_px)[0]
+
+
+def mask_residuals_rays(
+    camera: Camera,
+    p_optical: NDArray[np.floating],
+    radii: NDArray[np.floating],
+    rays_optical: NDArray[np.floating],
+    model: Any,
+    extra_sigma_px: float = 0.0,
+) -> NDArray[np.float64]:
+    """:func:`mask_residuals` for P spheres at once, from the contour's unit viewing rays.
+
+    Parameters
+    ----------
+    p_optical : ndarray, shape (P, 3), metres, optical frame, sphere centres
+    radii : ndarray, shape (P,), metres
+    rays_optical : ndarray, shape (M, 3), unit rays of the contour points (``camera.rays(contour_uv)``;
+        computed once, the refinement calls this many times)
+
+    Returns
+    -------
+    residuals : ndarray, shape (P, M); 1e3 where the camera is inside the sphere or it is behind the camera
+    """
+    dist = np.linalg.norm(p_optical, axis=1)
+    valid = (dist > radii) & (p_optical[:, 2] > 0)
+    dist_safe = np.where(valid, dist, 1.0)
+    c = p_optical / dist_safe[:, None]
+    ang = np.arccos(np.clip(c @ rays_optical.T, -1.0, 1.0))
+    ang_s = np.arcsin(np.where(valid, radii / dist_safe, 0.0))
     f = 0.5 * (camera.fx + camera.fy)
     sigma = model.alpha * 2 * f * np.tan(ang_s) + model.sigma0_px
     if extra_sigma_px:
         sigma = np.hypot(sigma, extra_sigma_px)
-    return (ang - ang_s) * f / sigma
+    out = (ang - ang_s[:, None]) * f / sigma[:, None]
+    out[~valid] = 1e3
+    return out

@@ -19,7 +19,7 @@ from scipy.optimize import least_squares
 from ..camera import Camera
 from ..frames import invert_transform
 from .likelihood import SensorModel, edge_residuals, predict_boxes
-from .masks import mask_residuals
+from .masks import mask_residuals, mask_residuals_rays
 
 
 @dataclass
@@ -136,12 +136,7 @@ def _pinhole_sphere_boxes(
 
 
 class _BoxResiduals:
-    """Box-edge residuals of a fixed set of box observations for many ``(x, y, z, log r)`` at once.
-
-    The observations are stacked once; :meth:`__call__` evaluates a batch of
-    parameter vectors in one numpy pass, which makes the forward-difference
-    Jacobian (:meth:`jacobian`) one call instead of four.
-    """
+    """Box-edge residuals of a fixed set of box observations for many spheres at once (stacked once)."""
 
     def __init__(self, camera: Camera, observations: Sequence[Observation], model: SensorModel) -> None:
         self.camera, self.model = camera, model
@@ -176,12 +171,41 @@ class _BoxResiduals:
         e = d / np.stack([sx, sy, sx, sy], axis=-1)
         return np.nan_to_num(e, nan=1e3).reshape(len(e), -1)
 
+
+class _SphereResiduals:
+    """Residuals of a fixed set of observations (boxes, and masks where used) for many ``(x, y, z, log r)`` at once.
+
+    Everything that does not depend on the sphere (stacked poses and boxes,
+    the contour points' viewing rays) is computed once; :meth:`batch`
+    evaluates several parameter vectors in one numpy pass, which makes the
+    forward-difference Jacobian (:meth:`jacobian`) one call instead of four.
+    Box residuals come first, then each mask's, in observation order.
+    """
+
+    def __init__(self, camera: Camera, observations: Sequence[Observation], model: SensorModel, use_masks: bool = True) -> None:
+        self.camera, self.model = camera, model
+        with_mask = [use_masks and ob.contour_uv is not None for ob in observations]
+        boxes = [ob for ob, m in zip(observations, with_mask) if not m]
+        self.boxes = _BoxResiduals(camera, boxes, model) if boxes else None
+        self.masks = [
+            (ob.T_optical_base[:3, :3], ob.T_optical_base[:3, 3], camera.rays(ob.contour_uv), float(ob.extra_sigma_px))
+            for ob, m in zip(observations, with_mask)
+            if m
+        ]
+
+    def batch(self, centres_base: NDArray[np.floating], radii: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Residuals for centres (P, 3), metres, base frame, and radii (P,), metres: shape (P, n)."""
+        parts = [] if self.boxes is None else [self.boxes.batch(centres_base, radii)]
+        for R, t, rays, extra in self.masks:
+            parts.append(mask_residuals_rays(self.camera, centres_base @ R.T + t, radii, rays, self.model, extra))
+        return np.concatenate(parts, axis=1) if parts else np.zeros((len(radii), 0))
+
     def __call__(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Residuals (4 M,) for ``params = (x, y, z, log r)``."""
+        """Residuals (n,) for ``params = (x, y, z, log r)``."""
         return self.batch(params[None, :3], np.exp(params[None, 3]))[0]
 
     def jacobian(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Forward-difference Jacobian (4 M, 4) with scipy's default ``2-point`` steps, in one batched call."""
+        """Forward-difference Jacobian (n, 4) with scipy's default ``2-point`` steps, in one batched call."""
         h = _FD_REL_STEP * np.where(params >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(params))
         h = (params + h) - params  # the step actually taken in floating point
         P = np.vstack([params, params + np.diag(h)])
@@ -221,15 +245,10 @@ def refine_sphere(
         covariance of the position.
     """
     x0 = np.concatenate([np.asarray(centre0, dtype=float), [np.log(max(radius0, 1e-4))]])
-    if observations and not (use_masks and any(ob.contour_uv is not None for ob in observations)):
-        # boxes only: residuals and the forward-difference Jacobian in batched numpy passes
-        boxes = _BoxResiduals(camera, observations, model)
-        fun, jac = boxes, boxes.jacobian
-    else:
-        fun = lambda p: residuals(p, camera, observations, model, use_masks)  # noqa: E731
-        jac = "2-point"
+    # residuals and the forward-difference Jacobian in batched numpy passes
+    fun = _SphereResiduals(camera, observations, model, use_masks)
     sol = least_squares(
-        fun, x0, jac=jac, loss=robust_loss(model.inward_floor), method="trf", x_scale=np.array([0.01, 0.01, 0.01, 0.1])
+        fun, x0, jac=fun.jacobian, loss=robust_loss(model.inward_floor), method="trf", x_scale=np.array([0.01, 0.01, 0.01, 0.1])
     )
     # scipy returns the Jacobian already scaled by the robust loss (J^T J is its
     # Gauss-Newton Hessian), so no further weighting here
