@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 
 from monovisual3d import evaluate as evaluate_fn
 from monovisual3d.cli import app
+from monovisual3d.errors import InputWarning
 from monovisual3d.examples import example_session_path, example_truth_path
 
 #: Coarse grid: keeps the CLI tests fast; the example's sphere is still found within 20 mm at this resolution.
@@ -97,6 +98,15 @@ def test_evaluate_prints_the_metric_table(runner: CliRunner, tmp_path: Path) -> 
     written = json.loads(metrics_path.read_text())
     assert written["euclidean_mean"] == pytest.approx(expected.euclidean_mean, rel=1e-12)
     assert (written["true_positives"], written["misses"], written["false_positives"]) == (1, 0, 0)
+    assert "swapped" not in result.output
+
+
+def test_evaluate_warns_when_the_arguments_look_swapped(runner: CliRunner, tmp_path: Path) -> None:
+    est = tmp_path / "estimates.json"
+    assert runner.invoke(app, ["localize", str(example_session_path()), *FAST, "-q", "-o", str(est)]).exit_code == 0
+    with pytest.warns(InputWarning, match=r"estimates.json is a localize result and .*truth.json is not: arguments swapped\?"):
+        result = runner.invoke(app, ["evaluate", str(example_truth_path()), str(est)])
+    assert result.exit_code == 0, result.output
 
 
 def test_missing_session_file(runner: CliRunner, tmp_path: Path) -> None:

@@ -20,11 +20,15 @@ from .session import _number, _vector, read_structured_file
 
 @dataclass(frozen=True)
 class ObjectSet:
-    """Positions (M, 3) in metres, base frame, with optional radii (M,) (NaN where unknown) and labels."""
+    """Positions (M, 3) in metres, base frame, with optional radii (M,) (NaN where unknown) and labels.
+
+    ``from_result`` is True when the file is a ``localize`` result (it has a ``method`` field).
+    """
 
     positions: NDArray[np.float64]
     radii: NDArray[np.float64]
     labels: tuple[str | None, ...]
+    from_result: bool = False
 
     @property
     def has_radii(self) -> bool:
@@ -65,4 +69,4 @@ def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:
                 raise InputError(f"objects[{i}].radius: got {r}, expected a positive number of metres")
             radii.append(r)
         labels.append(o.get("label"))
-    return ObjectSet(np.array(pos).reshape(-1, 3), np.array(radii, dtype=float), tuple(labels))
+    return ObjectSet(np.array(pos).reshape(-1, 3), np.array(radii, dtype=float), tuple(labels), "method" in data)

@@ -309,6 +309,14 @@ def test_bad_options_are_clear():
         mv.localize(s, kernel="square")
     with pytest.raises(InputError, match="min_views"):
         BayesConfig(min_views=1)
+    with pytest.raises(InputError, match=r"lookahead: got 0, expected an integer >= 1"):
+        mv.localize(s, lookahead=0)
+    with pytest.raises(InputError, match=r"n_radii: got 'abc', expected an integer >= 1"):
+        BayesConfig(n_radii="abc")
+    with pytest.raises(InputError, match=r"coarse_resolution: got 0.005 m, expected >= resolution \(0.01 m\)"):
+        BayesConfig(coarse_resolution=0.005)
+    with pytest.raises(InputError, match=r"prune_slack: got nan, expected a finite number >= 0"):
+        BayesConfig(prune_slack=float("nan"))
 
 
 def test_single_view_localises_nothing_with_warning():

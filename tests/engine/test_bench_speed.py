@@ -62,3 +62,17 @@ def test_naive_loop_computes_the_same_update():
     total = naive_update(prior, grid, camera, views[0], "gaussian", 0.5, np.arange(grid.n_cells))
     fused = paper_update_fused(np.full(grid.n_cells, 1.0 / grid.n_cells), grid, camera, views[0], "gaussian", dtype=np.float64)
     np.testing.assert_allclose(prior / total, fused, rtol=1e-9, atol=1e-12)
+
+
+def test_missing_torch_is_reported_not_silently_dropped(monkeypatch):
+    import monovisual3d.engine.torch_backend as tb
+
+    def no_torch():
+        raise ImportError("torch is needed")
+
+    monkeypatch.setattr(tb, "require_torch", no_torch)
+    result = run_speed(
+        quick=True, edges=(12,), kernels=("square",), repeats=1, methods=("numba", "torch"), scaling=False, sparse_refine_to=0.01
+    )
+    assert not any(r["method"].startswith("torch") for r in result["rows"])
+    assert result["meta"]["skipped"] == ["torch: not importable, no torch rows (install the [gpu] extra to time it)"]

@@ -1,9 +1,13 @@
-"""Fused numba kernel for scoring (cell, radius) hypotheses against all views.
+"""Fused numba kernels of the ``bayes`` search.
 
-Computes exactly what :func:`monovisual3d.bayes.likelihood.view_scores`
-summed over views computes (the numpy reference, tested against this), in
-one parallel pass with no temporaries: per hypothesis and view, the
-predicted box, then the best box score or the miss term.
+- :func:`score_hypotheses` computes exactly what
+  :func:`monovisual3d.bayes.likelihood.view_scores` summed over views computes
+  (the numpy reference, tested against this), in one parallel pass with no
+  temporaries: per hypothesis and view, the predicted box, then the best box
+  score or the miss term.
+- :func:`cone_counts_fused` is :func:`monovisual3d.bayes.search.cone_counts`
+  (the numpy reference) in one parallel pass: in how many views each point
+  projects inside a widened box.
 """
 
 from __future__ import annotations

@@ -18,8 +18,9 @@ Pipeline
    at least ``min_views`` views have a box associated to it and its refined
    score is at least ``accept`` nats. An accepted object removes its boxes
    from every view and the scores are recomputed; a rejected one suppresses
-   the hypotheses around it. Stop when the best remaining score is below
-   ``accept``. Ghosts (cone intersections of different fruit) lose: their
+   the hypotheses around it. Stop when the best remaining grid score is
+   below ``accept - prune_slack`` (a grid score is blurred by the cell, so
+   candidates slightly below ``accept`` are still refined). Ghosts (cone intersections of different fruit) lose: their
    implied sizes disagree between views and they have no box in the other
    views, and once the real fruit have taken the boxes, nothing is left.
    Two local repairs of the greedy association follow: overlapping objects
@@ -77,8 +78,8 @@ class BayesConfig:
     Attributes
     ----------
     resolution : float, metres, cell size of the scored grid (accuracy comes from the continuous refinement;
-        0.02 is ~15% faster and gave the same estimates on every accuracy-benchmark scene, the default 0.01
-        keeps margin for fruit packed closer than a 2 cm cell)
+        0.02 is ~15% faster and gives the same estimates on unoccluded scenes, but lost fruit and made one
+        false one under occlusion with noisy boxes in the accuracy benchmark)
     coarse_resolution : float, metres, cell size of the first search level
     radius_min, radius_max : float, metres, range of object radii
     n_radii : int, log-spaced radius bins
@@ -90,7 +91,8 @@ class BayesConfig:
         the sensor model, see :class:`monovisual3d.bayes.likelihood.SensorModel`
     lookahead, lookahead_margin : int, float (nats): at each extraction step, refine up to
         ``lookahead`` distinct candidates whose grid score is within ``lookahead_margin`` of the best
-        and keep the best refined one (1 = plain greedy)
+        and keep the best refined one (1 = plain greedy); the steal pass also tries up to ``lookahead``
+        candidates
     prune_slack : float, nats: at each search level, cells whose best score is below ``accept - prune_slack`` are dropped
         (2 and 4 gave identical estimates on every accuracy-benchmark scene; 2 is ~20% faster)
     max_hypotheses : int, cap on the (cell, radius) pairs scored at one level (memory bound)
@@ -122,17 +124,24 @@ class BayesConfig:
     pose_sigma_deg: float = 0.0
 
     def __post_init__(self) -> None:
-        if not (0 < self.radius_min < self.radius_max):
-            raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
-        if self.n_radii < 1:
-            raise InputError(f"n_radii: got {self.n_radii}, expected >= 1")
-        for name in ("resolution", "coarse_resolution", "reach"):
+        for name in ("n_radii", "lookahead", "min_views", "max_hypotheses"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and v > 0):
+            if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1):
+                raise InputError(f"{name}: got {v!r}, expected an integer >= 1")
+        for name in ("radius_min", "radius_max", "resolution", "coarse_resolution", "reach"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
                 raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
-        for name in ("pose_sigma_mm", "pose_sigma_deg", "accept"):
+        if not self.radius_min < self.radius_max:
+            raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
+        if self.coarse_resolution < self.resolution:
+            raise InputError(
+                f"coarse_resolution: got {self.coarse_resolution} m, expected >= resolution ({self.resolution} m): "
+                "the search starts coarse and halves the cells down to resolution"
+            )
+        for name in ("pose_sigma_mm", "pose_sigma_deg", "accept", "prune_slack", "lookahead_margin"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
         if self.min_views < 2:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
@@ -200,7 +209,6 @@ class BayesLocalizer:
         self.workspace = workspace
         self.views: list[View] = []
         self.grid: VoxelGrid | None = None
-        self.messages: list[str] = []
         self.timing_s: dict[str, float] = {}
         self.last_hypotheses: dict[str, Any] = {}
         self.pose_corrections: list[dict[str, Any]] = []

@@ -423,7 +423,8 @@ def run_speed(
 
         torch_dev = resolve_device(torch_device)
     except ImportError:
-        pass
+        if "torch" in methods:
+            meta["skipped"] = ["torch: not importable, no torch rows (install the [gpu] extra to time it)"]
 
     for edge in edges:
         grid = paper_grid(views, edge)

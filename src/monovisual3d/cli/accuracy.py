@@ -14,9 +14,9 @@ from .bench import bench_app
 @bench_app.command("accuracy")
 @handle_errors
 def accuracy(
-    quick: Annotated[bool, typer.Option("--quick", help="Fewer seeds and fruit counts (about a minute).")] = False,
+    quick: Annotated[bool, typer.Option("--quick", help="Fewer seeds and fruit counts (about 20 s).")] = False,
     methods: Annotated[
-        str, typer.Option(help="Methods, comma separated: bayes, bayes+masks, bayes-2cm, bayes-strict, paper.")
+        str, typer.Option(help="Methods, comma separated: bayes, bayes+masks, bayes-2cm, bayes-strict, bayes-unstated, paper.")
     ] = "bayes,bayes+masks,paper",
     only: Annotated[
         str | None, typer.Option(help="Only these conditions, comma separated (e.g. paper-clean,greenhouse).")

@@ -10,7 +10,9 @@ from rich.table import Table
 
 from ._app import app, console, handle_errors
 
-bench_app = typer.Typer(help="Benchmarks: speed of the histogram update (and more).", no_args_is_help=True)
+bench_app = typer.Typer(
+    help="Benchmarks: accuracy of the methods on simulated scenes, speed of the histogram update.", no_args_is_help=True
+)
 app.add_typer(bench_app, name="bench")
 
 
@@ -70,6 +72,8 @@ def speed(
     for row in format_table(result):
         table.add_row(*row)
     console.print(table)
+    for note in meta.get("skipped", []):
+        console.print(f"[yellow]skipped:[/] {note}", highlight=False)
     for r in result["sparse_fine"]:
         console.print(
             f"sparse {r['kernel']}: {r['refine_to_mm']:g} mm over {r['virtual_cells'] / 1e9:.2f} G virtual cells, "

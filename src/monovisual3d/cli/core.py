@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 from rich.table import Table
 
-from ..errors import InputError
+from ..errors import InputError, InputWarning
 from ..localize import DEFAULT_METHOD, METHODS
 from ..localize import localize as localize_fn
 from ..metrics import Metrics
@@ -113,8 +114,11 @@ def localize(
                 what = "models pose uncertainty" if name != "accept" else "has an acceptance score"
                 raise InputError(f"--{name.replace('_', '-')}: only the bayes method {what}, got --method {method}")
             options[name] = value
+    from ..session import load_session
+
+    loaded = load_session(session)  # before the progress bar, so a file error prints alone
     if quiet:
-        result = localize_fn(session, method=method, **options)
+        result = localize_fn(loaded, method=method, **options)
     else:
         with Progress(console=console, transient=True) as bar:
             task = bar.add_task("filtering views", total=None)
@@ -122,7 +126,7 @@ def localize(
             def progress(done: int, total: int) -> None:
                 bar.update(task, completed=done, total=total)
 
-            result = localize_fn(session, method=method, progress=progress, **options)
+            result = localize_fn(loaded, method=method, progress=progress, **options)
     if output is not None:
         result.to_json(output)
     if not quiet:
@@ -147,6 +151,14 @@ def evaluate(
         raise InputError(f"--gate: got {gate}, expected a positive distance in metres")
     est = load_objects(estimates)
     tru = load_objects(truth, allow_empty=False)
+    if tru.from_result and not est.from_result:
+        warnings.warn(
+            InputWarning(
+                f"{truth} is a localize result and {estimates} is not: arguments swapped? "
+                "expected `monovisual3d evaluate RESULT TRUTH`; comparing as given"
+            ),
+            stacklevel=1,
+        )
     m = evaluate_fn(
         est.positions,
         tru.positions,
