@@ -267,6 +267,32 @@ def test_fused_cone_counts_match_numpy_reference(distortion):
         assert 0 < np.count_nonzero(ref) < len(ref)
 
 
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+@pytest.mark.parametrize(
+    "distortion", [("none", ()), ("plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.003)), ("equidistant", (0.01, -0.02, 0.003, 0.0))]
+)
+def test_compiled_box_residuals_match_the_numpy_reference(distortion):
+    from monovisual3d.bayes.refine import Observation, _BoxResiduals
+
+    cam = Camera(640, 480, 480, 470, 322, 238, *distortion)
+    rng = np.random.default_rng(8)
+    poses = paper_like_poses()
+    obs = []
+    for i, T in enumerate(poses):
+        b = sphere_bbox(cam, T, TARGET[None], 0.03)[0] + rng.normal(0, 2.0, 4)
+        if i == 2:
+            b[2] = 640.0  # an edge at the image border (censored)
+        obs.append(Observation(invert_transform(T), b, None, 0.4 * i))
+    f = _BoxResiduals(cam, obs, SensorModel())
+    centres = TARGET + rng.normal(0, 0.03, (50, 3))
+    centres[0] = poses[0][:3, 3]  # at a camera: no valid box there
+    radii = rng.uniform(0.01, 0.06, 50)
+    fused, ref = f.batch(centres, radii), f.batch_numpy(centres, radii)
+    assert fused.shape == (50, 12)
+    assert_allclose(fused, ref, rtol=1e-10, atol=1e-10)
+    assert np.all(fused[0, :4] == 1e3)
+
+
 def test_refinement_residuals_and_jacobian_match_the_references():
     from scipy.optimize._numdiff import approx_derivative
 

@@ -107,8 +107,9 @@ def predict_boxes(
         x1, x2 = np.tan(phi_x - hx), np.tan(phi_x + hx)
         y1, y2 = np.tan(phi_y - hy), np.tan(phi_y + hy)
     if camera.distortion_model != "none":
-        xc = np.broadcast_to(X / Z, x1.shape)
-        yc = np.broadcast_to(Y / Z, y1.shape)
+        with np.errstate(invalid="ignore", divide="ignore"):  # Z = 0: NaN, masked by ``front`` below
+            xc = np.broadcast_to(X / Z, x1.shape)
+            yc = np.broadcast_to(Y / Z, y1.shape)
         pts = np.stack([np.stack([x1, yc], -1), np.stack([x2, yc], -1), np.stack([xc, y1], -1), np.stack([xc, y2], -1)], axis=-2)
         d = distort_normalised(pts, camera.distortion_model, camera.distortion_coefficients)
         x1, x2, y1, y2 = d[..., 0, 0], d[..., 1, 0], d[..., 2, 1], d[..., 3, 1]
