@@ -641,18 +641,20 @@ class BayesLocalizer:
         both, and keep the swap if their summed score grows by more than 1 nat.
         """
         cam = self.camera
+
+        def predicted(vd: _ViewData, o: DetectedObject) -> NDArray[np.float64]:
+            p_opt = vd.T_optical_base[:3, :3] @ o.position + vd.T_optical_base[:3, 3]
+            return predict_boxes(cam, p_opt[None, :], np.array([o.radius]))[0][0, 0]
+
         for _ in range(2):
             changed = False
             for v, vd in enumerate(vds):
                 holders = [i for i, o in enumerate(objects) if vd.index in o.associations]
+                boxes = {i: predicted(vd, objects[i]) for i in holders}  # once per object, not per pair
                 for ia, ib in combinations(holders, 2):
                     a, b = objects[ia], objects[ib]
-                    boxes = []
-                    for o in (a, b):
-                        p_opt = vd.T_optical_base[:3, :3] @ o.position + vd.T_optical_base[:3, 3]
-                        boxes.append(predict_boxes(cam, p_opt[None, :], np.array([o.radius]))[0][0, 0])
-                    (ax1, ay1, ax2, ay2), (bx1, by1, bx2, by2) = boxes
-                    if min(ax2, bx2) <= max(ax1, bx1) or min(ay2, by2) <= max(ay1, by1):
+                    (ax1, ay1, ax2, ay2), (bx1, by1, bx2, by2) = boxes[ia], boxes[ib]
+                    if not (min(ax2, bx2) > max(ax1, bx1) and min(ay2, by2) > max(ay1, by1)):
                         continue
                     assoc_a = [a.associations.get(w.index, -1) for w in vds]
                     assoc_b = [b.associations.get(w.index, -1) for w in vds]
@@ -662,6 +664,7 @@ class BayesLocalizer:
                     if new_a is None or new_b is None or new_a.score + new_b.score <= a.score + b.score + 1.0:
                         continue
                     objects[ia], objects[ib] = new_a, new_b
+                    boxes[ia], boxes[ib] = predicted(vd, new_a), predicted(vd, new_b)
                     changed = True
             if not changed:
                 break
