@@ -143,11 +143,12 @@ def test_malformed_json_session(runner: CliRunner, tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("option", "fragment"),
     [
-        (["--kernel", "box"], "kernel: got 'box'"),
-        (["--centre", "middle"], "centre: got 'middle'"),
-        (["--k", "several"], "k: got 'several'"),
+        (["--kernel", "box"], "error: --kernel: got 'box'"),
+        (["--centre", "middle"], "error: --centre: got 'middle'"),
+        (["--k", "several"], "error: --k: got 'several'"),
         (["--resolution", "0.0001"], "use --resolution"),
-        (["--method", "magic"], "method: got 'magic'"),
+        (["--method", "magic"], "error: --method: got 'magic'"),
+        (["--method", "bayes", "--accept", "-1"], "error: --accept: got -1.0, expected a finite number >= 0"),
     ],
 )
 def test_bad_options_exit_2(runner: CliRunner, option: list[str], fragment: str) -> None:

@@ -114,9 +114,21 @@ def localize(
                 what = "models pose uncertainty" if name != "accept" else "has an acceptance score"
                 raise InputError(f"--{name.replace('_', '-')}: only the bayes method {what}, got --method {method}")
             options[name] = value
+    from ..bayes import BayesConfig
+    from ..filter import PaperConfig
     from ..session import load_session
 
-    loaded = load_session(session)  # before the progress bar, so a file error prints alone
+    # validate the options and the file before the progress bar, so an error prints alone and names the option
+    if method not in METHODS:
+        raise InputError(f"--method: got {method!r}, expected one of {sorted(METHODS)}")
+    try:
+        {"bayes": BayesConfig, "paper": PaperConfig}.get(method, dict)(**options)
+    except InputError as exc:
+        field = str(exc).split(":", 1)[0]
+        if field in options:
+            raise InputError(f"--{field.replace('_', '-')}:{str(exc).split(':', 1)[1]}") from None
+        raise
+    loaded = load_session(session)
     if quiet:
         result = localize_fn(loaded, method=method, **options)
     else:
