@@ -148,7 +148,7 @@ def test_malformed_json_session(runner: CliRunner, tmp_path: Path) -> None:
         (["--k", "several"], "error: --k: got 'several'"),
         (["--resolution", "0.0001"], "use --resolution"),
         (["--method", "magic"], "error: --method: got 'magic'"),
-        (["--method", "bayes", "--accept", "-1"], "error: --accept: got -1.0, expected a finite number >= 0"),
+        (["--method", "bayes", "--accept", "inf"], "error: --accept: got inf, expected a finite number of nats"),
     ],
 )
 def test_bad_options_exit_2(runner: CliRunner, option: list[str], fragment: str) -> None:

@@ -339,8 +339,15 @@ def test_bad_options_are_clear():
         mv.localize(s, lookahead=0)
     with pytest.raises(InputError, match=r"n_radii: got 'abc', expected an integer >= 1"):
         BayesConfig(n_radii="abc")
-    with pytest.raises(InputError, match=r"coarse_resolution: got 0.005 m, expected >= resolution \(0.01 m\)"):
-        BayesConfig(coarse_resolution=0.005)
+    with pytest.raises(InputError, match=r"accept: got nan, expected a finite number of nats"):
+        BayesConfig(accept=float("nan"))
+    # numpy scalars and integer-valued floats are fine; a resolution coarser than the first level starts there
+    cfg = BayesConfig(min_views=2.0, n_radii=np.int64(8), radius_min=np.float32(0.01), accept=-1.0)
+    assert cfg.min_views == 2 and isinstance(cfg.min_views, int) and cfg.n_radii == 8
+    assert BayesConfig(resolution=0.05).search_start == 0.05 and BayesConfig(coarse_resolution=0.005).search_start == 0.01
+    coarse = mv.localize(s, resolution=0.05)
+    assert len(coarse.objects) == 1 and coarse.grid["cell_size"] == 0.05
+    assert np.linalg.norm(coarse.objects[0].position - TARGET) < 0.002
     with pytest.raises(InputError, match=r"prune_slack: got nan, expected a finite number >= 0"):
         BayesConfig(prune_slack=float("nan"))
 

@@ -318,4 +318,4 @@ def test_cli_accept_sets_the_acceptance_score(tmp_path):
     res = runner.invoke(app, ["localize", str(path), "--method", "paper", "--accept", "12", "-q"])
     assert res.exit_code == 2 and "--accept: only the bayes method" in res.stderr
     res = runner.invoke(app, ["localize", str(path), "--accept", "nan", "-q"])
-    assert res.exit_code == 2 and "accept: got nan, expected a finite number >= 0" in res.stderr
+    assert res.exit_code == 2 and "--accept: got nan, expected a finite number of nats" in res.stderr

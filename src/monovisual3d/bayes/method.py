@@ -44,6 +44,7 @@ Pipeline
 
 from __future__ import annotations
 
+import numbers
 import time
 import warnings
 from collections.abc import Callable
@@ -71,6 +72,11 @@ from .search import cone_counts, split_cells
 _RADIUS_MARGIN_BINS = 1
 
 
+def _is_real(v: Any) -> bool:
+    """A real number (Python or numpy), not a bool."""
+    return isinstance(v, (numbers.Real, np.floating, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
 @dataclass(frozen=True)
 class BayesConfig:
     """Options of the ``bayes`` method.
@@ -80,7 +86,7 @@ class BayesConfig:
     resolution : float, metres, cell size of the scored grid (accuracy comes from the continuous refinement;
         0.02 is ~15% faster and gives the same estimates on unoccluded scenes, but lost fruit and made one
         false one under occlusion with noisy boxes in the accuracy benchmark)
-    coarse_resolution : float, metres, cell size of the first search level
+    coarse_resolution : float, metres, cell size of the first search level (``resolution`` if that is coarser)
     radius_min, radius_max : float, metres, range of object radii
     n_radii : int, log-spaced radius bins
     reach : float, metres, manipulator reach R (paper's cube of side 2R) when no workspace is given
@@ -126,26 +132,29 @@ class BayesConfig:
     def __post_init__(self) -> None:
         for name in ("n_radii", "lookahead", "min_views", "max_hypotheses"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1):
+            if not (_is_real(v) and float(v).is_integer() and v >= 1):
                 raise InputError(f"{name}: got {v!r}, expected an integer >= 1")
+            object.__setattr__(self, name, int(v))
         for name in ("radius_min", "radius_max", "resolution", "coarse_resolution", "reach"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v > 0):
+            if not (_is_real(v) and np.isfinite(v) and v > 0):
                 raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
         if not self.radius_min < self.radius_max:
             raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
-        if self.coarse_resolution < self.resolution:
-            raise InputError(
-                f"coarse_resolution: got {self.coarse_resolution} m, expected >= resolution ({self.resolution} m): "
-                "the search starts coarse and halves the cells down to resolution"
-            )
-        for name in ("pose_sigma_mm", "pose_sigma_deg", "accept", "prune_slack", "lookahead_margin"):
+        for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0):
+            if not (_is_real(v) and np.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
+        if not (_is_real(self.accept) and np.isfinite(self.accept)):
+            raise InputError(f"accept: got {self.accept!r}, expected a finite number of nats")
         if self.min_views < 2:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
         self.sensor  # validates the sensor fields  # noqa: B018
+
+    @property
+    def search_start(self) -> float:
+        """Cell size of the first search level, metres: ``coarse_resolution``, or ``resolution`` if that is coarser."""
+        return float(max(self.coarse_resolution, self.resolution))
 
     @property
     def sensor(self) -> SensorModel:
@@ -219,9 +228,9 @@ class BayesLocalizer:
         if self.grid is None and view.detections:
             cfg = self.config
             if self.workspace is not None:
-                self.grid = VoxelGrid.from_bounds(self.workspace.min, self.workspace.max, cfg.coarse_resolution)
+                self.grid = VoxelGrid.from_bounds(self.workspace.min, self.workspace.max, cfg.search_start)
             else:
-                self.grid = VoxelGrid.in_front_of_camera(view.T_base_optical, cfg.coarse_resolution, cfg.reach)
+                self.grid = VoxelGrid.in_front_of_camera(view.T_base_optical, cfg.search_start, cfg.reach)
 
     def _view_data(self) -> list[_ViewData]:
         out = []
@@ -266,13 +275,13 @@ class BayesLocalizer:
                 counts = cone_counts(cam, [vd.view for vd in vds], centres, cell * np.sqrt(3) / 2)
             keep = counts >= cfg.min_views
             centres_grid, centres, mask = centres_grid[keep], centres[keep], mask[keep]
-            n_hyp = int(mask.sum())
-            if n_hyp > cfg.max_hypotheses:
+            n_alloc = len(centres) * len(radii)  # the arrays are (cells, radii) even where the mask skips radii
+            if n_alloc > cfg.max_hypotheses:
                 raise InputError(
-                    f"resolution: {n_hyp:,} hypotheses exceed max_hypotheses={cfg.max_hypotheses:,}; "
+                    f"resolution: {n_alloc:,} hypotheses exceed max_hypotheses={cfg.max_hypotheses:,}; "
                     "use a coarser --resolution, fewer radius bins or a smaller workspace"
                 )
-            n_scored += n_hyp
+            n_scored += int(mask.sum())
             total, n_assoc, assoc = self._score(vds, centres, radii, cell, model, mask)
             # scores only fall as boxes are taken, so a hypothesis below the floor never matters again
             mask = (total >= floor) & (n_assoc >= cfg.min_views)
