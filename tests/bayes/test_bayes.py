@@ -372,7 +372,7 @@ def test_inconsistent_views_warn_instead_of_silently_finding_nothing():
 
 
 def test_batched_box_residuals_equal_the_per_observation_ones():
-    from monovisual3d.bayes.refine import Observation, box_residuals_batch, observation_residuals
+    from monovisual3d.bayes.refine import Observation, _BoxResiduals, observation_residuals
 
     rng = np.random.default_rng(5)
     poses = paper_like_poses()
@@ -387,7 +387,9 @@ def test_batched_box_residuals_equal_the_per_observation_ones():
     loop = np.concatenate(
         [observation_residuals(CAM, ob.T_optical_base[:3, :3] @ c + ob.T_optical_base[:3, 3], r, ob, model) for ob in obs]
     )
-    assert_allclose(box_residuals_batch(CAM, c, r, obs, model), loop, rtol=1e-12, atol=1e-12)
+    f = _BoxResiduals(CAM, obs, model)
+    assert_allclose(f.batch_numpy(c[None], np.array([r]))[0], loop, rtol=1e-12, atol=1e-12)
+    assert_allclose(f.batch(c[None], np.array([r]))[0], loop, rtol=1e-10, atol=1e-10)
 
 
 def test_lookahead_avoids_a_greedy_ghost(tmp_path):

@@ -323,7 +323,7 @@ class BayesLocalizer:
                     break
                 key = (int(c), int(k))
                 if key not in refined:  # a cached result stays valid while its boxes are available
-                    assoc_h = self._associate(vds, centres[c], float(radii[k]), model, cell)
+                    _, assoc_h = self._score_one(vds, centres[c], float(radii[k]), model, cell)
                     refined[key] = self._refine_and_check(vds, centres[c], float(radii[k]), assoc_h, model)
                 cand = refined[key]
                 near = np.linalg.norm(centres - centres[c], axis=1) <= max(2 * cell, radii[k])
@@ -416,12 +416,6 @@ class BayesLocalizer:
             assoc[v] = a
         total[~mask], n_assoc[~mask], assoc[:, ~mask] = -np.inf, 0, -1
         return total, n_assoc, assoc
-
-    def _associate(
-        self, vds: list[_ViewData], centre: NDArray[np.float64], radius: float, model: SensorModel, cell: float
-    ) -> list[int]:
-        """Best available box per view (-1: none) for one hypothesis scored as a grid cell of size ``cell``."""
-        return self._score_one(vds, centre, radius, model, cell)[1]
 
     def _score_one(
         self, vds: list[_ViewData], centre: NDArray[np.float64], radius: float, model: SensorModel, cell: float = 0.0

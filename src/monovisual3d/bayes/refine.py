@@ -95,11 +95,13 @@ def observation_residuals(
 def residuals(
     params: NDArray[np.floating], camera: Camera, observations: Sequence[Observation], model: SensorModel, use_masks: bool = True
 ) -> NDArray[np.float64]:
-    """Stacked normalised residuals for ``params = (x, y, z, log r)`` (base frame, metres)."""
+    """Stacked normalised residuals for ``params = (x, y, z, log r)`` (base frame, metres), observation by observation.
+
+    The readable reference of what :func:`refine_sphere` minimises (it uses a batched,
+    compiled twin with the box residuals first, then the masks').
+    """
     c = params[:3]
     r = float(np.exp(params[3]))
-    if observations and not (use_masks and any(ob.contour_uv is not None for ob in observations)):
-        return box_residuals_batch(camera, c, r, observations, model)
     out = [
         observation_residuals(camera, ob.T_optical_base[:3, :3] @ c + ob.T_optical_base[:3, 3], r, ob, model, use_masks)
         for ob in observations
@@ -224,14 +226,6 @@ class _SphereResiduals:
 
 #: scipy's relative step for ``jac="2-point"``: sqrt of the float64 machine epsilon.
 _FD_REL_STEP = float(np.sqrt(np.finfo(float).eps))
-
-
-def box_residuals_batch(
-    camera: Camera, centre_base: NDArray[np.floating], radius: float, observations: Sequence[Observation], model: SensorModel
-) -> NDArray[np.float64]:
-    """Box-edge residuals of all observations at once, shape (4 M,): the same values and order as
-    :func:`observation_residuals` observation by observation (one numpy pass; the refinement's hot path)."""
-    return _BoxResiduals(camera, observations, model).batch(np.asarray(centre_base, float)[None], np.array([radius]))[0]
 
 
 def refine_sphere(
