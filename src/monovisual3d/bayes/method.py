@@ -115,13 +115,14 @@ class BayesConfig:
     accept: float = 8.0
     min_views: int = 2
     use_masks: bool = True
-    alpha: float = 0.05
-    sigma0_px: float = 1.0
-    inward_floor: float = 3.0
-    outward_floor: float = 6.0
-    match_bonus: float = 8.0
-    p_miss: float = 0.1
-    border_px: float = 1.0
+    # the sensor model's fields, flat here so they are options of the method; defaults from SensorModel
+    alpha: float = SensorModel.alpha
+    sigma0_px: float = SensorModel.sigma0_px
+    inward_floor: float = SensorModel.inward_floor
+    outward_floor: float = SensorModel.outward_floor
+    match_bonus: float = SensorModel.match_bonus
+    p_miss: float = SensorModel.p_miss
+    border_px: float = SensorModel.border_px
     prune_slack: float = 2.0
     lookahead: int = 3
     lookahead_margin: float = 4.0
