@@ -13,7 +13,6 @@ Quick use::
 
 from __future__ import annotations
 
-from . import bayes  # noqa: E402,F401  (registers the 'bayes' method)
 from .camera import Camera
 from .errors import InputError, InputWarning
 from .filter import HistogramFilter, PaperConfig

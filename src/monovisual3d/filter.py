@@ -21,7 +21,7 @@ from .camera import Camera
 from .errors import InputError, InputWarning
 from .estimation import CENTRES, DEFAULT_KEEP_THRESHOLD, choose_k, kmeans_objects
 from .frames import invert_transform, transform_points
-from .grid import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, VoxelGrid, _check_resolution
+from .grid import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, VoxelGrid, _check_resolution, cone_counts
 from .kernels import check_kernel, paper_view_likelihood
 from .result import DetectedObject
 from .session import View, Workspace
@@ -149,8 +149,6 @@ def paper_update(prior: NDArray[np.floating], likelihood: NDArray[np.floating]) 
 
 def view_sees_grid(grid: VoxelGrid, camera: Camera, view: View, step: int = 4) -> bool:
     """Whether any grid cell can project into one of the view's boxes (checked on every ``step``-th cell per axis)."""
-    from .bayes.search import cone_counts  # late import: bayes imports this module's package
-
     sub = [np.arange(0, n, step) for n in grid.shape]
     ijk = np.stack(np.meshgrid(*sub, indexing="ij"), axis=-1).reshape(-1, 3)
     centres = transform_points(grid.T_base_grid, (ijk + 0.5) * grid.resolution)

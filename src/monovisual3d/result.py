@@ -58,8 +58,12 @@ class Result:
     method : str
     grid : dict, description of the grid used
     timing_s : dict, seconds per stage
-    config : dict, the options used
+    config : dict, the options used (plain JSON values)
     warnings : list of str
+    diagnostics : dict, method-specific statistics (e.g. the bayes search's hypothesis counts, the sparse
+        engine's active set)
+    pose_corrections : list of dict, per view: the estimated correction of its reported pose (``bayes`` with a
+        stated pose uncertainty; empty otherwise), see :func:`monovisual3d.methods.bayes.pipeline.bundle`
     """
 
     objects: list[DetectedObject]
@@ -68,6 +72,8 @@ class Result:
     timing_s: dict[str, float] = field(default_factory=dict)
     config: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+    pose_corrections: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def positions(self) -> NDArray[np.float64]:
@@ -84,6 +90,8 @@ class Result:
             "grid": self.grid,
             "timing_s": {k: float(v) for k, v in self.timing_s.items()},
             "warnings": list(self.warnings),
+            "diagnostics": dict(self.diagnostics),
+            "pose_corrections": list(self.pose_corrections),
         }
 
     def to_json(self, path: str | Path | None = None, indent: int = 2) -> str:

@@ -29,6 +29,7 @@ from .frames import (
     position_quaternion_from_transform,
     transform_from_position_quaternion,
 )
+from .masks import decode_rle
 
 POSE_FRAMES = ("optical", "camera_link")
 #: A camera farther than this from the base origin (metres) is flagged: probably millimetres.
@@ -424,8 +425,6 @@ def _check_mask(mask: Any, where: str, camera: Camera) -> None:
         raise InputError(f"{where}.size: expected [height, width] = {expected}, got {size!r}")
     if size != expected:
         raise InputError(f"{where}.size: got {size}, expected the image size [height, width] = {expected}")
-    from .bayes.masks import decode_rle  # late import: the bayes package imports this module
-
     try:
         pixels = decode_rle(mask)
     except InputError as exc:

@@ -97,7 +97,7 @@ def test_localize_refine_to_equals_dense_at_the_same_resolution(camera, views):
         warnings.simplefilter("ignore")
         dense = localize(session, method="paper", kernel="gaussian", resolution=0.008, workspace=ws)
         sparse = localize(session, method="paper", kernel="gaussian", resolution=0.032, refine_to=0.008, workspace=ws)
-    assert sparse.grid["sparse"]["complete"] and sparse.grid["resolution_m"] == 0.008
+    assert sparse.diagnostics["sparse"]["complete"] and sparse.grid["resolution_m"] == 0.008
     assert sparse.config["refine_to"] == 0.008
     a = np.array(sorted(o.position.tolist() for o in dense.objects))
     b = np.array(sorted(o.position.tolist() for o in sparse.objects))

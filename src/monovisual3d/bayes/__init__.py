@@ -1,8 +1,10 @@
-"""The ``bayes`` method: generative, size-aware box likelihood with explaining-away extraction."""
+"""Former home of the ``bayes`` method, kept so ``monovisual3d.bayes.BayesLocalizer`` keeps working.
+
+The method lives in :mod:`monovisual3d.methods.bayes`.
+"""
 
 from __future__ import annotations
 
-from .likelihood import SensorModel
-from .method import BayesConfig, BayesLocalizer, localize_bayes
+from ..methods.bayes import BayesConfig, BayesLocalizer, SensorModel, run
 
-__all__ = ["BayesConfig", "BayesLocalizer", "SensorModel", "localize_bayes"]
+__all__ = ["BayesConfig", "BayesLocalizer", "SensorModel", "run"]

@@ -44,10 +44,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..bayes.likelihood import predict_boxes
-from ..bayes.masks import encode_rle
 from ..errors import InputError
 from ..localize import localize
+from ..masks import encode_rle
+from ..methods.bayes.likelihood import predict_boxes
 from ..metrics import evaluate, match
 from ..session import Detection, Session, View
 from ..sim.noise import NoiseModel

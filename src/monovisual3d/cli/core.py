@@ -12,13 +12,13 @@ import typer
 from rich.table import Table
 
 from ..errors import InputError, InputWarning
-from ..localize import DEFAULT_METHOD, METHODS
-from ..localize import localize as localize_fn
+from ..methods import DEFAULT_METHOD, METHODS
 from ..metrics import Metrics
 from ..metrics import evaluate as evaluate_fn
 from ..result import Result
 from ..truth import load_objects
 from ._app import app, console, handle_errors
+from .options import method_config, with_method_options
 
 
 def print_objects(result: Result, title: str = "Localised objects") -> None:
@@ -64,73 +64,29 @@ def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation") -> None:
 
 @app.command()
 @handle_errors
+@with_method_options
 def localize(
     session: Annotated[Path, typer.Argument(help="Session file (JSON or YAML).")],
-    method: Annotated[str, typer.Option(help=f"Method: {', '.join(sorted(METHODS))}.")] = DEFAULT_METHOD,
-    kernel: Annotated[str | None, typer.Option(help="paper method: square or gaussian.")] = None,
-    centre: Annotated[str | None, typer.Option(help="paper method: weighted or geometric centre.")] = None,
-    resolution: Annotated[float | None, typer.Option(help="Grid cell size in metres.")] = None,
-    sigma_fraction: Annotated[float | None, typer.Option(help="paper method: Gaussian sigma / box size (0.5 or 1/3).")] = None,
-    k: Annotated[str | None, typer.Option(help="paper method: clusters: max, mode, min, last or a number.")] = None,
-    reach: Annotated[float | None, typer.Option(help="Manipulator reach R in metres (grid cube of side 2R).")] = None,
-    pose_sigma_mm: Annotated[
-        float | None, typer.Option(help="bayes method: 1-sigma error of each camera position per axis, mm (arm + hand-eye).")
-    ] = None,
-    pose_sigma_deg: Annotated[
-        float | None, typer.Option(help="bayes method: 1-sigma error of each camera rotation per axis, degrees.")
-    ] = None,
-    accept: Annotated[
-        float | None,
-        typer.Option(
-            help="bayes method: minimum score (nats) of a reported object (default 8); "
-            "raise it (e.g. 12) when the detector gives false positives, at the cost of missing occluded fruit."
-        ),
-    ] = None,
+    method: Annotated[str, typer.Option(help=f"Method: {', '.join(METHODS)}.")] = DEFAULT_METHOD,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the result JSON here.")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table or progress bar.")] = False,
+    *,
+    method_options: dict[str, Any],
 ) -> None:
-    """Localise the objects of a session and print/write them."""
+    """Localise the objects of a session and print/write them.
+
+    Every option after --quiet is a field of a method's config; its help says which method it applies to.
+    """
     from rich.progress import Progress
 
-    options: dict[str, Any] = {}
-    for name, value in (
-        ("kernel", kernel),
-        ("centre", centre),
-        ("resolution", resolution),
-        ("sigma_fraction", sigma_fraction),
-        ("reach", reach),
-    ):
-        if value is not None:
-            options[name] = value
-    if k is not None:
-        options["k"] = int(k) if k.isdigit() else k
-    if method != "paper":
-        for name in ("kernel", "centre", "sigma_fraction", "k", "reach"):
-            if name in options and not (name == "reach" and method == "bayes"):
-                raise InputError(f"--{name.replace('_', '-')}: applies to --method paper only, got --method {method}")
-    for name, value in (("pose_sigma_mm", pose_sigma_mm), ("pose_sigma_deg", pose_sigma_deg), ("accept", accept)):
-        if value is not None:
-            if method != "bayes":
-                what = "models pose uncertainty" if name != "accept" else "has an acceptance score"
-                raise InputError(f"--{name.replace('_', '-')}: only the bayes method {what}, got --method {method}")
-            options[name] = value
-    from ..bayes import BayesConfig
-    from ..filter import PaperConfig
+    from ..localize import localize as localize_fn
     from ..session import load_session
 
     # validate the options and the file before the progress bar, so an error prints alone and names the option
-    if method not in METHODS:
-        raise InputError(f"--method: got {method!r}, expected one of {sorted(METHODS)}")
-    try:
-        {"bayes": BayesConfig, "paper": PaperConfig}.get(method, dict)(**options)
-    except InputError as exc:
-        field = str(exc).split(":", 1)[0]
-        if field in options:
-            raise InputError(f"--{field.replace('_', '-')}:{str(exc).split(':', 1)[1]}") from None
-        raise
+    config = method_config(method, method_options)
     loaded = load_session(session)
     if quiet:
-        result = localize_fn(loaded, method=method, **options)
+        result = localize_fn(loaded, config=config)
     else:
         with Progress(console=console, transient=True) as bar:
             task = bar.add_task("filtering views", total=None)
@@ -138,7 +94,7 @@ def localize(
             def progress(done: int, total: int) -> None:
                 bar.update(task, completed=done, total=total)
 
-            result = localize_fn(loaded, method=method, progress=progress, **options)
+            result = localize_fn(loaded, config=config, progress=progress)
     if output is not None:
         result.to_json(output)
     if not quiet:

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,7 +51,7 @@ from ..camera import Camera
 from ..errors import InputError
 from ..frames import transform_points
 from ..grid import VoxelGrid
-from ..session import Session, View
+from ..session import View
 from .dense import numba_kernels
 from .params import DEFAULT_GAUSS_EPS, PackedViews, pack_views
 
@@ -312,94 +312,3 @@ class SparseHistogramFilter:
         self._state = state
         self._stale = False
         return True
-
-
-def localize_paper_sparse(
-    session: Session,
-    config: Any,
-    *,
-    progress: Callable[[int, int], None] | None = None,
-    coarse_resolution: float | None = None,
-    threshold: float | None = None,
-    max_cells: int = DEFAULT_MAX_CELLS,
-) -> Any:
-    """The paper's method on an active set refined to ``config.refine_to`` (used by ``localize``).
-
-    The fine grid follows the paper's policy (workspace box, or a cube of side
-    ``2 * reach`` in front of the first camera with a detection) at
-    ``refine_to``; the root level is ``config.resolution`` rounded to a
-    power-of-two multiple of it. Objects come from the same k-means step as
-    the dense method, run on the active cells. The active-set threshold
-    defaults to ``keep_threshold / 100``: every cell that k-means would use is
-    kept with its exact value; object scores are shares of the active mass.
-    """
-    if threshold is None:
-        threshold = 0.01 * float(config.keep_threshold)
-    from ..estimation import choose_k, kmeans_objects
-    from ..localize import paper_result
-
-    fine = float(config.refine_to)
-    t0 = time.perf_counter()
-    grid = None
-    if session.workspace is not None:
-        grid = VoxelGrid.from_bounds(session.workspace.min, session.workspace.max, fine, max_bytes=2**62)
-    messages: list[str] = []
-    filt: SparseHistogramFilter | None = None
-    counts: list[int] = []
-    with_boxes: list[tuple[int, View]] = []
-    for i, view in enumerate(session.views):
-        if not view.detections:
-            messages.append(f"views[{i}]: no detections, skipped by the paper method")
-            continue
-        if grid is None:
-            grid = VoxelGrid.in_front_of_camera(view.T_base_optical, fine, config.reach, max_bytes=2**62)
-        with_boxes.append((i, view))
-    if grid is not None and with_boxes:
-        filt = SparseHistogramFilter(
-            session.camera, grid, kernel=config.kernel, sigma_fraction=config.sigma_fraction,
-            coarse_resolution=coarse_resolution or config.resolution, threshold=threshold, max_cells=max_cells,
-        )  # fmt: skip
-        for _, view in with_boxes:  # all views in one refinement: no view is refined for nothing
-            filt.add(view)
-        if filt.state is not None and filt.state.n_active > 0:
-            counts = [len(v.detections) for _, v in with_boxes]
-        else:  # some view contradicts the others: view by view, skipping it as the dense filter does
-            filt = SparseHistogramFilter(
-                session.camera, grid, kernel=config.kernel, sigma_fraction=config.sigma_fraction,
-                coarse_resolution=coarse_resolution or config.resolution, threshold=threshold, max_cells=max_cells,
-            )  # fmt: skip
-            for i, view in with_boxes:
-                if filt.update(view):
-                    counts.append(len(view.detections))
-                else:
-                    messages.append(
-                        f"views[{i}]: no grid cell is consistent with this view's boxes and the previous views; view skipped"
-                    )
-    if progress is not None:
-        progress(len(session.views), len(session.views))
-    t1 = time.perf_counter()
-    objects: list[Any] = []
-    stats: dict[str, Any] = {}
-    if filt is not None and filt.state is not None:
-        state = filt.state
-        stats = state.stats
-        if not stats["complete"]:
-            messages.append(
-                f"refine_to: the active set exceeded max_cells={max_cells:,}; refinement stopped at "
-                f"{1000 * stats['final_resolution_m']:g} mm"
-            )
-        k = choose_k(counts, config.k)
-        objects = kmeans_objects(
-            state,  # type: ignore[arg-type]  # duck-typed: kmeans_objects only calls centres_base(index)
-            state.posterior(),
-            k,
-            centre=config.centre,
-            keep_threshold=config.keep_threshold,
-            weighted_kmeans=config.weighted_kmeans,
-        )
-    else:
-        messages.append("no view had a usable detection: nothing localised")
-    t2 = time.perf_counter()
-    grid_dict = grid.to_dict() if grid is not None else {}
-    grid_dict["sparse"] = {k: v for k, v in stats.items()}
-    return paper_result(objects, grid_dict, config, (t0, t1, t2), messages)

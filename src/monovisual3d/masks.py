@@ -1,13 +1,10 @@
-"""Instance masks as observations: decoding and the silhouette residual.
+"""Instance masks: COCO RLE / polygon decoding and outline (contour) points.
 
 A detection may carry ``mask``: ``{"polygon": [[u, v], ...]}`` (pixels, the
 outline) or COCO run-length encoding ``{"size": [height, width], "counts": ...}``
 (uncompressed list or compressed string; column-major, as pycocotools writes).
-The mask's outline gives contour points; for a sphere, the points on the true
-silhouette lie at the silhouette's angular radius ``asin(r / |c|)`` from the
-centre's viewing ray, while outline points made by an occluder lie inside it:
-the robust loss of :mod:`.refine` ignores those. A mask therefore constrains
-the sphere even where its box is truncated by an occluder.
+The methods use the outline's points (:func:`contour_points`); the silhouette
+residual of the ``bayes`` method is in :mod:`monovisual3d.methods.bayes.masks`.
 """
 
 from __future__ import annotations
@@ -17,8 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera
-from ..errors import InputError
+from .errors import InputError
 
 #: Contour points kept per mask.
 MAX_CONTOUR_POINTS = 48
@@ -119,58 +115,3 @@ def _resample_closed(poly: NDArray[np.float64], n: int) -> NDArray[np.float64]:
     s = np.concatenate([[0], np.cumsum(seg)])
     t = np.linspace(0, s[-1], n, endpoint=False)
     return np.stack([np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])], axis=1)
-
-
-def mask_residuals(
-    camera: Camera,
-    p_optical: NDArray[np.floating],
-    radius: float,
-    contour_uv: NDArray[np.floating],
-    model: Any,
-    extra_sigma_px: float = 0.0,
-) -> NDArray[np.float64]:
-    """Normalised residuals of contour points against a sphere's silhouette, shape (M,).
-
-    Residual = (angle between the point's viewing ray and the centre's ray minus
-    the silhouette's angular radius) * focal length / sigma, with sigma as for a
-    box edge of the predicted silhouette's size (and ``extra_sigma_px``, pixels,
-    added in quadrature). Positive: point outside the silhouette.
-    """
-    p = np.asarray(p_optical, dtype=float)[None, :]
-    return mask_residuals_rays(camera, p, np.array([float(radius)]), camera.rays(contour_uv), model, extra_sigma_px)[0]
-
-
-def mask_residuals_rays(
-    camera: Camera,
-    p_optical: NDArray[np.floating],
-    radii: NDArray[np.floating],
-    rays_optical: NDArray[np.floating],
-    model: Any,
-    extra_sigma_px: float = 0.0,
-) -> NDArray[np.float64]:
-    """:func:`mask_residuals` for P spheres at once, from the contour's unit viewing rays.
-
-    Parameters
-    ----------
-    p_optical : ndarray, shape (P, 3), metres, optical frame, sphere centres
-    radii : ndarray, shape (P,), metres
-    rays_optical : ndarray, shape (M, 3), unit rays of the contour points (``camera.rays(contour_uv)``;
-        computed once, the refinement calls this many times)
-
-    Returns
-    -------
-    residuals : ndarray, shape (P, M); 1e3 where the camera is inside the sphere or it is behind the camera
-    """
-    dist = np.linalg.norm(p_optical, axis=1)
-    valid = (dist > radii) & (p_optical[:, 2] > 0)
-    dist_safe = np.where(valid, dist, 1.0)
-    c = p_optical / dist_safe[:, None]
-    ang = np.arccos(np.clip(c @ rays_optical.T, -1.0, 1.0))
-    ang_s = np.arcsin(np.where(valid, radii / dist_safe, 0.0))
-    f = 0.5 * (camera.fx + camera.fy)
-    sigma = model.alpha * 2 * f * np.tan(ang_s) + model.sigma0_px
-    if extra_sigma_px:
-        sigma = np.hypot(sigma, extra_sigma_px)
-    out = (ang - ang_s[:, None]) * f / sigma[:, None]
-    out[~valid] = 1e3
-    return out

@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from ..camera import Camera
-from ..frames import invert_transform
+from ...camera import Camera
+from ...frames import invert_transform
 from ._kernels import HAVE_NUMBA, box_residuals_fused
 from .likelihood import SensorModel, edge_residuals, predict_boxes
 from .masks import mask_residuals, mask_residuals_rays

@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera
+from ...camera import Camera
 from .likelihood import SensorModel
 
 try:  # numba is a core dependency, but keep the package importable without it

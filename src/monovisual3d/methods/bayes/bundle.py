@@ -61,8 +61,8 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from ..camera import Camera
-from ..errors import InputError
+from ...camera import Camera
+from ...errors import InputError
 from .likelihood import SensorModel, edge_residuals, pose_sigma_px, predict_boxes
 from .refine import Observation, observation_residuals, robust_loss
 

@@ -7,13 +7,13 @@ import pytest
 from numpy.testing import assert_allclose
 
 import monovisual3d as mv
-from monovisual3d.bayes import BayesConfig
-from monovisual3d.bayes._kernels import HAVE_NUMBA, score_hypotheses
-from monovisual3d.bayes.likelihood import SensorModel, predict_boxes, view_scores
-from monovisual3d.bayes.masks import contour_points, decode_rle, encode_rle
 from monovisual3d.camera import Camera
 from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, look_at, transform_points
+from monovisual3d.masks import contour_points, decode_rle, encode_rle
+from monovisual3d.methods.bayes import BayesConfig
+from monovisual3d.methods.bayes._kernels import HAVE_NUMBA, score_hypotheses
+from monovisual3d.methods.bayes.likelihood import SensorModel, predict_boxes, view_scores
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sphere import sphere_bbox, sphere_bbox_optical
 
@@ -247,8 +247,8 @@ def test_kernel_mask_scores_only_the_selected_hypotheses():
 @pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 @pytest.mark.parametrize("distortion", [("none", ()), ("plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.003))])
 def test_fused_cone_counts_match_numpy_reference(distortion):
-    from monovisual3d.bayes._kernels import cone_counts_fused
-    from monovisual3d.bayes.search import cone_counts
+    from monovisual3d.grid import cone_counts
+    from monovisual3d.methods.bayes._kernels import cone_counts_fused
 
     cam = Camera(640, 480, 480, 470, 322, 238, *distortion)
     rng = np.random.default_rng(4)
@@ -272,7 +272,7 @@ def test_fused_cone_counts_match_numpy_reference(distortion):
     "distortion", [("none", ()), ("plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.003)), ("equidistant", (0.01, -0.02, 0.003, 0.0))]
 )
 def test_compiled_box_residuals_match_the_numpy_reference(distortion):
-    from monovisual3d.bayes.refine import Observation, _BoxResiduals
+    from monovisual3d.methods.bayes.refine import Observation, _BoxResiduals
 
     cam = Camera(640, 480, 480, 470, 322, 238, *distortion)
     rng = np.random.default_rng(8)
@@ -296,7 +296,7 @@ def test_compiled_box_residuals_match_the_numpy_reference(distortion):
 def test_refinement_residuals_and_jacobian_match_the_references():
     from scipy.optimize._numdiff import approx_derivative
 
-    from monovisual3d.bayes.refine import Observation, _SphereResiduals, residuals
+    from monovisual3d.methods.bayes.refine import Observation, _SphereResiduals, residuals
 
     rng = np.random.default_rng(6)
     poses = paper_like_poses()
@@ -346,7 +346,7 @@ def test_bad_options_are_clear():
     assert cfg.min_views == 2 and isinstance(cfg.min_views, int) and cfg.n_radii == 8
     assert BayesConfig(resolution=0.05).search_start == 0.05 and BayesConfig(coarse_resolution=0.005).search_start == 0.01
     coarse = mv.localize(s, resolution=0.05)
-    assert len(coarse.objects) == 1 and coarse.grid["cell_size"] == 0.05
+    assert len(coarse.objects) == 1 and coarse.diagnostics["cell_size"] == 0.05
     assert np.linalg.norm(coarse.objects[0].position - TARGET) < 0.002
     with pytest.raises(InputError, match=r"prune_slack: got nan, expected a finite number >= 0"):
         BayesConfig(prune_slack=float("nan"))
@@ -372,7 +372,7 @@ def test_inconsistent_views_warn_instead_of_silently_finding_nothing():
 
 
 def test_batched_box_residuals_equal_the_per_observation_ones():
-    from monovisual3d.bayes.refine import Observation, _BoxResiduals, observation_residuals
+    from monovisual3d.methods.bayes.refine import Observation, _BoxResiduals, observation_residuals
 
     rng = np.random.default_rng(5)
     poses = paper_like_poses()
@@ -404,10 +404,9 @@ def test_lookahead_avoids_a_greedy_ghost(tmp_path):
     assert default.euclidean_max < 0.03
 
 
-def test_steal_pass_gives_a_fruit_back_the_box_a_neighbour_took(monkeypatch):
+def test_steal_pass_gives_a_fruit_back_the_box_a_neighbour_took():
     # greenhouse-noise seed 7: fruit 4 has boxes in views 0 and 1 only; the greedy extraction gives its
     # view-1 box to fruit 3 (which lost its own there), leaving fruit 4 with one view
-    from monovisual3d.bayes.method import BayesLocalizer
     from monovisual3d.bench.accuracy import conditions, simulated_session
     from monovisual3d.metrics import evaluate
 
@@ -421,22 +420,19 @@ def test_steal_pass_gives_a_fruit_back_the_box_a_neighbour_took(monkeypatch):
     res = mv.localize(session, use_masks=False)
     m = evaluate(res.positions, scene.centres, truth_radii=scene.radii)
     assert found(res) and m.recall == 1.0 and m.precision == 1.0
-    monkeypatch.setattr(BayesLocalizer, "_steal_pass", lambda self, vds, objects, *a: objects)
-    assert not found(mv.localize(session, use_masks=False))
+    assert not found(mv.localize(session, use_masks=False, steal=False))
 
 
-def test_radius_pruning_of_the_search_keeps_the_estimates(monkeypatch):
+def test_radius_pruning_of_the_search_keeps_the_estimates():
     # children inherit only the radius bins their parent kept (+-1): with every bin kept instead,
     # the estimates must be the same
-    import monovisual3d.bayes.method as bm
     from monovisual3d.sim.noise import NoiseModel
     from monovisual3d.sim.scenes import paper_scene
     from monovisual3d.sim.simulate import simulate
 
     session, _ = simulate(paper_scene(), noise=NoiseModel.paper(), rng=3)
     pruned = mv.localize(session)
-    monkeypatch.setattr(bm, "_RADIUS_MARGIN_BINS", BayesConfig().n_radii)
-    full = mv.localize(session)
-    assert full.grid["n_scored"] > pruned.grid["n_scored"]
+    full = mv.localize(session, radius_margin_bins=BayesConfig().n_radii)
+    assert full.diagnostics["n_scored"] > pruned.diagnostics["n_scored"]
     assert len(pruned.objects) == len(full.objects) == 6
     assert_allclose(pruned.positions, full.positions, atol=1e-9)

@@ -30,8 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera, distort_normalised
-from ..errors import InputError
+from ...camera import Camera, distort_normalised
+from ...errors import InputError
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,147 @@
+"""CLI options built from the methods' config dataclasses (no hand-kept flag table).
+
+Every field of every registered method's config (:data:`monovisual3d.methods.METHODS`)
+becomes one ``--field-name`` option of ``localize`` (and of the commands that
+localise), with the help text taken from the config docstring's Attributes
+section. An option that does not belong to the chosen method is an error
+naming the option as typed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Annotated, Any
+
+import typer
+
+from ..errors import InputError
+from ..methods import METHODS, get_method
+
+
+@dataclass(frozen=True)
+class OptionSpec:
+    """One CLI option: the config field, its Python type on the command line, help, and the methods that have it."""
+
+    name: str
+    kind: type
+    help: str
+    methods: tuple[str, ...]
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
+
+
+def field_docs(cls: type) -> dict[str, str]:
+    """Field name -> description, from the numpydoc ``Attributes`` section of a dataclass docstring."""
+    doc = inspect.getdoc(cls) or ""
+    section = doc.split("Attributes\n----------\n", 1)[-1] if "Attributes\n" in doc else ""
+    out: dict[str, str] = {}
+    current: list[str] = []
+    for line in section.splitlines():
+        m = re.match(r"^([a-z_][a-z0-9_]*(?:, [a-z_][a-z0-9_]*)*) : (.*)$", line)
+        if m:
+            current = [n.strip() for n in m.group(1).split(",")]
+            for n in current:
+                out[n] = m.group(2).strip()
+        elif line.startswith(" ") and current:
+            for n in current:
+                out[n] += " " + line.strip()
+        elif line.strip() == "" and current:
+            continue
+        else:
+            break
+    return out
+
+
+def _cli_kind(annotation: str) -> type:
+    a = annotation.replace(" ", "")
+    if a in ("bool",):
+        return bool
+    if a in ("float", "float|None"):
+        return float
+    if a in ("int", "int|None"):
+        return int
+    return str
+
+
+def option_specs() -> list[OptionSpec]:
+    """The options of every registered method, each once (in registry and field order)."""
+    specs: dict[str, OptionSpec] = {}
+    for method in METHODS.values():
+        cls = method.config_class
+        docs = field_docs(cls)
+        for f in dataclasses.fields(cls):
+            if f.name in specs:
+                old = specs[f.name]
+                specs[f.name] = dataclasses.replace(old, methods=old.methods + (method.name,))
+                continue
+            specs[f.name] = OptionSpec(f.name, _cli_kind(str(f.type)), docs.get(f.name, ""), (method.name,))
+    return list(specs.values())
+
+
+def _help(spec: OptionSpec) -> str:
+    who = "" if len(spec.methods) == len(METHODS) else f"{'/'.join(spec.methods)} method: "
+    return who + spec.help.replace("``", "").replace("[", "\\[")
+
+
+def _parameter(spec: OptionSpec) -> inspect.Parameter:
+    if spec.kind is bool:
+        option = typer.Option(f"{spec.flag}/--no-{spec.flag[2:]}", help=_help(spec), show_default=False)
+    else:
+        option = typer.Option(spec.flag, help=_help(spec), show_default=False)
+    annotation = Annotated[spec.kind | None, option]  # type: ignore[operator]
+    return inspect.Parameter(spec.name, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=annotation)
+
+
+def _convert(spec: OptionSpec, value: Any) -> Any:
+    if spec.name == "k" and isinstance(value, str):  # "max|mode|min|last" or a whole number
+        return int(value) if value.isascii() and value.isdigit() else value
+    return value
+
+
+def with_method_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Give a command one option per method config field; it receives them as ``method_options`` (given ones only).
+
+    ``fn`` must have a ``method`` parameter and a ``method_options: dict`` keyword parameter.
+    """
+    specs = option_specs()
+    sig = inspect.signature(fn, eval_str=True)
+    base = [p for p in sig.parameters.values() if p.name != "method_options"]
+    params = base + [_parameter(s) for s in specs]
+    names = {s.name for s in specs}
+
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        given = {k: kwargs.pop(k) for k in list(kwargs) if k in names}
+        return fn(*args, method_options={k: v for k, v in given.items() if v is not None}, **kwargs)
+
+    wrapper.__name__, wrapper.__doc__, wrapper.__module__ = fn.__name__, fn.__doc__, fn.__module__
+    wrapper.__signature__ = sig.replace(parameters=params)  # type: ignore[attr-defined]
+    wrapper.__annotations__ = {p.name: p.annotation for p in params}
+    return wrapper
+
+
+def method_config(method: str | None, options: dict[str, Any]) -> Any:
+    """The chosen method's config from CLI options; errors name the option as typed (``--accept: ...``)."""
+    m = get_method(method) if method is None or method in METHODS else None
+    if m is None:
+        raise InputError(f"--method: got {method!r}, expected one of {sorted(METHODS)}")
+    specs = {s.name: s for s in option_specs()}
+    for name in options:
+        if m.name not in specs[name].methods:
+            raise InputError(
+                f"{specs[name].flag}: not an option of --method {m.name} (it applies to --method {', '.join(specs[name].methods)})"
+            )
+    values = {k: _convert(specs[k], v) for k, v in options.items()}
+    try:
+        return m.make_config(**values)
+    except InputError as exc:
+        field, _, rest = str(exc).partition(":")
+        names = [n for n in re.split(r"[/, ]+", field) if n in values]
+        if names:
+            raise InputError(f"{' / '.join(specs[n].flag for n in names)}:{rest}") from None
+        raise

@@ -1,0 +1,104 @@
+"""The localisation methods and their explicit registry.
+
+Each method is a config dataclass (every option a field, documented in its
+docstring's Attributes section) and a ``run(session, config, progress=None) ->
+Result`` function. :data:`METHODS` maps the method's name to both; the CLI
+builds its options from the config classes, and :func:`monovisual3d.localize`
+looks methods up here. The run functions are imported on first use, so
+listing the methods stays cheap.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import InputError
+from ..result import Result
+from ..session import Session
+
+#: The method used when none is named.
+DEFAULT_METHOD = "bayes"
+
+
+@dataclass(frozen=True)
+class Method:
+    """A registered method: its name, a one-line summary, and where its config class and run function live.
+
+    Attributes
+    ----------
+    name : str
+    summary : str
+    config_path : str, ``"module:ClassName"`` of the config dataclass
+    run_path : str, ``"module:function"`` of ``run(session, config, *, progress=None) -> Result``
+    """
+
+    name: str
+    summary: str
+    config_path: str
+    run_path: str
+
+    @property
+    def config_class(self) -> type:
+        return _load(self.config_path)
+
+    @property
+    def run(self) -> Callable[..., Result]:
+        return _load(self.run_path)
+
+    def make_config(self, **options: Any) -> Any:
+        """The method's config from keyword options; an unknown option is an error naming the known ones."""
+        cls = self.config_class
+        known = sorted(cls.__dataclass_fields__)
+        unknown = sorted(set(options) - set(known))
+        if unknown:
+            raise InputError(f"{unknown[0]}: not an option of method {self.name!r}, expected one of {known}")
+        return cls(**options)
+
+
+def _load(path: str) -> Any:
+    module, name = path.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+#: name -> :class:`Method`. Add a method by adding an entry here.
+METHODS: dict[str, Method] = {
+    "bayes": Method(
+        "bayes",
+        "size-aware, ghost-free: box likelihood, explaining-away extraction, continuous refinement (default)",
+        "monovisual3d.methods.bayes.config:BayesConfig",
+        "monovisual3d.methods.bayes.localizer:run",
+    ),
+    "paper": Method(
+        "paper",
+        "MonoVisual3DFilter as published: histogram filter over a voxel grid, square/Gaussian kernel, k-means",
+        "monovisual3d.filter:PaperConfig",
+        "monovisual3d.methods.paper:run",
+    ),
+}
+
+
+def get_method(name: str | None) -> Method:
+    """The registered method called ``name`` (``None``: :data:`DEFAULT_METHOD`)."""
+    name = DEFAULT_METHOD if name is None else name
+    if not isinstance(name, str) or name not in METHODS:
+        raise InputError(f"method: got {name!r}, expected one of {sorted(METHODS)}")
+    return METHODS[name]
+
+
+def run_method(session: Session, name: str | None = None, config: Any = None, progress: Callable[[int, int], None] | None = None,
+               **options: Any) -> Result:  # fmt: skip
+    """Run a method on a loaded session, with a ready config or keyword options (not both)."""
+    method = get_method(name)
+    if config is not None:
+        if options:
+            raise InputError(f"{sorted(options)[0]}: give the options in the config or as keywords, not both")
+        if not isinstance(config, method.config_class):
+            raise InputError(
+                f"config: got {type(config).__name__}, expected {method.config_class.__name__} for method {method.name!r}"
+            )
+    else:
+        config = method.make_config(**options)
+    return method.run(session, config, progress=progress)

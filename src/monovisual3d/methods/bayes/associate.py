@@ -1,0 +1,149 @@
+"""Two local repairs of the greedy association (after :func:`.extract.extract`).
+
+- :func:`swap_pass`: overlapping objects swap their boxes in a view when that
+  fits both better (a fruit given the box of the fruit in front of it).
+- :func:`steal_pass`: a fruit left with one view gets back a box a neighbour
+  took when the neighbour can do without it.
+
+Both return new lists; the ``taken`` set is passed and returned explicitly.
+"""
+
+from __future__ import annotations
+
+from itertools import combinations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...result import DetectedObject
+from .likelihood import predict_boxes
+from .problem import Problem, Taken
+from .scoring import associations_list, boxes_of, fit_fixed, refine_and_check
+from .search import Hypotheses
+
+
+def _predicted_box(problem: Problem, v: int, o: DetectedObject) -> NDArray[np.float64]:
+    T = problem.views[v].T_optical_base
+    p_opt = T[:3, :3] @ o.position + T[:3, 3]
+    return predict_boxes(problem.camera, p_opt[None, :], np.array([o.radius]))[0][0, 0]
+
+
+def _overlap(a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
+    return bool(min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1]))
+
+
+def _try_swap(problem: Problem, v: int, a: DetectedObject, b: DetectedObject) -> tuple[DetectedObject, DetectedObject] | None:
+    """``a`` and ``b`` refit with their boxes in view ``v`` swapped, if their summed score grows by more than 1 nat."""
+    assoc_a, assoc_b = associations_list(problem, a), associations_list(problem, b)
+    assoc_a[v], assoc_b[v] = assoc_b[v], assoc_a[v]
+    new_a = fit_fixed(problem, a.position, float(a.radius), assoc_a)  # type: ignore[arg-type]
+    new_b = fit_fixed(problem, b.position, float(b.radius), assoc_b)  # type: ignore[arg-type]
+    if new_a is None or new_b is None or new_a.score + new_b.score <= a.score + b.score + 1.0:
+        return None
+    return new_a, new_b
+
+
+def swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+    """Fix greedy association mistakes between fruit that overlap in a view (one hiding the other).
+
+    For every view and every pair of objects whose predicted boxes overlap
+    there, swap their boxes in that view, refit both, and keep the swap if
+    their summed score grows by more than 1 nat. The set of taken boxes does
+    not change.
+    """
+    objects = list(objects)
+    for _ in range(2):
+        changed = False
+        for v, vd in enumerate(problem.views):
+            holders = [i for i, o in enumerate(objects) if vd.index in o.associations]
+            boxes = {i: _predicted_box(problem, v, objects[i]) for i in holders}  # once per object, not per pair
+            for ia, ib in combinations(holders, 2):
+                if not _overlap(boxes[ia], boxes[ib]):
+                    continue
+                swapped = _try_swap(problem, v, objects[ia], objects[ib])
+                if swapped is None:
+                    continue
+                objects[ia], objects[ib] = swapped
+                boxes[ia], boxes[ib] = _predicted_box(problem, v, swapped[0]), _predicted_box(problem, v, swapped[1])
+                changed = True
+        if not changed:
+            break
+    return objects
+
+
+def _steal_candidates(problem: Problem, hyp: Hypotheses, taken: Taken) -> NDArray[np.bool_]:
+    """Grid hypotheses (scored with every box) using at least one free box and one taken box, shape (N, K)."""
+    cfg = problem.config
+    total0, n0, assoc0 = hyp.scores
+    free_lut = [np.append(a, False) for a in problem.available(taken)]  # index -1 (no box) -> last slot
+    held_lut = [np.append(~a, False) for a in problem.available(taken)]
+    n_free = sum(f[a] for f, a in zip(free_lut, assoc0))
+    n_held = sum(h[a] for h, a in zip(held_lut, assoc0))
+    return (total0 >= cfg.accept - cfg.prune_slack) & (n0 >= cfg.min_views) & (n_free >= 1) & (n_held >= 1)
+
+
+def _try_steal(
+    problem: Problem, objects: list[DetectedObject], taken: Taken, holder: dict[tuple[int, int], int], centre: NDArray[np.float64],
+    radius: float, wanted: list[int],
+) -> tuple[DetectedObject, dict[int, DetectedObject]] | None:  # fmt: skip
+    """The candidate refined with the boxes it wants (held ones released), and the holders refit without them."""
+    cfg = problem.config
+    stolen = {(v, j) for v, j in enumerate(wanted) if j >= 0 and (v, j) in holder}
+    new = refine_and_check(problem, taken - stolen, centre, radius, wanted)
+    if new is None:
+        return None
+    mine = boxes_of(problem, new)
+    losers: dict[int, DetectedObject] = {}
+    for i in sorted({holder[b] for b in mine if b in holder}):
+        keep = [-1 if (v, j) in mine else j for v, j in enumerate(associations_list(problem, objects[i]))]
+        refit = fit_fixed(problem, objects[i].position, float(objects[i].radius), keep)  # type: ignore[arg-type]
+        if refit is None or refit.score < cfg.accept:
+            return None
+        losers[i] = refit
+    if not losers:
+        return None
+    gain = new.score + sum(o.score for o in losers.values()) - sum(objects[i].score for i in losers)
+    # a new object must pay for itself, as in the extraction: its score counts above ``accept``
+    return (new, losers) if gain > cfg.accept else None
+
+
+def steal_pass(
+    problem: Problem, objects: list[DetectedObject], taken: Taken, hyp: Hypotheses
+) -> tuple[list[DetectedObject], Taken]:
+    """Give a fruit back the box a neighbour took when the neighbour can do without it.
+
+    The greedy extraction can give a fruit the box of a neighbour that lost its
+    own box in that view (occluded or missed): the neighbour is then left with
+    one view and never accepted. Candidates are grid hypotheses (scored with
+    every box available) that use at least one free box and at least one box
+    an accepted object holds. For the best ``lookahead`` of them, the holders
+    give up those boxes and are refit without them, the candidate is refined
+    with the boxes left to it, and the move is kept when both stay acceptable
+    and the summed score grows by more than ``accept``.
+    """
+    cfg = problem.config
+    if not objects or hyp.scores[0].size == 0 or len(taken) == sum(len(vd.boxes) for vd in problem.views):
+        return objects, taken
+    objects = list(objects)
+    holder = {b: i for i, o in enumerate(objects) for b in boxes_of(problem, o)}
+    ok = _steal_candidates(problem, hyp, taken)
+    total0, _, assoc0 = hyp.scores
+    centres, radii = hyp.centres_base, hyp.radii
+    tried = np.zeros(len(centres), dtype=bool)
+    for _ in range(cfg.lookahead):
+        sc = np.where(ok & ~tried[:, None], total0, -np.inf)
+        if not np.isfinite(sc.max(initial=-np.inf)):
+            break
+        c, k = np.unravel_index(int(np.argmax(sc)), sc.shape)
+        tried |= np.linalg.norm(centres - centres[c], axis=1) <= max(2 * hyp.cell, radii[k])
+        move = _try_steal(problem, objects, taken, holder, centres[c], float(radii[k]), [int(a) for a in assoc0[:, c, k]])
+        if move is None:
+            continue
+        new, losers = move
+        for i, o in losers.items():
+            objects[i] = o
+        objects.append(new)
+        mine = boxes_of(problem, new)
+        taken = taken | mine
+        holder.update({b: len(objects) - 1 for b in mine})
+    return objects, taken

@@ -1,0 +1,103 @@
+"""Greedy explaining-away extraction with look-ahead.
+
+Take the best hypothesis; refine it (:func:`.scoring.refine_and_check`); it
+is accepted when at least ``min_views`` views have a box associated to it and
+its refined score is at least ``accept`` nats. An accepted object takes its
+boxes (they join ``taken``) and the hypotheses that used them are rescored; a
+rejected one suppresses the hypotheses around it. Stop when the best
+remaining grid score is below ``accept - prune_slack``. The look-ahead refines
+up to ``lookahead`` distinct candidates whose grid score is within
+``lookahead_margin`` of the best and keeps the best refined one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...result import DetectedObject
+from .problem import Problem, Taken
+from .scoring import boxes_of, refine_and_check, score_hypotheses, score_one
+from .search import Hypotheses
+
+
+@dataclass
+class _Work:
+    """The extraction's working copy of the scores (private to :func:`extract`)."""
+
+    total: NDArray[np.float64]
+    n_assoc: NDArray[np.int32]
+    assoc: NDArray[np.int16]
+    active: NDArray[np.bool_]
+
+
+def _candidates(
+    problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, best: float, cache: dict[tuple[int, int], DetectedObject | None]
+) -> list[tuple[DetectedObject | None, NDArray[np.bool_]]]:
+    """The look-ahead: refined candidates near the best grid score, each with the cells it stands for."""
+    cfg, centres, radii = problem.config, hyp.centres_base, hyp.radii
+    floor = cfg.accept - cfg.prune_slack
+    trial = work.active.copy()
+    out = []
+    for _ in range(cfg.lookahead):
+        sc = np.where(trial & (work.n_assoc >= cfg.min_views), work.total, -np.inf)
+        c, k = np.unravel_index(int(np.argmax(sc)), sc.shape)
+        if not np.isfinite(sc[c, k]) or sc[c, k] < max(floor, best - cfg.lookahead_margin):
+            break
+        key = (int(c), int(k))
+        if key not in cache:  # a cached result stays valid while its boxes are not taken
+            _, assoc_h = score_one(problem, taken, centres[c], float(radii[k]), hyp.cell)
+            cache[key] = refine_and_check(problem, taken, centres[c], float(radii[k]), assoc_h)
+        near = np.linalg.norm(centres - centres[c], axis=1) <= max(2 * hyp.cell, radii[k])
+        trial[near] = False
+        out.append((cache[key], near))
+    return out
+
+
+def _take(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, obj: DetectedObject) -> Taken:
+    """Give ``obj`` its boxes: suppress the cells around it and rescore the hypotheses that used its boxes."""
+    new = boxes_of(problem, obj)
+    taken = taken | new
+    near = np.linalg.norm(hyp.centres_base - obj.position, axis=1) <= max(hyp.cell, 0.5 * float(obj.radius or 0))
+    work.active[near] = False
+    affected = np.zeros(len(hyp.centres_base), dtype=bool)
+    for v, j in new:
+        affected |= (work.assoc[v] == j).any(axis=1)
+    if affected.any():
+        sub = np.flatnonzero(affected)
+        t, n, a = score_hypotheses(problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub])
+        work.total[sub], work.n_assoc[sub], work.assoc[:, sub] = t, n, a
+    return taken
+
+
+def extract(problem: Problem, hyp: Hypotheses) -> tuple[list[DetectedObject], Taken]:
+    """Objects found greedily in ``hyp``, and the boxes they took."""
+    cfg = problem.config
+    total, n_assoc, assoc = hyp.scores
+    work = _Work(total.copy(), n_assoc.copy(), assoc.copy(), np.ones(total.shape, dtype=bool))
+    objects: list[DetectedObject] = []
+    taken: Taken = frozenset()
+    cache: dict[tuple[int, int], DetectedObject | None] = {}
+    max_iter = sum(len(vd.boxes) for vd in problem.views) * 3 + 10
+    for _ in range(max_iter):
+        scores = np.where(work.active & (work.n_assoc >= cfg.min_views), work.total, -np.inf)
+        if scores.size == 0:
+            break
+        best = float(scores.max())
+        if not np.isfinite(best) or best < cfg.accept - cfg.prune_slack:
+            break
+        candidates = _candidates(problem, hyp, work, taken, best, cache)
+        for cand, near in candidates:
+            if cand is None:
+                work.active[near] = False
+        accepted = [cand for cand, _ in candidates if cand is not None]
+        if not accepted:
+            continue
+        obj = max(accepted, key=lambda o: o.score)
+        objects.append(obj)
+        mine = boxes_of(problem, obj)
+        cache = {key: o for key, o in cache.items() if o is not None and o is not obj and not mine & boxes_of(problem, o)}
+        taken = _take(problem, hyp, work, taken, obj)
+    return objects, taken

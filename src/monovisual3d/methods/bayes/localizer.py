@@ -1,0 +1,129 @@
+"""The ``bayes`` method's front ends: :class:`BayesLocalizer` (incremental) and :func:`run` (one session)."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable
+
+from ...camera import Camera
+from ...errors import InputWarning
+from ...grid import VoxelGrid
+from ...result import DetectedObject, Result
+from ...session import Session, View, Workspace
+from .config import BayesConfig
+from .pipeline import Estimate, estimate
+from .problem import build_problem
+
+
+def region_grid(config: BayesConfig, workspace: Workspace | None, first_view: View) -> VoxelGrid:
+    """The region searched: the workspace, else the paper's cube in front of ``first_view``, at ``search_start``.
+
+    Only a description (nothing is allocated): the search picks a coarser first level if it is too large.
+    """
+    huge = 2**62
+    if workspace is not None:
+        return VoxelGrid.from_bounds(workspace.min, workspace.max, config.search_start, max_bytes=huge)
+    return VoxelGrid.in_front_of_camera(first_view.T_base_optical, config.search_start, config.reach, max_bytes=huge)
+
+
+class BayesLocalizer:
+    """Stateful front end of the ``bayes`` method for incremental use (the filterpy shape).
+
+    Call :meth:`update` as views arrive and :meth:`estimate` whenever estimates
+    are needed: it runs :func:`.pipeline.estimate` over all views so far
+    (milliseconds to a fraction of a second).
+
+    Parameters
+    ----------
+    camera : Camera
+    config : BayesConfig
+    workspace : Workspace, optional; else the paper's cube in front of the first view with a detection
+
+    Attributes
+    ----------
+    views : list of View, the views so far
+    grid : VoxelGrid or None, the region searched (set at the first view with a detection)
+    last : Estimate or None, the last :meth:`estimate`'s full output (pose corrections, timings, diagnostics)
+
+    Examples
+    --------
+    >>> from monovisual3d import load_session
+    >>> from monovisual3d.examples import example_session_path
+    >>> s = load_session(example_session_path())
+    >>> loc = BayesLocalizer(s.camera)
+    >>> for view in s.views:
+    ...     loc.update(view)
+    >>> len(loc.estimate())
+    1
+    """
+
+    def __init__(self, camera: Camera, config: BayesConfig | None = None, *, workspace: Workspace | None = None) -> None:
+        self.camera = camera
+        self.config = config or BayesConfig()
+        self.workspace = workspace
+        self.views: list[View] = []
+        self.grid: VoxelGrid | None = None
+        self.last: Estimate | None = None
+
+    def update(self, view: View) -> None:
+        """Add one view."""
+        self.views.append(view)
+        if self.grid is None and view.detections:
+            self.grid = region_grid(self.config, self.workspace, view)
+
+    def estimate(self) -> list[DetectedObject]:
+        """Objects found in the views so far (see :mod:`.pipeline`)."""
+        self.last = estimate(build_problem(self.camera, self.config, self.views), self.grid)
+        return list(self.last.objects)
+
+    @property
+    def pose_corrections(self) -> list[dict]:
+        """The pose corrections of the last :meth:`estimate` (empty unless a pose uncertainty is configured)."""
+        return list(self.last.pose_corrections) if self.last is not None else []
+
+
+def _check_views(session: Session, config: BayesConfig, objects: list[DetectedObject]) -> list[str]:
+    """Warnings for sessions that cannot give objects."""
+    n_with = sum(1 for v in session.views if v.detections)
+    messages = []
+    if n_with < config.min_views:
+        messages.append(f"only {n_with} view(s) have detections; at least {config.min_views} are needed to localise anything")
+    elif not objects:
+        messages.append(
+            f"{n_with} views have detections but no object is consistent across them; check that positions are metres, "
+            "quaternions are (x, y, z, w), pose_frame is right, and that the views look at the same fruit "
+            f"(objects scoring below accept={config.accept:g} nats are not reported)"
+        )
+    return messages
+
+
+def run(session: Session, config: BayesConfig, *, progress: Callable[[int, int], None] | None = None) -> Result:
+    """The ``bayes`` method on one session (see :mod:`monovisual3d.methods.bayes`)."""
+    t0 = time.perf_counter()
+    loc = BayesLocalizer(session.camera, config, workspace=session.workspace)
+    for i, view in enumerate(session.views):
+        loc.update(view)
+        if progress is not None:
+            progress(i + 1, len(session.views))
+    objects = loc.estimate()
+    assert loc.last is not None
+    messages = _check_views(session, config, objects)
+    if loc.last.diagnostics.get("capped"):
+        messages.append(
+            f"the search kept only the best hypotheses at some level to stay within max_memory={config.max_memory:,} bytes "
+            f"and max_hypotheses={config.max_hypotheses:,}; a smaller workspace or a coarser resolution searches exhaustively"
+        )
+    for msg in messages:
+        warnings.warn(InputWarning(msg), stacklevel=3)
+    grid = loc.grid.to_dict() if loc.grid is not None else {}
+    return Result(
+        objects=objects,
+        method="bayes",
+        grid=grid,
+        timing_s={**loc.last.timing_s, "total": time.perf_counter() - t0},
+        config=config.to_dict(),
+        warnings=messages,
+        diagnostics=dict(loc.last.diagnostics),
+        pose_corrections=list(loc.last.pose_corrections),
+    )

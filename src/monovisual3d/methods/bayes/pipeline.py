@@ -1,0 +1,115 @@
+"""The ``bayes`` pipeline as pure functions: search -> extract -> associate -> refine/bundle.
+
+:func:`estimate` runs the stages over a frozen :class:`~.problem.Problem`:
+
+1. :func:`.search.search` scores (cell, radius) hypotheses coarse to fine;
+2. :func:`.extract.extract` takes objects greedily with look-ahead (explaining away);
+3. :func:`.associate.swap_pass` and :func:`.associate.steal_pass` repair the association
+   (config fields ``swap`` and ``steal``);
+4. with a stated pose uncertainty, :func:`bundle` refines all objects jointly with a pose
+   correction per view (:mod:`.bundle`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ...frames import invert_transform
+from ...grid import VoxelGrid
+from ...result import DetectedObject
+from .associate import steal_pass, swap_pass
+from .bundle import bundle_adjust, correction_transform
+from .extract import extract
+from .problem import Problem
+from .refine import Observation
+from .search import search
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What :func:`estimate` returns.
+
+    Attributes
+    ----------
+    objects : list of DetectedObject, best score first
+    pose_corrections : list of dict, per view with detections (empty unless a pose uncertainty is stated)
+    timing_s : dict, seconds per stage
+    diagnostics : dict, search statistics (see :meth:`.search.Hypotheses.stats`)
+    """
+
+    objects: list[DetectedObject]
+    pose_corrections: list[dict[str, Any]] = field(default_factory=list)
+    timing_s: dict[str, float] = field(default_factory=dict)
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+
+def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
+    """Objects in the problem's views (nothing without a grid or with fewer than ``min_views`` views)."""
+    cfg = problem.config
+    if grid is None or len(problem.views) < cfg.min_views:
+        return Estimate([])
+    t0 = time.perf_counter()
+    hyp = search(problem, grid)
+    t1 = time.perf_counter()
+    objects, taken = extract(problem, hyp)
+    if cfg.swap:
+        objects = swap_pass(problem, objects)
+    if cfg.steal:
+        objects, taken = steal_pass(problem, objects, taken, hyp)
+    t2 = time.perf_counter()
+    timing = {"search_score": t1 - t0, "extract_refine": t2 - t1}
+    corrections: list[dict[str, Any]] = []
+    if cfg.poses_uncertain and objects:
+        objects, corrections = bundle(problem, objects)
+        timing["bundle"] = time.perf_counter() - t2
+    objects.sort(key=lambda o: -o.score)
+    return Estimate(objects, corrections, timing, hyp.stats())
+
+
+def bundle(problem: Problem, objects: list[DetectedObject]) -> tuple[list[DetectedObject], list[dict[str, Any]]]:
+    """Refine all objects jointly with a pose correction per view (:mod:`.bundle`).
+
+    Returns the objects (an object whose joint solution diverged keeps its own)
+    and, per view with detections, its estimated pose correction: ``view``
+    (index in the session), ``rotvec_optical_rad`` and ``translation_optical_m``
+    (``p_optical_true = exp([rotvec]x) @ p_optical_reported + translation``),
+    their posterior std ``std_rotvec_optical_rad`` and ``std_translation_optical_m``,
+    and ``T_base_optical_corrected`` (4x4 nested lists).
+    """
+    cfg, views = problem.config, problem.views
+    obs = [
+        (i, v, Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if cfg.use_masks else None))
+        for i, o in enumerate(objects)
+        for v, vd in enumerate(views)
+        if (j := o.associations.get(vd.index, -1)) >= 0
+    ]
+    b = bundle_adjust(
+        problem.camera, obs, np.stack([o.position for o in objects]), np.array([float(o.radius) for o in objects]),  # type: ignore[arg-type]
+        problem.model, position_sigma=cfg.pose_position_sigma, rotation_sigma=cfg.pose_rotation_sigma,
+        use_masks=cfg.use_masks, n_views=len(views),
+    )  # fmt: skip
+    out = []
+    for i, o in enumerate(objects):
+        if not (np.all(np.isfinite(b.centres[i])) and cfg.radius_min * 0.5 <= b.radii[i] <= cfg.radius_max * 2):
+            out.append(o)  # keep the per-object solution rather than a diverged joint one
+            continue
+        extra = {**o.extra, "radius_std": float(b.radius_std[i]), "pose_corrected": True}
+        out.append(DetectedObject(b.centres[i], o.score, float(b.radii[i]), b.covariances[i], o.associations, o.n_cells, extra))
+    corrections = []
+    for v, vd in enumerate(views):
+        T_corrected = correction_transform(b.rotvec_optical[v], b.translation_optical[v]) @ vd.T_optical_base
+        corrections.append(
+            {
+                "view": vd.index,
+                "rotvec_optical_rad": b.rotvec_optical[v].tolist(),
+                "translation_optical_m": b.translation_optical[v].tolist(),
+                "std_rotvec_optical_rad": b.pose_std[v, :3].tolist(),
+                "std_translation_optical_m": b.pose_std[v, 3:].tolist(),
+                "T_base_optical_corrected": invert_transform(T_corrected).tolist(),
+            }
+        )
+    return out, corrections

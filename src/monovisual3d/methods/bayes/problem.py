@@ -1,0 +1,88 @@
+"""The frozen data every stage of the ``bayes`` pipeline reads.
+
+A :class:`Problem` is the camera, the options and the views with detections,
+fixed for one :func:`~monovisual3d.methods.bayes.pipeline.estimate` call. Which
+boxes are already explained by an accepted object is passed explicitly as a
+``taken`` set of ``(v, j)`` pairs (``v``: position in ``Problem.views``,
+``j``: detection index in that view), never as flags shared between stages.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...camera import Camera
+from ...errors import InputError
+from ...frames import invert_transform
+from ...masks import contour_points
+from ...session import View
+from .config import BayesConfig
+from .likelihood import SensorModel
+
+#: Boxes explained by accepted objects: ``(v, j)`` pairs, ``v`` indexing ``Problem.views``.
+Taken = frozenset[tuple[int, int]]
+
+
+@dataclass(frozen=True)
+class ViewData:
+    """One view with detections, as the pipeline reads it.
+
+    Attributes
+    ----------
+    index : int, the view's index in the session
+    T_optical_base : ndarray, shape (4, 4), base frame -> optical frame
+    boxes : ndarray, shape (B, 4), float64, bbox_xyxy, pixels
+    contours : tuple of (ndarray, shape (M, 2), pixels) or None, one per box: the mask outline when used
+    view : View, the session's view
+    """
+
+    index: int
+    T_optical_base: NDArray[np.float64]
+    boxes: NDArray[np.float64]
+    contours: tuple[NDArray[np.float64] | None, ...]
+    view: View
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Camera, options, sensor model and the views with detections of one estimate."""
+
+    camera: Camera
+    config: BayesConfig
+    model: SensorModel
+    views: tuple[ViewData, ...]
+
+    def available(self, taken: Iterable[tuple[int, int]] = ()) -> list[NDArray[np.bool_]]:
+        """Per view, which boxes are not in ``taken``: list of ndarray, shape (B_v,), bool."""
+        out = [np.ones(len(vd.boxes), dtype=bool) for vd in self.views]
+        for v, j in taken:
+            out[v][j] = False
+        return out
+
+    def depth(self, v: int, p_base: NDArray[np.floating]) -> float:
+        """Depth (optical z, metres) of the point ``p_base`` (shape (3,), base frame) in view ``v``."""
+        T = self.views[v].T_optical_base
+        return float(T[2, :3] @ p_base + T[2, 3])
+
+
+def build_problem(camera: Camera, config: BayesConfig, views: Sequence[View]) -> Problem:
+    """The :class:`Problem` of ``views`` (views without detections are left out; masks decoded once)."""
+    data = []
+    for i, v in enumerate(views):
+        if not v.detections:
+            continue
+        contours: list[NDArray[np.float64] | None] = []
+        for j, d in enumerate(v.detections):
+            if config.use_masks and d.mask is not None:
+                try:
+                    contours.append(contour_points(d.mask))
+                except InputError as exc:
+                    raise InputError(f"views[{i}].detections[{j}].{exc}") from None
+            else:
+                contours.append(None)
+        data.append(ViewData(i, invert_transform(v.T_base_optical), v.boxes_xyxy, tuple(contours), v))
+    return Problem(camera, config, config.sensor, tuple(data))

@@ -1,0 +1,200 @@
+"""Scoring and fitting single objects: the building blocks of every stage.
+
+All functions are pure: they read a :class:`~.problem.Problem` and an explicit
+``taken`` set (boxes already explained) and return new values.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...frames import transform_points
+from ...result import DetectedObject
+from .likelihood import box_scores, pose_sigma_px, predict_boxes, view_scores
+from .problem import Problem, Taken
+from .refine import Observation, refine_sphere
+
+#: The scores of hypotheses: total (N, K) nats, -inf where not scored; views with an associated box (N, K);
+#: associated box per view (V, N, K), -1 for none.
+Scores = tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]
+
+
+def pose_px(problem: Problem, depth: NDArray[np.floating] | float) -> NDArray[np.float64] | float:
+    """Edge noise (pixels) of the stated pose uncertainty at ``depth`` (metres); exactly 0.0 when poses are exact."""
+    cfg = problem.config
+    if not cfg.poses_uncertain:
+        return 0.0
+    return pose_sigma_px(problem.camera, depth, cfg.pose_position_sigma, cfg.pose_rotation_sigma)
+
+
+def score_hypotheses(
+    problem: Problem,
+    taken: Taken,
+    centres_base: NDArray[np.float64],
+    radii: NDArray[np.float64],
+    cell: float,
+    mask: NDArray[np.bool_],
+) -> Scores:
+    """Score the (cell, radius) hypotheses selected by ``mask`` with the boxes not in ``taken``.
+
+    Parameters
+    ----------
+    centres_base : ndarray, shape (N, 3), metres, base frame
+    radii : ndarray, shape (K,), metres
+    cell : float, metres: the cell size; the cell's projected half-diagonal is added to the edge
+        noise so a cell is scored as the region it stands for (0: a single point)
+    mask : ndarray, shape (N, K), bool
+
+    Returns
+    -------
+    total, n_assoc, assoc : see :data:`Scores`
+    """
+    blur = cell * np.sqrt(3) / 2
+    cfg, cam = problem.config, problem.camera
+    available = problem.available(taken)
+    if cfg.backend == "numba":
+        from ._kernels import score_hypotheses as fused
+
+        # the pose's position uncertainty scales with 1/depth like the cell blur; its rotation part is constant
+        return fused(
+            cam,
+            [vd.T_optical_base for vd in problem.views],
+            [vd.boxes for vd in problem.views],
+            available,
+            centres_base,
+            radii,
+            problem.model,
+            float(np.hypot(blur, cfg.pose_position_sigma)) if cfg.pose_position_sigma > 0 else blur,
+            max(cam.fx, cam.fy) * cfg.pose_rotation_sigma,
+            mask,
+        )
+    return score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask)
+
+
+def score_hypotheses_numpy(
+    problem: Problem,
+    available: Sequence[NDArray[np.bool_]],
+    centres_base: NDArray[np.float64],
+    radii: NDArray[np.float64],
+    blur: float,
+    mask: NDArray[np.bool_],
+) -> Scores:
+    """The numpy reference of :func:`score_hypotheses` (``blur``: the cell's half-diagonal, metres)."""
+    cam, n, k = problem.camera, len(centres_base), len(radii)
+    total = np.zeros((n, k))
+    n_assoc = np.zeros((n, k), dtype=np.int32)
+    assoc = np.empty((len(problem.views), n, k), dtype=np.int16)
+    for v, vd in enumerate(problem.views):
+        p_opt = transform_points(vd.T_optical_base, centres_base)
+        pred, visible = predict_boxes(cam, p_opt, radii)
+        extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
+        if problem.config.poses_uncertain:
+            extra = np.hypot(extra, pose_px(problem, p_opt[:, 2:3]))
+        llr, a = view_scores(pred, visible, vd.boxes, available[v], problem.model, cam.width, cam.height, extra)
+        total += llr
+        n_assoc += a >= 0
+        assoc[v] = a
+    total[~mask], n_assoc[~mask], assoc[:, ~mask] = -np.inf, 0, -1
+    return total, n_assoc, assoc
+
+
+def score_one(
+    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, cell: float = 0.0
+) -> tuple[float, list[int]]:
+    """Score (nats) and best available box per view (-1: none) of one sphere; ``cell`` > 0 blurs it as a grid cell."""
+    total, _, assoc = score_hypotheses(problem, taken, centre[None, :], np.array([radius]), cell, np.ones((1, 1), dtype=bool))
+    return float(total[0, 0]), [int(a) for a in assoc[:, 0, 0]]
+
+
+def observations(problem: Problem, assoc: Sequence[int], centre: NDArray[np.float64]) -> list[Observation]:
+    """Observations of the associated boxes (-1: none), with the pose noise at ``centre``'s depth in each view."""
+    use_masks = problem.config.use_masks
+    out = []
+    for v, (vd, j) in enumerate(zip(problem.views, assoc)):
+        if j < 0:
+            continue
+        noise = float(pose_px(problem, problem.depth(v, centre)))
+        out.append(Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if use_masks else None, noise))
+    return out
+
+
+def _radius_ok(problem: Problem, radius: float) -> bool:
+    cfg = problem.config
+    return cfg.radius_min * 0.5 <= radius <= cfg.radius_max * 2
+
+
+def _object(problem: Problem, refined: object, score: float, assoc: Sequence[int], n_views: int) -> DetectedObject:
+    return DetectedObject(
+        position=refined.centre,  # type: ignore[attr-defined]
+        score=score,
+        radius=float(refined.radius),  # type: ignore[attr-defined]
+        covariance=refined.covariance,  # type: ignore[attr-defined]
+        associations={vd.index: int(a) for vd, a in zip(problem.views, assoc) if a >= 0},
+        extra={"radius_std": refined.radius_std, "n_views": int(n_views)},  # type: ignore[attr-defined]
+    )
+
+
+def refine_and_check(
+    problem: Problem, taken: Taken, centre0: NDArray[np.float64], radius0: float, assoc0: Sequence[int]
+) -> DetectedObject | None:
+    """Refine a hypothesis, re-associating its boxes among those not ``taken``; None unless it is accepted.
+
+    Accepted: at least ``min_views`` associated views, a plausible radius and a
+    score of at least ``accept`` nats.
+    """
+    cfg = problem.config
+    assoc, centre, radius = list(assoc0), centre0, float(radius0)
+    refined, score = None, -np.inf
+    for _ in range(3):
+        obs = observations(problem, assoc, centre)
+        if len(obs) < cfg.min_views:
+            return None
+        refined = refine_sphere(problem.camera, obs, centre, radius, problem.model, use_masks=cfg.use_masks)
+        centre, radius = refined.centre, refined.radius
+        if not _radius_ok(problem, radius):
+            return None
+        score, new_assoc = score_one(problem, taken, centre, radius)
+        if new_assoc == assoc:
+            break
+        assoc = new_assoc
+    n_views = sum(a >= 0 for a in assoc)
+    if refined is None or n_views < cfg.min_views or score < cfg.accept:
+        return None
+    return _object(problem, refined, score, assoc, n_views)
+
+
+def fit_fixed(problem: Problem, centre0: NDArray[np.float64], radius0: float, assoc: Sequence[int]) -> DetectedObject | None:
+    """Refine one object with a fixed association and score it with that association (None: no valid fit)."""
+    cfg, cam = problem.config, problem.camera
+    obs = observations(problem, assoc, centre0)
+    if len(obs) < cfg.min_views:
+        return None
+    refined = refine_sphere(cam, obs, centre0, radius0, problem.model, use_masks=cfg.use_masks)
+    if not _radius_ok(problem, refined.radius):
+        return None
+    score = 0.0
+    for vd, j in zip(problem.views, assoc):
+        p_opt = vd.T_optical_base[:3, :3] @ refined.centre + vd.T_optical_base[:3, 3]
+        pred, visible = predict_boxes(cam, p_opt[None, :], np.array([refined.radius]))
+        if not visible[0, 0]:
+            continue
+        s = (
+            box_scores(pred[0, 0], vd.boxes[j], problem.model, cam.width, cam.height, pose_px(problem, p_opt[2]))
+            if j >= 0
+            else -np.inf
+        )
+        score += max(float(s), problem.model.miss_term)
+    return _object(problem, refined, score, assoc, len(obs))
+
+
+def associations_list(problem: Problem, obj: DetectedObject) -> list[int]:
+    """An object's association as a list over ``problem.views`` (-1: none)."""
+    return [obj.associations.get(vd.index, -1) for vd in problem.views]
+
+
+def boxes_of(problem: Problem, obj: DetectedObject) -> set[tuple[int, int]]:
+    """The ``(v, j)`` boxes an object holds."""
+    return {(v, j) for v, j in enumerate(associations_list(problem, obj)) if j >= 0}

@@ -1,0 +1,185 @@
+"""Coarse-to-fine search of the (cell, radius) hypotheses that can hold an object.
+
+A cell can hold an object only if, in at least ``min_views`` views, its
+centre projects inside one of the boxes, widened by half the box size on
+each side (room for partial occlusion) plus the cell's own projected
+half-diagonal (:func:`monovisual3d.grid.cone_counts`). Surviving cells are
+scored with every radius bin (:func:`.scoring.score_hypotheses`); cells whose
+best score is below ``accept - prune_slack`` are dropped and the rest are split
+into 8 children, until the target resolution is reached. The cost grows with
+the volume of the viewing-cone intersections, not with the workspace.
+
+Memory is bounded by ``max_memory``: the first level is made coarser (by powers
+of two, so the last level is still ``resolution``) until the workspace has at
+most :data:`MAX_FIRST_LEVEL_CELLS` cells, and a level with more hypotheses than
+fit is scored in chunks keeping the best-scoring cells (``Hypotheses.capped``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...grid import VoxelGrid, cone_counts, split_cells
+from .problem import Problem
+from .scoring import Scores, score_hypotheses
+
+#: Cells of the first search level at most (chosen so the first level takes well under a second).
+MAX_FIRST_LEVEL_CELLS = 2_000_000
+#: Cells whose cone counts are computed at once.
+CHUNK_CELLS = 1 << 20
+
+
+@dataclass(frozen=True)
+class Hypotheses:
+    """The last search level: hypotheses scored with every box available.
+
+    Attributes
+    ----------
+    centres_base : ndarray, shape (N, 3), metres, base frame: cell centres
+    radii : ndarray, shape (K,), metres
+    cell : float, metres, cell size of the level
+    scores : (total (N, K), n_assoc (N, K), assoc (V, N, K)), see :data:`.scoring.Scores`
+    mask : ndarray, shape (N, K), bool: the radius bins scored per cell
+    n_scored : int, hypotheses scored over all levels
+    start_cell : float, metres, cell size of the first level
+    capped : bool, whether a level had more hypotheses than the budget and kept only the best cells
+    """
+
+    centres_base: NDArray[np.float64]
+    radii: NDArray[np.float64]
+    cell: float
+    scores: Scores
+    mask: NDArray[np.bool_]
+    n_scored: int
+    start_cell: float
+    capped: bool
+
+    def stats(self) -> dict[str, float | int | bool]:
+        return {
+            "cell_size": self.cell,
+            "n_scored": self.n_scored,
+            "n_cells_kept": len(self.centres_base),
+            "start_cell_size": self.start_cell,
+            "capped": self.capped,
+        }
+
+
+def bytes_per_hypothesis(n_views: int) -> int:
+    """Working memory of one scored hypothesis: the score arrays, the extraction's copy and temporaries."""
+    return 2 * (8 + 4 + 2 * n_views + 1) + 16
+
+
+def hypothesis_cap(problem: Problem) -> int:
+    """Hypotheses one level may hold: ``max_hypotheses``, lowered to half the memory budget."""
+    cfg = problem.config
+    budget = int(cfg.max_memory) // 2 // bytes_per_hypothesis(len(problem.views))
+    return max(len(cfg.radii), min(cfg.max_hypotheses, budget))
+
+
+def first_level(grid: VoxelGrid, start: float, resolution: float, max_cells: int = MAX_FIRST_LEVEL_CELLS) -> VoxelGrid:
+    """The grid of the first level over ``grid``'s region: cell ``start * 2**m``, the smallest with <= ``max_cells`` cells.
+
+    Doubling keeps the halving levels landing on ``resolution``.
+    """
+    size = np.asarray(grid.shape, dtype=float) * grid.resolution
+    cell = float(start)
+    while math.prod(max(1, math.ceil(s / cell - 1e-9)) for s in size) > max_cells:
+        cell *= 2
+    shape = tuple(max(1, math.ceil(s / cell - 1e-9)) for s in size)
+    del resolution  # the level sizes are start / 2**i, so any start >= resolution ends at it
+    return VoxelGrid(grid.T_base_grid, shape, cell)  # type: ignore[arg-type]
+
+
+def _cone_counts(problem: Problem, centres_base: NDArray[np.float64], half_diagonal: float) -> NDArray[np.int32]:
+    if problem.config.backend == "numba":
+        from ._kernels import cone_counts_fused
+
+        views = problem.views
+        return cone_counts_fused(
+            problem.camera, [vd.T_optical_base for vd in views], [vd.boxes for vd in views], centres_base, half_diagonal
+        )
+    return cone_counts(problem.camera, [vd.view for vd in problem.views], centres_base, half_diagonal)
+
+
+def _first_cells(problem: Problem, grid: VoxelGrid) -> NDArray[np.float64]:
+    """Centres (grid frame) of the first level's cells inside at least ``min_views`` cones, computed in chunks."""
+    R, t = grid.T_base_grid[:3, :3], grid.T_base_grid[:3, 3]
+    half = grid.resolution * math.sqrt(3) / 2
+    kept = []
+    for start in range(0, grid.n_cells, CHUNK_CELLS):
+        c_grid = grid.centres_grid(np.arange(start, min(start + CHUNK_CELLS, grid.n_cells)))
+        counts = _cone_counts(problem, c_grid @ R.T + t, half)
+        kept.append(c_grid[counts >= problem.config.min_views])
+    return np.concatenate(kept) if kept else np.zeros((0, 3))
+
+
+def _score_level(
+    problem: Problem, centres: NDArray[np.float64], cell: float, mask: NDArray[np.bool_], cap: int
+) -> tuple[NDArray[np.intp], Scores, bool]:
+    """Score a level; with more than ``cap`` hypotheses, in chunks keeping the ``cap // K`` best cells.
+
+    Returns the rows kept (indices into ``centres``), their scores and whether cells were dropped.
+    """
+    radii = problem.config.radii
+    max_cells = max(1, cap // len(radii))
+    if len(centres) <= max_cells:
+        return np.arange(len(centres)), score_hypotheses(problem, frozenset(), centres, radii, cell, mask), False
+    rows = np.zeros(0, dtype=np.intp)
+    best: Scores | None = None
+    for start in range(0, len(centres), max_cells):
+        idx = np.arange(start, min(start + max_cells, len(centres)))
+        sc = score_hypotheses(problem, frozenset(), centres[idx], radii, cell, mask[idx])
+        if best is not None:
+            idx = np.concatenate([rows, idx])
+            sc = (np.concatenate([best[0], sc[0]]), np.concatenate([best[1], sc[1]]), np.concatenate([best[2], sc[2]], axis=1))
+        top = np.argsort(-sc[0].max(axis=1), kind="stable")[:max_cells]
+        rows, best = idx[top], (sc[0][top], sc[1][top], sc[2][:, top])
+    assert best is not None
+    order = np.argsort(rows, kind="stable")  # keep the cells in grid order, as without the cap
+    return rows[order], (best[0][order], best[1][order], best[2][:, order]), True
+
+
+def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
+    """Each row's kept radius bins, widened by ``bins`` on each side."""
+    for _ in range(bins):
+        mask = mask | np.pad(mask[:, 1:], ((0, 0), (0, 1))) | np.pad(mask[:, :-1], ((0, 0), (1, 0)))
+    return mask
+
+
+def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
+    """Coarse-to-fine search over ``grid``'s region (see the module docstring)."""
+    cfg = problem.config
+    radii = cfg.radii
+    level = first_level(grid, cfg.search_start, cfg.resolution)
+    R, t = level.T_base_grid[:3, :3], level.T_base_grid[:3, 3]
+    cell, cap = level.resolution, hypothesis_cap(problem)
+    centres_grid = _first_cells(problem, level)
+    mask = np.ones((len(centres_grid), len(radii)), dtype=bool)
+    floor = cfg.accept - cfg.prune_slack
+    n_scored, capped, first = 0, False, True
+    while True:
+        centres = centres_grid @ R.T + t
+        if not first:  # the first level's cone counts were taken in chunks
+            keep = _cone_counts(problem, centres, cell * np.sqrt(3) / 2) >= cfg.min_views
+            centres_grid, centres, mask = centres_grid[keep], centres[keep], mask[keep]
+        first = False
+        rows, scores, dropped = _score_level(problem, centres, cell, mask, cap)
+        capped |= dropped
+        centres_grid, centres, mask = centres_grid[rows], centres[rows], mask[rows]
+        n_scored += int(mask.sum())
+        total, n_assoc, assoc = scores
+        # scores only fall as boxes are taken, so a hypothesis below the floor never matters again
+        mask = (total >= floor) & (n_assoc >= cfg.min_views)
+        good = mask.any(axis=1)
+        centres_grid, centres, mask = centres_grid[good], centres[good], mask[good]
+        scores = (total[good], n_assoc[good], assoc[:, good])
+        if cell <= cfg.resolution * (1 + 1e-9) or len(centres) == 0:
+            return Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped)
+        # children inherit the radii their parent kept, widened (the parent's score is blurred in position, not radius)
+        mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
+        centres_grid = split_cells(centres_grid, cell)
+        cell /= 2
