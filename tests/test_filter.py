@@ -267,11 +267,14 @@ def test_grid_too_large_names_size_and_resolution(valid_session: dict[str, Any])
     with pytest.raises(InputError) as info:
         localize(valid_session, method="paper", resolution=0.001)
     msg = str(info.value)
-    assert re.match(r"^resolution: a 1 mm grid has 8,000,000,000 cells \(2000x2000x2000\) and needs about 119\.2 GiB", msg)
-    suggested = float(re.search(r"use --resolution ([0-9.]+) or larger", msg).group(1))  # type: ignore[union-attr]
-    assert 0.001 < suggested < 0.01
-    # the suggested resolution really fits the default memory limit
-    assert math.ceil(2.0 / suggested) ** 3 * 16 <= 4 * 1024**3
+    assert re.match(r"^resolution: a 1 mm grid has 8,000,000,000 cells \(2000x2000x2000\) and needs about 357\.6 GiB", msg)
+    assert "over the max_memory budget of 2.0 GiB" in msg
+    suggested = float(re.search(r"resolution ([0-9.e-]+) m fits", msg).group(1))  # type: ignore[union-attr]
+    assert 0.001 < suggested < 0.02
+    # the suggested resolution really fits the default memory budget: the same call at it runs
+    assert math.ceil(2.0 / suggested) ** 3 * 48 <= 2 * 1024**3
+    PaperConfig(resolution=suggested)
+    localize(valid_session, method="paper", resolution=suggested, kernel="square")
 
 
 def test_paper_config_defaults_follow_the_paper() -> None:

@@ -44,12 +44,14 @@ class PaperConfig:
     k : "max" | "mode" | "min" | "last" | int, how many clusters (see :func:`choose_k`)
     keep_threshold : float, relative posterior threshold for the cells that are clustered
     weighted_kmeans : bool, use the posterior as k-means sample weights
-    max_bytes : int, refuse grids whose filter needs more memory
+    max_memory : int or str, bytes (or text such as 2GiB): memory budget; a grid that does not fit is refused
+        with a resolution that fits
     backend : {"numpy", "numba", "torch"}, engine of the dense update: the numpy reference, the fused
         numba kernel (float32 posterior, see :mod:`monovisual3d.engine.dense`) or torch (``device``)
     device : str or None, torch device ("cpu", "cuda"; None: cuda when available); backend "torch" only
     refine_to : float or None, metres: run the sparse coarse-to-fine path down to this resolution,
         with ``resolution`` as the root level (see :mod:`monovisual3d.engine.sparse`)
+    threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
     """
 
     kernel: str = "gaussian"
@@ -60,12 +62,17 @@ class PaperConfig:
     k: str | int = "max"
     keep_threshold: float = DEFAULT_KEEP_THRESHOLD
     weighted_kmeans: bool = False
-    max_bytes: int = DEFAULT_MAX_BYTES
+    max_memory: int | str = DEFAULT_MAX_BYTES
     backend: str = "numpy"
     device: str | None = None
     refine_to: float | None = None
+    threads: int | None = None
 
     def __post_init__(self) -> None:
+        from .methods.options import check_threads, parse_bytes
+
+        object.__setattr__(self, "max_memory", parse_bytes(self.max_memory))
+        object.__setattr__(self, "threads", check_threads(self.threads))
         check_kernel(self.kernel)
         if not (self.sigma_fraction > 0):
             raise InputError(f"sigma_fraction: got {self.sigma_fraction}, expected a positive fraction of the box size")
@@ -192,7 +199,7 @@ class HistogramFilter:
         self.grid = grid
         if grid is None and workspace is not None:
             self.grid = VoxelGrid.from_bounds(
-                workspace.min, workspace.max, self.config.resolution, max_bytes=self.config.max_bytes
+                workspace.min, workspace.max, self.config.resolution, max_bytes=int(self.config.max_memory)
             )
         self._posterior: NDArray[np.float64] | None = None
         if self.grid is not None:
@@ -228,7 +235,7 @@ class HistogramFilter:
             return False
         if self.grid is None:
             self.grid = VoxelGrid.in_front_of_camera(
-                view.T_base_optical, self.config.resolution, self.config.reach, max_bytes=self.config.max_bytes
+                view.T_base_optical, self.config.resolution, self.config.reach, max_bytes=int(self.config.max_memory)
             )
             self._posterior = np.full(self.grid.n_cells, 1.0 / self.grid.n_cells)
         assert self._posterior is not None

@@ -24,10 +24,11 @@ if TYPE_CHECKING:
 
 #: Default manipulator reach R (metres); the paper's grid is a cube of side 2R.
 DEFAULT_REACH_M = 0.6
-#: Working bytes per cell of the dense numpy filter (posterior + per-chunk temporaries, amortised).
-BYTES_PER_CELL = 16
-#: Largest grid the dense filter accepts by default.
-DEFAULT_MAX_BYTES = 4 * 1024**3
+#: Working bytes per cell of the paper's dense filter: posterior and likelihood (float64), the compiled engine's
+#: float32 copy, and k-means coordinates and weights when every cell survives the threshold.
+BYTES_PER_CELL = 48
+#: Largest grid the dense filter accepts by default: the default ``max_memory`` (2 GiB).
+DEFAULT_MAX_BYTES = 2 * 1024**3
 
 
 @dataclass(frozen=True)
@@ -56,7 +57,7 @@ class VoxelGrid:
 
     @property
     def n_cells(self) -> int:
-        return int(np.prod(self.shape))
+        return math.prod(int(v) for v in self.shape)
 
     @property
     def size_m(self) -> NDArray[np.float64]:
@@ -122,18 +123,32 @@ class VoxelGrid:
         }
 
 
-def check_grid_size(shape: tuple[int, ...], resolution: float, *, max_bytes: int = DEFAULT_MAX_BYTES) -> None:
-    """Refuse a grid whose dense filter would not fit in ``max_bytes``; suggest a resolution."""
-    n = int(np.prod(shape))
-    need = n * BYTES_PER_CELL
-    if need > max_bytes:
-        factor = (need / max_bytes) ** (1 / 3)
-        suggestion = resolution * factor * 1.05
-        raise InputError(
-            f"resolution: a {resolution * 1000:g} mm grid has {n:,} cells ({'x'.join(map(str, shape))}) and needs "
-            f"about {need / 1024**3:.1f} GiB, over the {max_bytes / 1024**3:.1f} GiB limit; use --resolution "
-            f"{suggestion:.4f} or larger, or a smaller workspace"
-        )
+def check_grid_size(
+    shape: tuple[int, ...], resolution: float, *, max_bytes: int = DEFAULT_MAX_BYTES, bytes_per_cell: int = BYTES_PER_CELL
+) -> None:
+    """Refuse a grid whose dense filter would not fit in ``max_bytes``; the error suggests a resolution that fits.
+
+    The suggestion is checked: a grid over the same extent at the suggested resolution passes this check.
+    """
+    n = math.prod(int(v) for v in shape)
+    need = n * bytes_per_cell
+    if need <= max_bytes:
+        return
+    extent = [int(v) * resolution for v in shape]
+
+    def cells(res: float) -> int:
+        return math.prod(max(1, math.ceil(e / res - 1e-9)) for e in extent)
+
+    suggestion = float(f"{resolution * (need / max_bytes) ** (1 / 3):.3g}")
+    while cells(suggestion) * bytes_per_cell > max_bytes:
+        suggestion = float(f"{suggestion * 1.05:.3g}")
+    from .methods.options import format_bytes
+
+    raise InputError(
+        f"resolution: a {resolution * 1000:g} mm grid has {n:,} cells ({'x'.join(map(str, shape))}) and needs "
+        f"about {format_bytes(need)}, over the max_memory budget of {format_bytes(max_bytes)}; resolution "
+        f"{suggestion:g} m fits, or use a smaller workspace or a larger max_memory"
+    )
 
 
 def _check_resolution(resolution: float) -> None:

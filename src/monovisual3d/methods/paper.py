@@ -21,11 +21,16 @@ from ..grid import VoxelGrid
 from ..result import Result
 from ..session import Session, View
 
+#: Working bytes per active cell of the sparse path (indices, values, children during a split, k-means).
+SPARSE_BYTES_PER_CELL = 256
+
 
 def run(session: Session, config: PaperConfig, *, progress: Callable[[int, int], None] | None = None) -> Result:
     """The paper's histogram filter + k-means on one session (see :class:`PaperConfig` for the options)."""
     if config.refine_to is not None:
-        return run_sparse(session, config, progress=progress)
+        return run_sparse(
+            session, config, progress=progress, max_cells=min(DEFAULT_MAX_CELLS, int(config.max_memory) // SPARSE_BYTES_PER_CELL)
+        )
     t0 = time.perf_counter()
     filt = HistogramFilter(session.camera, config, workspace=session.workspace)
     for i, view in enumerate(session.views):

@@ -11,8 +11,10 @@ the volume of the viewing-cone intersections, not with the workspace.
 
 Memory is bounded by ``max_memory``: the first level is made coarser (by powers
 of two, so the last level is still ``resolution``) until the workspace has at
-most :data:`MAX_FIRST_LEVEL_CELLS` cells, and a level with more hypotheses than
-fit is scored in chunks keeping the best-scoring cells (``Hypotheses.capped``).
+most :data:`MAX_FIRST_LEVEL_CELLS` cells. Levels coarser than ``search_start``
+use cone counts only (a score blurred over metres says nothing). A level with
+more hypotheses than fit is scored in chunks keeping the best-scoring cells
+(``Hypotheses.capped``).
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ from .scoring import Scores, score_hypotheses
 
 #: Cells of the first search level at most (chosen so the first level takes well under a second).
 MAX_FIRST_LEVEL_CELLS = 2_000_000
+#: Boxes may be this much larger than the silhouette (noise) in the depth gate of the coarse levels.
+DEPTH_GATE_SLACK = 2.0
 #: Cells whose cone counts are computed at once.
 CHUNK_CELLS = 1 << 20
 
@@ -105,14 +109,54 @@ def _cone_counts(problem: Problem, centres_base: NDArray[np.float64], half_diago
     return cone_counts(problem.camera, [vd.view for vd in problem.views], centres_base, half_diagonal)
 
 
+def size_gated_counts(problem: Problem, centres_base: NDArray[np.float64], half_diagonal: float) -> NDArray[np.int32]:
+    """:func:`monovisual3d.grid.cone_counts` with a depth gate per box: the numpy pass of the coarse levels.
+
+    A box is at most as large as the silhouette of its object (occlusion only shrinks it), so an
+    object of radius <= ``radius_max`` seen in a box of largest side ``s`` pixels lies at depth
+    ``z <= 2 f radius_max / s``; :data:`DEPTH_GATE_SLACK` leaves room for box noise. The gate keeps
+    a huge workspace from being searched out to its far end along every viewing cone.
+    """
+    cam, cfg = problem.camera, problem.config
+    f = max(cam.fx, cam.fy)
+    counts = np.zeros(len(centres_base), dtype=np.int32)
+    for vd in problem.views:
+        p_opt = centres_base @ vd.T_optical_base[:3, :3].T + vd.T_optical_base[:3, 3]
+        z = p_opt[:, 2]
+        front = z > 1e-6
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = cam.project(np.where(front[:, None], p_opt, [0.0, 0.0, 1.0]))
+            margin = np.where(front, f * half_diagonal / np.maximum(z, 1e-6), np.inf) + 2.0
+        inside = (z > -half_diagonal) & ~front  # a region reaching behind the camera gets the benefit of the doubt
+        for x1, y1, x2, y2 in vd.boxes:
+            wx, wy = 0.5 * (x2 - x1), 0.5 * (y2 - y1)
+            z_max = DEPTH_GATE_SLACK * 2 * f * cfg.radius_max / max(x2 - x1, y2 - y1, 1.0) + half_diagonal
+            u, v = uv[:, 0], uv[:, 1]
+            inside |= (
+                (u >= x1 - wx - margin)
+                & (u <= x2 + wx + margin)
+                & (v >= y1 - wy - margin)
+                & (v <= y2 + wy + margin)
+                & (z <= z_max)
+                & front
+            )
+        counts += inside.astype(np.int32)
+    return counts
+
+
 def _first_cells(problem: Problem, grid: VoxelGrid) -> NDArray[np.float64]:
-    """Centres (grid frame) of the first level's cells inside at least ``min_views`` cones, computed in chunks."""
+    """Centres (grid frame) of the first level's cells inside at least ``min_views`` cones, computed in chunks.
+
+    A first level coarser than ``search_start`` (a huge workspace) uses the depth-gated counts.
+    """
     R, t = grid.T_base_grid[:3, :3], grid.T_base_grid[:3, 3]
     half = grid.resolution * math.sqrt(3) / 2
+    coarse = grid.resolution > problem.config.search_start * (1 + 1e-9)
     kept = []
     for start in range(0, grid.n_cells, CHUNK_CELLS):
         c_grid = grid.centres_grid(np.arange(start, min(start + CHUNK_CELLS, grid.n_cells)))
-        counts = _cone_counts(problem, c_grid @ R.T + t, half)
+        c_base = c_grid @ R.T + t
+        counts = size_gated_counts(problem, c_base, half) if coarse else _cone_counts(problem, c_base, half)
         kept.append(c_grid[counts >= problem.config.min_views])
     return np.concatenate(kept) if kept else np.zeros((0, 3))
 
@@ -150,23 +194,46 @@ def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
     return mask
 
 
+def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[NDArray[np.float64], float, bool]:
+    """Levels coarser than ``search_start`` (a workspace too large for it): cone counts only, no scoring.
+
+    A coarse cell's score is blurred over metres and says nothing, but its cone count is a safe
+    bound. Returns the surviving cell centres (grid frame) at the first level of cell size
+    ``<= search_start``, that cell size, and whether the cap dropped cells (those in fewest cones).
+    """
+    cfg = problem.config
+    R, t = level.T_base_grid[:3, :3], level.T_base_grid[:3, 3]
+    cell, capped = level.resolution, False
+    centres_grid = _first_cells(problem, level)
+    while cell > cfg.search_start * (1 + 1e-9) and len(centres_grid):
+        # the last split lands on search_start, whose cells the scored levels count again without the gate
+        centres_grid = split_cells(centres_grid, cell)
+        cell /= 2
+        counts = size_gated_counts(problem, centres_grid @ R.T + t, cell * np.sqrt(3) / 2)
+        keep = np.flatnonzero(counts >= cfg.min_views)
+        if len(keep) > cap_cells:
+            keep, capped = np.sort(keep[np.argsort(-counts[keep], kind="stable")[:cap_cells]]), True
+        centres_grid = centres_grid[keep]
+    return centres_grid, cell, capped
+
+
 def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
     """Coarse-to-fine search over ``grid``'s region (see the module docstring)."""
     cfg = problem.config
     radii = cfg.radii
     level = first_level(grid, cfg.search_start, cfg.resolution)
     R, t = level.T_base_grid[:3, :3], level.T_base_grid[:3, 3]
-    cell, cap = level.resolution, hypothesis_cap(problem)
-    centres_grid = _first_cells(problem, level)
+    cap = hypothesis_cap(problem)
+    centres_grid, cell, capped = _cone_levels(problem, level, max(1, cap // len(radii)))
     mask = np.ones((len(centres_grid), len(radii)), dtype=bool)
     floor = cfg.accept - cfg.prune_slack
-    n_scored, capped, first = 0, False, True
+    n_scored, counted = 0, True  # the cells from _cone_levels are already cone-checked at this size
     while True:
         centres = centres_grid @ R.T + t
-        if not first:  # the first level's cone counts were taken in chunks
+        if not counted:
             keep = _cone_counts(problem, centres, cell * np.sqrt(3) / 2) >= cfg.min_views
             centres_grid, centres, mask = centres_grid[keep], centres[keep], mask[keep]
-        first = False
+        counted = False
         rows, scores, dropped = _score_level(problem, centres, cell, mask, cap)
         capped |= dropped
         centres_grid, centres, mask = centres_grid[rows], centres[rows], mask[rows]
