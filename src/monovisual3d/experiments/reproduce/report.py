@@ -64,6 +64,11 @@ def _mm(v: float, digits: int = 1) -> str:
     return "-" if v is None or not math.isfinite(v) else f"{1e3 * v:.{digits}f}"
 
 
+def _mm_fine(v: float) -> str:
+    """Millimetres with at least two significant digits below 1 mm (0.36, not 0), one decimal above."""
+    return _mm(v, 2 if math.isfinite(v) and abs(1e3 * v) < 1 else 1)
+
+
 def _num(v: float, digits: int = 1) -> str:
     return "-" if v is None or not math.isfinite(v) else f"{v:.{digits}f}"
 
@@ -156,7 +161,7 @@ def threshold_table(result: ReproduceResult) -> str:
             cells = []
             for t in thresholds:
                 a = result.aggregate(experiment, f"{kernel}/weighted", keep_threshold=t)
-                cells.append(f"{_mm(a.euclidean_mean)} mm (max {_mm(a.euclidean_max, 0)}; {a.misses} miss)")
+                cells.append(f"{_mm(a.euclidean_mean)} mm (max {_mm_fine(a.euclidean_max)}; {a.misses} miss)")
             rows.append([experiment, kernel] + cells)
     return _table(header, rows)
 
@@ -176,7 +181,7 @@ def ghost_table(result: ReproduceResult) -> str:
         row = [str(n), str(aggs[methods[0][1]].runs)]
         for _, lab in methods:
             a = aggs[lab]
-            row += [f"{_mm(a.euclidean_mean)} / {_mm(a.euclidean_max, 0)}", _recall(a), str(a.false_positives)]
+            row += [f"{_mm_fine(a.euclidean_mean)} / {_mm_fine(a.euclidean_max)}", _recall(a), str(a.false_positives)]
         row.append(_pct(aggs["gaussian/weighted"].off_fruit_mass))
         rows.append(row)
     return _table(header, rows)
