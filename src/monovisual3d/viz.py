@@ -369,6 +369,37 @@ def _marker_style(line: Any) -> dict[str, Any]:
     }
 
 
+def _posterior_legend(fig: Figure, threshold: float, *, truth: bool, cameras: bool) -> None:
+    """Legend of :func:`plot_posterior_snapshots`: the cells (their colour range), the true fruit and the cameras."""
+    from matplotlib import colormaps
+    from matplotlib.legend_handler import HandlerTuple
+    from matplotlib.lines import Line2D
+
+    # the cells' legend entry shows the colour range they are drawn in (low, middle, high p / max p)
+    shades = [threshold, 0.5 * (threshold + 1.0), 1.0]
+    cells = tuple(
+        Line2D([], [], color=colormaps["viridis"]((v - threshold) / max(1.0 - threshold, 1e-12)), marker="o", linestyle="none")
+        for v in shades
+    )
+    handles: list[Any] = [cells]
+    labels = [f"cells with p >= {threshold:g} max(p), coloured by p / max(p)"]
+    if truth:
+        handles.append(Line2D([], [], color=TRUTH_COLOUR))
+        labels.append("true fruit")
+    if cameras:
+        handles.append(Line2D([], [], color=CAMERA_COLOUR))
+        labels.append("camera views (frusta)")
+    fig.legend(
+        handles,
+        labels,
+        handler_map={tuple: HandlerTuple(ndivide=None)},
+        loc="outside lower center",
+        ncol=len(handles),
+        fontsize=8,
+        frameon=False,
+    )
+
+
 def plot_posterior_snapshots(
     grid: VoxelGrid,
     history: Sequence[ArrayLike],
@@ -454,33 +485,7 @@ def plot_posterior_snapshots(
         _set_equal_3d(ax, ref)
     if last is not None:
         fig.colorbar(last, ax=axes, shrink=0.6, label="p / max(p)")
-    from matplotlib import colormaps
-    from matplotlib.legend_handler import HandlerTuple
-    from matplotlib.lines import Line2D
-
-    # the cells' legend entry shows the colour range they are drawn in (low, middle, high p / max p)
-    shades = [threshold, 0.5 * (threshold + 1.0), 1.0]
-    cells = tuple(
-        Line2D([], [], color=colormaps["viridis"]((v - threshold) / max(1.0 - threshold, 1e-12)), marker="o", linestyle="none")
-        for v in shades
-    )
-    handles: list[Any] = [cells]
-    labels = [f"cells with p >= {threshold:g} max(p), coloured by p / max(p)"]
-    if len(tc):
-        handles.append(Line2D([], [], color=TRUTH_COLOUR))
-        labels.append("true fruit")
-    if camera is not None and len(P):
-        handles.append(Line2D([], [], color=CAMERA_COLOUR))
-        labels.append("camera views (frusta)")
-    fig.legend(
-        handles,
-        labels,
-        handler_map={tuple: HandlerTuple(ndivide=None)},
-        loc="outside lower center",
-        ncol=len(handles),
-        fontsize=8,
-        frameon=False,
-    )
+    _posterior_legend(fig, threshold, truth=len(tc) > 0, cameras=camera is not None and len(P) > 0)
     if suptitle:
         fig.suptitle(suptitle)
     return fig
