@@ -103,14 +103,23 @@ def frustum_lines(camera: Camera, T_base_optical: ArrayLike, depth: float = 0.08
     return np.array(edges)
 
 
-def _set_equal_3d(ax: Any, points: NDArray[np.float64], margin: float = 0.03) -> None:
-    """Equal scale on the three axes around ``points`` (N, 3)."""
+def _set_equal_3d(ax: Any, points: NDArray[np.float64], margin: float = 0.03, zoom: float = 0.8) -> None:
+    """Equal scale on the three axes around ``points`` (N, 3).
+
+    ``zoom`` < 1 shrinks the cube inside its axes box so that the tick and axis labels (z on the left,
+    x and y at the bottom) stay inside the figure; at 1 the z label is cut off at the figure's left edge.
+    """
     lo, hi = points.min(axis=0) - margin, points.max(axis=0) + margin
     centre, half = 0.5 * (lo + hi), 0.5 * float(np.max(hi - lo))
     ax.set_xlim(centre[0] - half, centre[0] + half)
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_zlim(centre[2] - half, centre[2] + half)
-    ax.set_box_aspect((1, 1, 1))
+    ax.set_box_aspect((1, 1, 1), zoom=zoom)
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(4))  # fewer ticks: the x and y labels collide at the bottom corner
+    ax.tick_params(labelsize=7)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
@@ -237,6 +246,7 @@ def plot_scene(
     pts = [tc + tr[:, None], tc - tr[:, None], ec] + ([P[:, :3, 3]] if len(P) else [])
     _set_equal_3d(ax, np.concatenate(pts) if any(len(p) for p in pts) else np.zeros((1, 3)))
     ax.view_init(elev=20, azim=-150)
+    ax.set_title("3D view (base frame)", fontsize=9)
 
     from matplotlib.lines import Line2D
     from matplotlib.patches import Circle
@@ -283,6 +293,7 @@ def plot_error_boxes(
     *,
     title: str | None = None,
     ylabel: str = "Euclidean error (mm)",
+    xlabel: str = "",
     log: bool = False,
     reference_mm: float | None = None,
     reference_label: str = "",
@@ -294,7 +305,7 @@ def plot_error_boxes(
     ----------
     errors_mm : mapping name -> errors (1-D, millimetres), or panel title -> such a mapping
     title : str, optional figure title
-    ylabel : str
+    ylabel, xlabel : str, axis labels (no x label when empty)
     log : bool, logarithmic error axis (errors that span decades)
     reference_mm : float, optional, a horizontal reference line (e.g. a claim of the paper)
     reference_label : str, legend text of the reference line
@@ -311,6 +322,9 @@ def plot_error_boxes(
     """
     if not errors_mm:
         raise InputError("errors_mm: expected at least one configuration")
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
     first = next(iter(errors_mm.values()))
     panels: dict[str, Mapping[str, ArrayLike]] = (
         dict(errors_mm) if isinstance(first, Mapping) else {"": errors_mm}  # type: ignore[dict-item]
@@ -322,14 +336,19 @@ def plot_error_boxes(
         names = list(groups)
         data = [np.asarray(groups[k], dtype=float).reshape(-1) for k in names]
         data = [d[np.isfinite(d)] for d in data]
-        ax.boxplot(data, showmeans=True)
+        parts = ax.boxplot(data, showmeans=True)
         ax.set_xticks(range(1, len(names) + 1), names, rotation=20, ha="right", fontsize=8)
         if log:
             ax.set_yscale("log")
+        handles: list[Any] = [Patch(facecolor="none", edgecolor="black", label="quartiles, whiskers 1.5 IQR")]
+        for key, label in (("medians", "median"), ("means", "mean"), ("fliers", "outlier")):
+            if parts[key]:
+                handles.append(Line2D([], [], **_marker_style(parts[key][0]), label=label))
         if reference_mm is not None:
-            ax.axhline(reference_mm, color="grey", linestyle=":", label=reference_label or None)
-            if reference_label:
-                ax.legend(fontsize=8, loc="best")
+            handles.append(ax.axhline(reference_mm, color="grey", linestyle=":", label=reference_label or "reference"))
+        ax.legend(handles=handles, fontsize=7, loc="best")
+        if xlabel:
+            ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
         ax.grid(True, axis="y", alpha=0.3)
         if panel:
@@ -337,6 +356,48 @@ def plot_error_boxes(
     if title:
         fig.suptitle(title)
     return fig
+
+
+def _marker_style(line: Any) -> dict[str, Any]:
+    """The marker of a drawn Line2D, for a legend handle that looks the same."""
+    return {
+        "linestyle": line.get_linestyle(),
+        "marker": line.get_marker(),
+        "markerfacecolor": line.get_markerfacecolor(),
+        "markeredgecolor": line.get_markeredgecolor(),
+        "color": line.get_color(),
+    }
+
+
+def _posterior_legend(fig: Figure, threshold: float, *, truth: bool, cameras: bool) -> None:
+    """Legend of :func:`plot_posterior_snapshots`: the cells (their colour range), the true fruit and the cameras."""
+    from matplotlib import colormaps
+    from matplotlib.legend_handler import HandlerTuple
+    from matplotlib.lines import Line2D
+
+    # the cells' legend entry shows the colour range they are drawn in (low, middle, high p / max p)
+    shades = [threshold, 0.5 * (threshold + 1.0), 1.0]
+    cells = tuple(
+        Line2D([], [], color=colormaps["viridis"]((v - threshold) / max(1.0 - threshold, 1e-12)), marker="o", linestyle="none")
+        for v in shades
+    )
+    handles: list[Any] = [cells]
+    labels = [f"cells with p >= {threshold:g} max(p), coloured by p / max(p)"]
+    if truth:
+        handles.append(Line2D([], [], color=TRUTH_COLOUR))
+        labels.append("true fruit")
+    if cameras:
+        handles.append(Line2D([], [], color=CAMERA_COLOUR))
+        labels.append("camera views (frusta)")
+    fig.legend(
+        handles,
+        labels,
+        handler_map={tuple: HandlerTuple(ndivide=None)},
+        loc="outside lower center",
+        ncol=len(handles),
+        fontsize=8,
+        frameon=False,
+    )
 
 
 def plot_posterior_snapshots(
@@ -424,6 +485,7 @@ def plot_posterior_snapshots(
         _set_equal_3d(ax, ref)
     if last is not None:
         fig.colorbar(last, ax=axes, shrink=0.6, label="p / max(p)")
+    _posterior_legend(fig, threshold, truth=len(tc) > 0, cameras=camera is not None and len(P) > 0)
     if suptitle:
         fig.suptitle(suptitle)
     return fig
