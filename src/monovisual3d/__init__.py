@@ -13,32 +13,57 @@ Quick use::
 
 from __future__ import annotations
 
-from .camera import Camera
-from .errors import InputError, InputWarning
-from .filter import HistogramFilter, PaperConfig
-from .grid import VoxelGrid
-from .localize import METHODS, localize
-from .metrics import evaluate
-from .result import DetectedObject, Result
-from .session import Detection, Session, View, Workspace, load_session
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "Camera",
-    "Detection",
-    "DetectedObject",
-    "HistogramFilter",
-    "InputError",
-    "InputWarning",
-    "METHODS",
-    "PaperConfig",
-    "Result",
-    "Session",
-    "View",
-    "VoxelGrid",
-    "Workspace",
-    "evaluate",
-    "load_session",
-    "localize",
-]
+#: Public name -> module that defines it. Imported on first use (PEP 562), so ``import monovisual3d``
+#: costs almost nothing and the CLI starts fast; ``from monovisual3d import localize`` works as usual.
+_LAZY = {
+    "Camera": "camera",
+    "Detection": "session",
+    "DetectedObject": "result",
+    "HistogramFilter": "filter",
+    "InputError": "errors",
+    "InputWarning": "errors",
+    "METHODS": "methods",
+    "PaperConfig": "filter",
+    "BayesConfig": "methods.bayes.config",
+    "BayesLocalizer": "methods.bayes.localizer",
+    "Result": "result",
+    "Session": "session",
+    "View": "session",
+    "VoxelGrid": "grid",
+    "Workspace": "session",
+    "evaluate": "metrics",
+    "load_session": "session",
+    "localize": "localize",
+}
+
+__all__ = sorted(_LAZY)
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from .camera import Camera
+    from .errors import InputError, InputWarning
+    from .filter import HistogramFilter, PaperConfig
+    from .grid import VoxelGrid
+    from .localize import localize
+    from .methods import METHODS
+    from .methods.bayes.config import BayesConfig
+    from .methods.bayes.localizer import BayesLocalizer
+    from .metrics import evaluate
+    from .result import DetectedObject, Result
+    from .session import Detection, Session, View, Workspace, load_session
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from .errors import InputError
 
@@ -117,6 +116,8 @@ def transform_from_position_quaternion(position: ArrayLike, quaternion_xyzw: Arr
     array([1., 2., 3.])
     """
     T = np.eye(4)
+    from scipy.spatial.transform import Rotation  # imported on first use: keeps `import monovisual3d` fast
+
     T[:3, :3] = Rotation.from_quat(np.asarray(quaternion_xyzw, dtype=float)).as_matrix()
     T[:3, 3] = np.asarray(position, dtype=float)
     return T
@@ -125,6 +126,8 @@ def transform_from_position_quaternion(position: ArrayLike, quaternion_xyzw: Arr
 def position_quaternion_from_transform(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Split ``T`` into position (3,) and quaternion_xyzw (4,) with w >= 0."""
     T = np.asarray(T, dtype=float)
+    from scipy.spatial.transform import Rotation
+
     q = Rotation.from_matrix(T[:3, :3]).as_quat()
     if q[3] < 0:
         q = -q

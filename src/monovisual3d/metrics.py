@@ -25,7 +25,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 
 #: Smallest gate when radii are known, metres.
 MIN_GATE_M = 0.02
@@ -80,6 +79,8 @@ def match(estimates: ArrayLike, truth: ArrayLike) -> tuple[NDArray[np.intp], NDA
     if len(e) == 0 or len(t) == 0:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
     cost = np.linalg.norm(e[:, None, :] - t[None, :, :], axis=-1)
+    from scipy.optimize import linear_sum_assignment  # imported on first use: keeps start-up fast
+
     return linear_sum_assignment(cost)
 
 

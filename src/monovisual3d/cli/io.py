@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from ..errors import InputError
-from ..io.summary import ImportResult
 from ._app import app, console, handle_errors
+
+if TYPE_CHECKING:
+    from ..io.summary import ImportResult
 
 
 def _size(text: str | None) -> tuple[int, int] | None:

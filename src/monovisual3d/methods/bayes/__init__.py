@@ -21,8 +21,21 @@ pose correction per view (``Result.pose_corrections``).
 
 from __future__ import annotations
 
-from .config import BayesConfig
-from .likelihood import SensorModel
-from .localizer import BayesLocalizer, run
+import importlib
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["BayesConfig", "BayesLocalizer", "SensorModel", "run"]
+#: Public name -> submodule; imported on first use so reading the config does not load the kernels.
+_LAZY = {"BayesConfig": "config", "SensorModel": "likelihood", "BayesLocalizer": "localizer", "run": "localizer"}
+
+__all__ = sorted(_LAZY)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .config import BayesConfig
+    from .likelihood import SensorModel
+    from .localizer import BayesLocalizer, run
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,5 @@
+"""``python -m monovisual3d.cli``."""
+
+from . import main
+
+main()
