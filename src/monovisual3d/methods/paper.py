@@ -89,36 +89,25 @@ def run_sparse(
     """
     if threshold is None:
         threshold = 0.01 * float(config.keep_threshold)
-    fine = float(config.refine_to)
     t0 = time.perf_counter()
-    grid = None
-    if session.workspace is not None:
-        grid = VoxelGrid.from_bounds(session.workspace.min, session.workspace.max, fine, max_bytes=2**62)
-    messages: list[str] = []
-    filt: SparseHistogramFilter | None = None
-    counts: list[int] = []
-    with_boxes: list[tuple[int, View]] = []
-    for i, view in enumerate(session.views):
-        if not view.detections:
-            messages.append(f"views[{i}]: no detections, skipped by the paper method")
-            continue
-        if grid is None:
-            grid = VoxelGrid.in_front_of_camera(view.T_base_optical, fine, config.reach, max_bytes=2**62)
-        with_boxes.append((i, view))
-    if grid is not None and with_boxes:
-        filt = SparseHistogramFilter(
-            session.camera, grid, kernel=config.kernel, sigma_fraction=config.sigma_fraction,
+    grid, with_boxes, messages = _sparse_grid(session, config)
+
+    def make_filter() -> SparseHistogramFilter:
+        return SparseHistogramFilter(
+            session.camera, grid, kernel=config.kernel, sigma_fraction=config.sigma_fraction,  # type: ignore[arg-type]
             coarse_resolution=coarse_resolution or config.resolution, threshold=threshold, max_cells=max_cells,
         )  # fmt: skip
+
+    filt: SparseHistogramFilter | None = None
+    counts: list[int] = []
+    if grid is not None and with_boxes:
+        filt = make_filter()
         for _, view in with_boxes:  # all views in one refinement: no view is refined for nothing
             filt.add(view)
         if filt.state is not None and filt.state.n_active > 0:
             counts = [len(v.detections) for _, v in with_boxes]
         else:  # some view contradicts the others: view by view, skipping it as the dense filter does
-            filt = SparseHistogramFilter(
-                session.camera, grid, kernel=config.kernel, sigma_fraction=config.sigma_fraction,
-                coarse_resolution=coarse_resolution or config.resolution, threshold=threshold, max_cells=max_cells,
-            )  # fmt: skip
+            filt = make_filter()
             for i, view in with_boxes:
                 if filt.update(view):
                     counts.append(len(view.detections))
@@ -129,27 +118,46 @@ def run_sparse(
     if progress is not None:
         progress(len(session.views), len(session.views))
     t1 = time.perf_counter()
-    objects: list[Any] = []
-    stats: dict[str, Any] = {}
-    if filt is not None and filt.state is not None:
-        state = filt.state
-        stats = state.stats
-        if not stats["complete"]:
-            messages.append(
-                f"refine_to: the active set exceeded max_cells={max_cells:,}; refinement stopped at "
-                f"{1000 * stats['final_resolution_m']:g} mm"
-            )
-        k = choose_k(counts, config.k)
-        objects = kmeans_objects(
-            state,  # type: ignore[arg-type]  # duck-typed: kmeans_objects only calls centres_base(index)
-            state.posterior(),
-            k,
-            centre=config.centre,
-            keep_threshold=config.keep_threshold,
-            weighted_kmeans=config.weighted_kmeans,
-        )
-    else:
-        messages.append("no view had a usable detection: nothing localised")
+    objects, stats = _sparse_objects(filt, counts, config, max_cells, messages)
     t2 = time.perf_counter()
     grid_dict = grid.to_dict() if grid is not None else {}
     return paper_result(objects, grid_dict, config, (t0, t1, t2), messages, diagnostics={"sparse": dict(stats)})
+
+
+def _sparse_grid(session: Session, config: Any) -> tuple[VoxelGrid | None, list[tuple[int, View]], list[str]]:
+    """The fine grid (workspace, else the paper's cube at the first view with a detection), the views with boxes, messages."""
+    fine = float(config.refine_to)
+    grid = None
+    if session.workspace is not None:
+        grid = VoxelGrid.from_bounds(session.workspace.min, session.workspace.max, fine, max_bytes=2**62)
+    messages: list[str] = []
+    with_boxes: list[tuple[int, View]] = []
+    for i, view in enumerate(session.views):
+        if not view.detections:
+            messages.append(f"views[{i}]: no detections, skipped by the paper method")
+            continue
+        if grid is None:
+            grid = VoxelGrid.in_front_of_camera(view.T_base_optical, fine, config.reach, max_bytes=2**62)
+        with_boxes.append((i, view))
+    return grid, with_boxes, messages
+
+
+def _sparse_objects(
+    filt: SparseHistogramFilter | None, counts: list[int], config: Any, max_cells: int, messages: list[str]
+) -> tuple[list[Any], dict[str, Any]]:
+    """k-means over the active cells (appends to ``messages``); returns the objects and the active set's statistics."""
+    if filt is None or filt.state is None:
+        messages.append("no view had a usable detection: nothing localised")
+        return [], {}
+    state = filt.state
+    stats = state.stats
+    if not stats["complete"]:
+        messages.append(
+            f"refine_to: the active set exceeded max_cells={max_cells:,}; refinement stopped at {1000 * stats['final_resolution_m']:g} mm"
+        )
+    k = choose_k(counts, config.k)
+    objects = kmeans_objects(
+        state,  # type: ignore[arg-type]  # duck-typed: kmeans_objects only calls centres_base(index)
+        state.posterior(), k, centre=config.centre, keep_threshold=config.keep_threshold, weighted_kmeans=config.weighted_kmeans,
+    )  # fmt: skip
+    return objects, stats
