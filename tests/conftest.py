@@ -11,7 +11,7 @@ import pytest
 
 from monovisual3d import Camera
 from monovisual3d.frames import look_at
-from monovisual3d.sphere import sphere_bbox
+from monovisual3d.geometry.sphere import sphere_bbox
 
 #: Camera of the paper's testbed (OAK-1 like): 640x480, HFOV 69 degrees.
 HFOV_DEG = 69.0

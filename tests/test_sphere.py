@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 
 from monovisual3d import Camera
 from monovisual3d.frames import invert_transform, look_at, transform_points
-from monovisual3d.sphere import clip_boxes, sphere_bbox, sphere_bbox_optical
+from monovisual3d.geometry.sphere import clip_boxes, sphere_bbox, sphere_bbox_optical
 
 
 def surface_box(camera: Camera, centre: np.ndarray, radius: float, n: int = 200_000, seed: int = 0) -> np.ndarray:

@@ -38,17 +38,19 @@ _LAZY = {
     "Workspace": "session",
     "evaluate": "metrics",
     "load_session": "session",
-    "localize": "localize",
 }
 
-__all__ = sorted(_LAZY)
+__all__ = sorted([*_LAZY, "localize"])
+
+# ``localize`` is both a submodule and its function: import it now, or a later ``import
+# monovisual3d.localize`` anywhere would leave the module where the function should be.
+from .localize import localize  # noqa: E402  (numpy-level imports only)
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .camera import Camera
     from .errors import InputError, InputWarning
     from .filter import HistogramFilter, PaperConfig
     from .grid import VoxelGrid
-    from .localize import localize
     from .methods import METHODS
     from .methods.bayes.config import BayesConfig
     from .methods.bayes.localizer import BayesLocalizer

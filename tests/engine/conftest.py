@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from monovisual3d.camera import Camera
+from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.grid import VoxelGrid
 from monovisual3d.session import Detection, View
 from monovisual3d.sim.scenes import paper_scene
 from monovisual3d.sim.viewpoints import paper_poses
-from monovisual3d.sphere import sphere_bbox
 
 #: Distortion models and coefficients tested; "strong" folds over inside the grid's field of view.
 DISTORTIONS = {

@@ -18,6 +18,7 @@ from numpy.testing import assert_allclose
 
 from monovisual3d import Camera, InputError, evaluate, load_session, localize
 from monovisual3d.frames import look_at
+from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.sim.mujoco_render import (
     T_base_mjcam_from_T_base_optical,
     frustum_from_camera,
@@ -25,7 +26,6 @@ from monovisual3d.sim.mujoco_render import (
     select_gl_backend,
 )
 from monovisual3d.sim.scene import Leaf, Scene, Sphere, Stem
-from monovisual3d.sphere import sphere_bbox
 
 if "MUJOCO_GL" not in os.environ and importlib.util.find_spec("mujoco") is not None:
     try:

@@ -9,6 +9,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from monovisual3d.camera import Camera
 from monovisual3d.errors import InputError
 from monovisual3d.frames import look_at
+from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.sim.raycast import (
     BACKGROUND,
     OCCLUDER,
@@ -18,7 +19,6 @@ from monovisual3d.sim.raycast import (
     render,
 )
 from monovisual3d.sim.scene import Leaf, Scene, Sphere, Stem
-from monovisual3d.sphere import sphere_bbox
 
 CAM = Camera.from_hfov(640, 480, 69.0)
 CAM_DISTORTED = Camera(640, 480, 465.0, 465.0, 320.0, 240.0, "plumb_bob", (-0.1, 0.02, 0.001, -0.001))

@@ -7,6 +7,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from monovisual3d.errors import InputError
+from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.sim.raycast import render
 from monovisual3d.sim.scene import Leaf, Scene, Stem
 from monovisual3d.sim.scenes import (
@@ -18,7 +19,6 @@ from monovisual3d.sim.scenes import (
     scene_target,
 )
 from monovisual3d.sim.viewpoints import DEFAULT_TARGET, paper_poses
-from monovisual3d.sphere import sphere_bbox
 
 CAM = default_camera()
 HALF_CAM = CAM.scaled(320, 240)

@@ -45,9 +45,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
+from ..geometry.sphere import predict_sphere_boxes
 from ..localize import localize
 from ..masks import encode_rle
-from ..methods.bayes.likelihood import predict_boxes
 from ..metrics import evaluate, match
 from ..session import Detection, Session, View
 from ..sim.noise import NoiseModel
@@ -229,7 +229,7 @@ def crlb_rms_sq(scene: Scene, svs: list[Any], box_sigma: float) -> list[float]:
 
             def edges(p: NDArray[np.float64], T_ob: NDArray[np.float64] = T_ob) -> NDArray[np.float64]:
                 po = T_ob[:3, :3] @ p[:3] + T_ob[:3, 3]
-                return predict_boxes(camera, po[None], np.array([p[3]]))[0][0, 0]
+                return predict_sphere_boxes(camera, po[None], np.array([p[3]]))[0][0, 0]
 
             p0 = np.r_[c, r]
             J = np.stack([(edges(p0 + h) - edges(p0 - h)) / (2e-6) for h in np.eye(4) * 1e-6], axis=1)

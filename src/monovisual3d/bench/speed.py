@@ -139,9 +139,9 @@ def bench_scene(n_views: int = 3, n_boxes: int = 6, seed: int = 0) -> tuple[Came
     like a fruit's); fewer boxes keep the first ``n_boxes``.
     """
     from ..frames import look_at
+    from ..geometry.sphere import sphere_bbox
     from ..sim.scenes import default_camera, paper_scene
     from ..sim.viewpoints import DEFAULT_TARGET, paper_poses
-    from ..sphere import sphere_bbox
 
     rng = np.random.default_rng(seed)
     camera = default_camera()

@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
 from ..errors import InputError
-from ..sphere import sphere_bbox
+from ..geometry.sphere import sphere_bbox
 from .raycast import render
 from .scene import Leaf, Scene, Sphere, Stem
 from .viewpoints import DEFAULT_TARGET, paper_poses

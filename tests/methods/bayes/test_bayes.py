@@ -10,12 +10,12 @@ import monovisual3d as mv
 from monovisual3d.camera import Camera
 from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, look_at, transform_points
+from monovisual3d.geometry.sphere import predict_sphere_boxes, sphere_bbox, sphere_bbox_optical
 from monovisual3d.masks import contour_points, decode_rle, encode_rle
 from monovisual3d.methods.bayes import BayesConfig
 from monovisual3d.methods.bayes._kernels import HAVE_NUMBA, score_hypotheses
-from monovisual3d.methods.bayes.likelihood import SensorModel, predict_boxes, view_scores
+from monovisual3d.methods.bayes.likelihood import SensorModel, view_scores
 from monovisual3d.session import Detection, Session, View, Workspace
-from monovisual3d.sphere import sphere_bbox, sphere_bbox_optical
 
 CAM = Camera.from_hfov(640, 480, 69.0)
 TARGET = np.array([0.7, 0.0, 0.5])
@@ -176,15 +176,15 @@ def test_rle_round_trip_and_contour():
         decode_rle({"size": [2, 2], "counts": [1, 1]})
 
 
-def test_predict_boxes_matches_sphere_bbox():
+def test_predict_sphere_boxes_matches_sphere_bbox():
     rng = np.random.default_rng(1)
     p = rng.uniform([-0.2, -0.2, 0.3], [0.2, 0.2, 1.0], (50, 3))
     radii = np.array([0.02, 0.05])
-    pred, vis = predict_boxes(CAM, p, radii)
+    pred, vis = predict_sphere_boxes(CAM, p, radii)
     ref = sphere_bbox_optical(CAM, p[:, None, :], radii[None, :], clip=False)
     assert_allclose(pred, ref, atol=1e-9)
     cam_d = Camera(640, 480, 500, 500, 320, 240, "plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.0))
-    pred_d, _ = predict_boxes(cam_d, p, radii)
+    pred_d, _ = predict_sphere_boxes(cam_d, p, radii)
     ref_d = sphere_bbox_optical(cam_d, p[:, None, :], radii[None, :], clip=False)
     assert_allclose(pred_d, ref_d, atol=0.5)  # edge-midpoint approximation vs sampled rim
 
@@ -213,7 +213,7 @@ def test_numba_kernel_matches_numpy_reference(distortion):
     ref_n = np.zeros_like(n_assoc)
     for v, (T, b, a) in enumerate(zip(T_ob, boxes, avail)):
         p_opt = transform_points(T, centres)
-        pred, vis = predict_boxes(cam, p_opt, radii)
+        pred, vis = predict_sphere_boxes(cam, p_opt, radii)
         extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
         llr, a_ref = view_scores(pred, vis, b, a, model, cam.width, cam.height, extra)
         ref_total += llr

@@ -16,14 +16,14 @@ from monovisual3d.camera import Camera
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError, InputWarning
 from monovisual3d.frames import invert_transform, look_at, transform_points
+from monovisual3d.geometry.sphere import predict_sphere_boxes, sphere_bbox
 from monovisual3d.methods.bayes import BayesConfig
 from monovisual3d.methods.bayes._kernels import HAVE_NUMBA, score_hypotheses
 from monovisual3d.methods.bayes.bundle import bundle_adjust, correction_transform, grouped_jacobian
-from monovisual3d.methods.bayes.likelihood import SensorModel, pose_sigma_px, predict_boxes, view_scores
+from monovisual3d.methods.bayes.likelihood import SensorModel, pose_sigma_px, view_scores
 from monovisual3d.methods.bayes.refine import Observation, refine_sphere
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_pose
-from monovisual3d.sphere import sphere_bbox
 
 CAM = Camera.from_hfov(640, 480, 69.0)
 TARGET = np.array([0.7, 0.0, 0.5])
@@ -94,7 +94,7 @@ def test_kernel_with_pose_noise_matches_the_numpy_reference():
     ref = np.zeros_like(total)
     for T, b, a in zip(Tob, boxes, avail):
         p = transform_points(T, centres)
-        pred, vis = predict_boxes(CAM, p, radii)
+        pred, vis = predict_sphere_boxes(CAM, p, radii)
         extra = np.hypot(CAM.fx * blur / p[:, 2:3], pose_sigma_px(CAM, p[:, 2:3], SIGMA_P, SIGMA_R))
         ref += view_scores(pred, vis, b, a, model, CAM.width, CAM.height, extra)[0]
     assert_allclose(total, ref, atol=1e-6)

@@ -51,7 +51,7 @@ def _distort_xy(x: float, y: float, code: int, k: NDArray[np.float64]) -> tuple[
 
 
 def _sphere_box_px(X, Y, Z, r, fx, fy, cx, cy, code, coeffs):  # pragma: no cover - jitted
-    """Pixel box (x1, y1, x2, y2) of a sphere at optical (X, Y, Z), radius r, for Z > r: as ``predict_boxes``.
+    """Pixel box (x1, y1, x2, y2) of a sphere at optical (X, Y, Z), radius r, for Z > r: as ``predict_sphere_boxes``.
 
     ``tan(phi -/+ h) = (t -/+ s) / (1 +/- t s)`` with ``t = X / Z`` and ``s = tan(h) = r / sqrt(X^2 + Z^2 - r^2)``
     (no trigonometry); with distortion, each edge is distorted at the centre's other coordinate.

@@ -15,8 +15,8 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import NDArray
 
+from ...geometry.sphere import predict_sphere_boxes
 from ...result import DetectedObject
-from .likelihood import predict_boxes
 from .problem import Problem, Taken
 from .scoring import associations_list, boxes_of, fit_fixed, refine_and_check
 from .search import Hypotheses
@@ -25,7 +25,7 @@ from .search import Hypotheses
 def _predicted_box(problem: Problem, v: int, o: DetectedObject) -> NDArray[np.float64]:
     T = problem.views[v].T_optical_base
     p_opt = T[:3, :3] @ o.position + T[:3, 3]
-    return predict_boxes(problem.camera, p_opt[None, :], np.array([o.radius]))[0][0, 0]
+    return predict_sphere_boxes(problem.camera, p_opt[None, :], np.array([o.radius]))[0][0, 0]
 
 
 def _overlap(a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:

@@ -63,7 +63,8 @@ from scipy.spatial.transform import Rotation
 
 from ...camera import Camera
 from ...errors import InputError
-from .likelihood import SensorModel, edge_residuals, pose_sigma_px, predict_boxes
+from ...geometry.sphere import predict_sphere_boxes
+from .likelihood import SensorModel, edge_residuals, pose_sigma_px
 from .refine import Observation, observation_residuals, robust_loss
 
 
@@ -213,7 +214,7 @@ def bundle_adjust(
     --------
     >>> from monovisual3d.camera import Camera
     >>> from monovisual3d.frames import invert_transform, look_at
-    >>> from monovisual3d.sphere import sphere_bbox
+    >>> from monovisual3d.geometry.sphere import sphere_bbox
     >>> cam = Camera.from_hfov(640, 480, 69.0)
     >>> c, r = np.array([0.7, 0.0, 0.5]), 0.03
     >>> poses = [look_at(c + [-0.5, 0, 0], c), look_at(c + [-0.45, 0.15, -0.15], c)]
@@ -276,7 +277,7 @@ def bundle_adjust(
             R = np.array([poses[v][0] for v in box_view])
             t = np.array([poses[v][1] for v in box_view])
             p_opt = np.einsum("pij,pj->pi", R, p_rep) + t
-            pred, _ = predict_boxes(camera, p_opt, np.exp(c[:, 3:4]))
+            pred, _ = predict_sphere_boxes(camera, p_opt, np.exp(c[:, 3:4]))
             e = edge_residuals(pred[:, 0], box_xyxy, model, camera.width, camera.height, box_extra)
             out.append(np.nan_to_num(e, nan=1e3).ravel())
         for (i, v, _), ob in zip(obs[n_box:], mask_obs):

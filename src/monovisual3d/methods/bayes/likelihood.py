@@ -1,7 +1,7 @@
 """Generative box likelihood over sphere position and radius.
 
 A hypothesis is a sphere (centre ``c``, radius ``r``). In a view it predicts
-the box of its silhouette (:func:`predict_boxes`). An observed box is scored
+the box of its silhouette (:func:`predict_sphere_boxes`). An observed box is scored
 against the prediction edge by edge, in units of an edge noise
 ``sigma = alpha * predicted size + sigma0``:
 
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ...camera import Camera, distort_normalised
+from ...camera import Camera
 from ...errors import InputError
 
 
@@ -66,59 +66,6 @@ class SensorModel:
     @property
     def miss_term(self) -> float:
         return float(np.log(self.p_miss))
-
-
-def predict_boxes(
-    camera: Camera, p_optical: NDArray[np.floating], radii: NDArray[np.floating]
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Predicted (unclipped) silhouette boxes of spheres.
-
-    Parameters
-    ----------
-    camera : Camera
-    p_optical : ndarray, shape (N, 3), sphere centres, metres, optical frame
-    radii : ndarray, shape (K,), metres, every radius at every centre; or shape (N, K), radii per centre
-
-    Returns
-    -------
-    boxes : ndarray, shape (N, K, 4), pixels ``(x1, y1, x2, y2)`` (NaN where not in front)
-    visible : ndarray, shape (N, K), bool: sphere entirely in front of the camera
-        and its box overlaps the image
-
-    Notes
-    -----
-    Exact for an undistorted pinhole. With distortion, the undistorted box's
-    four edge midpoints are distorted (a close approximation for the mild
-    distortion of calibrated cameras).
-    """
-    X = p_optical[:, 0:1]
-    Y = p_optical[:, 1:2]
-    Z = p_optical[:, 2:3]
-    r = np.asarray(radii, dtype=float)
-    r = r[None, :] if r.ndim == 1 else r
-    front = Z > r
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rho_x = np.sqrt(X * X + Z * Z)
-        rho_y = np.sqrt(Y * Y + Z * Z)
-        phi_x = np.arctan2(X, Z)
-        phi_y = np.arctan2(Y, Z)
-        hx = np.arcsin(np.clip(r / rho_x, 0.0, 1.0))
-        hy = np.arcsin(np.clip(r / rho_y, 0.0, 1.0))
-        x1, x2 = np.tan(phi_x - hx), np.tan(phi_x + hx)
-        y1, y2 = np.tan(phi_y - hy), np.tan(phi_y + hy)
-    if camera.distortion_model != "none":
-        with np.errstate(invalid="ignore", divide="ignore"):  # Z = 0: NaN, masked by ``front`` below
-            xc = np.broadcast_to(X / Z, x1.shape)
-            yc = np.broadcast_to(Y / Z, y1.shape)
-        pts = np.stack([np.stack([x1, yc], -1), np.stack([x2, yc], -1), np.stack([xc, y1], -1), np.stack([xc, y2], -1)], axis=-2)
-        d = distort_normalised(pts, camera.distortion_model, camera.distortion_coefficients)
-        x1, x2, y1, y2 = d[..., 0, 0], d[..., 1, 0], d[..., 2, 1], d[..., 3, 1]
-    boxes = np.stack(
-        [camera.fx * x1 + camera.cx, camera.fy * y1 + camera.cy, camera.fx * x2 + camera.cx, camera.fy * y2 + camera.cy], axis=-1
-    )
-    boxes = np.where(front[..., None], boxes, np.nan)
-    visible = front & (boxes[..., 2] > 0) & (boxes[..., 0] < camera.width) & (boxes[..., 3] > 0) & (boxes[..., 1] < camera.height)
-    return boxes, visible
 
 
 def pose_sigma_px(

@@ -18,8 +18,9 @@ from scipy.optimize import least_squares
 
 from ...camera import Camera
 from ...frames import invert_transform
+from ...geometry.sphere import pinhole_sphere_boxes, predict_sphere_boxes
 from ._kernels import HAVE_NUMBA, box_residuals_fused
-from .likelihood import SensorModel, edge_residuals, predict_boxes
+from .likelihood import SensorModel, edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
 
 
@@ -87,7 +88,7 @@ def observation_residuals(
     """
     if use_masks and observation.contour_uv is not None:
         return mask_residuals(camera, p_optical, radius, observation.contour_uv, model, observation.extra_sigma_px)
-    pred, _ = predict_boxes(camera, p_optical[None, :], np.array([radius]))
+    pred, _ = predict_sphere_boxes(camera, p_optical[None, :], np.array([radius]))
     e = edge_residuals(pred[0, 0], observation.bbox_xyxy, model, camera.width, camera.height, observation.extra_sigma_px)
     return np.nan_to_num(e, nan=1e3)
 
@@ -107,35 +108,6 @@ def residuals(
         for ob in observations
     ]
     return np.concatenate(out) if out else np.zeros(0)
-
-
-def _pinhole_sphere_boxes(
-    camera: Camera, p_optical: NDArray[np.floating], radius: NDArray[np.floating] | float
-) -> NDArray[np.float64]:
-    """:func:`predict_boxes` for one radius and no distortion, in a few numpy operations (the refinement's hot path).
-
-    Same maths as the fused kernel: ``tan(phi -/+ h) = (t -/+ s) / (1 +/- t s)`` with ``t = X / Z`` and
-    ``s = tan(h) = r / sqrt(X^2 + Z^2 - r^2)``. ``p_optical`` has shape (..., 3) and ``radius`` broadcasts
-    against ``p_optical[..., 0]``; returns shape (..., 4), NaN where the sphere is not entirely in front.
-    """
-    X, Y, Z = p_optical[..., 0], p_optical[..., 1], p_optical[..., 2]
-    r = np.broadcast_to(radius, X.shape)
-    r2 = r * r
-    with np.errstate(invalid="ignore", divide="ignore"):
-        tx, ty = X / Z, Y / Z
-        sx = r / np.sqrt(X * X + Z * Z - r2)
-        sy = r / np.sqrt(Y * Y + Z * Z - r2)
-        out = np.stack(
-            [
-                camera.fx * (tx - sx) / (1 + tx * sx) + camera.cx,
-                camera.fy * (ty - sy) / (1 + ty * sy) + camera.cy,
-                camera.fx * (tx + sx) / (1 - tx * sx) + camera.cx,
-                camera.fy * (ty + sy) / (1 - ty * sy) + camera.cy,
-            ],
-            axis=-1,
-        )
-    out[~(Z > r)] = np.nan
-    return out
 
 
 class _BoxResiduals:
@@ -166,9 +138,9 @@ class _BoxResiduals:
         cam, model = self.camera, self.model
         p_opt = np.einsum("mij,pj->pmi", self.R, centres_base) + self.t  # (P, M, 3)
         if cam.distortion_model == "none":
-            pred = _pinhole_sphere_boxes(cam, p_opt, radii[:, None])
+            pred = pinhole_sphere_boxes(cam, p_opt, radii[:, None])
         else:
-            pred = np.stack([predict_boxes(cam, p, np.array([r]))[0][:, 0, :] for p, r in zip(p_opt, radii)])
+            pred = np.stack([predict_sphere_boxes(cam, p, np.array([r]))[0][:, 0, :] for p, r in zip(p_opt, radii)])
         sx = model.alpha * (pred[..., 2] - pred[..., 0]) + model.sigma0_px
         sy = model.alpha * (pred[..., 3] - pred[..., 1]) + model.sigma0_px
         if np.any(self.extra2):

@@ -12,8 +12,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...frames import transform_points
+from ...geometry.sphere import predict_sphere_boxes
 from ...result import DetectedObject
-from .likelihood import box_scores, pose_sigma_px, predict_boxes, view_scores
+from .likelihood import box_scores, pose_sigma_px, view_scores
 from .problem import Problem, Taken
 from .refine import Observation, refine_sphere
 
@@ -89,7 +90,7 @@ def score_hypotheses_numpy(
     assoc = np.empty((len(problem.views), n, k), dtype=np.int16)
     for v, vd in enumerate(problem.views):
         p_opt = transform_points(vd.T_optical_base, centres_base)
-        pred, visible = predict_boxes(cam, p_opt, radii)
+        pred, visible = predict_sphere_boxes(cam, p_opt, radii)
         extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
         if problem.config.poses_uncertain:
             extra = np.hypot(extra, pose_px(problem, p_opt[:, 2:3]))
@@ -178,7 +179,7 @@ def fit_fixed(problem: Problem, centre0: NDArray[np.float64], radius0: float, as
     score = 0.0
     for vd, j in zip(problem.views, assoc):
         p_opt = vd.T_optical_base[:3, :3] @ refined.centre + vd.T_optical_base[:3, 3]
-        pred, visible = predict_boxes(cam, p_opt[None, :], np.array([refined.radius]))
+        pred, visible = predict_sphere_boxes(cam, p_opt[None, :], np.array([refined.radius]))
         if not visible[0, 0]:
             continue
         s = (
