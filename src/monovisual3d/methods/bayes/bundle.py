@@ -58,7 +58,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 from scipy.spatial.transform import Rotation
 
 from ...camera import Camera
@@ -223,6 +223,31 @@ def bundle_adjust(
     >>> bool(np.linalg.norm(b.centres[0] - c) < 1e-3)
     True
     """
+    centres0, radii0, obs, n_views = _checked_inputs(centres0, radii0, observations, position_sigma, rotation_sigma, n_views)
+    problem = _BundleProblem.build(
+        camera, obs, len(centres0), model, position_sigma=position_sigma, rotation_sigma=rotation_sigma, use_masks=use_masks
+    )
+    sol, nfev = _graduated_solve(problem, centres0, radii0)
+    return _pack_bundle(problem, sol, nfev, n_views)
+
+
+def _checked_inputs(
+    centres0: NDArray[np.floating],
+    radii0: NDArray[np.floating],
+    observations: Sequence[tuple[int, int, Observation]],
+    position_sigma: float,
+    rotation_sigma: float,
+    n_views: int | None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], list[tuple[int, int, Observation]], int]:
+    """Validate the inputs of :func:`bundle_adjust` (raising :class:`InputError`).
+
+    Returns
+    -------
+    centres0 : ndarray, shape (N, 3), float64, metres, base frame
+    radii0 : ndarray, shape (N,), float64, metres
+    obs : list of ``(object index, view index, Observation)``, in the given order
+    n_views : int, the given one or the largest view index + 1
+    """
     centres0 = np.asarray(centres0, dtype=float).reshape(-1, 3)
     radii0 = np.asarray(radii0, dtype=float).reshape(-1)
     n_obj = len(centres0)
@@ -236,85 +261,220 @@ def bundle_adjust(
         raise InputError("observations: got none, expected at least one (object, view, Observation)")
     if any(not (0 <= i < n_obj) or v < 0 for i, v, _ in obs):
         raise InputError("observations: object indices must lie in [0, N) and view indices be >= 0")
-    n_views = max((v for _, v, _ in obs), default=-1) + 1 if n_views is None else int(n_views)
-    seen = sorted({v for _, v, _ in obs})
-    if seen and seen[-1] >= n_views:
-        raise InputError(f"observations: view index {seen[-1]} >= n_views={n_views}")
+    last_view = max(v for _, v, _ in obs)
+    n_views = last_view + 1 if n_views is None else int(n_views)
+    if last_view >= n_views:
+        raise InputError(f"observations: view index {last_view} >= n_views={n_views}")
+    return centres0, radii0, obs, n_views
 
-    # parameter layout: 4 per object, then per seen view its active pose parameters
-    active = np.array([rotation_sigma > 0] * 3 + [position_sigma > 0] * 3)
-    sigmas = np.array([rotation_sigma] * 3 + [position_sigma] * 3)[active]
-    n_act = int(active.sum())
-    view_col = {v: 4 * n_obj + k * n_act for k, v in enumerate(seen)}
-    n_par = 4 * n_obj + n_act * len(seen)
 
-    def unpack(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]]:
-        obj = x[: 4 * n_obj].reshape(n_obj, 4)
+@dataclass(frozen=True, eq=False)
+class _BundleProblem:
+    """The least-squares problem of :func:`bundle_adjust`: parameter layout, residuals and Jacobian structure.
+
+    Parameter vector ``x``: ``(x, y, z, log r)`` per object (base frame,
+    metres), then per seen view (ascending) its active pose parameters
+    (``rotvec_optical`` if ``rotation_sigma > 0``, ``translation_optical`` if
+    ``position_sigma > 0``). Residual rows: 4 per box pair (all box pairs
+    first, evaluated in one batch), one per contour point for each mask pair
+    (one by one), then ``n_act`` prior rows per seen view.
+
+    Attributes
+    ----------
+    camera : Camera
+    model : SensorModel
+    use_masks : bool
+    position_sigma, rotation_sigma : float, metres / radians, the priors' std per axis
+    n_obj : int, number of objects N
+    seen : tuple of int, the views with observations, ascending
+    active : ndarray, shape (6,), bool, which of ``(rotvec, translation)`` are unknowns
+    sigmas : ndarray, shape (n_act,), prior std of the active pose parameters
+    view_col : dict, view -> column of its first pose parameter in ``x``
+    obs : list of ``(object, view, Observation)``, box pairs first, then mask pairs
+    n_box : int, number of box pairs (the first ``n_box`` of ``obs``)
+    box_obj : ndarray, shape (n_box,), int, object of each box pair
+    box_view : list of int, view of each box pair
+    box_T : ndarray, shape (n_box, 3, 4), reported ``T_optical_base[:3]`` of each box pair
+    box_xyxy : ndarray, shape (n_box, 4), pixels, observed boxes
+    box_extra : ndarray, shape (n_box,), pixels, the observations' ``extra_sigma_px``
+    mask_obs : list of Observation, the mask pairs' observations
+    """
+
+    camera: Camera
+    model: SensorModel
+    use_masks: bool
+    position_sigma: float
+    rotation_sigma: float
+    n_obj: int
+    seen: tuple[int, ...]
+    active: NDArray[np.bool_]
+    sigmas: NDArray[np.float64]
+    view_col: dict[int, int]
+    obs: list[tuple[int, int, Observation]]
+    n_box: int
+    box_obj: NDArray[np.int_]
+    box_view: list[int]
+    box_T: NDArray[np.float64]
+    box_xyxy: NDArray[np.float64]
+    box_extra: NDArray[np.float64]
+    mask_obs: list[Observation]
+
+    @classmethod
+    def build(
+        cls,
+        camera: Camera,
+        observations: list[tuple[int, int, Observation]],
+        n_obj: int,
+        model: SensorModel,
+        *,
+        position_sigma: float,
+        rotation_sigma: float,
+        use_masks: bool,
+    ) -> _BundleProblem:
+        """Lay out the parameters and sort the pairs into box pairs (batched) and mask pairs (see the class docstring)."""
+        seen = tuple(sorted({v for _, v, _ in observations}))
+        active = np.array([rotation_sigma > 0] * 3 + [position_sigma > 0] * 3)
+        sigmas = np.array([rotation_sigma] * 3 + [position_sigma] * 3)[active]
+        n_act = int(active.sum())
+        is_mask = [use_masks and ob.contour_uv is not None for _, _, ob in observations]
+        obs = [o for o, m in zip(observations, is_mask) if not m] + [o for o, m in zip(observations, is_mask) if m]
+        n_box = len(is_mask) - sum(is_mask)
+        return cls(
+            camera=camera,
+            model=model,
+            use_masks=use_masks,
+            position_sigma=position_sigma,
+            rotation_sigma=rotation_sigma,
+            n_obj=n_obj,
+            seen=seen,
+            active=active,
+            sigmas=sigmas,
+            view_col={v: 4 * n_obj + k * n_act for k, v in enumerate(seen)},
+            obs=obs,
+            n_box=n_box,
+            box_obj=np.array([i for i, _, _ in obs[:n_box]], dtype=int),
+            box_view=[v for _, v, _ in obs[:n_box]],
+            box_T=np.array([ob.T_optical_base[:3, :4] for _, _, ob in obs[:n_box]]).reshape(-1, 3, 4),
+            box_xyxy=np.array([ob.bbox_xyxy for _, _, ob in obs[:n_box]]).reshape(-1, 4),
+            box_extra=np.array([ob.extra_sigma_px for _, _, ob in obs[:n_box]]),
+            mask_obs=[ob for _, _, ob in obs[n_box:]],
+        )
+
+    @property
+    def n_act(self) -> int:
+        """Number of pose parameters per seen view (0, 3 or 6)."""
+        return int(self.active.sum())
+
+    @property
+    def n_par(self) -> int:
+        """Length of the parameter vector."""
+        return 4 * self.n_obj + self.n_act * len(self.seen)
+
+    @property
+    def row_sizes(self) -> list[int]:
+        """Residual rows of each pair of :attr:`obs`: 4 per box, one per contour point."""
+        return [4] * self.n_box + [len(ob.contour_uv) for _, _, ob in self.obs[self.n_box :]]
+
+    @property
+    def n_data(self) -> int:
+        """Number of observation rows (before the prior rows)."""
+        return int(sum(self.row_sizes))
+
+    def x0(self, centres0: NDArray[np.float64], radii0: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Starting parameters: the given objects (radii floored at 0.1 mm), zero pose corrections."""
+        x0 = np.zeros(self.n_par)
+        x0[: 4 * self.n_obj] = np.column_stack([centres0, np.log(np.maximum(radii0, 1e-4))]).ravel()
+        return x0
+
+    def x_scale(self) -> NDArray[np.float64]:
+        """Characteristic scale of each parameter: 1 cm per coordinate, 0.1 per log radius, the prior std per pose part."""
+        return np.concatenate([np.tile([0.01, 0.01, 0.01, 0.1], self.n_obj), np.tile(self.sigmas, len(self.seen))])
+
+    def unpack(
+        self, x: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]]:
+        """Objects, shape (N, 4) ``(x, y, z, log r)``, and per seen view its correction ``(R, t)``: (3, 3), (3,)."""
+        obj = x[: 4 * self.n_obj].reshape(self.n_obj, 4)
+        n_act = self.n_act
         poses = {}
-        for v in seen:
+        for v in self.seen:
             p6 = np.zeros(6)
-            p6[active] = x[view_col[v] : view_col[v] + n_act]
-            poses[v] = (Rotation.from_rotvec(p6[:3]).as_matrix() if rotation_sigma > 0 else np.eye(3), p6[3:])
+            p6[self.active] = x[self.view_col[v] : self.view_col[v] + n_act]
+            poses[v] = (Rotation.from_rotvec(p6[:3]).as_matrix() if self.rotation_sigma > 0 else np.eye(3), p6[3:])
         return obj, poses
 
-    # box pairs are evaluated in one batch (their rows first, 4 each), mask pairs one by one (a row per contour point)
-    is_mask = [use_masks and ob.contour_uv is not None for _, _, ob in obs]
-    obs = [o for o, m in zip(obs, is_mask) if not m] + [o for o, m in zip(obs, is_mask) if m]
-    n_box = len(is_mask) - sum(is_mask)
-    box_obj = np.array([i for i, _, _ in obs[:n_box]], dtype=int)
-    box_view = [v for _, v, _ in obs[:n_box]]
-    box_T = np.array([ob.T_optical_base[:3, :4] for _, _, ob in obs[:n_box]]).reshape(-1, 3, 4)
-    box_xyxy = np.array([ob.bbox_xyxy for _, _, ob in obs[:n_box]]).reshape(-1, 4)
-    box_extra = np.array([ob.extra_sigma_px for _, _, ob in obs[:n_box]])
-    mask_obs = [ob for _, _, ob in obs[n_box:]]
-
-    def fun(x: NDArray[np.float64], box_extra: NDArray[np.float64], mask_obs: list[Observation]) -> NDArray[np.float64]:
-        obj, poses = unpack(x)
+    def residuals(
+        self, x: NDArray[np.float64], box_extra: NDArray[np.float64], mask_obs: list[Observation]
+    ) -> NDArray[np.float64]:
+        """All residuals at ``x``, with ``box_extra`` / ``mask_obs`` in place of the attributes (their edge noise)."""
+        obj, poses = self.unpack(x)
+        camera, n_box, n_act = self.camera, self.n_box, self.n_act
         out = []
         if n_box:
-            c = obj[box_obj]
-            p_rep = np.einsum("pij,pj->pi", box_T[:, :, :3], c[:, :3]) + box_T[:, :, 3]
-            R = np.array([poses[v][0] for v in box_view])
-            t = np.array([poses[v][1] for v in box_view])
+            c = obj[self.box_obj]
+            p_rep = np.einsum("pij,pj->pi", self.box_T[:, :, :3], c[:, :3]) + self.box_T[:, :, 3]
+            R = np.array([poses[v][0] for v in self.box_view])
+            t = np.array([poses[v][1] for v in self.box_view])
             p_opt = np.einsum("pij,pj->pi", R, p_rep) + t
             pred, _ = predict_sphere_boxes(camera, p_opt, np.exp(c[:, 3:4]))
-            e = edge_residuals(pred[:, 0], box_xyxy, model, camera.width, camera.height, box_extra)
+            e = edge_residuals(pred[:, 0], self.box_xyxy, self.model, camera.width, camera.height, box_extra)
             out.append(np.nan_to_num(e, nan=1e3).ravel())
-        for (i, v, _), ob in zip(obs[n_box:], mask_obs):
+        for (i, v, _), ob in zip(self.obs[n_box:], mask_obs):
             R, t = poses[v]
             T = ob.T_optical_base
             p_opt = R @ (T[:3, :3] @ obj[i, :3] + T[:3, 3]) + t
-            out.append(observation_residuals(camera, p_opt, float(np.exp(obj[i, 3])), ob, model, use_masks))
-        prior = [x[view_col[v] : view_col[v] + n_act] / sigmas for v in seen]
+            out.append(observation_residuals(camera, p_opt, float(np.exp(obj[i, 3])), ob, self.model, self.use_masks))
+        prior = [x[self.view_col[v] : self.view_col[v] + n_act] / self.sigmas for v in self.seen]
         return np.concatenate(out + prior) if out or prior else np.zeros(0)
 
-    x0 = np.zeros(n_par)
-    x0[: 4 * n_obj] = np.column_stack([centres0, np.log(np.maximum(radii0, 1e-4))]).ravel()
-    # rows of each pair: 4 per box, one per contour point
-    sizes = [4] * n_box + [len(ob.contour_uv) for _, _, ob in obs[n_box:]]
-    n_data = int(sum(sizes))
-    # which object / view each row depends on (-1: none); the priors' rows depend on their view only
-    row_obj = np.concatenate([np.full(k, i) for (i, _, _), k in zip(obs, sizes)] + [np.full(n_act * len(seen), -1)])
-    row_view = np.concatenate([np.full(k, v) for (_, v, _), k in zip(obs, sizes)] + [np.repeat(seen, n_act)])
-    row_prior = np.concatenate([np.full(n_data, -1), np.tile(np.arange(n_act), len(seen))])
-    col_owner = []  # per group of columns perturbed together: the column each row's difference belongs to
-    for k in range(4):
-        col_owner.append(np.where(row_obj >= 0, 4 * row_obj + k, -1))
-    for a in range(n_act):
-        col = np.array([view_col.get(int(v), -1) + a for v in row_view])
-        col_owner.append(np.where((row_prior < 0) | (row_prior == a), col, -1))
-    x_scale = np.concatenate([np.tile([0.01, 0.01, 0.01, 0.1], n_obj), np.tile(sigmas, len(seen))])
-    loss = _mixed_loss(model.inward_floor, n_data)
-    # graduated: first with the pose uncertainty as extra edge noise (while the corrections are still 0, box
-    # offsets that the poses explain must not be taken for outliers by the robust loss), then without
-    depth = np.array([ob.T_optical_base[2, :3] @ centres0[i] + ob.T_optical_base[2, 3] for i, _, ob in obs])
-    pose_px = pose_sigma_px(camera, depth, position_sigma, rotation_sigma)
-    inflated_box = np.hypot(box_extra, pose_px[:n_box])
-    inflated_mask = [
-        replace(ob, extra_sigma_px=float(np.hypot(ob.extra_sigma_px, e))) for ob, e in zip(mask_obs, pose_px[n_box:])
-    ]
+    def column_owners(self) -> list[NDArray[np.int_]]:
+        """For :func:`grouped_jacobian`: per group of columns perturbed together, the column each row depends on.
+
+        Groups: the 4 object parameters (all objects at once), then each
+        active pose parameter (all views at once). A prior row depends on its
+        view's own parameter only.
+        """
+        sizes, n_act, seen = self.row_sizes, self.n_act, self.seen
+        row_obj = np.concatenate([np.full(k, i) for (i, _, _), k in zip(self.obs, sizes)] + [np.full(n_act * len(seen), -1)])
+        row_view = np.concatenate([np.full(k, v) for (_, v, _), k in zip(self.obs, sizes)] + [np.repeat(seen, n_act)])
+        row_prior = np.concatenate([np.full(self.n_data, -1), np.tile(np.arange(n_act), len(seen))])
+        col_owner = []
+        for k in range(4):
+            col_owner.append(np.where(row_obj >= 0, 4 * row_obj + k, -1))
+        for a in range(n_act):
+            col = np.array([self.view_col.get(int(v), -1) + a for v in row_view])
+            col_owner.append(np.where((row_prior < 0) | (row_prior == a), col, -1))
+        return col_owner
+
+    def inflated_noise(self, centres0: NDArray[np.float64]) -> tuple[NDArray[np.float64], list[Observation]]:
+        """Edge noise with the pose uncertainty projected into the image at ``centres0`` added in quadrature.
+
+        Returns the ``(box_extra, mask_obs)`` arguments of :meth:`residuals` for the first stage of the solve.
+        """
+        depth = np.array([ob.T_optical_base[2, :3] @ centres0[i] + ob.T_optical_base[2, 3] for i, _, ob in self.obs])
+        pose_px = pose_sigma_px(self.camera, depth, self.position_sigma, self.rotation_sigma)
+        inflated_box = np.hypot(self.box_extra, pose_px[: self.n_box])
+        inflated_mask = [
+            replace(ob, extra_sigma_px=float(np.hypot(ob.extra_sigma_px, e)))
+            for ob, e in zip(self.mask_obs, pose_px[self.n_box :])
+        ]
+        return inflated_box, inflated_mask
+
+
+def _graduated_solve(
+    problem: _BundleProblem, centres0: NDArray[np.float64], radii0: NDArray[np.float64]
+) -> tuple[OptimizeResult, int]:
+    """Solve ``problem`` in two stages; returns the second stage's solution and the residual evaluations of both.
+
+    First with the pose uncertainty as extra edge noise (while the
+    corrections are still 0, box offsets that the poses explain must not be
+    taken for outliers by the robust loss), then without, from that solution.
+    """
+    fun, col_owner, n_par = problem.residuals, problem.column_owners(), problem.n_par
+    loss = _mixed_loss(problem.model.inward_floor, problem.n_data)
+    x0, x_scale = problem.x0(centres0, radii0), problem.x_scale()
     nfev = 0
-    for args in ((inflated_box, inflated_mask), (box_extra, mask_obs)):
+    for args in (problem.inflated_noise(centres0), (problem.box_extra, problem.mask_obs)):
         sol = least_squares(
             fun,
             x0,
@@ -326,6 +486,12 @@ def bundle_adjust(
             args=args,
         )
         x0, nfev = sol.x, nfev + sol.nfev
+    return sol, nfev
+
+
+def _pack_bundle(problem: _BundleProblem, sol: OptimizeResult, nfev: int, n_views: int) -> Bundle:
+    """The :class:`Bundle` of a solution: estimates, and covariances from the Gauss-Newton Hessian at it."""
+    n_obj, n_par, n_act, active = problem.n_obj, problem.n_par, problem.n_act, problem.active
     # sol.jac is already scaled by the loss (J^T J is scipy's Gauss-Newton Hessian of the robust cost)
     J = np.asarray(sol.jac)
     try:
@@ -338,9 +504,9 @@ def bundle_adjust(
     var_logr = np.array([cov[4 * i + 3, 4 * i + 3] for i in range(n_obj)])
     radius_std = radii * np.sqrt(np.where(np.isfinite(var_logr), np.maximum(var_logr, 0.0), np.nan))
     pose = np.zeros((n_views, 6))
-    pose_std = np.tile(np.array([rotation_sigma] * 3 + [position_sigma] * 3, dtype=float), (n_views, 1))
-    for v in seen:
-        sl = slice(view_col[v], view_col[v] + n_act)
+    pose_std = np.tile(np.array([problem.rotation_sigma] * 3 + [problem.position_sigma] * 3, dtype=float), (n_views, 1))
+    for v in problem.seen:
+        sl = slice(problem.view_col[v], problem.view_col[v] + n_act)
         pose[v, active] = sol.x[sl]
         pose_std[v, active] = np.sqrt(np.maximum(np.diag(cov)[sl], 0.0))
     return Bundle(
