@@ -36,8 +36,9 @@ from .params import DEFAULT_GAUSS_EPS, DEFAULT_TILE, PackedViews, concat_packed,
 from .threads import kernel_threads
 
 #: Single-thread cost of one cell in one view of :func:`numba_kernels.dense_update`, nanoseconds
-#: (about 2.5 on the 2 M-cell benchmark with six boxes per view; the thread count's work estimate).
-NS_PER_CELL_VIEW = 2.5
+#: (4.5-8 measured in CPU time on the 2 M-cell benchmark, six boxes per view, float32; the thread
+#: count's work estimate: 2 M cells and three views get two threads, 0.25 M cells one).
+NS_PER_CELL_VIEW = 5.0
 #: Single-thread cost per cell of the normalisation passes (``scale_inplace``, ``exp_shift``), nanoseconds.
 NS_PER_CELL_PASS = 1.0
 
