@@ -11,6 +11,11 @@ from monovisual3d.camera import DISTORTION_IDS, Camera, PackedCamera
 from monovisual3d.engine import numba_kernels as nk
 from monovisual3d.engine.params import DISTORTION_IDS as ENGINE_IDS
 
+try:  # the bayes method moves under monovisual3d.methods (issue 10)
+    from monovisual3d.methods.bayes._kernels import camera_arrays, cone_counts_fused
+except ImportError:  # pragma: no cover - before the move
+    from monovisual3d.bayes._kernels import camera_arrays, cone_counts_fused
+
 #: One camera per distortion model (and both plumb_bob lengths), coefficients of a real wide lens.
 CAMERAS = {
     "none": Camera(640, 480, 500.0, 510.0, 321.0, 239.0),
@@ -21,11 +26,6 @@ CAMERAS = {
     ),
     "equidistant": Camera(640, 480, 300.0, 300.0, 320.0, 240.0, "fisheye", (0.05, -0.01, 0.003, -0.0005)),
 }
-
-try:  # the bayes method moves under monovisual3d.methods (issue 10)
-    from monovisual3d.methods.bayes._kernels import camera_arrays, cone_counts_fused
-except ImportError:  # pragma: no cover - before the move
-    from monovisual3d.bayes._kernels import camera_arrays, cone_counts_fused
 
 
 @numba.njit
