@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -47,6 +47,31 @@ DISTORTION_SIZES = {
     "rational_polynomial": (8,),
     "equidistant": (4,),
 }
+
+#: Integer id of each (canonical) distortion model in :class:`PackedCamera`: the one table every
+#: compiled kernel uses (numba engines, the ``bayes`` kernels, torch).
+DISTORTION_IDS = {"none": 0, "plumb_bob": 1, "rational_polynomial": 2, "equidistant": 3}
+
+
+class PackedCamera(NamedTuple):
+    """A :class:`Camera` as plain numbers for the compiled kernels (see :meth:`Camera.packed`).
+
+    Attributes
+    ----------
+    intrinsics : ndarray, shape (4,), float64, ``fx, fy, cx, cy`` in pixels (this project's convention)
+    distortion_id : int, model id from :data:`DISTORTION_IDS`
+    distortion : ndarray, shape (8,), float64, the model's coefficients in OpenCV order, zero padded:
+        ``k1 k2 p1 p2 k3 k4 k5 k6`` for plumb_bob (``k3..k6 = 0`` where absent) and rational_polynomial,
+        ``k1 k2 k3 k4`` then zeros for equidistant, zeros for none. A plumb_bob camera therefore
+        projects the same through the rational formula (denominator 1).
+    width, height : int, image size in pixels
+    """
+
+    intrinsics: NDArray[np.float64]
+    distortion_id: int
+    distortion: NDArray[np.float64]
+    width: int
+    height: int
 
 
 @dataclass(frozen=True)
@@ -195,6 +220,26 @@ class Camera:
         sx, sy = width / self.width, height / self.height
         return replace(
             self, width=int(width), height=int(height), fx=self.fx * sx, fy=self.fy * sy, cx=self.cx * sx, cy=self.cy * sy
+        )
+
+    def packed(self) -> PackedCamera:
+        """The camera as plain arrays for the compiled kernels (one packing for every engine).
+
+        Examples
+        --------
+        >>> cam = Camera(640, 480, 500.0, 500.0, 320.0, 240.0, "plumb_bob", (0.1, -0.05, 0.001, 0.002))
+        >>> p = cam.packed()
+        >>> p.distortion_id, p.distortion.tolist()
+        (1, [0.1, -0.05, 0.001, 0.002, 0.0, 0.0, 0.0, 0.0])
+        """
+        dist = np.zeros(8)
+        dist[: len(self.distortion_coefficients)] = self.distortion_coefficients
+        return PackedCamera(
+            intrinsics=np.array([self.fx, self.fy, self.cx, self.cy]),
+            distortion_id=DISTORTION_IDS[self.distortion_model],
+            distortion=dist,
+            width=self.width,
+            height=self.height,
         )
 
     # ------------------------------------------------------------------ geometry

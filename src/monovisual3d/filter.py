@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -28,6 +28,12 @@ from .session import View, Workspace
 
 #: Cells processed per chunk by the numpy reference (bounds temporaries to ~100 MB).
 CHUNK_CELLS = 1 << 20
+
+
+def _default_backend() -> str:
+    from .engine import default_backend
+
+    return default_backend()
 
 
 @dataclass(frozen=True)
@@ -47,7 +53,9 @@ class PaperConfig:
     max_memory : int or str, bytes (or text such as 2GiB): memory budget; a grid that does not fit is refused
         with a resolution that fits
     backend : {"numpy", "numba", "torch"}, engine of the dense update: the numpy reference, the fused
-        numba kernel (float32 posterior, see :mod:`monovisual3d.engine.dense`) or torch (``device``)
+        numba kernel (float32 posterior, see :mod:`monovisual3d.engine.dense`) or torch (``device``).
+        Default: the fastest CPU engine installed (:func:`monovisual3d.engine.default_backend`, numba);
+        ``"numpy"`` is the readable reference the others are tested against.
     device : str or None, torch device ("cpu", "cuda"; None: cuda when available); backend "torch" only
     refine_to : float or None, metres: run the sparse coarse-to-fine path down to this resolution,
         with ``resolution`` as the root level (see :mod:`monovisual3d.engine.sparse`)
@@ -63,7 +71,7 @@ class PaperConfig:
     keep_threshold: float = DEFAULT_KEEP_THRESHOLD
     weighted_kmeans: bool = False
     max_memory: int | str = DEFAULT_MAX_BYTES
-    backend: str = "numpy"
+    backend: str = field(default_factory=_default_backend)
     device: str | None = None
     refine_to: float | None = None
     threads: int | None = None
@@ -275,9 +283,13 @@ class HistogramFilter:
             return []
         cfg = {**asdict(self.config), **overrides}
         k = choose_k(self.detection_counts, cfg["k"])
+        posterior = self._posterior
+        if posterior.dtype != np.float64:  # float32 from the compiled engines: make the masses sum to 1 in float64
+            posterior = posterior.astype(np.float64)
+            posterior /= posterior.sum()
         return kmeans_objects(
             self.grid,
-            self._posterior,
+            posterior,
             k,
             centre=cfg["centre"],
             keep_threshold=cfg["keep_threshold"],

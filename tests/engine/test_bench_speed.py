@@ -40,6 +40,14 @@ def test_bench_speed_quick_cli(tmp_path):
     for r in data["rows"]:
         assert r["per_view_ms"]["min"] <= r["per_view_ms"]["median"] <= r["per_view_ms"]["max"]
     assert data["sparse_fine"][0]["refine_to_mm"] == 8.0
+    # every end-to-end row idle and with a busy core; the paper default against its numpy reference
+    loads = {}
+    for r in data["end_to_end"]:
+        loads.setdefault(r["config"], set()).add(r["load"])
+    assert loads and all(v == {"idle", "busy one core"} for v in loads.values())
+    paper = data["paper_default_vs_numpy"]
+    assert paper["default_backend"] == "numba" and paper["speedup"] > 0
+    assert paper["objects"] == [6, 6] and paper["max_position_difference_m"] < 1e-3
     assert bench_app.registered_commands  # the sub-app other benchmarks register on
 
 
@@ -53,6 +61,8 @@ def test_scaling_and_markdown():
     md = format_markdown(result)
     assert "| numba | gaussian |" in md and "| views per update |" in md
     assert [r["views"] for r in result["scaling"]["views"]] == [1, 3]
+    assert "| bayes (default) |" in md and "busy one core: ms median" in md
+    assert "default (numba) vs numpy reference, same run" in md
 
 
 def test_naive_loop_computes_the_same_update():

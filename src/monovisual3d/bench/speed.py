@@ -25,9 +25,12 @@ import math
 import os
 import platform
 import statistics
+import subprocess
+import sys
 import time
 import tracemalloc
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Any
@@ -396,14 +399,30 @@ def run_speed(
     torch_device : torch device (default cuda when available, else cpu); torch runs only if importable
     sparse_refine_to : metres, effective resolution of the sparse path
     scaling : also run the scaling with views and boxes
-    threads : numba threads (default: numba's, usually one per core)
+    threads : most numba threads per kernel call (default: numba's, usually one per core; each call
+        takes fewer where its work is small, see :mod:`monovisual3d.engine.threads`)
     methods : which of :data:`METHODS` to run (torch only where importable)
     progress : callable(str), told what runs next
     """
-    if threads is not None:
-        import numba
+    from ..engine.threads import thread_limit
 
-        numba.set_num_threads(int(threads))
+    with thread_limit(threads):
+        return _run_speed(quick, edges, kernels, repeats, naive_cells, torch_device, sparse_refine_to, scaling, methods, progress)
+
+
+def _run_speed(
+    quick: bool,
+    edges: tuple[int, ...] | None,
+    kernels: tuple[str, ...],
+    repeats: int | None,
+    naive_cells: int | None,
+    torch_device: str | None,
+    sparse_refine_to: float,
+    scaling: bool,
+    methods: tuple[str, ...],
+    progress: Callable[[str], None] | None,
+) -> dict[str, Any]:
+    """The body of :func:`run_speed` (inside its thread limit)."""
     from ..engine.params import pack_views
     from ..engine.sparse import levels_between
 
@@ -479,38 +498,120 @@ def run_speed(
     if scaling:
         say("scaling")
         scaling_rows = _scaling(edges[min(1, len(edges) - 1)], repeats, quick)
-    say("end-to-end localize")
-    e2e = end_to_end(repeats=max(3, repeats))
-    return {"meta": meta, "rows": rows, "sparse_fine": sparse_fine, "scaling": scaling_rows, "end_to_end": e2e}
+    say("end-to-end localize, idle and with a busy-loop process on one core")
+    if quick:  # seconds: no numpy reference end to end, the comparison on a 2 cm grid
+        e2e = end_to_end(1, configs={k: v for k, v in END_TO_END.items() if v.get("backend") != "numpy"})
+    else:
+        e2e = end_to_end(max(3, repeats))
+    say("paper method, default settings vs the numpy reference")
+    paper = paper_default_vs_numpy(repeats=1 if quick else max(3, repeats), resolution=0.02 if quick else 0.01)
+    return {
+        "meta": meta,
+        "rows": rows,
+        "sparse_fine": sparse_fine,
+        "scaling": scaling_rows,
+        "end_to_end": e2e,
+        "paper_default_vs_numpy": paper,
+    }
 
 
 #: End-to-end configurations: name -> localize options.
 END_TO_END: dict[str, dict[str, Any]] = {
     "bayes (default)": {"method": "bayes"},
     "bayes, 2 cm scored grid": {"method": "bayes", "resolution": 0.02},
+    "paper (default settings: gaussian, 1 cm, compiled)": {"method": "paper"},
     "paper, square, 1 cm, numba": {"method": "paper", "kernel": "square", "resolution": 0.01, "backend": "numba"},
-    "paper, gaussian, 1 cm, numba": {"method": "paper", "kernel": "gaussian", "resolution": 0.01, "backend": "numba"},
-    "paper, gaussian, 1 cm, numpy": {"method": "paper", "kernel": "gaussian", "resolution": 0.01},
+    "paper, gaussian, 1 cm, numpy reference": {"method": "paper", "kernel": "gaussian", "resolution": 0.01, "backend": "numpy"},
 }
+#: The load conditions of the end-to-end rows: none, and one busy-loop process (a robot's computer is never idle).
+LOADS = ("idle", "busy one core")
 
 
-def end_to_end(repeats: int = 5) -> list[dict[str, Any]]:
-    """Whole ``localize`` calls on the paper's six-sphere scene seen from its three views (simulated, exact boxes).
+@contextmanager
+def busy_core(active: bool = True) -> Iterator[None]:
+    """Run the block with a busy-loop Python process holding one core (nothing when ``active`` is False)."""
+    if not active:
+        yield
+        return
+    proc = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.2)  # let it start spinning
+        yield
+    finally:
+        proc.kill()
+        proc.wait()
 
-    One untimed warm-up call per configuration loads numba's cached kernels
-    (a robot process pays that once); the timed calls include everything else:
-    grid, search, scoring, extraction, refinement / k-means.
-    """
-    from ..localize import localize
+
+def _paper_session() -> Any:
     from ..sim.scenes import paper_scene
     from ..sim.simulate import simulate
 
     session, _ = simulate(paper_scene(), rng=0)
+    return session
+
+
+def end_to_end(
+    repeats: int = 5, loads: tuple[str, ...] = LOADS, configs: dict[str, dict[str, Any]] | None = None
+) -> list[dict[str, Any]]:
+    """Whole ``localize`` calls on the paper's six-sphere scene seen from its three views (simulated, exact boxes).
+
+    Every configuration of ``configs`` (default :data:`END_TO_END`) is timed under each of ``loads``: idle,
+    and with a busy-loop process on one core (started and stopped here). One untimed
+    warm-up call per configuration loads numba's cached kernels (a robot process pays
+    that once); the timed calls include everything else: grid, search, scoring,
+    extraction, refinement / k-means. The session has no workspace, so the paper
+    method's grid is its 2R cube (reach 0.6 m: 1.2 m side, 1.7 M cells at 1 cm).
+    """
+    from ..localize import localize
+
+    session = _paper_session()
     out = []
-    for name, opts in END_TO_END.items():
-        t = time_call(lambda opts=opts: localize(session, **opts), repeats=repeats, warmup=1)
-        out.append({"config": name, "options": opts, "seconds": t.summary(1.0)})
+    for load in loads:
+        with busy_core(load != "idle"):
+            for name, opts in (configs or END_TO_END).items():
+                t = time_call(lambda opts=opts: localize(session, **opts), repeats=repeats, warmup=1)
+                out.append({"config": name, "options": opts, "load": load, "seconds": t.summary(1.0)})
     return out
+
+
+def paper_default_vs_numpy(repeats: int = 3, resolution: float = 0.01) -> dict[str, Any]:
+    """The paper method on its 2R cube (1 cm: 1.7 M cells), default settings against the numpy reference, same run.
+
+    Alternates the two (default, reference, default, ...) so that both see the same load;
+    returns their medians, the speed-up and the largest distance between their estimates.
+    """
+    from ..grid import VoxelGrid
+    from ..localize import localize
+
+    session = _paper_session()
+    grid = VoxelGrid.in_front_of_camera(session.views[0].T_base_optical, resolution, 0.6)
+    fast, ref = Timing(), Timing()
+    res_fast = localize(session, method="paper", resolution=resolution)  # warm-up
+    res_ref = localize(session, method="paper", resolution=resolution, backend="numpy")
+    for _ in range(repeats):
+        for timing, opts in ((fast, {}), (ref, {"backend": "numpy"})):
+            c0, w0 = time.process_time(), time.perf_counter()
+            localize(session, method="paper", resolution=resolution, **opts)
+            timing.wall.append(time.perf_counter() - w0)
+            timing.cpu.append(time.process_time() - c0)
+    a = np.array([o.position for o in res_fast.objects]).reshape(-1, 3)
+    b = np.array([o.position for o in res_ref.objects]).reshape(-1, 3)
+    diff = math.nan
+    if len(a) and len(b):  # largest distance from an estimate to the nearest estimate of the other run
+        d = np.linalg.norm(a[:, None] - b[None], axis=2)
+        diff = float(max(d.min(1).max(), d.min(0).max()))
+    f, r = fast.summary(1.0), ref.summary(1.0)
+    return {
+        "config": f"paper method {resolution * 100:g} cm on the paper 2R cube, default settings vs numpy reference, same run",
+        "resolution_m": resolution,
+        "cells": grid.n_cells,
+        "default_backend": res_fast.config.get("backend"),
+        "default_s": f,
+        "numpy_s": r,
+        "speedup": r["median"] / f["median"],
+        "objects": [len(a), len(b)],
+        "max_position_difference_m": diff,
+    }
 
 
 def _scaling(edge: int, repeats: int, quick: bool) -> dict[str, Any]:
@@ -604,9 +705,33 @@ def format_markdown(result: dict[str, Any]) -> str:
         lines += ["", "| boxes per view | ms/view |", "|---:|---:|"]
         lines += [f"| {r['boxes']} | {r['per_view_ms']['median']:.2f} |" for r in sc["boxes"]]
     if result.get("end_to_end"):
-        lines += ["", "| end-to-end localize, six fruit, three views | median ms [min-max] |", "|---|---:|"]
+        lines += ["", *format_end_to_end(result["end_to_end"])]
+    p = result.get("paper_default_vs_numpy")
+    if p:
         lines += [
-            f"| {r['config']} | {1e3 * r['seconds']['median']:.0f} [{1e3 * r['seconds']['min']:.0f}-{1e3 * r['seconds']['max']:.0f}] |"
-            for r in result["end_to_end"]
+            "",
+            f"| paper method, {100 * p['resolution_m']:g} cm, 2R cube | cells | default ms median [min-max] "
+            "| numpy reference ms | speed-up |",
+            "|---|---:|---:|---:|---:|",
+            f"| default ({p['default_backend']}) vs numpy reference, same run | {p['cells'] / 1e6:.2f} M "
+            f"| {_ms(p['default_s'])} | {_ms(p['numpy_s'])} | {p['speedup']:.1f}x |",
         ]
     return "\n".join(lines)
+
+
+def _ms(s: dict[str, float]) -> str:
+    return f"{1e3 * s['median']:.0f} [{1e3 * s['min']:.0f}-{1e3 * s['max']:.0f}]"
+
+
+def format_end_to_end(rows: list[dict[str, Any]]) -> list[str]:
+    """Markdown table of :func:`end_to_end`: one line per configuration, one column per load."""
+    loads = list(dict.fromkeys(r.get("load", "idle") for r in rows))
+    by = {(r["config"], r.get("load", "idle")): r for r in rows}
+    lines = [
+        "| end-to-end localize, six fruit, three views | " + " | ".join(f"{ld}: ms median [min-max]" for ld in loads) + " |",
+        "|---|" + "---:|" * len(loads),
+    ]
+    for config in dict.fromkeys(r["config"] for r in rows):
+        cells = [_ms(by[(config, ld)]["seconds"]) if (config, ld) in by else "-" for ld in loads]
+        lines.append(f"| {config} | " + " | ".join(cells) + " |")
+    return lines

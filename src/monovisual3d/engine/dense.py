@@ -33,6 +33,14 @@ from ..errors import InputError
 from ..grid import VoxelGrid
 from ..session import View
 from .params import DEFAULT_GAUSS_EPS, DEFAULT_TILE, PackedViews, concat_packed, pack_views, tile_counts
+from .threads import kernel_threads
+
+#: Single-thread cost of one cell in one view of :func:`numba_kernels.dense_update`, nanoseconds
+#: (4.5-8 measured in CPU time on the 2 M-cell benchmark, six boxes per view, float32; the thread
+#: count's work estimate: 2 M cells and three views get two threads, 0.25 M cells one).
+NS_PER_CELL_VIEW = 5.0
+#: Single-thread cost per cell of the normalisation passes (``scale_inplace``, ``exp_shift``), nanoseconds.
+NS_PER_CELL_PASS = 1.0
 
 #: What to install when numba is missing (numba is a core dependency of monovisual3d).
 NUMBA_HINT = "pip install 'numba>=0.59' (a dependency of monovisual3d; reinstall it with pip install monovisual3d)"
@@ -81,15 +89,17 @@ def _call_dense(
         tile_live = np.ones(tile_offsets[-1], dtype=np.bool_)
     tile_sum = np.empty(tile_offsets[-1])
     tile_max = np.empty(tile_offsets[-1])
-    nk.dense_update(
-        src, dst, inplace, prior_one,
-        np.ascontiguousarray(starts, dtype=np.int64), np.ascontiguousarray(shapes, dtype=np.int64),
-        np.ascontiguousarray(resolutions, dtype=np.float64), np.ascontiguousarray(in_scale, dtype=np.float64),
-        log_space, view_offsets,
-        packed.T_optical_grid, packed.intrinsics, packed.distortion_id, packed.distortion, packed.kernel_id,
-        packed.inv_n, packed.box_offsets, packed.box_params, packed.box_reach, packed.q_cut,
-        np.asarray(tile, dtype=np.int64), tile_offsets, tile_live, tile_sum, tile_max, _n_threads(), precise,
-    )  # fmt: skip
+    work_ns = NS_PER_CELL_VIEW * int(np.count_nonzero(tile_live)) * int(np.prod(tile)) * packed.n_views
+    with kernel_threads(int(work_ns)):
+        nk.dense_update(
+            src, dst, inplace, prior_one,
+            np.ascontiguousarray(starts, dtype=np.int64), np.ascontiguousarray(shapes, dtype=np.int64),
+            np.ascontiguousarray(resolutions, dtype=np.float64), np.ascontiguousarray(in_scale, dtype=np.float64),
+            log_space, view_offsets,
+            packed.T_optical_grid, packed.intrinsics, packed.distortion_id, packed.distortion, packed.kernel_id,
+            packed.inv_n, packed.box_offsets, packed.box_params, packed.box_reach, packed.q_cut,
+            np.asarray(tile, dtype=np.int64), tile_offsets, tile_live, tile_sum, tile_max, _n_threads(), precise,
+        )  # fmt: skip
     return tile_sum, tile_max, tile_offsets
 
 
@@ -186,7 +196,8 @@ def paper_update_fused(
     total = float(tile_sum.sum())
     if not total > 0.0:
         return None
-    nk.scale_inplace(dst, 1.0 / total)
+    with kernel_threads(int(NS_PER_CELL_PASS * dst.size)):
+        nk.scale_inplace(dst, 1.0 / total)
     return dst
 
 
@@ -288,7 +299,8 @@ class DenseHistogramBatch:
         v = self.values[a:b]
         if self.log_space:
             out = np.empty(b - a, dtype=dtype)
-            self.nk.exp_shift(v, self._total[s], out)
+            with kernel_threads(int(5 * NS_PER_CELL_PASS * v.size)):  # exp: about 5x a multiply
+                self.nk.exp_shift(v, self._total[s], out)
         else:
             out = v.astype(dtype)
             out /= out.dtype.type(self._total[s])

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera
+from ..camera import DISTORTION_IDS, Camera  # noqa: F401  (DISTORTION_IDS: re-exported, the one table lives in camera)
 from ..errors import InputError
 from ..frames import invert_transform
 from ..grid import VoxelGrid
@@ -43,8 +43,6 @@ from ..session import View
 
 #: Kernel ids understood by the fast kernels.
 KERNEL_IDS = {"square": 0, "gaussian": 1}
-#: Distortion model ids understood by the fast kernels.
-DISTORTION_IDS = {"none": 0, "plumb_bob": 1, "rational_polynomial": 2, "equidistant": 3}
 #: Default Gaussian cut-off: box terms below this value are skipped (see the module docstring).
 DEFAULT_GAUSS_EPS = 1e-12
 #: Default tile of the dense kernels, cells along grid (i, j, k); k is the contiguous axis.
@@ -72,8 +70,8 @@ class PackedViews:
     ----------
     T_optical_grid : ndarray, shape (V, 3, 4), float64, rotation and translation, grid -> optical
     intrinsics : ndarray, shape (V, 4), float64, ``fx, fy, cx, cy`` in pixels
-    distortion_id : ndarray, shape (V,), int64, see :data:`DISTORTION_IDS`
-    distortion : ndarray, shape (V, 8), float64, coefficients in OpenCV order, zero padded
+    distortion_id : ndarray, shape (V,), int64, see :data:`monovisual3d.camera.DISTORTION_IDS`
+    distortion : ndarray, shape (V, 8), float64, coefficients as :meth:`monovisual3d.camera.Camera.packed`
     kernel_id : ndarray, shape (V,), int64, see :data:`KERNEL_IDS`
     inv_n : ndarray, shape (V,), float64, 1 / number of boxes (the mixture weight)
     box_offsets : ndarray, shape (V + 1,), int64, boxes of view v are ``box_offsets[v]:box_offsets[v + 1]``
@@ -181,14 +179,12 @@ def pack_views(
         reach.append(r)
     offsets = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
-    dist = np.zeros(8)
-    c = camera.distortion_coefficients
-    dist[: len(c)] = c
+    cam = camera.packed()
     return PackedViews(
         T_optical_grid=T,
-        intrinsics=np.tile([camera.fx, camera.fy, camera.cx, camera.cy], (n, 1)).astype(np.float64),
-        distortion_id=np.full(n, DISTORTION_IDS[camera.distortion_model], dtype=np.int64),
-        distortion=np.tile(dist, (n, 1)),
+        intrinsics=np.tile(cam.intrinsics, (n, 1)),
+        distortion_id=np.full(n, cam.distortion_id, dtype=np.int64),
+        distortion=np.tile(cam.distortion, (n, 1)),
         kernel_id=np.full(n, KERNEL_IDS[kernel], dtype=np.int64),
         inv_n=1.0 / counts.astype(np.float64),
         box_offsets=offsets,

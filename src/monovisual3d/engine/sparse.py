@@ -54,6 +54,7 @@ from ..grid import VoxelGrid
 from ..session import View
 from .dense import numba_kernels
 from .params import DEFAULT_GAUSS_EPS, PackedViews, pack_views
+from .threads import kernel_threads
 
 #: Default relative threshold of the active set: cells below threshold * max are dropped.
 DEFAULT_THRESHOLD = 1e-6
@@ -61,6 +62,9 @@ DEFAULT_THRESHOLD = 1e-6
 DEFAULT_MAX_CELLS = 8_000_000
 #: Bytes held per candidate cell: indices (3 x int32) + point and bound (2 x float64) + keep mask.
 BYTES_PER_CANDIDATE = 3 * 4 + 2 * 8 + 1
+#: Single-thread cost of one candidate cell against one box in ``octree_eval`` (point value and bound),
+#: nanoseconds; the thread count's work estimate.
+NS_PER_CELL_BOX = 10.0
 #: Slack on the bound test (log units) covering the rounding of exp(); keeps the guarantee exact.
 _LOG_SLACK = 1e-9
 
@@ -179,12 +183,13 @@ def refine(
         n = len(cells)
         point = np.empty(n)
         upper = np.empty(n)
-        nk.octree_eval(
-            cells, 2**level, grid.resolution, shape, 0, packed.n_views,
-            packed.T_optical_grid, packed.intrinsics, packed.distortion_id, packed.distortion, packed.kernel_id,
-            packed.inv_n, packed.box_offsets, packed.box_params, packed.box_reach, packed.q_cut,
-            best + log_thr - 1.0, point, upper,
-        )  # fmt: skip
+        with kernel_threads(int(NS_PER_CELL_BOX * n * len(packed.box_params))):
+            nk.octree_eval(
+                cells, 2**level, grid.resolution, shape, 0, packed.n_views,
+                packed.T_optical_grid, packed.intrinsics, packed.distortion_id, packed.distortion, packed.kernel_id,
+                packed.inv_n, packed.box_offsets, packed.box_params, packed.box_reach, packed.q_cut,
+                best + log_thr - 1.0, point, upper,
+            )  # fmt: skip
         if n:
             best = max(best, float(point.max()))
         # without a positive point value yet (best = -inf) only cells whose bound is zero can go

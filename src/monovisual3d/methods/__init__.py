@@ -101,4 +101,7 @@ def run_method(session: Session, name: str | None = None, config: Any = None, pr
             )
     else:
         config = method.make_config(**options)
-    return method.run(session, config, progress=progress)
+    from ..engine.threads import thread_limit
+
+    with thread_limit(config.threads):
+        return method.run(session, config, progress=progress)

@@ -14,7 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from ..engine.threads import check_threads
 from ..errors import InputError
+
+__all__ = ["DEFAULT_MAX_MEMORY", "check_threads", "format_bytes", "is_real", "parse_bytes"]
 
 #: Default memory budget of one ``localize`` call, bytes (2 GiB).
 DEFAULT_MAX_MEMORY = 2 * 1024**3
@@ -50,15 +53,6 @@ def parse_bytes(value: Any, name: str = "max_memory") -> int:
     if not (math.isfinite(number) and number >= MIN_MAX_MEMORY):
         raise InputError(f"{name}: got {value!r}, expected at least {MIN_MAX_MEMORY // 1024**2} MiB")
     return int(min(number, 2**62))
-
-
-def check_threads(value: Any) -> int | None:
-    """``threads``: None (automatic: by the amount of work) or an integer >= 1."""
-    if value is None:
-        return None
-    if not (is_real(value) and float(value).is_integer() and value >= 1):
-        raise InputError(f"threads: got {value!r}, expected an integer >= 1 (or none for automatic)")
-    return int(value)
 
 
 def format_bytes(n: float) -> str:

@@ -1,11 +1,11 @@
 """Fused numba kernels of the ``bayes`` search.
 
 - :func:`score_hypotheses` computes exactly what
-  :func:`monovisual3d.bayes.likelihood.view_scores` summed over views computes
+  :func:`monovisual3d.methods.bayes.likelihood.view_scores` summed over views computes
   (the numpy reference, tested against this), in one parallel pass with no
   temporaries: per hypothesis and view, the predicted box, then the best box
   score or the miss term.
-- :func:`cone_counts_fused` is :func:`monovisual3d.bayes.search.cone_counts`
+- :func:`cone_counts_fused` is :func:`monovisual3d.grid.cone_counts`
   (the numpy reference) in one parallel pass: in how many views each point
   projects inside a widened box.
 """
@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
+from ...engine.threads import kernel_threads
 from .likelihood import SensorModel
 
 try:  # numba is a core dependency, but keep the package importable without it
@@ -27,27 +28,20 @@ try:  # numba is a core dependency, but keep the package importable without it
 except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
-#: Distortion model codes for the kernel.
-_MODEL_CODES = {"none": 0, "plumb_bob": 1, "rational_polynomial": 1, "equidistant": 2}
+#: Single-thread cost of one hypothesis against one box in ``_score_kernel``, nanoseconds (the
+#: thread count's work estimate, see :mod:`monovisual3d.engine.threads`).
+NS_PER_HYPOTHESIS_BOX = 20.0
+#: Single-thread cost of one point in one view in ``_cone_kernel``, nanoseconds.
+NS_PER_POINT_VIEW = 20.0
+
+if HAVE_NUMBA:
+    # the one compiled distortion of the package (model ids and coefficients of Camera.packed)
+    from monovisual3d.engine._project import distort_xy
 
 
 def _distort_xy(x: float, y: float, code: int, k: NDArray[np.float64]) -> tuple[float, float]:  # pragma: no cover - jitted
-    if code == 0:
-        return x, y
-    r2 = x * x + y * y
-    if code == 2:
-        r = math.sqrt(r2)
-        if r < 1e-12:
-            return x, y
-        th = math.atan(r)
-        t2 = th * th
-        thd = th * (1 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))))
-        s = thd / r
-        return x * s, y * s
-    radial = (1 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]))) / (1 + r2 * (k[5] + r2 * (k[6] + r2 * k[7])))
-    xd = x * radial + 2 * k[2] * x * y + k[3] * (r2 + 2 * x * x)
-    yd = y * radial + k[2] * (r2 + 2 * y * y) + 2 * k[3] * x * y
-    return xd, yd
+    """:func:`monovisual3d.engine._project.distort_xy` with the packed coefficients ``k`` (8,)."""
+    return distort_xy(x, y, code, k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7], 1.0)
 
 
 def _sphere_box_px(X, Y, Z, r, fx, fy, cx, cy, code, coeffs):  # pragma: no cover - jitted
@@ -303,22 +297,23 @@ def cone_counts_fused(
     half_diagonal: float,
     widen: float = 0.5,
 ) -> NDArray[np.int32]:
-    """:func:`monovisual3d.bayes.search.cone_counts` (the numpy reference) in one parallel pass over the points."""
+    """:func:`monovisual3d.grid.cone_counts` (the numpy reference) in one parallel pass over the points."""
     T, B, nb, _ = pack_views(camera, T_optical_base, boxes, [np.ones(len(b), np.bool_) for b in boxes])
     cam, code, coeffs = camera_arrays(camera)
     counts = np.empty(len(centres_base), dtype=np.int32)
-    _cone_kernel(
-        np.ascontiguousarray(centres_base, dtype=np.float64),
-        T,
-        B,
-        nb,
-        cam,
-        code,
-        coeffs,
-        float(half_diagonal),
-        float(widen),
-        counts,
-    )
+    with kernel_threads(int(NS_PER_POINT_VIEW * len(centres_base) * len(boxes))):
+        _cone_kernel(
+            np.ascontiguousarray(centres_base, dtype=np.float64),
+            T,
+            B,
+            nb,
+            cam,
+            code,
+            coeffs,
+            float(half_diagonal),
+            float(widen),
+            counts,
+        )
     return counts
 
 
@@ -354,17 +349,10 @@ def pack_views(
 
 
 def camera_arrays(camera: Camera) -> tuple[NDArray[np.float64], int, NDArray[np.float64]]:
-    cam = np.array([camera.fx, camera.fy, camera.cx, camera.cy, float(camera.width), float(camera.height)])
-    code = _MODEL_CODES[camera.distortion_model]
-    coeffs = np.zeros(8)
-    c = camera.distortion_coefficients
-    if camera.distortion_model == "plumb_bob":
-        coeffs[: len(c)] = c  # k1 k2 p1 p2 [k3]; k4..k6 = 0
-    elif camera.distortion_model == "rational_polynomial":
-        coeffs[:] = c
-    elif camera.distortion_model == "equidistant":
-        coeffs[:4] = c
-    return cam, code, coeffs
+    """``fx, fy, cx, cy, width, height`` (6,), the distortion id and the 8 coefficients of :meth:`Camera.packed`."""
+    p = camera.packed()
+    cam = np.concatenate([p.intrinsics, [float(p.width), float(p.height)]])
+    return cam, p.distortion_id, p.distortion
 
 
 def model_params(model: SensorModel) -> NDArray[np.float64]:
@@ -421,22 +409,23 @@ def score_hypotheses(
         mask = np.ones(total.shape, dtype=np.bool_)
     elif mask.shape != total.shape:
         raise ValueError(f"mask: shape {mask.shape}, expected {total.shape} (centres, radii)")
-    _score_kernel(
-        np.ascontiguousarray(centres_base, dtype=np.float64),
-        np.ascontiguousarray(radii, dtype=np.float64),
-        np.ascontiguousarray(mask, dtype=np.bool_),
-        T,
-        B,
-        nb,
-        A,
-        cam,
-        code,
-        coeffs,
-        model_params(model),
-        float(blur_half_diagonal),
-        float(extra_const_px),
-        total,
-        n_assoc,
-        assoc,
-    )
+    with kernel_threads(int(NS_PER_HYPOTHESIS_BOX * total.size * int(nb.sum()))):
+        _score_kernel(
+            np.ascontiguousarray(centres_base, dtype=np.float64),
+            np.ascontiguousarray(radii, dtype=np.float64),
+            np.ascontiguousarray(mask, dtype=np.bool_),
+            T,
+            B,
+            nb,
+            A,
+            cam,
+            code,
+            coeffs,
+            model_params(model),
+            float(blur_half_diagonal),
+            float(extra_const_px),
+            total,
+            n_assoc,
+            assoc,
+        )
     return total, n_assoc, assoc
