@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+from .bounds import ShapeBound, centre_crlb_rms_sq, ellipsoid_crlb
 from .ellipsoid import (
     SHAPES,
     Ellipsoid,
@@ -27,18 +28,25 @@ from .ellipsoid import (
     rotation_upright,
     shape_of,
 )
+from .fit import EllipsoidFit, fit_ellipsoid_boxes, fit_ellipsoid_to_boxes
 
 __all__ = [
     "SHAPES",
     "Ellipsoid",
+    "EllipsoidFit",
+    "ShapeBound",
     "bbox_from_dual_conic",
+    "centre_crlb_rms_sq",
     "dual_quadric",
     "ellipsoid_bbox",
     "ellipsoid_bbox_optical",
     "ellipsoid_contour_optical",
     "ellipsoid_contour_uv",
+    "ellipsoid_crlb",
     "ellipsoid_volume",
     "equivalent_radius",
+    "fit_ellipsoid_boxes",
+    "fit_ellipsoid_to_boxes",
     "projected_dual_conic",
     "quaternion_xyzw_from_rotation",
     "rotation_from_quaternion_xyzw",
