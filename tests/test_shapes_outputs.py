@@ -108,3 +108,23 @@ def test_cli_evaluate_prints_shape_errors(tmp_path) -> None:
     r = CliRunner().invoke(app, ["evaluate", str(tmp_path / "est.json"), str(bad)])
     assert r.exit_code == 2 and "semi_axes" in r.output
     assert load_objects(tmp_path / "est.json").has_shapes
+
+
+def test_objects_schema_accepts_results_and_truth_with_shapes() -> None:
+    from importlib import resources
+
+    jsonschema = pytest.importorskip("jsonschema")
+    from monovisual3d.sim import shapes_scene, simulate
+
+    schema = json.loads((resources.files("monovisual3d") / "schemas" / "objects.schema.json").read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    o = DetectedObject.from_ellipsoid([0.6, 0, 0.45], [0.02, 0.02, 0.09], [0, 0, 0, 1], 0.9, "spheroid", associations={0: 1})
+    o.covariance = np.eye(3) * 1e-6
+    o.extra["radius_std"] = 0.001
+    result = json.loads(Result([o, DetectedObject(np.ones(3), 0.5, radius=0.03)], "bayes").to_json())
+    assert not list(validator.iter_errors(result))
+    _, truth = simulate(shapes_scene("mixed", rng=0), rng=0)
+    assert not list(validator.iter_errors(json.loads(json.dumps(truth))))
+    bad = {"objects": [{**result["objects"][0], "shape": "cube"}]}
+    assert [e.message for e in validator.iter_errors(bad)] == ["'cube' is not one of ['sphere', 'spheroid', 'ellipsoid']"]
+    assert list(validator.iter_errors({"objects": [{"position": [0, 0, 0], "semi_axes": [0.1, 0, 0.1]}]}))
