@@ -29,7 +29,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
 
 from ..camera import Camera
 from ..errors import InputError
@@ -51,7 +50,7 @@ FIRST_PASS_LOSS = "soft_l1"
 #: Relative central-difference step of the Jacobian.
 FD_STEP = 1e-6
 #: Yaw starts of the ellipsoid model (radians).
-YAW_STARTS = (0.0, 0.25 * math.pi, 0.5 * math.pi, 0.75 * math.pi)
+YAW_STARTS = (0.0, 0.25 * math.pi)
 
 
 @dataclass(frozen=True)
@@ -126,19 +125,31 @@ def _decode(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     lead = p.shape[:-1]
     c = p[..., :3]
-    rotvec = np.zeros(lead + (3,))
     if model == "sphere":
         s = np.repeat(np.exp(p[..., 3:4]), 3, axis=-1)
         return c, s, np.broadcast_to(np.eye(3), lead + (3, 3))
     if model == "spheroid":
         s = np.exp(p[..., [3, 3, 4]])
-        if free_orientation:
-            rotvec = p[..., 5:6] * R0[:, 0] + p[..., 6:7] * R0[:, 1]
+        if not free_orientation:
+            return c, s, np.broadcast_to(R0, lead + (3, 3))
+        rotvec = p[..., 5:6] * R0[:, 0] + p[..., 6:7] * R0[:, 1]
     else:
         s = np.exp(p[..., 3:6])
         rotvec = p[..., 6:9] if free_orientation else p[..., 6:7] * u
-    R = Rotation.from_rotvec(rotvec.reshape(-1, 3)).as_matrix().reshape(lead + (3, 3)) @ R0
-    return c, s, R
+    return c, s, _rotation_from_rotvec(rotvec) @ R0
+
+
+def _rotation_from_rotvec(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) (Rodrigues; exact near zero)."""
+    theta = np.linalg.norm(rotvec, axis=-1)[..., None, None]
+    x, y, z = rotvec[..., 0], rotvec[..., 1], rotvec[..., 2]
+    zero = np.zeros_like(x)
+    K = np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
+    small = theta < 1e-6
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = np.where(small, 1.0 - theta**2 / 6.0, np.sin(theta) / theta)
+        b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(theta)) / theta**2)
+    return np.eye(3) + a * K + b * (K @ K)
 
 
 def fit_ellipsoid_boxes(
@@ -272,11 +283,15 @@ def fit_ellipsoid_to_boxes(
     observed = b[used]
 
     R0 = rotation_upright(0.0, u)
+    boxes_of = PinholeBoxes(camera, T) if camera.distortion_model == "none" else None
 
     def normalised(thetas: NDArray[np.float64]) -> NDArray[np.float64]:
         """Normalised residuals (N, E) of parameter vectors (N, P), all boxes in one batched call."""
         c, s, R = _decode(thetas, shape, u, R0, free_orientation)
-        pred = ellipsoid_bbox(camera, T, c[:, None], s[:, None], R[:, None], clip=False)[:, used]
+        if boxes_of is not None:
+            pred = boxes_of(c, s, R)[:, used]
+        else:
+            pred = ellipsoid_bbox(camera, T, c[:, None], s[:, None], R[:, None], clip=False)[:, used]
         r = (pred - observed) / sigma
         return np.where(np.isfinite(r), r, UNDEFINED_RESIDUAL)
 
@@ -297,9 +312,10 @@ def fit_ellipsoid_to_boxes(
         theta0 = np.clip(theta0, lower + 1e-9, upper - 1e-9)
         # a convex-ish first pass finds the basin; a redescending loss then discounts the bad edges
         for stage_loss in dict.fromkeys((FIRST_PASS_LOSS, loss)):
-            res = least_squares(
-                residuals, theta0, jac=jacobian, bounds=(lower, upper), loss=stage_loss, f_scale=robust_scale, x_scale="jac"
-            )
+            options = {"jac": jacobian, "loss": stage_loss, "f_scale": robust_scale, "x_scale": "jac"}
+            res = least_squares(residuals, theta0, **options)  # the unbounded solver is cheaper
+            if np.any(res.x < lower) or np.any(res.x > upper):  # a size left size_range: solve again within it
+                res = least_squares(residuals, theta0, bounds=(lower, upper), **options)
             theta0 = np.clip(res.x, lower + 1e-12, upper - 1e-12)
         if best is None or res.cost < best.cost:
             best = res
@@ -324,6 +340,45 @@ def fit_ellipsoid_to_boxes(
         n_views=int(np.sum(used.any(axis=1))),
         success=bool(best.success),
     )
+
+
+class PinholeBoxes:
+    """Unclipped boxes of N ellipsoids in V fixed undistorted views: the fit's hot path.
+
+    The same closed form as :func:`~monovisual3d.geometry.ellipsoid.ellipsoid_bbox` (its
+    reference, tested against it) with the views' rotations precomputed and only the five
+    entries of the normalised dual conic that the box needs.
+
+    Parameters
+    ----------
+    camera : Camera, without distortion
+    T_base_optical : array_like, shape (V, 4, 4)
+    """
+
+    def __init__(self, camera: Camera, T_base_optical: ArrayLike) -> None:
+        T = np.asarray(T_base_optical, dtype=float).reshape(-1, 4, 4)
+        self.R_ob = np.ascontiguousarray(np.swapaxes(T[:, :3, :3], 1, 2))  # (V, 3, 3)
+        self.t = T[:, :3, 3]
+        self.f = np.array([camera.fx, camera.fy])
+        self.pp = np.array([camera.cx, camera.cy])
+
+    def __call__(
+        self, centre_base: NDArray[np.float64], semi_axes: NDArray[np.float64], R: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Boxes (N, V, 4), pixels, NaN where not entirely in front, of centres (N, 3), semi-axes (N, 3), rotations (N, 3, 3)."""
+        A = np.matmul(self.R_ob[None], (R * semi_axes[:, None, :])[:, None])  # (N, V, 3, 3): R_ob R diag(s)
+        c = np.einsum("vij,nvj->nvi", self.R_ob, centre_base[:, None, :] - self.t[None])  # (N, V, 3)
+        A2 = A[..., 2, :]
+        n22 = np.einsum("nvk,nvk->nv", A2, A2) - c[..., 2] ** 2  # < 0 in front
+        mxy = np.einsum("nvik,nvk->nvi", A[..., :2, :], A2) - c[..., :2] * c[..., 2:3]  # N02, N12
+        mdiag = np.einsum("nvik,nvik->nvi", A[..., :2, :], A[..., :2, :]) - c[..., :2] ** 2  # N00, N11
+        with np.errstate(invalid="ignore", divide="ignore"):
+            k = np.where((n22 < 0) & (c[..., 2] > 0), -n22, np.nan)[..., None]
+            x0 = -mxy / k
+            h = np.sqrt(x0 * x0 + mdiag / k)
+        lo = self.f * (x0 - h) + self.pp
+        hi = self.f * (x0 + h) + self.pp
+        return np.concatenate([lo, hi], axis=-1)
 
 
 # ---------------------------------------------------------------------- initialisation
