@@ -27,6 +27,7 @@ from monovisual3d.geometry import (
     rotation_from_quaternion_xyzw,
     rotation_upright,
     shape_of,
+    silhouette_distance_px,
 )
 from monovisual3d.sphere import sphere_bbox_optical
 
@@ -239,3 +240,34 @@ def test_bad_input_is_rejected_with_a_clear_message() -> None:
         ellipsoid_bbox(PINHOLE, np.eye(3), [0, 0, 1.0], [0.1, 0.1, 0.1], np.eye(3))
     with pytest.raises(InputError, match="n: got 2"):
         ellipsoid_contour_optical([0, 0, 1.0], [0.1, 0.1, 0.1], np.eye(3), n=2)
+
+
+@pytest.mark.parametrize("camera", [PINHOLE, DISTORTED], ids=["pinhole", "plumb_bob"])
+def test_silhouette_distance_is_zero_on_the_outline_and_signed_off_it(camera: Camera) -> None:
+    rng = np.random.default_rng(21)
+    c, s, R = random_ellipsoids(rng, 4)
+    T = np.eye(4)
+    uv = ellipsoid_contour_uv(camera, T, c, s, R, n=90)  # distorted outline points
+    d = silhouette_distance_px(camera, T, c, s, R, uv)
+    assert d.shape == (4, 90)
+    assert np.abs(d).max() < 1e-6
+    if camera is PINHOLE:
+        # step 1.5 px along the outline's normal (from the closed-form conic) and back: the distance follows
+        # (to first order: these silhouettes are down to 13 px wide, where the second-order error reaches 13 %;
+        # the first-order Sampson distance is off by up to 21 % on the same points)
+        C = np.linalg.inv(projected_dual_conic(camera, T, c, s, R))
+        x = np.concatenate([uv, np.ones(uv.shape[:-1] + (1,))], axis=-1)
+        n = np.einsum("eij,enj->eni", C, x)[..., :2]
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        centre_uv = camera.project(c)
+        n *= np.sign(np.sum(n * (uv - centre_uv[:, None]), axis=-1))[..., None]  # outward
+        for step in (1.5, -1.5):
+            assert_allclose(silhouette_distance_px(camera, T, c, s, R, uv + step * n), step, atol=0.2)
+    # the image of the centre is inside, points far out are outside by more than the box's distance
+    inside = silhouette_distance_px(camera, T, c, s, R, camera.project(c)[:, None])[:, 0]
+    assert np.all(inside < 0)
+    box = ellipsoid_bbox_optical(camera, c, s, R, clip=False)
+    far = np.stack([box[:, 2] + 5.0, 0.5 * (box[:, 1] + box[:, 3])], axis=-1)[:, None]
+    assert np.all(silhouette_distance_px(camera, T, c, s, R, far)[:, 0] > 4.0)
+    # behind the camera: NaN
+    assert np.isnan(silhouette_distance_px(camera, T, [0, 0, -1.0], [0.1, 0.1, 0.1], np.eye(3), [[10.0, 10.0]])).all()

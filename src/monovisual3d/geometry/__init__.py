@@ -27,6 +27,7 @@ from .ellipsoid import (
     rotation_from_quaternion_xyzw,
     rotation_upright,
     shape_of,
+    silhouette_distance_px,
 )
 from .fit import EllipsoidFit, fit_ellipsoid_boxes, fit_ellipsoid_to_boxes
 
@@ -52,4 +53,5 @@ __all__ = [
     "rotation_from_quaternion_xyzw",
     "rotation_upright",
     "shape_of",
+    "silhouette_distance_px",
 ]
