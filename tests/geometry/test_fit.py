@@ -15,6 +15,7 @@ from monovisual3d.geometry.fit import (
     fit_ellipsoid_boxes,
     fit_ellipsoid_to_boxes,
     fit_parameters,
+    fit_shape_by_bic,
 )
 from monovisual3d.session import Detection, View
 from monovisual3d.sim import EllipsoidFruit, Scene
@@ -160,3 +161,22 @@ def test_bad_input() -> None:
         fit_ellipsoid_to_boxes(CAM, P, b[:2])
     with pytest.raises(InputError, match="not both 0"):
         fit_ellipsoid_to_boxes(CAM, P, b, box_sigma=0.0, edge_sigma_px=0.0)
+
+
+def test_bic_keeps_the_paper_spheres_spheres() -> None:
+    from monovisual3d.sim.noise import NoiseModel
+    from monovisual3d.sim.scenes import paper_scene
+
+    scene = paper_scene()
+    for noise in (NoiseModel(), NoiseModel(box_sigma=0.05)):
+        views = simulate_views(scene, CAM, P, noise=noise, rng=0)
+        for i in range(len(scene.fruits)):
+            seen = [(v.T_base_optical_true, v.boxes_xyxy[np.flatnonzero(v.source == i)[0]]) for v in views if i in v.source]
+            best, fits = fit_shape_by_bic(CAM, np.array([s[0] for s in seen]), np.array([s[1] for s in seen]))
+            assert best.model == "sphere" and set(fits) == {"sphere", "spheroid", "ellipsoid"}
+    # one view: only the sphere can be fitted
+    b = Ellipsoid.sphere([0.6, 0.0, 0.45], 0.03).bbox(CAM, P[:1])
+    best, fits = fit_shape_by_bic(CAM, P[:1], b)
+    assert best.model == "sphere" and set(fits) == {"sphere"}
+    with pytest.raises(InputError, match="cannot fix the 5 parameters of a spheroid"):
+        fit_shape_by_bic(CAM, P[:1], b, shapes=("spheroid", "ellipsoid"))

@@ -29,7 +29,7 @@ from .ellipsoid import (
     shape_of,
     silhouette_distance_px,
 )
-from .fit import EllipsoidFit, fit_ellipsoid_boxes, fit_ellipsoid_to_boxes
+from .fit import EllipsoidFit, fit_ellipsoid_boxes, fit_ellipsoid_to_boxes, fit_shape_by_bic
 
 __all__ = [
     "SHAPES",
@@ -48,6 +48,7 @@ __all__ = [
     "equivalent_radius",
     "fit_ellipsoid_boxes",
     "fit_ellipsoid_to_boxes",
+    "fit_shape_by_bic",
     "projected_dual_conic",
     "quaternion_xyzw_from_rotation",
     "rotation_from_quaternion_xyzw",

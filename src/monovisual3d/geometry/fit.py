@@ -342,6 +342,50 @@ def fit_ellipsoid_to_boxes(
     )
 
 
+def fit_shape_by_bic(
+    camera: Camera,
+    T_base_optical: ArrayLike,
+    boxes_xyxy: ArrayLike,
+    shapes: Sequence[str] = SHAPES,
+    **options: Any,
+) -> tuple[EllipsoidFit, dict[str, EllipsoidFit]]:
+    """Fit every model of ``shapes`` and keep the one with the lowest :attr:`EllipsoidFit.bic`.
+
+    Models that cannot be fitted (too few usable edges) are skipped. With the simulator's
+    paper scene (spheres, 3 views, with or without the paper's box noise) this keeps every
+    sphere a sphere; upright cucumbers and peppers come out as spheroids.
+
+    Parameters
+    ----------
+    camera, T_base_optical, boxes_xyxy : see :func:`fit_ellipsoid_to_boxes`
+    shapes : the candidate models, e.g. ``("sphere", "spheroid")``
+    **options : passed to :func:`fit_ellipsoid_to_boxes`
+
+    Returns
+    -------
+    best : EllipsoidFit
+    fits : dict model -> EllipsoidFit, every model fitted
+
+    Raises
+    ------
+    InputError
+        No model could be fitted (the message of the simplest model's failure).
+    """
+    fits: dict[str, EllipsoidFit] = {}
+    first_error: InputError | None = None
+    for shape in shapes:
+        try:
+            fits[shape] = fit_ellipsoid_to_boxes(camera, T_base_optical, boxes_xyxy, shape=shape, **options)
+        except InputError as exc:
+            if shape not in SHAPES:
+                raise
+            first_error = first_error or exc
+    if not fits:
+        assert first_error is not None
+        raise first_error
+    return min(fits.values(), key=lambda f: f.bic), fits
+
+
 class PinholeBoxes:
     """Unclipped boxes of N ellipsoids in V fixed undistorted views: the fit's hot path.
 
