@@ -15,6 +15,11 @@ Detection counts use a gate: a pair farther apart than the gate (default:
 the true radius, at least 20 mm; 50 mm when radii are unknown) counts as a
 miss plus a false positive; unpaired truth objects are misses, unpaired
 estimates false positives.
+
+Shape errors (when semi-axes are given for truth and estimates): the semi-axes
+of each matched pair are compared sorted (orientation-free: ``|sort(a_hat) -
+sort(a)|`` per axis, averaged over the three axes and the pairs), and the
+volume error is ``|V_hat - V|`` with ``V = 4/3 pi a b c`` (also as a percentage of ``V``).
 """
 
 from __future__ import annotations
@@ -52,6 +57,10 @@ class Metrics:
     rmse: float
     mape: float
     radius_error_mean: float | None = None
+    semi_axis_error_mean: float | None = None
+    semi_axis_error_max: float | None = None
+    volume_error_mean: float | None = None
+    volume_error_pct_mean: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -123,6 +132,8 @@ def evaluate(
     truth_radii: ArrayLike | None = None,
     estimate_radii: ArrayLike | None = None,
     gate: float | None = None,
+    truth_semi_axes: ArrayLike | None = None,
+    estimate_semi_axes: ArrayLike | None = None,
 ) -> Metrics:
     """Match estimates to truth and compute all metrics.
 
@@ -133,6 +144,9 @@ def evaluate(
     truth_radii : array_like, shape (T,), metres, optional
     estimate_radii : array_like, shape (M,), metres, optional (entries may be NaN)
     gate : float, metres, optional; see the module docstring for the default
+    truth_semi_axes : array_like, shape (T, 3), metres, optional (rows may be NaN)
+    estimate_semi_axes : array_like, shape (M, 3), metres, optional (rows may be NaN);
+        with ``truth_semi_axes``, the shape errors of the module docstring are reported
 
     Returns
     -------
@@ -158,6 +172,7 @@ def evaluate(
         tr = np.asarray(truth_radii, dtype=float)[ti]
         ok = np.isfinite(er) & np.isfinite(tr)
         radius_error = float(np.mean(np.abs(er[ok] - tr[ok]))) if ok.any() else None
+    shape_errors = _shape_errors(truth_semi_axes, estimate_semi_axes, ei, ti)
     return Metrics(
         n_truth=len(t),
         n_estimates=len(e),
@@ -168,5 +183,31 @@ def evaluate(
         recall=tp / len(t) if len(t) else math.nan,
         precision=tp / len(e) if len(e) else math.nan,
         radius_error_mean=radius_error,
+        **shape_errors,
         **errs,
     )
+
+
+def _shape_errors(
+    truth_semi_axes: ArrayLike | None, estimate_semi_axes: ArrayLike | None, ei: NDArray[np.intp], ti: NDArray[np.intp]
+) -> dict[str, float | None]:
+    """Sorted semi-axis and volume errors of the matched pairs (see the module docstring)."""
+    none: dict[str, float | None] = dict.fromkeys(
+        ("semi_axis_error_mean", "semi_axis_error_max", "volume_error_mean", "volume_error_pct_mean")
+    )
+    if truth_semi_axes is None or estimate_semi_axes is None or not len(ei):
+        return none
+    es = np.sort(np.asarray(estimate_semi_axes, dtype=float).reshape(-1, 3)[ei], axis=1)
+    ts = np.sort(np.asarray(truth_semi_axes, dtype=float).reshape(-1, 3)[ti], axis=1)
+    ok = np.all(np.isfinite(es), axis=1) & np.all(np.isfinite(ts), axis=1)
+    if not ok.any():
+        return none
+    d = np.abs(es[ok] - ts[ok])
+    ev = 4.0 / 3.0 * math.pi * np.prod(es[ok], axis=1)
+    tv = 4.0 / 3.0 * math.pi * np.prod(ts[ok], axis=1)
+    return {
+        "semi_axis_error_mean": float(d.mean()),
+        "semi_axis_error_max": float(d.max()),
+        "volume_error_mean": float(np.mean(np.abs(ev - tv))),
+        "volume_error_pct_mean": float(100 * np.mean(np.abs(ev - tv) / tv)),
+    }

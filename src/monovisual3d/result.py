@@ -8,7 +8,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+#: Keys :meth:`DetectedObject.to_dict` writes itself; ``extra`` may not use them.
+STANDARD_KEYS = frozenset(
+    {"position", "score", "radius", "covariance", "associations", "n_cells", "shape", "semi_axes", "quaternion_xyzw", "volume_m3"}
+)
+#: Object shapes a result may name.
+OBJECT_SHAPES = ("sphere", "spheroid", "ellipsoid")
 
 
 @dataclass
@@ -20,10 +27,23 @@ class DetectedObject:
     position : ndarray, shape (3,), metres, base frame
     score : float
         Method-specific confidence (paper: posterior mass of the cluster).
-    radius : float or None, metres (methods that estimate size)
+    radius : float or None, metres (methods that estimate size); for non-spheres the
+        volume-equivalent radius ``(a b c)^(1/3)``, filled in from ``semi_axes`` when not given
     covariance : ndarray, shape (3, 3), m^2, base frame, or None
     associations : dict view index -> detection index (methods that associate)
     n_cells : int or None, grid cells in the object's cluster
+    extra : dict, method-specific fields written to JSON; they may not use the keys of
+        :data:`STANDARD_KEYS` (ValueError)
+    shape : ``"sphere"``, ``"spheroid"``, ``"ellipsoid"`` or None, the model fitted
+    semi_axes : ndarray, shape (3,), metres, or None; ``[a, b, c]`` along the columns of the rotation
+        given by ``quaternion_xyzw``
+    quaternion_xyzw : ndarray, shape (4,), or None, orientation of the axes in the base frame
+
+    Examples
+    --------
+    >>> o = DetectedObject(np.zeros(3), 1.0, shape="spheroid", semi_axes=np.array([0.02, 0.02, 0.09]))
+    >>> round(o.radius * 1e3, 1), round(o.volume_m3 * 1e6, 1)
+    (33.0, 150.8)
     """
 
     position: NDArray[np.float64]
@@ -33,6 +53,50 @@ class DetectedObject:
     associations: dict[int, int] = field(default_factory=dict)
     n_cells: int | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    shape: str | None = None
+    semi_axes: NDArray[np.float64] | None = None
+    quaternion_xyzw: NDArray[np.float64] | None = None
+
+    def __post_init__(self) -> None:
+        if self.shape is not None and self.shape not in OBJECT_SHAPES:
+            raise ValueError(f"shape: got {self.shape!r}, expected one of {list(OBJECT_SHAPES)}")
+        if self.semi_axes is not None:
+            s = np.asarray(self.semi_axes, dtype=float)
+            if s.shape != (3,) or not np.all(np.isfinite(s)) or not np.all(s > 0):
+                raise ValueError(f"semi_axes: got {self.semi_axes!r}, expected three positive lengths in metres")
+            self.semi_axes = s
+            if self.radius is None:
+                self.radius = float(np.cbrt(np.prod(s)))
+        if self.quaternion_xyzw is not None:
+            q = np.asarray(self.quaternion_xyzw, dtype=float)
+            n = float(np.linalg.norm(q)) if q.shape == (4,) else 0.0
+            if not abs(n - 1.0) < 1e-3:
+                raise ValueError(f"quaternion_xyzw: got {self.quaternion_xyzw!r}, expected a unit quaternion (x, y, z, w)")
+            self.quaternion_xyzw = q / n
+        _check_extra(self.extra)
+
+    @classmethod
+    def from_ellipsoid(
+        cls, centre_base: ArrayLike, semi_axes: ArrayLike, quaternion_xyzw: ArrayLike, score: float, shape: str, **fields: Any
+    ) -> DetectedObject:
+        """An object with a fitted ellipsoid; ``radius`` becomes the volume-equivalent radius (or ``a`` for a sphere)."""
+        return cls(
+            np.asarray(centre_base, dtype=float),
+            score,
+            shape=shape,
+            semi_axes=np.asarray(semi_axes, dtype=float),
+            quaternion_xyzw=np.asarray(quaternion_xyzw, dtype=float),
+            **fields,
+        )
+
+    @property
+    def volume_m3(self) -> float | None:
+        """Volume (m^3): ``4/3 pi a b c`` from the semi-axes, else ``4/3 pi r^3``; None without a size."""
+        if self.semi_axes is not None:
+            return float(4.0 / 3.0 * np.pi * np.prod(self.semi_axes))
+        if self.radius is not None:
+            return float(4.0 / 3.0 * np.pi * self.radius**3)
+        return None
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"position": [float(x) for x in self.position], "score": float(self.score)}
@@ -44,8 +108,23 @@ class DetectedObject:
             out["associations"] = {str(k): int(v) for k, v in self.associations.items()}
         if self.n_cells is not None:
             out["n_cells"] = int(self.n_cells)
+        if self.shape is not None:
+            out["shape"] = self.shape
+        if self.semi_axes is not None:
+            out["semi_axes"] = [float(x) for x in self.semi_axes]
+        if self.quaternion_xyzw is not None:
+            out["quaternion_xyzw"] = [float(x) for x in self.quaternion_xyzw]
+        if self.volume_m3 is not None:
+            out["volume_m3"] = self.volume_m3
+        _check_extra(self.extra)
         out.update(self.extra)
         return out
+
+
+def _check_extra(extra: dict[str, Any]) -> None:
+    clash = sorted(STANDARD_KEYS.intersection(extra))
+    if clash:
+        raise ValueError(f"extra: key {clash[0]!r} would shadow the standard field of the same name; use another name")
 
 
 @dataclass

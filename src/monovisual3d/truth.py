@@ -1,8 +1,12 @@
 """Reading ground-truth and estimate files for evaluation.
 
 Truth: ``{"objects": [{"position": [x, y, z], "radius": r, "label": "..."}]}``
-(metres, base frame; radius and label optional). Estimates: the JSON that
-``monovisual3d localize`` writes (``{"objects": [{"position": ..., ...}]}``).
+(metres, base frame; radius and label optional), and for non-spherical objects
+``semi_axes`` ([a, b, c], metres), ``quaternion_xyzw`` and ``volume_m3`` (optional).
+Estimates: the JSON that ``monovisual3d localize`` writes (``{"objects": [{"position": ..., ...}]}``).
+
+Semi-axes default to ``(r, r, r)`` where only a radius is given, and volumes to
+``4/3 pi a b c``, so that sphere estimates can be compared with ellipsoid truth.
 """
 
 from __future__ import annotations
@@ -23,12 +27,18 @@ class ObjectSet:
     """Positions (M, 3) in metres, base frame, with optional radii (M,) (NaN where unknown) and labels.
 
     ``from_result`` is True when the file is a ``localize`` result (it has a ``method`` field).
+    ``semi_axes`` (M, 3) and ``volumes`` (M,) (metres, m^3; NaN where unknown) come from the
+    objects' ``semi_axes``/``volume_m3`` or from their radius; ``has_shapes`` is True when
+    some object gave ``semi_axes`` explicitly.
     """
 
     positions: NDArray[np.float64]
     radii: NDArray[np.float64]
     labels: tuple[str | None, ...]
     from_result: bool = False
+    semi_axes: NDArray[np.float64] | None = None
+    volumes: NDArray[np.float64] | None = None
+    has_shapes: bool = False
 
     @property
     def has_radii(self) -> bool:
@@ -53,7 +63,8 @@ def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:
         raise InputError(f"objects: expected a list, got {type(objs).__name__}")
     if not objs and not allow_empty:
         raise InputError("objects: empty, expected at least one object")
-    pos, radii, labels = [], [], []
+    pos, radii, labels, semi, volumes = [], [], [], [], []
+    has_shapes = False
     for i, o in enumerate(objs):
         if not isinstance(o, dict):
             raise InputError(f"objects[{i}]: expected an object, got {type(o).__name__}")
@@ -69,4 +80,28 @@ def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:
                 raise InputError(f"objects[{i}].radius: got {r}, expected a positive number of metres")
             radii.append(r)
         labels.append(o.get("label"))
-    return ObjectSet(np.array(pos).reshape(-1, 3), np.array(radii, dtype=float), tuple(labels), "method" in data)
+        if o.get("semi_axes") is not None:
+            has_shapes = True
+            s = _vector(o["semi_axes"], 3, f"objects[{i}].semi_axes")
+            if not np.all(s > 0):
+                raise InputError(f"objects[{i}].semi_axes: got {s.tolist()}, expected three positive lengths in metres")
+        else:
+            s = np.full(3, radii[-1])
+        semi.append(s)
+        v = o.get("volume_m3")
+        if v is not None:
+            v = _number(v, f"objects[{i}].volume_m3")
+            if v <= 0:
+                raise InputError(f"objects[{i}].volume_m3: got {v}, expected a positive volume in m^3")
+        else:
+            v = 4.0 / 3.0 * np.pi * float(np.prod(s))
+        volumes.append(v)
+    return ObjectSet(
+        np.array(pos).reshape(-1, 3),
+        np.array(radii, dtype=float),
+        tuple(labels),
+        "method" in data,
+        np.array(semi, dtype=float).reshape(-1, 3),
+        np.array(volumes, dtype=float),
+        has_shapes,
+    )

@@ -52,6 +52,15 @@ def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation") -> None:
         ("RMSE (mm)", "rmse", 1e3, 2),
         ("MAPE (%)", "mape", 1.0, 2),
         ("radius error (mm)", "radius_error_mean", 1e3, 2),
+        *(
+            [
+                ("semi-axis error (mm)", "semi_axis_error_mean", 1e3, 2),
+                ("volume error (cm^3)", "volume_error_mean", 1e6, 2),
+                ("volume error (%)", "volume_error_pct_mean", 1.0, 2),
+            ]
+            if any(m.semi_axis_error_mean is not None for m in rows.values())
+            else []
+        ),
         ("recall", "recall", 1.0, 3),
         ("precision", "precision", 1.0, 3),
     ]
@@ -133,6 +142,8 @@ def evaluate(
         truth_radii=tru.radii if tru.has_radii else None,
         estimate_radii=est.radii,
         gate=gate,
+        truth_semi_axes=tru.semi_axes if tru.has_shapes else None,
+        estimate_semi_axes=est.semi_axes,
     )
     print_metrics({str(estimates.name): m})
     if output is not None:

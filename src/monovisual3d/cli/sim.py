@@ -15,8 +15,13 @@ from ._app import app, console, handle_errors
 @handle_errors
 def simulate(
     output: Annotated[Path, typer.Option("--output", "-o", help="Directory for session.json, truth.json, scene.json, images.")],
-    scene: Annotated[str, typer.Option(help="paper, greenhouse, random, or a scene JSON file.")] = "paper",
-    n_fruit: Annotated[int | None, typer.Option(help="Fruit in greenhouse (default 5-10) or random (default 6) scenes.")] = None,
+    scene: Annotated[
+        str, typer.Option(help="paper, greenhouse, random, peppers, cucumbers, apples, mixed, or a scene JSON file.")
+    ] = "paper",
+    n_fruit: Annotated[
+        int | None,
+        typer.Option(help="Fruit in greenhouse (default 5-10), random and shape scenes (default 6; cucumbers 4)."),
+    ] = None,
     views: Annotated[str, typer.Option(help="paper, ring:N[:DEG], hemisphere:N[:DEG], or a pose file (.json/.yaml).")] = "paper",
     distance: Annotated[float, typer.Option(help="Camera distance to the scene's target, metres.")] = 0.5,
     noise: Annotated[float, typer.Option(help="Box noise std as a fraction of the box size (paper: 0.05).")] = 0.0,
@@ -39,7 +44,7 @@ def simulate(
     from ..camera import Camera
     from ..sim.noise import NoiseModel
     from ..sim.scene import Scene
-    from ..sim.scenes import scene_by_name, scene_target
+    from ..sim.scenes import SHAPE_SCENES, scene_by_name, scene_target
     from ..sim.simulate import write_simulation
     from ..sim.viewpoints import poses_by_name
 
@@ -60,10 +65,10 @@ def simulate(
     scene_path = Path(scene)
     if scene_path.suffix.lower() in (".json", ".yaml", ".yml"):
         if n_fruit is not None:
-            raise InputError("--n-fruit: only for the generated scenes (greenhouse, random), not a scene file")
+            raise InputError("--n-fruit: only for the generated scenes (greenhouse, random, shape scenes), not a scene file")
         sc = Scene.load(scene_path)
     else:
-        options = {"camera": camera} if scene == "greenhouse" else {}
+        options = {"camera": camera} if scene in ("greenhouse", *SHAPE_SCENES) else {}
         sc = scene_by_name(scene, rng, n_fruit=n_fruit, **options)
     poses = poses_by_name(views, scene_target(sc), distance=distance)
     paths = write_simulation(output, sc, camera, poses, noise=noise_model, rng=rng, supersample=supersample, images=images)

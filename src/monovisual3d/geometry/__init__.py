@@ -1,1 +1,54 @@
-"""The geometry of objects in images: where spheres (and ellipsoids) project, as boxes and outlines."""
+"""The one home of projection geometry: where objects (spheres, ellipsoids) appear in images.
+
+- :mod:`.sphere`: the sphere's exact box, the ``bayes`` likelihood's box model and the algebraic pinhole box;
+- :mod:`.ellipsoid`: the :class:`Ellipsoid`, its dual quadric, the projected conic, closed-form and
+  contour-sampled boxes, volume;
+- :mod:`.bounds`: the Cramer-Rao bound of the box-edge model for ellipsoids;
+- :mod:`.fit`: a least-squares fit of a sphere, spheroid or ellipsoid to associated boxes.
+
+The compiled kernels are tested against these. Names load on first use (the fit needs scipy).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_LAZY = {
+    "ShapeBound": "bounds",
+    "centre_crlb_rms_sq": "bounds",
+    "ellipsoid_crlb": "bounds",
+    "SHAPES": "ellipsoid",
+    "Ellipsoid": "ellipsoid",
+    "bbox_from_dual_conic": "ellipsoid",
+    "dual_quadric": "ellipsoid",
+    "ellipsoid_bbox": "ellipsoid",
+    "ellipsoid_bbox_optical": "ellipsoid",
+    "ellipsoid_contour_optical": "ellipsoid",
+    "ellipsoid_contour_uv": "ellipsoid",
+    "ellipsoid_volume": "ellipsoid",
+    "equivalent_radius": "ellipsoid",
+    "projected_dual_conic": "ellipsoid",
+    "quaternion_xyzw_from_rotation": "ellipsoid",
+    "rotation_from_quaternion_xyzw": "ellipsoid",
+    "rotation_upright": "ellipsoid",
+    "shape_of": "ellipsoid",
+    "silhouette_distance_px": "ellipsoid",
+    "EllipsoidFit": "fit",
+    "fit_ellipsoid_boxes": "fit",
+    "fit_ellipsoid_to_boxes": "fit",
+    "fit_shape_by_bic": "fit",
+    "clip_boxes": "sphere",
+    "pinhole_sphere_boxes": "sphere",
+    "predict_sphere_boxes": "sphere",
+    "sphere_bbox": "sphere",
+    "sphere_bbox_optical": "sphere",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,7 +1,7 @@
 """Simulation: scenes, a bounding-box camera, viewpoints and noise (numpy only).
 
-- :mod:`~monovisual3d.sim.scene`: the Scene/Sphere/Leaf/Stem dataclasses and their JSON;
-- :mod:`~monovisual3d.sim.scenes`: built-in scenes (paper, greenhouse, random);
+- :mod:`~monovisual3d.sim.scene`: the Scene/Sphere/EllipsoidFruit/Leaf/Stem dataclasses and their JSON;
+- :mod:`~monovisual3d.sim.scenes`: built-in scenes (paper, greenhouse, random, peppers, cucumbers, apples, mixed);
 - :mod:`~monovisual3d.sim.raycast`: the bounding-box camera (exact ray casting, visible boxes);
 - :mod:`~monovisual3d.sim.viewpoints`: the paper's poses, permutations, rings, hemispheres;
 - :mod:`~monovisual3d.sim.noise`: the paper's box noise, missed detections, false positives, pose error;
@@ -15,12 +15,22 @@ from __future__ import annotations
 
 from .noise import NoiseModel
 from .raycast import Rendering, render
-from .scene import Leaf, Scene, Sphere, Stem
-from .scenes import default_camera, greenhouse_scene, paper_scene, random_scene, scene_by_name, scene_target
+from .scene import EllipsoidFruit, Leaf, Scene, Sphere, Stem
+from .scenes import (
+    default_camera,
+    fruit_of_kind,
+    greenhouse_scene,
+    paper_scene,
+    random_scene,
+    scene_by_name,
+    scene_target,
+    shapes_scene,
+)
 from .simulate import simulate, write_simulation
 from .viewpoints import hemisphere_poses, paper_poses, pose_permutations, poses_by_name, ring_poses
 
 __all__ = [
+    "EllipsoidFruit",
     "Leaf",
     "NoiseModel",
     "Rendering",
@@ -28,6 +38,7 @@ __all__ = [
     "Sphere",
     "Stem",
     "default_camera",
+    "fruit_of_kind",
     "greenhouse_scene",
     "hemisphere_poses",
     "paper_poses",
@@ -39,6 +50,7 @@ __all__ = [
     "ring_poses",
     "scene_by_name",
     "scene_target",
+    "shapes_scene",
     "simulate",
     "write_simulation",
 ]

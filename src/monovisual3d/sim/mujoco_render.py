@@ -1,6 +1,6 @@
 """Photorealistic views of a :class:`~monovisual3d.sim.scene.Scene`, rendered with MuJoCo (extra ``[sim]``).
 
-The scene becomes an MJCF model: red spheres for the fruit, thin green boxes
+The scene becomes an MJCF model: red spheres or ellipsoids for the fruit, thin green boxes
 for the leaves, brown cylinders for the stems, a ground plane, a sky and two
 lights. The camera hangs on a mocap body, so moving it costs no recompilation.
 Each view gives an RGB image and a label image (the fruit index of every pixel,
@@ -53,7 +53,7 @@ from .._extras import require
 from ..camera import Camera
 from ..errors import InputError
 from ..frames import check_transform, position_quaternion_from_transform
-from .scene import Leaf, Scene, Stem
+from .scene import EllipsoidFruit, Leaf, Scene, Stem
 
 #: OpenGL backends tried, in order, when ``MUJOCO_GL`` is unset.
 GL_BACKENDS = ("egl", "osmesa")
@@ -233,7 +233,12 @@ class RenderConfig:
 
 def scene_lowest_z(scene: Scene) -> float:
     """Lowest z (metres, base frame) of any fruit or occluder; 0 for an empty scene."""
-    lows: list[float] = [float(f.centre[2] - f.radius) for f in scene.fruits]
+    lows: list[float] = [
+        float(f.centre[2] - np.sqrt(np.sum((f.rotation[2] * f.semi_axes) ** 2)))
+        if isinstance(f, EllipsoidFruit)
+        else float(f.centre[2] - f.radius)
+        for f in scene.fruits
+    ]
     for occ in scene.occluders:
         if isinstance(occ, Leaf):
             hu, hv = occ.half_size
@@ -337,6 +342,18 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
         ground_z = cfg.ground_z if cfg.ground_z is not None else scene_lowest_z(scene) - cfg.ground_margin
         ET.SubElement(world, "geom", name="ground", type="plane", size="0 0 0.05", pos=f"0 0 {ground_z:.9g}", material="ground")
     for i, fruit in enumerate(scene.fruits):
+        if isinstance(fruit, EllipsoidFruit):  # validated on construction
+            ET.SubElement(
+                world,
+                "geom",
+                name=f"fruit_{i}",
+                type="ellipsoid",
+                size=_fmt(fruit.semi_axes),
+                pos=_fmt(fruit.centre),
+                quat=_fmt(np.roll(fruit.quaternion_xyzw, 1)),  # MuJoCo quaternions are (w, x, y, z)
+                material="fruit",
+            )
+            continue
         if not fruit.radius > 0:
             raise InputError(f"scene.objects[{i}].radius: got {fruit.radius}, expected a positive radius in metres")
         ET.SubElement(

@@ -1,7 +1,7 @@
 """The bounding-box camera: exact ray casting of a :class:`~monovisual3d.sim.scene.Scene`.
 
 One ray per pixel centre ``(u + 0.5, v + 0.5)`` (see :mod:`monovisual3d.camera`
-for the pixel convention) is intersected with every fruit (sphere), leaf
+for the pixel convention) is intersected with every fruit (sphere or ellipsoid), leaf
 (rectangle) and stem (finite cylinder with end caps); the nearest hit wins. The
 result is a label image (fruit index, :data:`BACKGROUND` or :data:`OCCLUDER`)
 and, per fruit, the box of its VISIBLE pixels, which is what the Gazebo
@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..camera import Camera
 from ..errors import InputError
 from ..frames import check_transform, invert_transform, transform_points
-from .scene import Leaf, Scene, Stem
+from .scene import EllipsoidFruit, Leaf, Scene, Stem
 
 #: Label of pixels that see nothing.
 BACKGROUND = -1
@@ -233,6 +233,10 @@ class _OpticalGeometry:
 
     sphere_c: NDArray[np.float64]  # (M, 3)
     sphere_r: NDArray[np.float64]  # (M,)
+    ell_c: NDArray[np.float64]  # (E, 3)
+    ell_M: NDArray[np.float64]  # (E, 3, 3) diag(1 / semi-axes) R_optical_ellipsoid^T: optical offset -> unit sphere
+    ell_r: NDArray[np.float64]  # (E,) largest semi-axis (bounding sphere)
+    ell_id: NDArray[np.int64]  # (E,) scene index of each ellipsoid
     leaf_c: NDArray[np.float64]  # (L, 3)
     leaf_u: NDArray[np.float64]  # (L, 3) unit
     leaf_v: NDArray[np.float64]  # (L, 3) unit
@@ -245,13 +249,20 @@ class _OpticalGeometry:
 
     @property
     def n_primitives(self) -> int:
-        return len(self.sphere_r) + len(self.leaf_half) + len(self.stem_r)
+        return len(self.sphere_r) + len(self.ell_r) + len(self.leaf_half) + len(self.stem_r)
 
     def bounding_spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Centres (K, 3) and radii (K,) of spheres that enclose each primitive (spheres, leaves, stems)."""
-        centres = np.concatenate([self.sphere_c, self.leaf_c, self.stem_s + 0.5 * self.stem_len[:, None] * self.stem_a])
+        """Centres (K, 3) and radii (K,) of spheres that enclose each primitive (spheres, ellipsoids, leaves, stems)."""
+        centres = np.concatenate(
+            [self.sphere_c, self.ell_c, self.leaf_c, self.stem_s + 0.5 * self.stem_len[:, None] * self.stem_a]
+        )
         radii = np.concatenate(
-            [self.sphere_r, np.hypot(self.leaf_half[:, 0], self.leaf_half[:, 1]), np.hypot(0.5 * self.stem_len, self.stem_r)]
+            [
+                self.sphere_r,
+                self.ell_r,
+                np.hypot(self.leaf_half[:, 0], self.leaf_half[:, 1]),
+                np.hypot(0.5 * self.stem_len, self.stem_r),
+            ]
         )
         return centres, radii
 
@@ -268,11 +279,16 @@ class _OpticalGeometry:
             angle = np.arccos(np.clip(centres @ axis / dist, -1.0, 1.0))
             spread = np.arcsin(np.clip(radii / dist, 0.0, 1.0))
         keep = (dist <= radii) | (angle - spread <= half + 1e-9)
-        m, n_leaf = len(self.sphere_r), len(self.leaf_half)
-        ks, kl, kt = keep[:m], keep[m : m + n_leaf], keep[m + n_leaf :]
+        m, n_ell, n_leaf = len(self.sphere_r), len(self.ell_r), len(self.leaf_half)
+        ks, ke = keep[:m], keep[m : m + n_ell]
+        kl, kt = keep[m + n_ell : m + n_ell + n_leaf], keep[m + n_ell + n_leaf :]
         return _OpticalGeometry(
             self.sphere_c[ks],
             self.sphere_r[ks],
+            self.ell_c[ke],
+            self.ell_M[ke],
+            self.ell_r[ke],
+            self.ell_id[ke],
             self.leaf_c[kl],
             self.leaf_u[kl],
             self.leaf_v[kl],
@@ -288,6 +304,10 @@ class _OpticalGeometry:
     def from_scene(cls, scene: Scene, T_base_optical: ArrayLike) -> _OpticalGeometry:
         T_optical_base = invert_transform(check_transform(T_base_optical, where="T_base_optical"))
         R = T_optical_base[:3, :3]
+        is_ell = np.array([isinstance(f, EllipsoidFruit) for f in scene.fruits], dtype=bool)
+        ells = [f for f in scene.fruits if isinstance(f, EllipsoidFruit)]
+        ell_R = np.array([R @ f.rotation for f in ells]).reshape(-1, 3, 3)  # R_optical_ellipsoid
+        ell_s = np.array([f.semi_axes for f in ells], dtype=float).reshape(-1, 3)
         leaves = [o for o in scene.occluders if isinstance(o, Leaf)]
         stems = [o for o in scene.occluders if isinstance(o, Stem)]
         leaf_u = np.array([_unit(lf.axis_u, "leaf.axis_u") for lf in leaves]).reshape(-1, 3)
@@ -300,8 +320,12 @@ class _OpticalGeometry:
         if np.any(lengths <= 0):
             raise InputError("stem: start and end coincide, expected a cylinder of positive length")
         return cls(
-            sphere_c=transform_points(T_optical_base, scene.centres),
-            sphere_r=scene.radii.reshape(-1),
+            sphere_c=transform_points(T_optical_base, scene.centres[~is_ell]),
+            sphere_r=scene.radii[~is_ell].reshape(-1),
+            ell_c=transform_points(T_optical_base, scene.centres[is_ell]),
+            ell_M=np.swapaxes(ell_R, 1, 2) / ell_s[:, :, None],
+            ell_r=ell_s.max(axis=1, initial=0.0) if len(ells) else np.zeros(0),
+            ell_id=np.flatnonzero(is_ell).astype(np.int64),
             leaf_c=transform_points(T_optical_base, np.array([lf.centre for lf in leaves]).reshape(-1, 3)),
             leaf_u=leaf_u @ R.T,
             leaf_v=leaf_v @ R.T,
@@ -310,15 +334,16 @@ class _OpticalGeometry:
             stem_a=((ends - starts) / lengths[:, None].clip(1e-300)) @ R.T,
             stem_len=lengths,
             stem_r=np.array([st.radius for st in stems], dtype=float).reshape(-1),
-            fruit_id=np.arange(len(scene.fruits), dtype=np.int64),
+            fruit_id=np.flatnonzero(~is_ell).astype(np.int64),
         )
 
     def nearest_labels(self, d: NDArray[np.float64]) -> NDArray[np.int32]:
         """Label of the nearest hit along unit rays ``d`` (N, 3) from the origin."""
-        t = np.concatenate([self.sphere_t(d), self.leaf_t(d), self.stem_t(d)], axis=1)
+        t = np.concatenate([self.sphere_t(d), self.ellipsoid_t(d), self.leaf_t(d), self.stem_t(d)], axis=1)
         if t.shape[1] == 0:
             return np.full(len(d), BACKGROUND, dtype=np.int32)
-        label_of = np.concatenate([self.fruit_id, np.full(t.shape[1] - len(self.fruit_id), OCCLUDER)]).astype(np.int32)
+        fruit = np.concatenate([self.fruit_id, self.ell_id])
+        label_of = np.concatenate([fruit, np.full(t.shape[1] - len(fruit), OCCLUDER)]).astype(np.int32)
         best = np.argmin(t, axis=1)
         out = label_of[best]
         out[~np.isfinite(t[np.arange(len(d)), best])] = BACKGROUND
@@ -334,6 +359,25 @@ class _OpticalGeometry:
             root = np.sqrt(disc)
         t_near = b - root
         t_far = b + root
+        t = np.where(t_near > NEAR_M, t_near, t_far)
+        return np.where((disc >= 0) & (t > NEAR_M), t, np.inf)
+
+    def ellipsoid_t(self, d: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Distance to the first ellipsoid hit, shape (N, E), inf for a miss.
+
+        In each ellipsoid's unit-sphere coordinates the ray is ``t a - w`` (``a = M d``, ``w = M c``)
+        and hits where ``|t a - w| = 1``.
+        """
+        a = np.einsum("eij,nj->nei", self.ell_M, d)  # (N, E, 3)
+        w = np.einsum("eij,ej->ei", self.ell_M, self.ell_c)  # (E, 3)
+        A = np.sum(a * a, axis=-1)
+        B = np.einsum("nei,ei->ne", a, w)
+        C = np.sum(w * w, axis=-1) - 1.0
+        disc = B * B - A * C
+        with np.errstate(invalid="ignore", divide="ignore"):
+            root = np.sqrt(disc)
+            t_near = (B - root) / A
+            t_far = (B + root) / A
         t = np.where(t_near > NEAR_M, t_near, t_far)
         return np.where((disc >= 0) & (t > NEAR_M), t, np.inf)
 
@@ -427,7 +471,13 @@ def _ray_hit_reference(d: NDArray[np.float64], obj: object, R: NDArray[np.float6
                 t = (cap @ axis) / (d @ axis)
                 if np.linalg.norm(t * d - cap) <= obj.radius:
                     candidates.append(t)
-    else:  # a fruit
+    elif isinstance(obj, EllipsoidFruit):
+        M = np.diag(1.0 / obj.semi_axes) @ (R @ obj.rotation).T  # optical offset -> unit sphere
+        a, w = M @ d, M @ (R @ obj.centre + p)
+        A, B, C = a @ a, a @ w, w @ w - 1.0
+        if B * B - A * C >= 0:
+            candidates += [(B - math.sqrt(B * B - A * C)) / A, (B + math.sqrt(B * B - A * C)) / A]
+    else:  # a sphere
         c = R @ obj.centre + p  # type: ignore[attr-defined]
         b, cc = d @ c, c @ c - obj.radius**2  # type: ignore[attr-defined]
         if b * b - cc >= 0:

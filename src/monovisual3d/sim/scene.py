@@ -1,4 +1,4 @@
-"""Simulated scenes: spherical fruit and occluders (leaves, stems), with ground truth.
+"""Simulated scenes: fruit (spheres, ellipsoids) and occluders (leaves, stems), with ground truth.
 
 All positions in metres, base frame. A scene saves to / loads from JSON; its
 ``truth`` part is the ground-truth file format of ``monovisual3d evaluate``.
@@ -15,6 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
+from ..frames import check_quaternion_xyzw
+from ..geometry.ellipsoid import Ellipsoid, equivalent_radius, rotation_from_quaternion_xyzw
 
 
 @dataclass(frozen=True)
@@ -25,8 +27,75 @@ class Sphere:
     radius: float
     label: str = "tomato"
 
+    @property
+    def semi_axes(self) -> NDArray[np.float64]:
+        """``(r, r, r)``, metres."""
+        return np.full(3, float(self.radius))
+
+    @property
+    def ellipsoid(self) -> Ellipsoid:
+        """The fruit as a :class:`~monovisual3d.geometry.Ellipsoid` (identity orientation)."""
+        return Ellipsoid.sphere(self.centre, self.radius)
+
     def to_dict(self) -> dict[str, Any]:
         return {"position": [float(v) for v in self.centre], "radius": float(self.radius), "label": self.label}
+
+
+@dataclass(frozen=True)
+class EllipsoidFruit:
+    """A non-spherical fruit: an ellipsoid (pepper, cucumber, oblate tomato, apple, plum).
+
+    Attributes
+    ----------
+    centre : ndarray, shape (3,), metres, base frame
+    semi_axes : ndarray, shape (3,), metres, along the columns of :attr:`rotation`
+    quaternion_xyzw : ndarray, shape (4,), orientation of the axes in the base frame
+    label : str
+    """
+
+    centre: NDArray[np.float64]
+    semi_axes: NDArray[np.float64]
+    quaternion_xyzw: NDArray[np.float64]
+    label: str = "fruit"
+
+    def __post_init__(self) -> None:
+        e = Ellipsoid(self.centre, self.semi_axes, self.quaternion_xyzw)  # validates
+        object.__setattr__(self, "centre", e.centre_base)
+        object.__setattr__(self, "semi_axes", e.semi_axes)
+        object.__setattr__(self, "quaternion_xyzw", e.quaternion_xyzw)
+
+    @classmethod
+    def from_ellipsoid(cls, ellipsoid: Ellipsoid, label: str = "fruit") -> EllipsoidFruit:
+        return cls(ellipsoid.centre_base, ellipsoid.semi_axes, ellipsoid.quaternion_xyzw, label)
+
+    @property
+    def ellipsoid(self) -> Ellipsoid:
+        return Ellipsoid(self.centre, self.semi_axes, self.quaternion_xyzw)
+
+    @property
+    def radius(self) -> float:
+        """Volume-equivalent radius, metres (what sphere-only code sees)."""
+        return float(equivalent_radius(self.semi_axes))
+
+    @property
+    def rotation(self) -> NDArray[np.float64]:
+        """``R_base_ellipsoid`` (3, 3): the axes (columns) in the base frame."""
+        return rotation_from_quaternion_xyzw(self.quaternion_xyzw)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The truth format: ``position``, ``radius`` (volume-equivalent), ``label``, ``shape``,
+        ``semi_axes``, ``quaternion_xyzw``, ``volume_m3``."""
+        e = self.ellipsoid.to_dict()
+        return {
+            "position": e["position"],
+            "radius": e["radius"],
+            "label": self.label,
+            **{k: e[k] for k in ("shape", "semi_axes", "quaternion_xyzw", "volume_m3")},
+        }
+
+
+#: A fruit of a scene.
+Fruit = Sphere | EllipsoidFruit
 
 
 @dataclass(frozen=True)
@@ -79,7 +148,7 @@ Occluder = Leaf | Stem
 class Scene:
     """Fruit plus occluders."""
 
-    fruits: tuple[Sphere, ...]
+    fruits: tuple[Fruit, ...]
     occluders: tuple[Occluder, ...] = ()
     name: str = "scene"
     metadata: dict[str, Any] = field(default_factory=dict)
@@ -91,7 +160,7 @@ class Scene:
 
     @property
     def radii(self) -> NDArray[np.float64]:
-        """Fruit radii, shape (M,), metres."""
+        """Fruit radii, shape (M,), metres (volume-equivalent for ellipsoids)."""
         return np.array([f.radius for f in self.fruits], dtype=float)
 
     def truth_dict(self) -> dict[str, Any]:
@@ -114,7 +183,10 @@ class Scene:
         """A scene from its dict (:meth:`to_dict`): ``objects`` (the fruit) and optional ``occluders``.
 
         ``objects`` is a list of ``{"position": [x, y, z], "radius": r}`` (metres,
-        base frame; optional ``label``); ``occluders`` a list of leaves
+        base frame; optional ``label``), or of ellipsoids
+        ``{"position": [x, y, z], "semi_axes": [a, b, c], "quaternion_xyzw": [x, y, z, w]}``
+        (quaternion optional, identity by default; ``radius`` and ``volume_m3`` are then derived and ignored);
+        ``occluders`` a list of leaves
         ``{"type": "leaf", "centre", "axis_u", "axis_v", "half_size"}`` and stems
         ``{"type": "stem", "start", "end", "radius"}``.
 
@@ -137,7 +209,7 @@ class Scene:
         objects = data["objects"]
         if not isinstance(objects, list):
             raise InputError(f"objects: expected a list of fruit {FRUIT_FIELDS}, got {type(objects).__name__}")
-        fruits = tuple(_sphere(o, f"objects[{i}]") for i, o in enumerate(objects))
+        fruits = tuple(_fruit(o, f"objects[{i}]") for i, o in enumerate(objects))
         occluders = data.get("occluders", [])
         if not isinstance(occluders, list):
             raise InputError(f"occluders: expected a list of leaves and stems, got {type(occluders).__name__}")
@@ -163,6 +235,27 @@ class Scene:
 #: What a scene file holds, for messages.
 SCENE_FIELDS = '{"objects": [{"position": [x, y, z], "radius": r}, ...], "occluders": [...] (optional)}'
 FRUIT_FIELDS = '{"position": [x, y, z], "radius": r, "label": "tomato" (optional)}'
+ELLIPSOID_FIELDS = '{"position": [x, y, z], "semi_axes": [a, b, c], "quaternion_xyzw": [x, y, z, w] (optional)}'
+
+
+def _fruit(o: Any, where: str) -> Fruit:
+    if isinstance(o, dict) and "semi_axes" in o:
+        return _ellipsoid_fruit(o, where)
+    return _sphere(o, where)
+
+
+def _ellipsoid_fruit(o: dict[str, Any], where: str) -> EllipsoidFruit:
+    if "position" not in o:
+        raise InputError(f"{where}.position: missing field, expected an ellipsoid fruit {ELLIPSOID_FIELDS}")
+    s = _vec(o["semi_axes"], 3, f"{where}.semi_axes")
+    for i, v in enumerate(s):
+        _positive(float(v), f"{where}.semi_axes[{i}]")
+    q = _vec(o.get("quaternion_xyzw", [0.0, 0.0, 0.0, 1.0]), 4, f"{where}.quaternion_xyzw")
+    q = check_quaternion_xyzw(q, where=f"{where}.quaternion_xyzw")
+    label = o.get("label", "fruit")
+    if not isinstance(label, str):
+        raise InputError(f"{where}.label: expected a string, got {label!r}")
+    return EllipsoidFruit(_vec(o["position"], 3, f"{where}.position"), s, q, label)
 
 
 def _sphere(o: Any, where: str) -> Sphere:

@@ -1,4 +1,4 @@
-"""Built-in scenes: the paper's six spheres, a greenhouse tomato truss, random spheres.
+"""Built-in scenes: the paper's six spheres, a greenhouse tomato truss, random spheres, non-spherical fruit.
 
 All scenes stand around a target point (default
 :data:`~monovisual3d.sim.viewpoints.DEFAULT_TARGET` = (0.6, 0, 0.45) m, base
@@ -24,6 +24,26 @@ around the target. Offsets from the target (metres, base frame: x depth, y left,
 
 Every sphere is fully visible (no occlusion, inside the image) from the three
 paper poses with the default camera (640 x 480, 69 degrees horizontal field of view).
+
+Shape scenes (:func:`shapes_scene`, names ``peppers``, ``cucumbers``, ``apples``,
+``mixed``): ellipsoidal fruit (:class:`~monovisual3d.sim.scene.EllipsoidFruit`) of the
+kinds in :data:`FRUIT_KINDS`, placed without overlap in a box around the target
+and redrawn until every fruit is inside the image and at least 90 % visible in
+every view (by default the paper's poses). Semi-axes (metres; ``a, b`` horizontal,
+``c`` along the vertical before the tilt):
+
+=========  ==================  =====================  ========  ==========
+kind       horizontal a        b / a                  c / a     tilt (deg)
+=========  ==================  =====================  ========  ==========
+tomato     0.025 - 0.04        1                      0.7-0.85  0-10
+pepper     0.03 - 0.045        0.85 - 1               1.2-1.6   0-10
+cucumber   0.018 - 0.025       1                      c = 0.08-0.10 m   0-15
+apple      0.035 - 0.045       1                      0.85-0.95 0-10
+plum       0.02 - 0.028        1                      1.05-1.15 0-10
+=========  ==================  =====================  ========  ==========
+
+Each fruit gets a uniform yaw about the vertical and a tilt (uniform angle up to
+the kind's limit about a random horizontal axis).
 """
 
 from __future__ import annotations
@@ -36,9 +56,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
 from ..errors import InputError
+from ..geometry.ellipsoid import Ellipsoid, ellipsoid_bbox, projected_dual_conic, rotation_upright
 from ..geometry.sphere import sphere_bbox
 from .raycast import render
-from .scene import Leaf, Scene, Sphere, Stem
+from .scene import EllipsoidFruit, Leaf, Scene, Sphere, Stem
 from .viewpoints import DEFAULT_TARGET, paper_poses
 
 #: Offsets of the paper scene's sphere centres from the target (metres, base frame) and their radii.
@@ -57,8 +78,23 @@ PAPER_SPHERE_RADII = np.array([0.05, 0.025, 0.05, 0.025, 0.05, 0.025])
 GREENHOUSE_RADIUS_RANGE = (0.02, 0.04)
 #: Leaf layouts tried for each truss before a new truss is drawn.
 LEAF_DRAWS_PER_TRUSS = 10
+#: Non-spherical fruit: label -> (horizontal semi-axis range (m), b/a range, c range, c is relative to a, max tilt (deg)).
+FRUIT_KINDS: dict[str, tuple[tuple[float, float], tuple[float, float], tuple[float, float], bool, float]] = {
+    "tomato": ((0.025, 0.04), (1.0, 1.0), (0.7, 0.85), True, 10.0),
+    "pepper": ((0.03, 0.045), (0.85, 1.0), (1.2, 1.6), True, 10.0),
+    "cucumber": ((0.018, 0.025), (1.0, 1.0), (0.08, 0.10), False, 15.0),
+    "apple": ((0.035, 0.045), (1.0, 1.0), (0.85, 0.95), True, 10.0),
+    "plum": ((0.02, 0.028), (1.0, 1.0), (1.05, 1.15), True, 10.0),
+}
+#: Shape scenes: name -> (fruit kinds, cycled over the fruit; default number of fruit; half extent of the box (m)).
+SHAPE_SCENES: dict[str, tuple[tuple[str, ...], int, tuple[float, float, float]]] = {
+    "peppers": (("pepper",), 6, (0.05, 0.2, 0.1)),
+    "cucumbers": (("cucumber",), 4, (0.05, 0.2, 0.05)),
+    "apples": (("apple",), 6, (0.05, 0.2, 0.1)),
+    "mixed": (("tomato", "pepper", "cucumber", "apple", "plum", "tomato"), 6, (0.05, 0.2, 0.1)),
+}
 #: Names accepted by :func:`scene_by_name`.
-SCENE_NAMES = ("paper", "greenhouse", "random")
+SCENE_NAMES = ("paper", "greenhouse", "random", *SHAPE_SCENES)
 
 
 def default_camera() -> Camera:
@@ -261,7 +297,8 @@ def greenhouse_scene(
 def scene_by_name(
     name: str, rng: np.random.Generator | int | None = None, *, n_fruit: int | None = None, **options: Any
 ) -> Scene:
-    """A built-in scene by name: ``paper``, ``greenhouse`` or ``random`` (``n_fruit`` defaults to 6).
+    """A built-in scene by name: ``paper``, ``greenhouse``, ``random`` (``n_fruit`` defaults to 6) or a shape scene
+    (``peppers``, ``cucumbers``, ``apples``, ``mixed``; :func:`shapes_scene`).
 
     ``n_fruit`` is refused for ``paper`` (it always has six spheres); other keyword
     options go to the scene's function.
@@ -279,7 +316,154 @@ def scene_by_name(
         return greenhouse_scene(rng, n_fruit=n_fruit, **options)
     if name == "random":
         return random_scene(6 if n_fruit is None else n_fruit, rng, **options)
+    if name in SHAPE_SCENES:
+        return shapes_scene(name, rng, n_fruit=n_fruit, **options)
     raise InputError(f"scene: got {name!r}, expected one of {list(SCENE_NAMES)} or a scene JSON file")
+
+
+def fruit_of_kind(
+    kind: str, centre: ArrayLike, rng: np.random.Generator | int | None = None, *, up: ArrayLike = (0.0, 0.0, 1.0)
+) -> EllipsoidFruit:
+    """A random fruit of one of :data:`FRUIT_KINDS` at ``centre`` (3,), metres, base frame.
+
+    Examples
+    --------
+    >>> f = fruit_of_kind("cucumber", [0.6, 0.0, 0.45], rng=0)
+    >>> f.label, bool(f.semi_axes[2] > 3 * f.semi_axes[0])
+    ('cucumber', True)
+    """
+    if kind not in FRUIT_KINDS:
+        raise InputError(f"kind: got {kind!r}, expected one of {sorted(FRUIT_KINDS)}")
+    rng = np.random.default_rng(rng)
+    (a_lo, a_hi), (b_lo, b_hi), (c_lo, c_hi), relative, tilt_deg = FRUIT_KINDS[kind]
+    a = float(rng.uniform(a_lo, a_hi))
+    b = a * float(rng.uniform(b_lo, b_hi))
+    c = float(rng.uniform(c_lo, c_hi)) * (a if relative else 1.0)
+    R = rotation_upright(float(rng.uniform(0.0, 2 * math.pi)), up)
+    tilt = math.radians(float(rng.uniform(0.0, tilt_deg)))
+    phi = float(rng.uniform(0.0, 2 * math.pi))
+    axis = math.cos(phi) * R[:, 0] + math.sin(phi) * R[:, 1]  # horizontal
+    R = _axis_angle(axis, tilt) @ R
+    return EllipsoidFruit.from_ellipsoid(Ellipsoid.from_rotation(centre, [a, b, c], R), kind)
+
+
+def shapes_scene(
+    name: str = "mixed",
+    rng: np.random.Generator | int | None = None,
+    *,
+    n_fruit: int | None = None,
+    target: ArrayLike = DEFAULT_TARGET,
+    camera: Camera | None = None,
+    poses: ArrayLike | None = None,
+    min_visible_fraction: float = 0.9,
+    min_gap: float = 0.005,
+    max_attempts: int = 200,
+) -> Scene:
+    """Non-spherical fruit (ellipsoids) in front of the camera, each visible in every view.
+
+    Parameters
+    ----------
+    name : ``peppers``, ``cucumbers``, ``apples`` or ``mixed`` (see :data:`SHAPE_SCENES` and the module docstring)
+    rng : numpy Generator, seed or None
+    n_fruit : int, default 6 (4 for ``cucumbers``)
+    target : array_like, shape (3,), metres, base frame, the centre of the arrangement
+    camera : Camera, default :func:`default_camera`
+    poses : array_like, shape (N, 4, 4), default the paper's three poses around ``target``
+    min_visible_fraction : float, part of each fruit's silhouette that must be visible in every view
+    min_gap : float, metres, smallest separation of the fruit (along a separating direction)
+    max_attempts : int, arrangements drawn before giving up
+
+    Returns
+    -------
+    Scene
+
+    Examples
+    --------
+    >>> s = shapes_scene("mixed", rng=0)
+    >>> sorted({f.label for f in s.fruits})
+    ['apple', 'cucumber', 'pepper', 'plum', 'tomato']
+    """
+    if name not in SHAPE_SCENES:
+        raise InputError(f"scene: got {name!r}, expected one of {sorted(SHAPE_SCENES)}")
+    kinds, default_n, half = SHAPE_SCENES[name]
+    n = default_n if n_fruit is None else _count(n_fruit, "n_fruit")
+    if n > 12:
+        raise InputError(f"n_fruit: got {n}, a shape scene holds at most 12 fruit")
+    rng = np.random.default_rng(rng)
+    t = _target(target)
+    camera = camera or default_camera()
+    P = paper_poses(t) if poses is None else np.asarray(poses, dtype=float).reshape(-1, 4, 4)
+    check_cam = camera.scaled(max(camera.width // 2, 1), max(camera.height // 2, 1))
+    labels = [kinds[i % len(kinds)] for i in range(n)]
+    for _ in range(max_attempts):
+        fruits: list[EllipsoidFruit] = []
+        for label in labels:
+            for _ in range(200):
+                f = fruit_of_kind(label, t + rng.uniform(-1.0, 1.0, 3) * np.asarray(half), rng)
+                if all(_ellipsoids_apart(f.ellipsoid, g.ellipsoid, min_gap) for g in fruits):
+                    fruits.append(f)
+                    break
+            else:
+                break
+        if len(fruits) < n:
+            continue
+        scene = Scene(tuple(fruits), (), name, {"target": t.tolist(), "generator": "shapes_scene"})
+        if _all_visible(scene, check_cam, P, min_visible_fraction):
+            return scene
+    raise InputError(
+        f"shapes_scene: no arrangement of {n} fruit in {max_attempts} attempts where every fruit is visible in every view; "
+        "use fewer fruit"
+    )
+
+
+# ---------------------------------------------------------------------- shape-scene helpers
+def _axis_angle(axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
+    """Rotation matrix (3, 3) about a unit axis (Rodrigues)."""
+    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * K @ K
+
+
+def _support(e: Ellipsoid, n: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Half-width of the ellipsoid along unit directions n (K, 3): sqrt(n^T M n)."""
+    A = e.rotation * e.semi_axes  # R diag(s)
+    return np.linalg.norm(n @ A, axis=-1)
+
+
+#: Fixed directions tried as separating axes (with the centre offset and the ellipsoids' axes).
+_SEPARATING_DIRECTIONS = np.random.default_rng(12345).normal(size=(64, 3))
+_SEPARATING_DIRECTIONS /= np.linalg.norm(_SEPARATING_DIRECTIONS, axis=1, keepdims=True)
+
+
+def _ellipsoids_apart(e1: Ellipsoid, e2: Ellipsoid, gap: float) -> bool:
+    """True when a direction separates the two ellipsoids by at least ``gap`` (a sufficient test)."""
+    d = e2.centre_base - e1.centre_base
+    dist = float(np.linalg.norm(d))
+    if dist == 0:
+        return False
+    n = np.concatenate([d[None] / dist, e1.rotation.T, e2.rotation.T, _SEPARATING_DIRECTIONS])
+    return bool(np.any(np.abs(n @ d) - _support(e1, n) - _support(e2, n) >= gap))
+
+
+def _all_visible(scene: Scene, camera: Camera, poses: NDArray[np.float64], fraction: float) -> bool:
+    """Every fruit inside the image (1 px margin) and ``fraction`` of its silhouette visible, in every pose."""
+    ells = [f.ellipsoid for f in scene.fruits]  # type: ignore[union-attr]
+    c = np.array([e.centre_base for e in ells])
+    s = np.array([e.semi_axes for e in ells])
+    R = np.array([e.rotation for e in ells])
+    for T in poses:
+        b = ellipsoid_bbox(camera, T, c, s, R, clip=False)
+        if (
+            not np.all(np.isfinite(b))
+            or np.any(b[:, :2] < 1)
+            or np.any(b[:, 2] > camera.width - 1)
+            or np.any(b[:, 3] > camera.height - 1)
+        ):
+            return False
+        C = np.linalg.inv(projected_dual_conic(camera, T, c, s, R))  # point conics
+        area = math.pi * np.abs(np.linalg.det(C)) / np.abs(np.linalg.det(C[:, :2, :2])) ** 1.5
+        if np.any(render(scene, camera, T).visible_px < fraction * area):
+            return False
+    return True
 
 
 # ---------------------------------------------------------------------- greenhouse helpers

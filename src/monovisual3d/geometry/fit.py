@@ -1,0 +1,497 @@
+"""Least-squares fit of a sphere, spheroid or ellipsoid to its associated boxes in several views.
+
+The residual of each box edge is ``(predicted - observed) / sigma``, with the
+predicted box the exact one of :func:`~monovisual3d.geometry.ellipsoid.ellipsoid_bbox`
+and ``sigma = sqrt((1.118 * box_sigma * size)^2 + edge_sigma_px^2)`` (``size`` the
+observed box width for x edges, height for y edges; 1.118 = sqrt(1.25) is the
+per-edge std of the simulator's relative box noise). A robust loss on each edge
+(:func:`scipy.optimize.least_squares`, ``cauchy`` by default, after a first pass with
+``soft_l1`` that finds the basin) keeps one loose or clipped-by-a-leaf edge from dragging the fit. Edges that lie on the image border
+(truncated objects) say nothing about the object and are left out.
+
+Models and parameters (``up`` the base frame's vertical; sizes are fitted as logarithms,
+bounded by ``size_range``):
+
+- ``sphere``: centre, radius;
+- ``spheroid``: centre, horizontal semi-axis ``a = b``, vertical ``c`` (symmetry axis along
+  ``up``); with ``free_orientation`` two tilts of the symmetry axis;
+- ``ellipsoid``: centre, ``a, b`` (horizontal), ``c`` (along ``up``), yaw about ``up``; with
+  ``free_orientation`` a full rotation instead of the yaw.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares
+
+from ..camera import Camera
+from ..errors import InputError
+from .ellipsoid import DEFAULT_UP, SHAPES, Ellipsoid, check_up, ellipsoid_bbox, rotation_upright
+
+if TYPE_CHECKING:
+    from ..session import View
+
+#: Default semi-axis range, metres (cherry tomatoes to cucumbers).
+DEFAULT_SIZE_RANGE = (0.005, 0.25)
+#: An observed edge within this many pixels of the image border counts as truncated.
+DEFAULT_BORDER_PX = 1.0
+#: sqrt(1.25): per-edge std of the simulator's relative box noise, in units of box_sigma * size.
+EDGE_NOISE_FACTOR = math.sqrt(1.25)
+#: Residual (in sigmas) given to an edge whose prediction is undefined (object behind the camera).
+UNDEFINED_RESIDUAL = 1e4
+#: Loss of the first pass of every fit (then ``loss`` from its solution).
+FIRST_PASS_LOSS = "soft_l1"
+#: Relative central-difference step of the Jacobian.
+FD_STEP = 1e-6
+#: Yaw starts of the ellipsoid model (radians).
+YAW_STARTS = (0.0, 0.25 * math.pi)
+
+
+@dataclass(frozen=True)
+class EllipsoidFit:
+    """The result of :func:`fit_ellipsoid_boxes`.
+
+    Attributes
+    ----------
+    ellipsoid : Ellipsoid, the fitted object (semi-axes ``a, b`` horizontal, ``c`` along ``up`` before any tilt)
+    model : str, ``sphere``, ``spheroid`` or ``ellipsoid``
+    names : tuple of str, the fitted parameters
+    centre_covariance : ndarray, shape (3, 3), m^2, base frame: Gauss-Newton covariance of the
+        centre under the edge noise model (NaN when singular)
+    residuals_px : ndarray, shape (E,), predicted minus observed edge of every used edge, pixels
+    chi2 : float, sum of squared normalised residuals of the used edges
+    cost : float, the robust cost minimised
+    n_edges : int, edges used
+    n_views : int, views with at least one used edge
+    success : bool, the optimiser converged
+    """
+
+    ellipsoid: Ellipsoid
+    model: str
+    names: tuple[str, ...]
+    centre_covariance: NDArray[np.float64]
+    residuals_px: NDArray[np.float64]
+    chi2: float
+    cost: float
+    n_edges: int
+    n_views: int
+    success: bool
+
+    @property
+    def n_parameters(self) -> int:
+        return len(self.names)
+
+    @property
+    def bic(self) -> float:
+        """Bayesian information criterion ``chi2 + P ln(E)`` (Gaussian edges), to compare models on the same boxes."""
+        return float(self.chi2 + self.n_parameters * math.log(max(self.n_edges, 1)))
+
+    @property
+    def rms_px(self) -> float:
+        return float(np.sqrt(np.mean(self.residuals_px**2))) if len(self.residuals_px) else math.nan
+
+
+def fit_parameters(model: str, *, free_orientation: bool = False) -> tuple[str, ...]:
+    """Names of the parameters fitted for a model (sizes as natural logarithms of metres)."""
+    if model not in SHAPES:
+        raise InputError(f"shape: got {model!r}, expected one of {list(SHAPES)}")
+    names = ["x", "y", "z"]
+    if model == "sphere":
+        return (*names, "log_r")
+    if model == "spheroid":
+        return (*names, "log_a", "log_c", *(("tilt_1", "tilt_2") if free_orientation else ()))
+    return (*names, "log_a", "log_b", "log_c", *(("rx", "ry", "rz") if free_orientation else ("yaw",)))
+
+
+def ellipsoid_from_parameters(
+    theta: ArrayLike, model: str, *, up: ArrayLike = DEFAULT_UP, free_orientation: bool = False
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Centres (..., 3), semi-axes (..., 3) and ``R_base_ellipsoid`` (..., 3, 3) from parameter vectors (..., P).
+
+    The parameters are those of :func:`fit_parameters` (sizes as natural logarithms of metres).
+    """
+    u = check_up(up)
+    return _decode(np.asarray(theta, dtype=float), model, u, rotation_upright(0.0, u), free_orientation)
+
+
+def _decode(
+    p: NDArray[np.float64], model: str, u: NDArray[np.float64], R0: NDArray[np.float64], free_orientation: bool
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    lead = p.shape[:-1]
+    c = p[..., :3]
+    if model == "sphere":
+        s = np.repeat(np.exp(p[..., 3:4]), 3, axis=-1)
+        return c, s, np.broadcast_to(np.eye(3), lead + (3, 3))
+    if model == "spheroid":
+        s = np.exp(p[..., [3, 3, 4]])
+        if not free_orientation:
+            return c, s, np.broadcast_to(R0, lead + (3, 3))
+        rotvec = p[..., 5:6] * R0[:, 0] + p[..., 6:7] * R0[:, 1]
+    else:
+        s = np.exp(p[..., 3:6])
+        rotvec = p[..., 6:9] if free_orientation else p[..., 6:7] * u
+    return c, s, _rotation_from_rotvec(rotvec) @ R0
+
+
+def _rotation_from_rotvec(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) (Rodrigues; exact near zero)."""
+    theta = np.linalg.norm(rotvec, axis=-1)[..., None, None]
+    x, y, z = rotvec[..., 0], rotvec[..., 1], rotvec[..., 2]
+    zero = np.zeros_like(x)
+    K = np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
+    small = theta < 1e-6
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = np.where(small, 1.0 - theta**2 / 6.0, np.sin(theta) / theta)
+        b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(theta)) / theta**2)
+    return np.eye(3) + a * K + b * (K @ K)
+
+
+def fit_ellipsoid_boxes(
+    camera: Camera,
+    views: Sequence[View],
+    associations: Mapping[int, int],
+    *,
+    shape: str = "spheroid",
+    up: ArrayLike = DEFAULT_UP,
+    free_orientation: bool = False,
+    size_range: tuple[float, float] = DEFAULT_SIZE_RANGE,
+    box_sigma: float = 0.05,
+    edge_sigma_px: float = 1.0,
+    loss: str = "cauchy",
+    robust_scale: float = 2.0,
+    border_px: float = DEFAULT_BORDER_PX,
+    initial: Ellipsoid | None = None,
+) -> EllipsoidFit:
+    """Fit one object's shape to its boxes: the detections ``associations`` picks in ``views``.
+
+    Parameters
+    ----------
+    camera : Camera
+    views : sequence of View (``Session.views``): ``T_base_optical`` and ``detections``
+    associations : mapping view index -> detection index, the object's boxes
+        (``DetectedObject.associations``)
+    shape, up, free_orientation, size_range, box_sigma, edge_sigma_px, loss, robust_scale, border_px, initial :
+        see :func:`fit_ellipsoid_to_boxes`
+
+    Returns
+    -------
+    EllipsoidFit
+
+    Raises
+    ------
+    InputError
+        An association names a view or detection that does not exist, or too few edges are usable.
+    """
+    poses, boxes = [], []
+    for v, d in sorted(associations.items()):
+        if not 0 <= int(v) < len(views):
+            raise InputError(f"associations: view {v} does not exist (there are {len(views)} views)")
+        dets = views[int(v)].detections
+        if not 0 <= int(d) < len(dets):
+            raise InputError(f"associations: view {v} has no detection {d} (it has {len(dets)})")
+        poses.append(np.asarray(views[int(v)].T_base_optical, dtype=float))
+        boxes.append(np.asarray(dets[int(d)].bbox_xyxy, dtype=float))
+    return fit_ellipsoid_to_boxes(
+        camera,
+        np.array(poses).reshape(-1, 4, 4),
+        np.array(boxes).reshape(-1, 4),
+        shape=shape,
+        up=up,
+        free_orientation=free_orientation,
+        size_range=size_range,
+        box_sigma=box_sigma,
+        edge_sigma_px=edge_sigma_px,
+        loss=loss,
+        robust_scale=robust_scale,
+        border_px=border_px,
+        initial=initial,
+    )
+
+
+def fit_ellipsoid_to_boxes(
+    camera: Camera,
+    T_base_optical: ArrayLike,
+    boxes_xyxy: ArrayLike,
+    *,
+    shape: str = "spheroid",
+    up: ArrayLike = DEFAULT_UP,
+    free_orientation: bool = False,
+    size_range: tuple[float, float] = DEFAULT_SIZE_RANGE,
+    box_sigma: float = 0.05,
+    edge_sigma_px: float = 1.0,
+    loss: str = "cauchy",
+    robust_scale: float = 2.0,
+    border_px: float = DEFAULT_BORDER_PX,
+    initial: Ellipsoid | None = None,
+) -> EllipsoidFit:
+    """Fit a sphere, spheroid or ellipsoid to one object's boxes in K views.
+
+    Parameters
+    ----------
+    camera : Camera
+    T_base_optical : array_like, shape (K, 4, 4), the poses of the views
+    boxes_xyxy : array_like, shape (K, 4), pixels, the object's box in each view
+    shape : ``sphere``, ``spheroid`` or ``ellipsoid``
+    up : array_like, shape (3,), base frame, the vertical of the upright models
+    free_orientation : bool, fit the orientation instead of assuming upright (see the module docstring)
+    size_range : (min, max), metres, bounds of every semi-axis
+    box_sigma : float, relative box noise (per-edge std ``1.118 * box_sigma * size``)
+    edge_sigma_px : float, pixels, absolute per-edge noise added in quadrature
+    loss : str, robust loss of :func:`scipy.optimize.least_squares` (``linear`` for plain least squares)
+    robust_scale : float, sigmas at which the robust loss starts to discount an edge
+    border_px : float, observed edges this close to the image border are truncated and left out
+    initial : Ellipsoid, optional starting point (default: centre triangulated from the box centres,
+        sizes from the box sizes)
+
+    Returns
+    -------
+    EllipsoidFit
+
+    Examples
+    --------
+    >>> from monovisual3d.sim.viewpoints import paper_poses
+    >>> cam = Camera.from_hfov(640, 480, 69.0)
+    >>> true = Ellipsoid.spheroid([0.6, 0.02, 0.45], 0.022, 0.09)
+    >>> fit = fit_ellipsoid_to_boxes(cam, paper_poses(), true.bbox(cam, paper_poses()), shape="spheroid")
+    >>> np.round(fit.ellipsoid.centre_base, 6).tolist(), np.round(fit.ellipsoid.semi_axes, 6).tolist()
+    ([0.6, 0.02, 0.45], [0.022, 0.022, 0.09])
+    """
+    names = fit_parameters(shape, free_orientation=free_orientation)
+    u = check_up(up)
+    lo, hi = _size_range(size_range)
+    if not (box_sigma >= 0 and edge_sigma_px >= 0 and box_sigma + edge_sigma_px > 0):
+        raise InputError(f"box_sigma, edge_sigma_px: got {box_sigma!r}, {edge_sigma_px!r}, expected >= 0 and not both 0")
+    T = np.asarray(T_base_optical, dtype=float).reshape(-1, 4, 4)
+    b = np.asarray(boxes_xyxy, dtype=float).reshape(-1, 4)
+    if len(T) != len(b):
+        raise InputError(f"boxes_xyxy: got {len(b)} boxes for {len(T)} poses, expected one box per view")
+    size = np.array([camera.width, camera.height], dtype=float)
+    used = np.isfinite(b) & np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
+    n_edges = int(used.sum())
+    if n_edges < len(names):
+        raise InputError(
+            f"boxes_xyxy: {n_edges} usable box edges (not on the image border) cannot fix the {len(names)} parameters of a {shape}"
+        )
+    wh = np.concatenate([b[:, 2:] - b[:, :2]] * 2, axis=1)
+    sigma = np.sqrt((EDGE_NOISE_FACTOR * box_sigma * wh) ** 2 + edge_sigma_px**2)[used]
+    observed = b[used]
+
+    R0 = rotation_upright(0.0, u)
+    boxes_of = PinholeBoxes(camera, T) if camera.distortion_model == "none" else None
+
+    def normalised(thetas: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Normalised residuals (N, E) of parameter vectors (N, P), all boxes in one batched call."""
+        c, s, R = _decode(thetas, shape, u, R0, free_orientation)
+        if boxes_of is not None:
+            pred = boxes_of(c, s, R)[:, used]
+        else:
+            pred = ellipsoid_bbox(camera, T, c[:, None], s[:, None], R[:, None], clip=False)[:, used]
+        r = (pred - observed) / sigma
+        return np.where(np.isfinite(r), r, UNDEFINED_RESIDUAL)
+
+    def residuals(theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        return normalised(theta[None])[0]
+
+    def jacobian(theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        h = FD_STEP * (1.0 + np.abs(theta))
+        r = normalised(np.concatenate([theta + np.diag(h), theta - np.diag(h)]))
+        return ((r[: len(theta)] - r[len(theta) :]) / (2 * h[:, None])).T
+
+    starts = _starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
+    log_lo, log_hi = math.log(lo), math.log(hi)
+    lower = np.array([log_lo if n.startswith("log_") else -np.inf for n in names])
+    upper = np.array([log_hi if n.startswith("log_") else np.inf for n in names])
+    best = None
+    for theta0 in starts:
+        theta0 = np.clip(theta0, lower + 1e-9, upper - 1e-9)
+        # a convex-ish first pass finds the basin; a redescending loss then discounts the bad edges
+        for stage_loss in dict.fromkeys((FIRST_PASS_LOSS, loss)):
+            options = {"jac": jacobian, "loss": stage_loss, "f_scale": robust_scale, "x_scale": "jac"}
+            res = least_squares(residuals, theta0, **options)  # the unbounded solver is cheaper
+            if np.any(res.x < lower) or np.any(res.x > upper):  # a size left size_range: solve again within it
+                res = least_squares(residuals, theta0, bounds=(lower, upper), **options)
+            theta0 = np.clip(res.x, lower + 1e-12, upper - 1e-12)
+        if best is None or res.cost < best.cost:
+            best = res
+    assert best is not None
+    c, s, R = ellipsoid_from_parameters(best.x, shape, up=u, free_orientation=free_orientation)
+    r = best.fun
+    with np.errstate(invalid="ignore", over="ignore"):
+        JtJ = best.jac.T @ best.jac
+        try:
+            cov = np.linalg.inv(JtJ)[:3, :3]
+        except np.linalg.LinAlgError:
+            cov = np.full((3, 3), np.nan)
+    return EllipsoidFit(
+        ellipsoid=Ellipsoid.from_rotation(c, s, R),
+        model=shape,
+        names=names,
+        centre_covariance=cov,
+        residuals_px=r * sigma,
+        chi2=float(np.sum(r * r)),
+        cost=float(best.cost),
+        n_edges=n_edges,
+        n_views=int(np.sum(used.any(axis=1))),
+        success=bool(best.success),
+    )
+
+
+def fit_shape_by_bic(
+    camera: Camera,
+    T_base_optical: ArrayLike,
+    boxes_xyxy: ArrayLike,
+    shapes: Sequence[str] = SHAPES,
+    **options: Any,
+) -> tuple[EllipsoidFit, dict[str, EllipsoidFit]]:
+    """Fit every model of ``shapes`` and keep the one with the lowest :attr:`EllipsoidFit.bic`.
+
+    Models that cannot be fitted (too few usable edges) are skipped. With the simulator's
+    paper scene (spheres, 3 views, with or without the paper's box noise) this keeps every
+    sphere a sphere; upright cucumbers and peppers come out as spheroids.
+
+    Parameters
+    ----------
+    camera, T_base_optical, boxes_xyxy : see :func:`fit_ellipsoid_to_boxes`
+    shapes : the candidate models, e.g. ``("sphere", "spheroid")``
+    **options : passed to :func:`fit_ellipsoid_to_boxes`
+
+    Returns
+    -------
+    best : EllipsoidFit
+    fits : dict model -> EllipsoidFit, every model fitted
+
+    Raises
+    ------
+    InputError
+        No model could be fitted (the message of the simplest model's failure).
+    """
+    fits: dict[str, EllipsoidFit] = {}
+    first_error: InputError | None = None
+    for shape in shapes:
+        try:
+            fits[shape] = fit_ellipsoid_to_boxes(camera, T_base_optical, boxes_xyxy, shape=shape, **options)
+        except InputError as exc:
+            if shape not in SHAPES:
+                raise
+            first_error = first_error or exc
+    if not fits:
+        assert first_error is not None
+        raise first_error
+    return min(fits.values(), key=lambda f: f.bic), fits
+
+
+class PinholeBoxes:
+    """Unclipped boxes of N ellipsoids in V fixed undistorted views: the fit's hot path.
+
+    The same closed form as :func:`~monovisual3d.geometry.ellipsoid.ellipsoid_bbox` (its
+    reference, tested against it) with the views' rotations precomputed and only the five
+    entries of the normalised dual conic that the box needs.
+
+    Parameters
+    ----------
+    camera : Camera, without distortion
+    T_base_optical : array_like, shape (V, 4, 4)
+    """
+
+    def __init__(self, camera: Camera, T_base_optical: ArrayLike) -> None:
+        T = np.asarray(T_base_optical, dtype=float).reshape(-1, 4, 4)
+        self.R_ob = np.ascontiguousarray(np.swapaxes(T[:, :3, :3], 1, 2))  # (V, 3, 3)
+        self.t = T[:, :3, 3]
+        self.f = np.array([camera.fx, camera.fy])
+        self.pp = np.array([camera.cx, camera.cy])
+
+    def __call__(
+        self, centre_base: NDArray[np.float64], semi_axes: NDArray[np.float64], R: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Boxes (N, V, 4), pixels, NaN where not entirely in front, of centres (N, 3), semi-axes (N, 3), rotations (N, 3, 3)."""
+        A = np.matmul(self.R_ob[None], (R * semi_axes[:, None, :])[:, None])  # (N, V, 3, 3): R_ob R diag(s)
+        c = np.einsum("vij,nvj->nvi", self.R_ob, centre_base[:, None, :] - self.t[None])  # (N, V, 3)
+        A2 = A[..., 2, :]
+        n22 = np.einsum("nvk,nvk->nv", A2, A2) - c[..., 2] ** 2  # < 0 in front
+        mxy = np.einsum("nvik,nvk->nvi", A[..., :2, :], A2) - c[..., :2] * c[..., 2:3]  # N02, N12
+        mdiag = np.einsum("nvik,nvik->nvi", A[..., :2, :], A[..., :2, :]) - c[..., :2] ** 2  # N00, N11
+        with np.errstate(invalid="ignore", divide="ignore"):
+            k = np.where((n22 < 0) & (c[..., 2] > 0), -n22, np.nan)[..., None]
+            x0 = -mxy / k
+            h = np.sqrt(x0 * x0 + mdiag / k)
+        lo = self.f * (x0 - h) + self.pp
+        hi = self.f * (x0 + h) + self.pp
+        return np.concatenate([lo, hi], axis=-1)
+
+
+# ---------------------------------------------------------------------- initialisation
+def _starts(
+    camera: Camera,
+    T: NDArray[np.float64],
+    b: NDArray[np.float64],
+    shape: str,
+    up: NDArray[np.float64],
+    free_orientation: bool,
+    lo: float,
+    hi: float,
+    initial: Ellipsoid | None,
+) -> list[NDArray[np.float64]]:
+    """Starting parameter vectors: the given ``initial`` or a triangulated guess (several yaws for ellipsoids)."""
+    if initial is not None:
+        centre, s = initial.centre_base, np.clip(initial.semi_axes, lo, hi)
+        horizontal, vertical = float(np.sqrt(s[0] * s[1])), float(s[2])
+    else:
+        centre, horizontal, vertical = _triangulate(camera, T, b, lo, hi)
+    if shape == "sphere":
+        return [np.r_[centre, math.log(math.sqrt(horizontal * vertical))]]
+    if shape == "spheroid":
+        return [np.r_[centre, math.log(horizontal), math.log(vertical), [0.0, 0.0] if free_orientation else []]]
+    a, bb = math.log(horizontal * 1.1), math.log(horizontal / 1.1)
+    out = []
+    for yaw in YAW_STARTS:
+        angle = np.array([0.0, 0.0, 0.0]) + yaw * up if free_orientation else np.array([yaw])
+        out.append(np.r_[centre, a, bb, math.log(vertical), angle])
+    return out
+
+
+def _triangulate(
+    camera: Camera, T: NDArray[np.float64], b: NDArray[np.float64], lo: float, hi: float
+) -> tuple[NDArray[np.float64], float, float]:
+    """Centre closest to the rays through the box centres, and sizes from the box sizes at that depth."""
+    ok = np.all(np.isfinite(b), axis=1)
+    T, b = T[ok], b[ok]
+    centres_uv = 0.5 * (b[:, :2] + b[:, 2:])
+    d = np.einsum("kij,kj->ki", T[:, :3, :3], camera.rays(centres_uv))  # base frame
+    o = T[:, :3, 3]
+    guess = 0.03
+    if len(T) >= 2:
+        A = np.zeros((3, 3))
+        rhs = np.zeros(3)
+        for di, oi in zip(d, o):
+            P = np.eye(3) - np.outer(di, di)
+            A += P
+            rhs += P @ oi
+        if np.linalg.cond(A) < 1e8:
+            p = np.linalg.solve(A, rhs)
+        else:
+            p = o[0] + d[0] * guess * camera.fx / max(0.5 * (b[0, 2] - b[0, 0]), 1.0)
+    else:
+        p = o[0] + d[0] * guess * camera.fx / max(0.5 * (b[0, 2] - b[0, 0]), 1.0)
+    z = np.einsum("ki,ki->k", p - o, T[:, :3, 2])  # depth along each optical axis
+    z = np.where(z > 0, z, np.median(np.abs(z)) + 1e-3)
+    half_w = 0.5 * (b[:, 2] - b[:, 0]) * z / camera.fx
+    half_h = 0.5 * (b[:, 3] - b[:, 1]) * z / camera.fy
+    horizontal = float(np.clip(np.median(half_w), lo, hi))
+    vertical = float(np.clip(np.median(half_h), lo, hi))
+    return p, horizontal, vertical
+
+
+def _size_range(size_range: Any) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in size_range)
+    except (TypeError, ValueError):
+        raise InputError(f"size_range: got {size_range!r}, expected (min, max) semi-axis lengths in metres") from None
+    if not (0 < lo < hi and math.isfinite(hi)):
+        raise InputError(f"size_range: got ({lo:g}, {hi:g}), expected 0 < min < max (metres)")
+    return lo, hi
