@@ -13,8 +13,26 @@ from ...grid import DEFAULT_REACH_M
 from ..options import DEFAULT_MAX_MEMORY, check_threads, is_real, parse_bytes
 from .likelihood import SensorModel
 
+#: Object models of ``BayesConfig.shape``.
+SHAPES = ("auto", "sphere", "spheroid", "ellipsoid")
 #: Compute backends of the ``bayes`` method: the fused numba kernels (default) and the numpy reference.
 BACKENDS = ("numba", "numpy")
+
+
+def _floats(value: Any, n: int, name: str, expected: str) -> NDArray[np.float64]:
+    """``n`` finite numbers from a sequence or a comma-separated string."""
+    items: Any = value.split(",") if isinstance(value, str) else value
+    try:
+        out = np.array([float(v) for v in items], dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: got {str(value)[:60]!r}, expected {expected}") from None
+    if (
+        out.shape != (n,)
+        or not np.all(np.isfinite(out))
+        or (not isinstance(value, str) and any(isinstance(v, bool) for v in items))
+    ):
+        raise InputError(f"{name}: got {str(value)[:60]!r}, expected {expected}")
+    return out
 
 
 @dataclass(frozen=True)
@@ -53,6 +71,14 @@ class BayesConfig:
     steal : bool, after extraction, give a fruit back the box a neighbour took when the neighbour can do without it
     pose_sigma_mm : float, millimetres, stated 1-sigma error of each view's camera position per axis (0: exact)
     pose_sigma_deg : float, degrees, stated 1-sigma error of each view's camera rotation per axis (0: exact)
+    shape : str, object model: sphere, spheroid (two equal semi-axes), ellipsoid (three) or auto (per object by BIC;
+        round fruit stay spheres)
+    size_range : tuple or str or None, metres, (min, max) semi-axis length, e.g. "0.01,0.12"; when given it also
+        sets radius_min/radius_max of the search. Default: semi-axes of 5-160 mm (cherry tomatoes to cucumbers)
+        and search radii radius_min-radius_max
+    up : tuple or str, base frame vertical of the upright spheroid/ellipsoid models, e.g. "0,0,1"
+    free_orientation : bool, fit the spheroid/ellipsoid orientation freely instead of upright plus yaw (needs views
+        that constrain it, e.g. 4 or more around the fruit)
     backend : str, numba (fused compiled kernels) or numpy (the readable reference)
     threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
     max_memory : int or str, bytes (or text such as 2GiB): memory budget of the call
@@ -84,11 +110,16 @@ class BayesConfig:
     steal: bool = True
     pose_sigma_mm: float = 0.0
     pose_sigma_deg: float = 0.0
+    shape: str = "auto"
+    size_range: tuple[float, float] | str | None = None
+    up: tuple[float, float, float] | str = (0.0, 0.0, 1.0)
+    free_orientation: bool = False
     backend: str = "numba"
     threads: int | None = None
     max_memory: int | str = DEFAULT_MAX_MEMORY
 
     def __post_init__(self) -> None:
+        self._check_shape_fields()
         for name in ("n_radii", "lookahead", "min_views", "max_hypotheses"):
             v = getattr(self, name)
             if not (is_real(v) and float(v).is_integer() and v >= 1):
@@ -112,7 +143,7 @@ class BayesConfig:
             raise InputError(f"accept: got {self.accept!r}, expected a finite number of nats")
         if self.min_views < 2:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
-        for name in ("use_masks", "swap", "steal"):
+        for name in ("use_masks", "swap", "steal", "free_orientation"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
         if self.backend not in BACKENDS:
@@ -120,6 +151,33 @@ class BayesConfig:
         object.__setattr__(self, "threads", check_threads(self.threads))
         object.__setattr__(self, "max_memory", parse_bytes(self.max_memory))
         self.sensor  # validates the sensor fields  # noqa: B018
+
+    def _check_shape_fields(self) -> None:
+        if self.shape not in SHAPES:
+            raise InputError(f"shape: got {self.shape!r}, expected one of {list(SHAPES)}")
+        up = _floats(self.up, 3, "up", "three numbers, e.g. 0,0,1")
+        if not np.linalg.norm(up) > 1e-12:
+            raise InputError(f"up: got {up.tolist()}, expected a vector of non-zero length (base frame vertical, e.g. 0,0,1)")
+        object.__setattr__(self, "up", tuple(float(v) for v in up / np.linalg.norm(up)))
+        if self.size_range is not None:
+            lo, hi = _floats(self.size_range, 2, "size_range", "MIN,MAX in metres, e.g. 0.01,0.12")
+            if not 0 < lo < hi:
+                raise InputError(f"size_range: got {lo:g},{hi:g}, expected 0 < MIN < MAX (semi-axis length, metres)")
+            object.__setattr__(self, "size_range", (float(lo), float(hi)))
+            object.__setattr__(self, "radius_min", float(lo))
+            object.__setattr__(self, "radius_max", float(hi))
+
+    @property
+    def up_vector(self) -> NDArray[np.float64]:
+        """The vertical of the upright models, shape (3,), unit, base frame."""
+        return np.asarray(self.up, dtype=float)
+
+    @property
+    def semi_axis_range(self) -> tuple[float, float]:
+        """Bounds of the shape fit's semi-axes, metres: ``size_range``, else 5-160 mm (at least the search radii)."""
+        if self.size_range is not None:
+            return self.size_range  # type: ignore[return-value]
+        return (min(0.005, self.radius_min), max(0.16, self.radius_max))
 
     @property
     def search_start(self) -> float:
@@ -154,4 +212,4 @@ class BayesConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """The options as plain JSON values."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v) for f in fields(self)}

@@ -7,7 +7,8 @@
 3. :func:`.associate.swap_pass` and :func:`.associate.steal_pass` repair the association
    (config fields ``swap`` and ``steal``);
 4. with a stated pose uncertainty, :func:`bundle` refines all objects jointly with a pose
-   correction per view (:mod:`.bundle`).
+   correction per view (:mod:`.bundle`);
+5. :func:`.shapes.shape_stage` gives each object its shape (sphere, spheroid or ellipsoid).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from .extract import extract
 from .problem import Problem
 from .refine import Observation
 from .search import search
+from .shapes import shape_stage
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,9 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     if cfg.poses_uncertain and objects:
         objects, corrections = bundle(problem, objects)
         timing["bundle"] = time.perf_counter() - t2
+    t3 = time.perf_counter()
+    objects = shape_stage(problem, objects)
+    timing["shape"] = time.perf_counter() - t3
     objects.sort(key=lambda o: -o.score)
     return Estimate(objects, corrections, timing, hyp.stats())
 

@@ -1,0 +1,111 @@
+"""The shape stage of ``bayes``: spheroids and ellipsoids, the auto choice, and the shape options."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from typer.testing import CliRunner
+
+import monovisual3d as mv
+from monovisual3d.cli import app
+from monovisual3d.errors import InputError
+from monovisual3d.geometry.ellipsoid import Ellipsoid
+from monovisual3d.methods.bayes import BayesConfig
+from monovisual3d.session import Detection, Session, View, Workspace
+from monovisual3d.sim.scenes import default_camera, paper_scene
+from monovisual3d.sim.simulate import simulate
+from monovisual3d.sim.viewpoints import paper_poses
+
+CAM = default_camera()
+WS = Workspace(np.array([0.3, -0.3, 0.2]), np.array([0.9, 0.3, 0.8]))
+
+
+def _session(ellipsoids: list[Ellipsoid]) -> Session:
+    views = []
+    for T in paper_poses():
+        dets = tuple(Detection(np.asarray(e.bbox(CAM, T), dtype=float)) for e in ellipsoids)
+        views.append(View(np.asarray(T), dets))
+    return Session(CAM, tuple(views), WS)
+
+
+def test_a_tall_box_from_three_views_is_one_spheroid():
+    # semi-axes 20 x 20 x 60 mm: boxes about 1:3 in every view
+    true = Ellipsoid.spheroid([0.6, 0.0, 0.5], 0.02, 0.06)
+    r = mv.localize(_session([true]))
+    assert len(r.objects) == 1
+    o = r.objects[0]
+    assert o.shape == "spheroid"
+    assert np.linalg.norm(o.position - true.centre_base) < 1.5e-3
+    assert_allclose(np.sort(o.semi_axes), [0.02, 0.02, 0.06], atol=2e-3)
+
+
+def test_auto_keeps_the_paper_spheres_spheres():
+    session, _ = simulate(paper_scene(), rng=0)
+    r = mv.localize(session)
+    assert len(r.objects) == 6 and {o.shape for o in r.objects} == {"sphere"}
+    assert all(np.ptp(o.semi_axes) == 0 for o in r.objects)
+
+
+def test_a_sphere_fitted_as_an_ellipsoid_has_equal_semi_axes():
+    true = Ellipsoid.sphere([0.62, 0.02, 0.48], 0.03)
+    o = mv.localize(_session([true]), shape="ellipsoid").objects[0]
+    assert o.shape == "ellipsoid"
+    assert np.ptp(o.semi_axes) < 1e-3 and abs(float(np.mean(o.semi_axes)) - 0.03) < 1e-3
+
+
+def test_shape_sphere_is_the_sphere_model():
+    true = Ellipsoid.spheroid([0.6, 0.0, 0.5], 0.02, 0.05)
+    o = mv.localize(_session([true]), shape="sphere").objects[0]
+    assert o.shape == "sphere" and np.ptp(o.semi_axes) == 0
+
+
+def test_size_range_sets_the_search_radii_and_up_is_normalised():
+    cfg = BayesConfig(size_range="0.02,0.12", up="0,0,2")
+    assert (cfg.radius_min, cfg.radius_max) == (0.02, 0.12) and cfg.semi_axis_range == (0.02, 0.12)
+    assert cfg.up == (0.0, 0.0, 1.0)
+    assert BayesConfig(size_range=(0.01, 0.05)).to_dict()["size_range"] == [0.01, 0.05]
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        ({"size_range": "0.1,0.05"}, r"^size_range: got 0.1,0.05, expected 0 < MIN < MAX \(semi-axis length, metres\)$"),
+        ({"size_range": "-0.01,0.05"}, r"^size_range: got -0.01,0.05, expected 0 < MIN < MAX"),
+        ({"size_range": "0.01"}, r"^size_range: got '0.01', expected MIN,MAX in metres"),
+        ({"up": "0,0,0"}, r"^up: got \[0.0, 0.0, 0.0\], expected a vector of non-zero length"),
+        ({"up": "a,b,c"}, r"^up: got 'a,b,c', expected three numbers"),
+        ({"shape": "cube"}, r"^shape: got 'cube', expected one of \['auto', 'sphere', 'spheroid', 'ellipsoid'\]$"),
+    ],
+)
+def test_bad_shape_options_are_one_line_errors(options, match):
+    with pytest.raises(InputError, match=match):
+        BayesConfig(**options)
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["--size-range", "0.1,0.05"], "error: --size-range: got 0.1,0.05, expected 0 < MIN < MAX"),
+        (["--size-range", "-0.01,0.05"], "error: --size-range: got -0.01,0.05"),
+        (["--up", "0,0,0"], "error: --up: got [0.0, 0.0, 0.0], expected a vector of non-zero length"),
+        (["--shape", "cube"], "error: --shape: got 'cube', expected one of"),
+    ],
+)
+def test_cli_shape_options_exit_2_with_one_line(tmp_path, args, expected):
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(_session([Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)]).to_dict()))
+    res = CliRunner().invoke(app, ["localize", str(path), "-q", *args])
+    assert res.exit_code == 2
+    assert res.stderr.startswith(expected) and res.stderr.count("\n") == 1
+
+
+def test_cli_shape_outputs_in_the_result_json(tmp_path):
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(_session([Ellipsoid.spheroid([0.6, 0.0, 0.5], 0.02, 0.06)]).to_dict()))
+    res = CliRunner().invoke(app, ["localize", str(path), "-q", "--shape", "spheroid", "--up", "0,0,1"])
+    assert res.exit_code == 0, res.output
+    (o,) = json.loads(res.stdout)["objects"]
+    assert o["shape"] == "spheroid" and len(o["semi_axes"]) == 3 and len(o["quaternion_xyzw"]) == 4 and o["volume_m3"] > 0
