@@ -254,35 +254,17 @@ def greenhouse_scene(
     t = _target(target)
     camera = camera or default_camera()
     P = paper_poses(t) if poses is None else np.asarray(poses, dtype=float).reshape(-1, 4, 4)
-    if not 1 <= min_views <= len(P):
-        raise InputError(f"min_views: got {min_views!r}, expected 1..{len(P)} (the number of poses)")
-    n = _count(n_fruit, "n_fruit") if n_fruit is not None else int(rng.integers(5, 11))
-    if n > 12:
-        raise InputError(f"n_fruit: got {n}, a truss holds at most 12 fruit here (use random_scene for more)")
-    n_leaf = int(rng.integers(3, 7)) if n_leaves is None else n_leaves
-    if isinstance(n_leaf, bool) or not isinstance(n_leaf, (int, np.integer)) or n_leaf < 0:
-        raise InputError(f"n_leaves: got {n_leaves!r}, expected an integer >= 0")
+    n, n_leaf = _greenhouse_counts(rng, n_fruit, n_leaves, min_views, len(P))
     # a half-resolution camera is enough for the visibility check (4x fewer rays)
     check_cam = camera.scaled(max(camera.width // 2, 1), max(camera.height // 2, 1))
+    meta = {"target": t.tolist(), "generator": "greenhouse_scene", "min_views": min_views}
     for _ in range(max_attempts):
         fruits, stems = _truss(rng, t, n)
         if fruits is None:
             continue
-        centres = np.array([f.centre for f in fruits])
-        radii = np.array([f.radius for f in fruits])
-        # unoccluded area of each fruit in each view: the silhouette ellipse inscribed in its exact box
-        full_px = []
-        for T in P:
-            b = sphere_bbox(check_cam, T, centres, radii, clip=False)
-            full_px.append(np.nan_to_num(0.25 * math.pi * (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1]), nan=np.inf))
+        full_px = _silhouette_areas(check_cam, P, fruits)
         for _ in range(LEAF_DRAWS_PER_TRUSS):
-            leaves = _leaves(rng, t, fruits, n_leaf)
-            scene = Scene(
-                tuple(fruits),
-                tuple(stems) + tuple(leaves),
-                "greenhouse",
-                {"target": t.tolist(), "generator": "greenhouse_scene", "min_views": min_views},
-            )
+            scene = Scene(tuple(fruits), tuple(stems) + tuple(_leaves(rng, t, fruits, n_leaf)), "greenhouse", meta)
             seen = np.zeros(n, dtype=int)
             for T, full in zip(P, full_px):
                 seen += render(scene, check_cam, T).visible_px >= min_visible_fraction * full
@@ -292,6 +274,32 @@ def greenhouse_scene(
         f"greenhouse_scene: no scene in {max_attempts} attempts where every fruit is visible in {min_views} views; "
         "use fewer leaves or fewer fruit"
     )
+
+
+def _greenhouse_counts(
+    rng: np.random.Generator, n_fruit: int | None, n_leaves: int | None, min_views: int, n_poses: int
+) -> tuple[int, int]:
+    """The truss's fruit and leaf counts (drawn where not given), checked."""
+    if not 1 <= min_views <= n_poses:
+        raise InputError(f"min_views: got {min_views!r}, expected 1..{n_poses} (the number of poses)")
+    n = _count(n_fruit, "n_fruit") if n_fruit is not None else int(rng.integers(5, 11))
+    if n > 12:
+        raise InputError(f"n_fruit: got {n}, a truss holds at most 12 fruit here (use random_scene for more)")
+    n_leaf = int(rng.integers(3, 7)) if n_leaves is None else n_leaves
+    if isinstance(n_leaf, bool) or not isinstance(n_leaf, (int, np.integer)) or n_leaf < 0:
+        raise InputError(f"n_leaves: got {n_leaves!r}, expected an integer >= 0")
+    return n, int(n_leaf)
+
+
+def _silhouette_areas(camera: Camera, poses: NDArray[np.float64], fruits: list[Any]) -> list[NDArray[np.float64]]:
+    """Per view, each fruit's unoccluded area (pixels): the silhouette ellipse inscribed in its exact box."""
+    centres = np.array([f.centre for f in fruits])
+    radii = np.array([f.radius for f in fruits])
+    out = []
+    for T in poses:
+        b = sphere_bbox(camera, T, centres, radii, clip=False)
+        out.append(np.nan_to_num(0.25 * math.pi * (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1]), nan=np.inf))
+    return out
 
 
 def scene_by_name(
