@@ -297,6 +297,40 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
     ET.SubElement(visual, "map", znear=f"{cfg.near_m:.9g}", zfar=f"{cfg.far_m:.9g}", shadowclip="3")
     ET.SubElement(visual, "headlight", ambient="0.35 0.35 0.35", diffuse="0.35 0.35 0.35", specular="0 0 0")
 
+    _add_assets(root, cfg)
+    world = ET.SubElement(root, "worldbody")
+    ET.SubElement(
+        world,
+        "light",
+        name="sun",
+        directional="true",
+        pos="0 0 5",
+        dir="0.3 0.2 -1",
+        diffuse="0.6 0.6 0.6",
+        specular="0.1 0.1 0.1",
+        castshadow="true" if cfg.shadows else "false",
+    )
+    if cfg.ground:
+        ground_z = cfg.ground_z if cfg.ground_z is not None else scene_lowest_z(scene) - cfg.ground_margin
+        ET.SubElement(world, "geom", name="ground", type="plane", size="0 0 0.05", pos=f"0 0 {ground_z:.9g}", material="ground")
+    _add_fruits(world, scene)
+    _add_occluders(world, scene, cfg)
+    mount = ET.SubElement(world, "body", name="camera_mount", mocap="true")
+    ET.SubElement(
+        mount,
+        "camera",
+        name="camera",
+        resolution=f"{w} {h}",
+        sensorsize=_fmt([w * 1e-5, h * 1e-5]),
+        focalpixel=_fmt([camera.fx, camera.fy]),
+        principalpixel=_fmt([0.5 * w - camera.cx, 0.5 * h - camera.cy]),
+    )
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode")
+
+
+def _add_assets(root: ET.Element, cfg: RenderConfig) -> None:
+    """Sky, ground texture and the materials of fruit, leaves and stems."""
     asset = ET.SubElement(root, "asset")
     ET.SubElement(
         asset,
@@ -326,21 +360,9 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
     ET.SubElement(asset, "material", name="leaf", rgba=_fmt(cfg.leaf_rgba), specular="0.05")
     ET.SubElement(asset, "material", name="stem", rgba=_fmt(cfg.stem_rgba), specular="0.05")
 
-    world = ET.SubElement(root, "worldbody")
-    ET.SubElement(
-        world,
-        "light",
-        name="sun",
-        directional="true",
-        pos="0 0 5",
-        dir="0.3 0.2 -1",
-        diffuse="0.6 0.6 0.6",
-        specular="0.1 0.1 0.1",
-        castshadow="true" if cfg.shadows else "false",
-    )
-    if cfg.ground:
-        ground_z = cfg.ground_z if cfg.ground_z is not None else scene_lowest_z(scene) - cfg.ground_margin
-        ET.SubElement(world, "geom", name="ground", type="plane", size="0 0 0.05", pos=f"0 0 {ground_z:.9g}", material="ground")
+
+def _add_fruits(world: ET.Element, scene: Scene) -> None:
+    """One geom per fruit: a sphere, or an ellipsoid for :class:`EllipsoidFruit`."""
     for i, fruit in enumerate(scene.fruits):
         if isinstance(fruit, EllipsoidFruit):  # validated on construction
             ET.SubElement(
@@ -359,6 +381,10 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
         ET.SubElement(
             world, "geom", name=f"fruit_{i}", type="sphere", size=f"{fruit.radius:.9g}", pos=_fmt(fruit.centre), material="fruit"
         )
+
+
+def _add_occluders(world: ET.Element, scene: Scene, cfg: RenderConfig) -> None:
+    """Leaves as thin boxes, stems as cylinders (visual only: no contacts)."""
     for i, occ in enumerate(scene.occluders):
         if isinstance(occ, Leaf):
             hu, hv = occ.half_size
@@ -388,18 +414,6 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
             )
         else:  # pragma: no cover - Scene only holds these types
             raise InputError(f"scene.occluders[{i}]: unsupported occluder {type(occ).__name__}")
-    mount = ET.SubElement(world, "body", name="camera_mount", mocap="true")
-    ET.SubElement(
-        mount,
-        "camera",
-        name="camera",
-        resolution=f"{w} {h}",
-        sensorsize=_fmt([w * 1e-5, h * 1e-5]),
-        focalpixel=_fmt([camera.fx, camera.fy]),
-        principalpixel=_fmt([0.5 * w - camera.cx, 0.5 * h - camera.cy]),
-    )
-    ET.indent(root)
-    return ET.tostring(root, encoding="unicode")
 
 
 def check_renderable_camera(camera: Camera) -> Camera:
