@@ -13,6 +13,7 @@ from . import (
     experiments,  # noqa: F401
     io,  # noqa: F401
     sim,  # noqa: F401
+    view,  # noqa: F401
 )
 from ._app import app, main
 
