@@ -22,6 +22,9 @@ def view(
     ] = None,
     output: Annotated[Path, typer.Option("--output", "-o", help="HTML file to write.")] = Path("scene.html"),
     open_: Annotated[bool, typer.Option("--open", help="Open the file in the default web browser.")] = False,
+    rrd: Annotated[
+        Path | None, typer.Option("--rrd", help="Also write a rerun recording (.rrd) of the same scene (extra [rerun]).")
+    ] = None,
 ) -> None:
     """Write an interactive 3D view (cameras, boxes, viewing cones, fruit, errors) as one self-contained HTML file.
 
@@ -29,9 +32,15 @@ def view(
     """
     if output.suffix.lower() not in (".html", ".htm"):
         raise InputError(f"--output: got {str(output)!r}, expected a file name ending in .html")
+    if rrd is not None and rrd.suffix.lower() != ".rrd":
+        raise InputError(f"--rrd: got {str(rrd)!r}, expected a file name ending in .rrd")
     from ..viz3d import write_scene_html
 
     path = write_scene_html(session, result, truth, path=output)
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB, works offline)", highlight=False)
+    if rrd is not None:
+        from ..rerun_log import write_rrd
+
+        console.print(f"wrote {write_rrd(session, result, truth, path=rrd)} (open with `rerun FILE`)", highlight=False)
     if open_:
         webbrowser.open(path.resolve().as_uri())
