@@ -594,6 +594,7 @@ def scene_figure(
             "yaxis": {"title": {"text": "y (m)"}},
             "zaxis": {"title": {"text": "z (m)"}},
             "aspectmode": "data",
+            "camera": {"eye": {"x": -1.35, "y": -1.35, "z": 0.9}},  # from behind the robot's left shoulder, all in view
         },
         coloraxis={
             "colorscale": SCORE_COLORSCALE,
