@@ -79,7 +79,7 @@ def test_scene_legend_matches_what_is_drawn() -> None:
     stem_lines = [ln for ax in fig.axes for ln in ax.get_lines() if to_rgba(ln.get_color()) == to_rgba(STEM_COLOUR)]
     assert len(stem_lines) == 3  # in each panel
     numbers = [t.get_text() for t in fig.axes[0].texts]
-    assert numbers == ["1", "2", "3"] and all(t.get_fontsize() >= 10 for t in fig.axes[0].texts)
+    assert numbers == ["0", "1", "2"] and all(t.get_fontsize() >= 10 for t in fig.axes[0].texts)
 
 
 def test_scene_legend_leaves_out_what_is_not_drawn() -> None:
@@ -121,7 +121,8 @@ def test_box_labels_do_not_overlap() -> None:
 def test_error_boxes_have_labels() -> None:
     fig = plot_error_boxes({"a": [1.0, 2.0], "b": [2.0, 3.0]}, title="errors", reference_mm=2.5, reference_label="paper")
     (ax,) = fig.axes
-    assert ax.get_ylabel() == "Euclidean error (mm)" and [t.get_text() for t in ax.get_legend().get_texts()] == ["paper"]
+    assert ax.get_ylabel() == "Euclidean error (mm)"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["median (box: quartiles)", "mean", "paper"]
     assert texts_inside_figure(fig) == []
 
 

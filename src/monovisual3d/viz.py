@@ -112,6 +112,10 @@ def _set_equal_3d(ax: Any, points: NDArray[np.float64], margin: float = 0.03) ->
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_zlim(centre[2] - half, centre[2] + half)
     ax.set_box_aspect((1, 1, 1), zoom=0.82)  # room for the z label, which matplotlib clips at zoom 1
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(4))  # tick labels that do not run into each other
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.zaxis.set_rotate_label(False)  # matplotlib's default turns "z (m)" upside down in this view
@@ -123,14 +127,15 @@ def _draw_spheres(ax: Any, centres: NDArray[np.float64], radii: NDArray[np.float
         ax.plot_wireframe(*_sphere_mesh(c, float(r)), **style)
 
 
-def _draw_cameras(ax: Any, camera: Camera, poses: NDArray[np.float64], depth: float) -> None:
-    """Frusta of ``poses`` (N, 4, 4), each numbered (1-based, as the figures' legends say) on a white tag."""
-    for i, T in enumerate(poses):
+def _draw_cameras(ax: Any, camera: Camera, poses: NDArray[np.float64], depth: float, first: int = 0) -> None:
+    """Frusta of ``poses`` (N, 4, 4), each numbered on a white tag, from ``first`` (0: the view index of
+    ``session.json`` and ``view_NN.png``; 1: "after view 1" of the posterior snapshots)."""
+    for i, T in enumerate(poses, start=first):
         for a, b in frustum_lines(camera, T, depth):
             ax.plot(*np.stack([a, b]).T, color=CAMERA_COLOUR, linewidth=1.0)
         ax.text(
             *T[:3, 3],
-            f"{i + 1}",
+            f"{i}",
             color=CAMERA_COLOUR,
             fontsize=10,
             fontweight="bold",
@@ -237,6 +242,7 @@ def plot_scene(
 
     fig = _figure(figsize)
     ax = fig.add_subplot(1, 3, 1, projection="3d")
+    ax.computed_zorder = False  # draw in zorder, so the camera numbers stay on top of the fruit
     _draw_occluders(ax, occluders)
     _draw_spheres(ax, tc, tr, color=TRUTH_COLOUR, linewidth=0.6)
     if with_r:
@@ -250,7 +256,7 @@ def plot_scene(
     pts = [tc + tr[:, None], tc - tr[:, None], ec] + ([P[:, :3, 3]] if len(P) else [])
     _set_equal_3d(ax, np.concatenate(pts) if any(len(p) for p in pts) else np.zeros((1, 3)))
     ax.view_init(elev=20, azim=-150)
-    ax.set_title("3D (cameras numbered by view)" if len(P) else "3D", fontsize=9)
+    ax.set_title("3D (cameras numbered by view index)" if len(P) else "3D", fontsize=9)
 
     from matplotlib.lines import Line2D
     from matplotlib.patches import Circle, Patch
@@ -490,6 +496,8 @@ def plot_error_boxes(
     panels: dict[str, Mapping[str, ArrayLike]] = (
         dict(errors_mm) if isinstance(first, Mapping) else {"": errors_mm}  # type: ignore[dict-item]
     )
+    from matplotlib.lines import Line2D
+
     n = len(panels)
     fig = _figure(figsize or (max(5.0, 4.5 * n), 4.2))
     axes = fig.subplots(1, n, squeeze=False)[0]
@@ -497,14 +505,29 @@ def plot_error_boxes(
         names = list(groups)
         data = [np.asarray(groups[k], dtype=float).reshape(-1) for k in names]
         data = [d[np.isfinite(d)] for d in data]
-        ax.boxplot(data, showmeans=True)
+        parts = ax.boxplot(data, showmeans=True)
         ax.set_xticks(range(1, len(names) + 1), names, rotation=20, ha="right", fontsize=8)
         if log:
             ax.set_yscale("log")
+        handles: list[Any] = []
+        if parts["medians"] and parts["means"]:
+            median, mean = parts["medians"][0], parts["means"][0]
+            handles += [
+                Line2D([], [], color=median.get_color(), label="median (box: quartiles)"),
+                Line2D(
+                    [],
+                    [],
+                    color="none",
+                    marker=mean.get_marker(),
+                    markerfacecolor=mean.get_markerfacecolor(),
+                    markeredgecolor=mean.get_markeredgecolor(),
+                    label="mean",
+                ),
+            ]
         if reference_mm is not None:
-            ax.axhline(reference_mm, color="grey", linestyle=":", label=reference_label or None)
-            if reference_label:
-                ax.legend(fontsize=8, loc="best")
+            handles.append(ax.axhline(reference_mm, color="grey", linestyle=":", label=reference_label or "reference"))
+        if handles:
+            ax.legend(handles=handles, fontsize=8, loc="best")
         ax.set_ylabel(ylabel)
         ax.grid(True, axis="y", alpha=0.3)
         if panel:
@@ -587,7 +610,7 @@ def plot_posterior_snapshots(
         if len(tc):
             _draw_spheres(ax, tc, tr, color=TRUTH_COLOUR, linewidth=0.5)
         if camera is not None and len(P):
-            _draw_cameras(ax, camera, P[: i + 1], 0.06)
+            _draw_cameras(ax, camera, P[: i + 1], 0.06, first=1)
         label = titles[i] if titles is not None and i < len(titles) else f"after view {i + 1}"
         ax.set_title(f"{label}\n{n_above:,} cells >= {threshold:g} max", fontsize=9)
         ax.view_init(elev=20, azim=-150)
@@ -599,6 +622,35 @@ def plot_posterior_snapshots(
         _set_equal_3d(ax, ref)
     if last is not None:
         fig.colorbar(last, ax=axes, shrink=0.6, label="p / max(p)")
+    from matplotlib.lines import Line2D
+
+    handles = [
+        Line2D(
+            [],
+            [],
+            color="tab:green",
+            marker="o",
+            linestyle="none",
+            alpha=0.6,
+            label=f"cells >= {threshold:g} max (colour: p / max)",
+        )
+    ]
+    if len(tc):
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color=TRUTH_COLOUR,
+                marker="o",
+                markerfacecolor="none",
+                linestyle="none",
+                markersize=10,
+                label="true fruit",
+            )
+        )
+    if camera is not None and len(P):
+        handles.append(Line2D([], [], color=CAMERA_COLOUR, label="camera of view N"))
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=9, frameon=False)
     if suptitle:
         fig.suptitle(suptitle)
     return fig
