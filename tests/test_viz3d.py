@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -261,3 +262,11 @@ def test_view_command(tmp_path: Path) -> None:
     assert r.exit_code == 2 and "--output: got" in r.output and "expected a file name ending in .html" in r.output
     r = runner.invoke(app, ["view", str(session), "--result", str(session), "-o", str(out)])
     assert r.exit_code == 2 and "objects: missing field" in r.output
+
+
+def test_view_without_plotly_names_the_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    session = tmp_path / "session.json"
+    session.write_text(json.dumps(two_fruit_session()))
+    monkeypatch.setitem(sys.modules, "plotly", None)  # as if the [viz] extra were not installed
+    r = CliRunner().invoke(app, ["view", str(session), "-o", str(tmp_path / "s.html")])
+    assert r.exit_code == 2 and "pip install 'monovisual3d[viz]'" in r.output

@@ -36,11 +36,18 @@ def view(
         raise InputError(f"--rrd: got {str(rrd)!r}, expected a file name ending in .rrd")
     from ..viz3d import write_scene_html
 
-    path = write_scene_html(session, result, truth, path=output)
+    try:
+        path = write_scene_html(session, result, truth, path=output)
+    except ImportError as exc:  # the extra is missing: say which, in one line
+        raise InputError(str(exc)) from None
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB, works offline)", highlight=False)
     if rrd is not None:
         from ..rerun_log import write_rrd
 
-        console.print(f"wrote {write_rrd(session, result, truth, path=rrd)} (open with `rerun FILE`)", highlight=False)
+        try:
+            written = write_rrd(session, result, truth, path=rrd)
+        except ImportError as exc:
+            raise InputError(str(exc)) from None
+        console.print(f"wrote {written} (open with `rerun {written}`)", highlight=False)
     if open_:
         webbrowser.open(path.resolve().as_uri())
