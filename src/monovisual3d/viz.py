@@ -35,6 +35,7 @@ TRUTH_COLOUR = "tab:green"
 ESTIMATE_COLOUR = "tab:red"
 CAMERA_COLOUR = "tab:blue"
 OCCLUDER_COLOUR = "darkolivegreen"
+STEM_COLOUR = "saddlebrown"
 
 
 def _figure(figsize: tuple[float, float]) -> Figure:
@@ -122,7 +123,8 @@ def _set_equal_3d(ax: Any, points: NDArray[np.float64], margin: float = 0.03, zo
     ax.tick_params(labelsize=7)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_zlabel("z (m)")
+    ax.zaxis.set_rotate_label(False)  # matplotlib's default turns "z (m)" upside down in this view
+    ax.set_zlabel("z (m)", rotation=90)
 
 
 def _draw_spheres(ax: Any, centres: NDArray[np.float64], radii: NDArray[np.float64], **style: Any) -> None:
@@ -130,11 +132,23 @@ def _draw_spheres(ax: Any, centres: NDArray[np.float64], radii: NDArray[np.float
         ax.plot_wireframe(*_sphere_mesh(c, float(r)), **style)
 
 
-def _draw_cameras(ax: Any, camera: Camera, poses: NDArray[np.float64], depth: float) -> None:
-    for i, T in enumerate(poses):
+def _draw_cameras(ax: Any, camera: Camera, poses: NDArray[np.float64], depth: float, first: int = 0) -> None:
+    """Frusta of ``poses`` (N, 4, 4), each numbered on a white tag, from ``first`` (0: the view index of
+    ``session.json`` and ``view_NN.png``; 1: "after view 1" of the posterior snapshots)."""
+    for i, T in enumerate(poses, start=first):
         for a, b in frustum_lines(camera, T, depth):
             ax.plot(*np.stack([a, b]).T, color=CAMERA_COLOUR, linewidth=1.0)
-        ax.text(*T[:3, 3], f" {i + 1}", color=CAMERA_COLOUR, fontsize=8)
+        ax.text(
+            *T[:3, 3],
+            f"{i}",
+            color=CAMERA_COLOUR,
+            fontsize=10,
+            fontweight="bold",
+            ha="center",
+            va="center",
+            bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": CAMERA_COLOUR, "alpha": 0.9},
+            zorder=10,
+        )
 
 
 def _draw_occluders(ax: Any, occluders: Sequence[Any]) -> None:
@@ -148,7 +162,7 @@ def _draw_occluders(ax: Any, occluders: Sequence[Any]) -> None:
             ]
             ax.plot(*np.array(corners).T, color=OCCLUDER_COLOUR, linewidth=1.2)
         elif isinstance(o, Stem):
-            ax.plot(*np.stack([o.start, o.end]).T, color="saddlebrown", linewidth=1.5)
+            ax.plot(*np.stack([o.start, o.end]).T, color=STEM_COLOUR, linewidth=1.5)
 
 
 def _draw_occluder_2d(ax: Any, o: Any, dims: tuple[int, int]) -> None:
@@ -163,7 +177,7 @@ def _draw_occluder_2d(ax: Any, o: Any, dims: tuple[int, int]) -> None:
         )
         ax.fill(corners[:, a], corners[:, b], color=OCCLUDER_COLOUR, alpha=0.25, linewidth=0.8)
     elif isinstance(o, Stem):
-        ax.plot([o.start[a], o.end[a]], [o.start[b], o.end[b]], color="saddlebrown", linewidth=1.5)
+        ax.plot([o.start[a], o.end[a]], [o.start[b], o.end[b]], color=STEM_COLOUR, linewidth=1.5)
 
 
 def _as_points(a: ArrayLike | None, where: str) -> NDArray[np.float64]:
@@ -233,6 +247,7 @@ def plot_scene(
 
     fig = _figure(figsize)
     ax = fig.add_subplot(1, 3, 1, projection="3d")
+    ax.computed_zorder = False  # draw in zorder, so the camera numbers stay on top of the fruit
     _draw_occluders(ax, occluders)
     _draw_spheres(ax, tc, tr, color=TRUTH_COLOUR, linewidth=0.6)
     if with_r:
@@ -246,10 +261,10 @@ def plot_scene(
     pts = [tc + tr[:, None], tc - tr[:, None], ec] + ([P[:, :3, 3]] if len(P) else [])
     _set_equal_3d(ax, np.concatenate(pts) if any(len(p) for p in pts) else np.zeros((1, 3)))
     ax.view_init(elev=20, azim=-150)
-    ax.set_title("3D view (base frame)", fontsize=9)
+    ax.set_title("3D (cameras numbered by view index)" if len(P) else "3D", fontsize=9)
 
     from matplotlib.lines import Line2D
-    from matplotlib.patches import Circle
+    from matplotlib.patches import Circle, Patch
 
     fruit_pts = np.concatenate([tc + tr[:, None], tc - tr[:, None], ec]) if len(tc) or len(ec) else np.zeros((1, 3))
     lo, hi = fruit_pts.min(axis=0) - 0.02, fruit_pts.max(axis=0) + 0.02
@@ -273,18 +288,179 @@ def plot_scene(
         ax2.set_ylabel("z (m)" if b == 2 else "x (m)")
         ax2.set_title(name, fontsize=9)
         ax2.grid(True, alpha=0.2)
-        if k == 0:
-            handles = [
-                Line2D([], [], color=TRUTH_COLOUR, label="true fruit"),
-                Line2D([], [], color=ESTIMATE_COLOUR, marker="x", linestyle="--" if with_r else "none", label="estimate"),
-            ]
-            if len(P):
-                handles.append(Line2D([], [], color=CAMERA_COLOUR, label="camera views (3D)"))
-            if occluders:
-                handles.append(Line2D([], [], color=OCCLUDER_COLOUR, alpha=0.5, linewidth=6, label="leaves / stems"))
-            ax2.legend(handles=handles, loc="best", fontsize=8)
+    handles = [
+        Line2D(
+            [], [], color=TRUTH_COLOUR, marker="o", markerfacecolor="none", linestyle="none", markersize=10, label="true fruit"
+        ),
+        Line2D(
+            [],
+            [],
+            color=ESTIMATE_COLOUR,
+            marker="x",
+            linestyle="--" if with_r else "none",
+            label="estimate (centre x, size dashed)" if with_r else "estimate (centre)",
+        ),
+    ]
+    if len(P):
+        handles.append(Line2D([], [], color=CAMERA_COLOUR, label="camera frustum (3D panel)"))
+    kinds = {type(o).__name__ for o in occluders}
+    if "Leaf" in kinds:
+        handles.append(Patch(facecolor=OCCLUDER_COLOUR, alpha=0.35, edgecolor=OCCLUDER_COLOUR, label="leaf"))
+    if "Stem" in kinds:
+        handles.append(Line2D([], [], color=STEM_COLOUR, linewidth=1.5, label="stem"))
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=9, frameon=False)
     if title:
         fig.suptitle(title)
+    return fig
+
+
+def label_positions(boxes_xyxy: ArrayLike, label_sizes: ArrayLike, image_size: tuple[int, int]) -> NDArray[np.float64]:
+    """Top-left corners for one label per box, chosen so that labels do not overlap each other.
+
+    Each label is tried at eight places around its box's corners (above the top-left corner
+    first, then inside it, above the top-right corner, below the box, beside it); the first
+    place that keeps the label inside the image and clear of the labels placed before wins,
+    else the place that overlaps least (labels first, then other boxes).
+
+    Parameters
+    ----------
+    boxes_xyxy : array_like, shape (N, 4), pixels ``(x1, y1, x2, y2)``
+    label_sizes : array_like, shape (N, 2), pixels ``(width, height)`` of each label
+    image_size : ``(width, height)``, pixels
+
+    Returns
+    -------
+    xy : ndarray, shape (N, 2), pixels, top-left corner of each label (image y axis points down)
+
+    Examples
+    --------
+    >>> label_positions([[10, 30, 50, 70], [12, 32, 52, 72]], [[12, 14], [12, 14]], (640, 480)).tolist()
+    [[10.0, 16.0], [12.0, 72.0]]
+    """
+    boxes = np.asarray(boxes_xyxy, dtype=float).reshape(-1, 4)
+    sizes = np.asarray(label_sizes, dtype=float).reshape(-1, 2)
+    if len(sizes) != len(boxes):
+        raise InputError(f"label_sizes: expected {len(boxes)} sizes, got {len(sizes)}")
+    W, H = image_size
+
+    def overlap(r: NDArray[np.float64], others: NDArray[np.float64]) -> float:
+        if not len(others):
+            return 0.0
+        dx = np.minimum(r[2], others[:, 2]) - np.maximum(r[0], others[:, 0])
+        dy = np.minimum(r[3], others[:, 3]) - np.maximum(r[1], others[:, 1])
+        return float(np.sum(np.clip(dx, 0, None) * np.clip(dy, 0, None)))
+
+    placed = np.zeros((0, 4))
+    out = np.zeros((len(boxes), 2))
+    for n, ((x1, y1, x2, y2), (w, h)) in enumerate(zip(boxes, sizes)):
+        candidates = [
+            (x1, y1 - h),  # above, left-aligned
+            (x1, y1),  # inside the top-left corner
+            (x2 - w, y1 - h),  # above, right-aligned
+            (x1, y2),  # below, left-aligned
+            (x2 - w, y2),  # below, right-aligned
+            (x1 - w, y1),  # left of the box
+            (x2, y1),  # right of the box
+            (x1, y2 - h),  # inside the bottom-left corner
+        ]
+        others = np.delete(boxes, n, axis=0)
+        best, best_cost = None, np.inf
+        for x, y in candidates:
+            x = float(np.clip(x, 0, max(W - w, 0)))
+            y = float(np.clip(y, 0, max(H - h, 0)))
+            r = np.array([x, y, x + w, y + h])
+            cost = 1000.0 * overlap(r, placed) + overlap(r, others)
+            if cost < best_cost - 1e-9:
+                best, best_cost = (x, y), cost
+            if overlap(r, placed) == 0.0 and cost == 0.0:
+                break
+        if best_cost > 0:  # fall back on the first place clear of the other labels, ignoring boxes
+            for x, y in candidates:
+                x = float(np.clip(x, 0, max(W - w, 0)))
+                y = float(np.clip(y, 0, max(H - h, 0)))
+                if overlap(np.array([x, y, x + w, y + h]), placed) == 0.0:
+                    best = (x, y)
+                    break
+        assert best is not None
+        out[n] = best
+        placed = np.vstack([placed, [best[0], best[1], best[0] + w, best[1] + h]])
+    return out
+
+
+def plot_view(
+    image: ArrayLike,
+    boxes_xyxy: ArrayLike,
+    *,
+    false_positive: ArrayLike | None = None,
+    regions: Mapping[str, tuple[int, int, int]] | None = None,
+    title: str | None = None,
+    image_size: tuple[int, int] | None = None,
+    box_colour: str = "#0046ff",
+    false_positive_colour: str = "#e600e6",
+    figsize: tuple[float, float] = (9.0, 5.4),
+) -> Figure:
+    """One camera image with its detection boxes, numbered by their index in the view's detections.
+
+    The numbers sit on tags placed by :func:`label_positions`, so no tag hides another.
+
+    Parameters
+    ----------
+    image : array_like, shape (H, W, 3), uint8 RGB, the picture (pixels map to the axes' pixel coordinates)
+    boxes_xyxy : array_like, shape (K, 4), pixels
+    false_positive : array_like of bool, shape (K,), optional, boxes drawn in ``false_positive_colour``
+    regions : mapping legend text -> RGB colour of the picture's regions (e.g. ``{"fruit": (220, 30, 30)}``)
+    title : str, optional
+    image_size : ``(width, height)`` in pixels of the camera image the boxes refer to, when the
+        picture has another resolution (e.g. a supersampled rendering); default the picture's
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> img = np.full((48, 64, 3), 200, dtype=np.uint8)
+    >>> len(plot_view(img, [[10, 10, 30, 30]], title="view 0").axes)
+    1
+    """
+    img = np.asarray(image)
+    if img.ndim != 3 or img.shape[2] != 3:
+        raise InputError(f"image: expected shape (H, W, 3), got {img.shape}")
+    boxes = np.asarray(boxes_xyxy, dtype=float).reshape(-1, 4)
+    fp = np.zeros(len(boxes), bool) if false_positive is None else np.asarray(false_positive, dtype=bool).reshape(-1)
+    if len(fp) != len(boxes):
+        raise InputError(f"false_positive: expected {len(boxes)} flags, got {len(fp)}")
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Rectangle
+
+    W, H = image_size if image_size is not None else (img.shape[1], img.shape[0])
+    fig = _figure(figsize)
+    ax = fig.add_subplot(1, 1, 1)
+    ax.imshow(img, extent=(0, W, H, 0), interpolation="nearest")
+    # label size in pixels of the image: the axes show W pixels over about 0.8 of the figure's width
+    px_per_pt = W / (0.8 * figsize[0] * 72.0)
+    fontsize = 9.0
+    sizes = np.array([[(0.62 * fontsize * len(str(j)) + 4) * px_per_pt, (fontsize + 5) * px_per_pt] for j in range(len(boxes))])
+    xy = label_positions(boxes, sizes, (W, H)) if len(boxes) else np.zeros((0, 2))
+    for j, ((x1, y1, x2, y2), f) in enumerate(zip(boxes, fp)):
+        colour = false_positive_colour if f else box_colour
+        ax.add_patch(Rectangle((x1, y1), x2 - x1, y2 - y1, fill=False, edgecolor=colour, linewidth=1.5))
+        lx, ly = xy[j]
+        w, h = sizes[j]
+        ax.add_patch(Rectangle((lx, ly), w, h, facecolor=colour, edgecolor="none", alpha=0.9))
+        ax.text(lx + w / 2, ly + h / 2, str(j), color="white", fontsize=fontsize, fontweight="bold", ha="center", va="center")
+    ax.set_xlim(0, W)
+    ax.set_ylim(H, 0)
+    ax.set_xlabel("u (px)")
+    ax.set_ylabel("v (px)")
+    handles: list[Any] = [
+        Patch(facecolor=np.array(c) / 255.0, edgecolor="black", linewidth=0.3, label=name) for name, c in (regions or {}).items()
+    ]
+    handles.append(Line2D([], [], color=box_colour, linewidth=1.5, label="detection box\n(number = index in\nsession.json)"))
+    if fp.any():
+        handles.append(Line2D([], [], color=false_positive_colour, linewidth=1.5, label="false positive box"))
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
+    ax.set_title(title or f"{len(boxes)} detection boxes", fontsize=10)
     return fig
 
 
@@ -329,6 +505,7 @@ def plot_error_boxes(
     panels: dict[str, Mapping[str, ArrayLike]] = (
         dict(errors_mm) if isinstance(first, Mapping) else {"": errors_mm}  # type: ignore[dict-item]
     )
+
     n = len(panels)
     fig = _figure(figsize or (max(5.0, 4.5 * n), 4.2))
     axes = fig.subplots(1, n, squeeze=False)[0]
@@ -473,7 +650,7 @@ def plot_posterior_snapshots(
         if len(tc):
             _draw_spheres(ax, tc, tr, color=TRUTH_COLOUR, linewidth=0.5)
         if camera is not None and len(P):
-            _draw_cameras(ax, camera, P[: i + 1], 0.06)
+            _draw_cameras(ax, camera, P[: i + 1], 0.06, first=1)
         label = titles[i] if titles is not None and i < len(titles) else f"after view {i + 1}"
         ax.set_title(f"{label}\n{n_above:,} cells >= {threshold:g} max", fontsize=9)
         ax.view_init(elev=20, azim=-150)

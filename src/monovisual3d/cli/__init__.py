@@ -14,6 +14,7 @@ from . import (
     io,  # noqa: F401
     sim,  # noqa: F401
     startup,  # noqa: F401
+    view,  # noqa: F401
 )
 from ._app import app, main
 

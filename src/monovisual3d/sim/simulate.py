@@ -181,9 +181,9 @@ def write_simulation(
     Files: ``session.json`` (load with :func:`monovisual3d.load_session`),
     ``truth.json`` (see :func:`simulate`; usable with ``monovisual3d evaluate``),
     ``scene.json`` (:meth:`Scene.load`), and with ``images`` one ``view_NN.png``
-    per view (:func:`view_image`): the label image (background grey, occluders
+    per view (:func:`write_view_picture`): the label image (background grey, occluders
     green, fruit in shades of red) with the reported boxes, numbered by their
-    index in the view's detections.
+    index in the view's detections, titled and with a legend when matplotlib is installed.
 
     Returns
     -------
@@ -203,22 +203,51 @@ def write_simulation(
     paths["truth"].write_text(json.dumps(truth, indent=2) + "\n")
     scene.save(paths["scene"])
     if names is not None:
-        for name, v in zip(names, views):
+        for i, (name, v) in enumerate(zip(names, views)):
             path = out_dir / name
-            write_png(path, view_image(v))
+            write_view_picture(path, v, f"view {i}")
             paths[name.removesuffix(".png")] = path
     return paths
 
 
-def view_image(view: SimulatedView) -> NDArray[np.uint8]:
+def write_view_picture(path: str | Path, view: SimulatedView, name: str = "view") -> None:
+    """Write the picture of a view: a titled figure with a legend when matplotlib is installed
+    (:func:`monovisual3d.viz.plot_view`), else the bare :func:`view_image` at the camera's resolution."""
+    from ..viz import plot_view, save_figure
+
+    n_fp = int(np.sum(view.source < 0))
+    s = view.rendering.supersample
+    labels = view.rendering.labels
+    present = {"fruit (one shade each)": (labels >= 0).any(), "leaves and stems": (labels == OCCLUDER).any()}
+    colours = {"fruit (one shade each)": (220, 30, 30), "leaves and stems": (40, 140, 40), "background": (200, 200, 200)}
+    regions = {k: c for k, c in colours.items() if present.get(k, True)}  # the legend lists what the picture shows
+    try:
+        fig = plot_view(
+            view_image(view, boxes=False),
+            view.boxes_xyxy,
+            false_positive=view.source < 0,
+            image_size=(labels.shape[1] // s, labels.shape[0] // s),
+            regions=regions,
+            box_colour="#{:02x}{:02x}{:02x}".format(*BOX_COLOUR),
+            false_positive_colour="#{:02x}{:02x}{:02x}".format(*FALSE_POSITIVE_COLOUR),
+            title=f"{name}: what the camera saw, {len(view.boxes_xyxy)} detection boxes"
+            + (f" ({n_fp} false positive)" if n_fp else ""),
+        )
+    except ImportError:  # no matplotlib (extra [viz]): the bare picture
+        write_png(path, view_image(view))
+        return
+    save_figure(fig, path, dpi=100)
+
+
+def view_image(view: SimulatedView, *, boxes: bool = True) -> NDArray[np.uint8]:
     """RGB picture of a simulated view: label colours plus the reported boxes, shape (H, W, 3), uint8.
 
     Background grey, occluders green, fruit in shades of red. Each reported box
     is drawn :data:`BOX_LINE_PX` pixels wide inside its edges, in
     :data:`BOX_COLOUR` (false positives in :data:`FALSE_POSITIVE_COLOUR`), with
     its index in the view's detections (``session.json``'s order) written on a
-    tag at its top-left corner. The picture has the label image's resolution
-    (``supersample`` times the camera's).
+    tag at its top-left corner (no boxes with ``boxes=False``). The picture has the label
+    image's resolution (``supersample`` times the camera's).
 
     Examples
     --------
@@ -235,6 +264,8 @@ def view_image(view: SimulatedView) -> NDArray[np.uint8]:
     shade = (labels[fruit] * 37) % 100
     img[fruit] = np.stack([220 - shade // 2, 30 + shade, 30 + shade // 2], axis=-1).astype(np.uint8)
     H, W = labels.shape
+    if not boxes:
+        return img
     t = BOX_LINE_PX * s
     for j, (box, src) in enumerate(zip(view.boxes_xyxy, view.source)):
         colour = BOX_COLOUR if src >= 0 else FALSE_POSITIVE_COLOUR

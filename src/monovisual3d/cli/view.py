@@ -1,0 +1,53 @@
+"""``view``: write the interactive 3D scene of a session (and its result, truth) as one offline HTML file."""
+
+from __future__ import annotations
+
+import webbrowser
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ..errors import InputError
+from ._app import app, console, handle_errors
+
+
+@app.command()
+@handle_errors
+def view(
+    session: Annotated[Path, typer.Argument(help="Session file (JSON or YAML).")],
+    result: Annotated[Path | None, typer.Option("--result", "-r", help="Result JSON written by `localize --output`.")] = None,
+    truth: Annotated[
+        Path | None, typer.Option("--truth", "-t", help='Truth JSON: {"objects": \\[{"position": \\[x, y, z], "radius": r}]}.')
+    ] = None,
+    output: Annotated[Path, typer.Option("--output", "-o", help="HTML file to write.")] = Path("scene.html"),
+    open_: Annotated[bool, typer.Option("--open", help="Open the file in the default web browser.")] = False,
+    rrd: Annotated[
+        Path | None, typer.Option("--rrd", help="Also write a rerun recording (.rrd) of the same scene (extra [rerun]).")
+    ] = None,
+) -> None:
+    """Write an interactive 3D view (cameras, boxes, viewing cones, fruit, errors) as one self-contained HTML file.
+
+    The file embeds plotly.js and works offline; open it in any web browser.
+    """
+    if output.suffix.lower() not in (".html", ".htm"):
+        raise InputError(f"--output: got {str(output)!r}, expected a file name ending in .html")
+    if rrd is not None and rrd.suffix.lower() != ".rrd":
+        raise InputError(f"--rrd: got {str(rrd)!r}, expected a file name ending in .rrd")
+    from ..viz3d import write_scene_html
+
+    try:
+        path = write_scene_html(session, result, truth, path=output)
+    except ImportError as exc:  # the extra is missing: say which, in one line
+        raise InputError(str(exc)) from None
+    console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB, works offline)", highlight=False)
+    if rrd is not None:
+        from ..rerun_log import write_rrd
+
+        try:
+            written = write_rrd(session, result, truth, path=rrd)
+        except ImportError as exc:
+            raise InputError(str(exc)) from None
+        console.print(f"wrote {written} (open with `rerun {written}`)", highlight=False)
+    if open_:
+        webbrowser.open(path.resolve().as_uri())
