@@ -79,6 +79,7 @@ def localize(
     method: Annotated[str, typer.Option(help=f"Method: {', '.join(METHODS)}.")] = DEFAULT_METHOD,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the result JSON here.")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table or progress bar.")] = False,
+    view: Annotated[Path | None, typer.Option("--view", help="Also write an interactive 3D view (HTML, offline) here.")] = None,
     *,
     method_options: dict[str, Any],
 ) -> None:
@@ -106,6 +107,10 @@ def localize(
             result = localize_fn(loaded, config=config, progress=progress)
     if output is not None:
         result.to_json(output)
+    if view is not None:
+        from ..viz3d import write_scene_html
+
+        write_scene_html(loaded, result, path=view)
     if not quiet:
         print_objects(result)
         console.print(f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {output}" if output else ""))

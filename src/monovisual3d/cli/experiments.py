@@ -65,7 +65,8 @@ def demo(
         "truth": "the true fruit; compare with `monovisual3d evaluate result.json truth.json`",
         "result": "the localised fruit",
         "scene": "the simulated scene (fruit, stems, leaves)",
-        "figure": "3D view and top view of the true (green) and estimated (red) fruit and the cameras",
+        "figure": "3D, front and top views of the true (green) and estimated (red) fruit and the cameras",
+        "scene_html": "interactive 3D view: open in a web browser (works offline)",
     }
     for name, path in d.files.items():
         what = descriptions.get(

@@ -157,6 +157,12 @@ def run_demo(
             files["figure"] = viz.save_figure(fig, out / "scene.png")
         except ImportError as exc:
             notes.append(f"figure skipped: {exc}")
+        try:
+            from ..viz3d import write_scene_html
+
+            files["scene_html"] = write_scene_html(session, result, scene.truth_dict(), path=out / "scene.html")
+        except ImportError as exc:
+            notes.append(f"scene.html skipped: {exc}")
     seconds["evaluate_and_figure"] = time.perf_counter() - t2
     seconds["total"] = time.perf_counter() - t0
     return DemoResult(scene, session, result, metrics, files, noise, seconds, notes)
