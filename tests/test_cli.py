@@ -146,7 +146,7 @@ def test_malformed_json_session(runner: CliRunner, tmp_path: Path) -> None:
         (["--kernel", "box"], "error: --kernel: got 'box'"),
         (["--centre", "middle"], "error: --centre: got 'middle'"),
         (["--k", "several"], "error: --k: got 'several'"),
-        (["--resolution", "0.0001"], "use --resolution"),
+        (["--resolution", "0.0001"], "--resolution 0.00"),
         (["--method", "magic"], "error: --method: got 'magic'"),
         (["--method", "bayes", "--accept", "inf"], "error: --accept: got inf, expected a finite number of nats"),
     ],

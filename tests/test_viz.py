@@ -122,7 +122,13 @@ def test_error_boxes_have_labels() -> None:
     fig = plot_error_boxes({"a": [1.0, 2.0], "b": [2.0, 3.0]}, title="errors", reference_mm=2.5, reference_label="paper")
     (ax,) = fig.axes
     assert ax.get_ylabel() == "Euclidean error (mm)"
-    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["quartiles, whiskers 1.5 IQR", "median", "mean", "outlier", "paper"]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "quartiles, whiskers 1.5 IQR",
+        "median",
+        "mean",
+        "outlier",
+        "paper",
+    ]
     assert texts_inside_figure(fig) == []
 
 

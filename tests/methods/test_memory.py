@@ -53,14 +53,14 @@ def _run(*args: str) -> tuple[int, int, str]:
 def test_paper_method_on_a_huge_workspace_fails_fast_within_the_budget(tmp_path: Path, half_width_m: float) -> None:
     rc, rss, err = _run(str(_session(tmp_path, half_width_m)), "--method", "paper", "-q")
     assert rc == 2, err
-    assert "over the max_memory budget of 2.0 GiB" in err and "m fits" in err
+    assert "over the --max-memory budget of 2.0 GiB" in err and "--resolution " in err and " fits" in err
     assert rss <= MAX_RSS_BYTES
 
 
 def test_paper_method_suggested_resolution_fits(tmp_path: Path) -> None:
     path = _session(tmp_path, 10.0)
     rc, _, err = _run(str(path), "--method", "paper", "-q", "--kernel", "square")
-    suggested = err.split("resolution ")[-1].split(" m fits")[0]
+    suggested = err.split("--resolution ")[-1].split(" fits")[0]
     rc, rss, err = _run(str(path), "--method", "paper", "-q", "--kernel", "square", "--resolution", suggested)
     assert rc == 0, err
     assert rss <= MAX_RSS_BYTES
@@ -71,7 +71,7 @@ def test_paper_method_fine_resolution_is_refused_not_run(tmp_path: Path) -> None
     path = tmp_path / "s.json"
     path.write_text(json.dumps(session.to_dict()))
     rc, rss, err = _run(str(path), "--method", "paper", "-q", "--resolution", "0.002")
-    assert rc == 2 and "resolution: a 2 mm grid has" in err
+    assert rc == 2 and f"{path}: --resolution: a 2 mm grid has" in err
     assert rss <= MAX_RSS_BYTES
 
 

@@ -18,7 +18,7 @@ from ..metrics import evaluate as evaluate_fn
 from ..result import Result
 from ..truth import load_objects
 from ._app import app, console, handle_errors
-from .options import method_config, with_method_options
+from .options import method_config, translate_error, with_method_options
 
 
 def print_objects(result: Result, title: str = "Localised objects") -> None:
@@ -95,16 +95,19 @@ def localize(
     # validate the options and the file before the progress bar, so an error prints alone and names the option
     config = method_config(method, method_options)
     loaded = load_session(session)
-    if quiet:
-        result = localize_fn(loaded, config=config)
-    else:
-        with Progress(console=console, transient=True) as bar:
-            task = bar.add_task("filtering views", total=None)
+    try:
+        if quiet:
+            result = localize_fn(loaded, config=config)
+        else:
+            with Progress(console=console, transient=True) as bar:
+                task = bar.add_task("filtering views", total=None)
 
-            def progress(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
+                def progress(done: int, total: int) -> None:
+                    bar.update(task, completed=done, total=total)
 
-            result = localize_fn(loaded, config=config, progress=progress)
+                result = localize_fn(loaded, config=config, progress=progress)
+    except InputError as exc:
+        raise translate_error(exc, session) from None
     if output is not None:
         result.to_json(output)
     if view is not None:

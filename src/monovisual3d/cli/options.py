@@ -145,3 +145,21 @@ def method_config(method: str | None, options: dict[str, Any]) -> Any:
         if names:
             raise InputError(f"{' / '.join(specs[n].flag for n in names)}:{rest}") from None
         raise
+
+
+def translate_error(exc: InputError, source: object | None = None) -> InputError:
+    """A library error raised while a method ran, in CLI words: option names as flags, the session file first.
+
+    ``resolution: ... resolution 0.0035 m fits ... max_memory`` becomes
+    ``FILE: --resolution: ... --resolution 0.0035 fits ... --max-memory``.
+    """
+    text = str(exc)
+    specs = {s.name: s for s in option_specs()}
+    field, sep, rest = text.partition(":")
+    if sep and field in specs:
+        text = specs[field].flag + ":" + rest
+        text = re.sub(r"\b" + field + r" ([0-9.e+-]+) m fits", specs[field].flag + r" \1 fits", text)
+        text = re.sub(r"\bmax_memory\b", "--max-memory", text)
+    if source is not None and not text.startswith(f"{source}:"):
+        text = f"{source}: {text}"
+    return InputError(text)
