@@ -79,6 +79,8 @@ TARGETS: dict[str, dict[str, tuple[str, float]]] = {
     "paper-noise": {"mean_mm": ("<=", 4.0), "recall": (">=", 0.98), "precision": (">=", 0.98)},
     "greenhouse": {"mean_mm": ("<=", 6.0), "recall": (">=", 0.95)},
     "pose-error": {"mean_mm": ("<=", 8.0)},
+    "shapes-clean": {"mean_mm": ("<=", 1.5), "semi_axis_mm": ("<=", 2.0), "recall": (">=", 0.98), "precision": (">=", 0.98)},
+    "shapes-noise": {"mean_mm": ("<=", 8.0), "recall": (">=", 0.98)},
 }
 
 
@@ -193,6 +195,7 @@ class Pool:
 
     errors: list[float] = field(default_factory=list)
     radius_errors: list[float] = field(default_factory=list)
+    semi_axis_errors: list[float] = field(default_factory=list)
     runtimes: list[float] = field(default_factory=list)
     n_truth: int = 0
     n_estimates: int = 0
@@ -212,6 +215,7 @@ class Pool:
             "recall": self.true_positives / self.n_truth if self.n_truth else float("nan"),
             "precision": self.true_positives / self.n_estimates if self.n_estimates else float("nan"),
             "radius_mm": float(np.mean(self.radius_errors) * 1e3) if self.radius_errors else None,
+            "semi_axis_mm": float(np.mean(self.semi_axis_errors) * 1e3) if self.semi_axis_errors else None,
             "runtime_s": float(np.median(self.runtimes)) if self.runtimes else float("nan"),
         }
         if self.bound_sq:
@@ -272,6 +276,19 @@ def crlb_rms_sq(scene: Scene, svs: list[Any], box_sigma: float) -> list[float]:
     return [v for v in out if np.isfinite(v)]
 
 
+def _semi_axis_errors(objects: list[Any], scene: Scene, ei: Any, ti: Any) -> list[float]:
+    """Mean |sorted estimated - sorted true semi-axes| (metres) per matched pair, for scenes with non-spherical fruit."""
+    if not any(getattr(f, "semi_axes", None) is not None and np.ptp(np.asarray(f.semi_axes)) > 0 for f in scene.fruits):
+        return []
+    out = []
+    for e, t in zip(ei, ti):
+        o, f = objects[e], scene.fruits[t]
+        est = np.sort(o.semi_axes) if o.semi_axes is not None else np.full(3, float(o.radius))
+        true = np.sort(np.asarray(getattr(f, "semi_axes", None) if getattr(f, "semi_axes", None) is not None else [f.radius] * 3))
+        out.append(float(np.mean(np.abs(est - true))))
+    return out
+
+
 def _shape_crlb_rms_sq(camera: Any, scene: Scene, svs: list[Any], box_sigma: float) -> list[float]:
     """:func:`crlb_rms_sq` for scenes with non-spherical fruit: each fruit's bound under its own shape model."""
     from ..geometry.bounds import centre_crlb_rms_sq
@@ -320,6 +337,7 @@ def run_accuracy(
                 pool.errors += np.linalg.norm(est[ei] - scene.centres[ti], axis=1).tolist()
                 ok = np.isfinite(est_r[ei]) if len(ei) else np.zeros(0, bool)
                 pool.radius_errors += np.abs(est_r[ei][ok] - scene.radii[ti][ok]).tolist()
+                pool.semi_axis_errors += _semi_axis_errors(res.objects, scene, ei, ti)
                 pool.n_truth += met.n_truth
                 pool.n_estimates += met.n_estimates
                 pool.true_positives += met.true_positives
@@ -360,8 +378,8 @@ def format_markdown(results: dict[str, Any]) -> str:
         f"{m['date_utc'][:10]}, load average {m.get('load_average_1m', float('nan')):.1f}"
         + (" (quick mode)" if results["quick"] else ""),
         "",
-        "| condition | method | runs | mean mm | median mm | max mm | recall | precision | radius err mm | runtime s |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| condition | method | runs | mean mm | median mm | max mm | recall | precision | radius err mm | semi-axis err mm | runtime s |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
 
     def f(v: Any, d: int = 2) -> str:
@@ -371,7 +389,7 @@ def format_markdown(results: dict[str, Any]) -> str:
         for meth, s in block["methods"].items():
             lines.append(
                 f"| {cond} | {meth} | {s['runs']} | {f(s['mean_mm'])} | {f(s['median_mm'])} | {f(s['max_mm'])} | "
-                f"{f(s['recall'], 3)} | {f(s['precision'], 3)} | {f(s['radius_mm'])} | {f(s['runtime_s'], 3)} |"
+                f"{f(s['recall'], 3)} | {f(s['precision'], 3)} | {f(s['radius_mm'])} | {f(s.get('semi_axis_mm'))} | {f(s['runtime_s'], 3)} |"
             )
     bounds = [
         (c, b["methods"]["bayes"]) for c, b in results["results"].items() if "rms_bound_mm" in b["methods"].get("bayes", {})
