@@ -48,7 +48,8 @@ def test_conditions_cover_the_issue_list():
     assert by_name["greenhouse-clutter"].noise.false_positive_rate > 0
     assert by_name["greenhouse-noise"].noise.box_sigma > 0 and by_name["greenhouse-noise"].noise.false_positive_rate == 0
     # the Cramer-Rao bound assumes unoccluded fruit and no clutter
-    assert {c.name for c in conditions() if c.crlb} == {"paper-noise"}
+    assert {c.name for c in conditions() if c.crlb} == {"paper-noise", "shapes-noise"}
+    assert {"shapes-clean", "shapes-noise", "shapes-occluded"} <= names
 
 
 def test_bad_names_are_rejected():
