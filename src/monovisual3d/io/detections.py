@@ -295,6 +295,32 @@ def read_coco(
             image_list = images
     results = expect_list(results, f"{where}: annotations")
     names = load_class_names(class_names) if class_names is not None else None
+    by_id, order = _coco_images(image_list, where)
+    dets: dict[Any, list[Detection]] = {k: [] for k in by_id}
+    for j, r in enumerate(results):
+        w_r = f"{where}: annotations[{j}]"
+        r = expect_mapping(r, w_r)
+        for k in ("image_id", "bbox"):
+            if k not in r:
+                raise InputError(f"{w_r}.{k}: missing field")
+        iid = _coco_id(r["image_id"], f"{w_r}.image_id")
+        if iid not in by_id:
+            if image_list is not None:
+                raise InputError(f"{w_r}.image_id: {iid!r} is not in the images list")
+            if not isinstance(iid, str):
+                raise InputError(
+                    f"{w_r}.image_id: numeric id {iid!r} and no images list: give the COCO file that has the images "
+                    "with --coco-images FILE (images=... in read_coco, coco_images=... in import_session)"
+                )
+            by_id[iid] = ImageDetections(image=iid, stamp=stamp_from_name(iid), source=where)
+            dets[iid] = []
+            order.append(iid)
+        dets[iid].append(_coco_detection(r, w_r, categories, names))
+    return [replace(by_id[k], detections=tuple(dets[k])) for k in order]
+
+
+def _coco_images(image_list: Any, where: str) -> tuple[dict[Any, ImageDetections], list[Any]]:
+    """The COCO ``images`` list (or None) as image id -> ImageDetections without detections, and the ids in order."""
     by_id: dict[Any, ImageDetections] = {}
     order: list[Any] = []
     if image_list is not None:
@@ -316,39 +342,24 @@ def read_coco(
             stamp = as_float(stamp, f"{w_im}.stamp") if stamp is not None else stamp_from_name(fname)
             by_id[iid] = ImageDetections(image=fname, stamp=stamp, image_size=size, source=where)
             order.append(iid)
-    dets: dict[Any, list[Detection]] = {k: [] for k in by_id}
-    for j, r in enumerate(results):
-        w_r = f"{where}: annotations[{j}]"
-        r = expect_mapping(r, w_r)
-        for k in ("image_id", "bbox"):
-            if k not in r:
-                raise InputError(f"{w_r}.{k}: missing field")
-        iid = _coco_id(r["image_id"], f"{w_r}.image_id")
-        if iid not in by_id:
-            if image_list is not None:
-                raise InputError(f"{w_r}.image_id: {iid!r} is not in the images list")
-            if not isinstance(iid, str):
-                raise InputError(
-                    f"{w_r}.image_id: numeric id {iid!r} and no images list: give the COCO file that has the images "
-                    "with --coco-images FILE (images=... in read_coco, coco_images=... in import_session)"
-                )
-            by_id[iid] = ImageDetections(image=iid, stamp=stamp_from_name(iid), source=where)
-            dets[iid] = []
-            order.append(iid)
-        x, y, w, h = as_array(r["bbox"], f"{w_r}.bbox", size=4).ravel().tolist()
-        box = _finite_box([x, y, x + w, y + h], f"{w_r}.bbox")
-        score = None
-        if r.get("score") is not None:
-            score = as_float(r["score"], f"{w_r}.score")
-            if not 0.0 <= score <= 1.0:
-                raise InputError(f"{w_r}.score: {score:g}, expected a value in [0, 1]")
-        label = None
-        if r.get("category_id") is not None:
-            cid = as_int(r["category_id"], f"{w_r}.category_id")
-            label = categories.get(cid) or (names or {}).get(cid) or str(cid)
-        mask = _coco_mask(r.get("segmentation"), f"{w_r}.segmentation")
-        dets[iid].append(Detection(np.asarray(box), score=score, label=label, mask=mask))
-    return [replace(by_id[k], detections=tuple(dets[k])) for k in order]
+    return by_id, order
+
+
+def _coco_detection(r: dict[str, Any], w_r: str, categories: dict[int, str], names: dict[int, str] | None) -> Detection:
+    """One COCO result or annotation ``r`` (``bbox [x, y, w, h]``, ``score``, ``category_id``, ``segmentation``)."""
+    x, y, w, h = as_array(r["bbox"], f"{w_r}.bbox", size=4).ravel().tolist()
+    box = _finite_box([x, y, x + w, y + h], f"{w_r}.bbox")
+    score = None
+    if r.get("score") is not None:
+        score = as_float(r["score"], f"{w_r}.score")
+        if not 0.0 <= score <= 1.0:
+            raise InputError(f"{w_r}.score: {score:g}, expected a value in [0, 1]")
+    label = None
+    if r.get("category_id") is not None:
+        cid = as_int(r["category_id"], f"{w_r}.category_id")
+        label = categories.get(cid) or (names or {}).get(cid) or str(cid)
+    mask = _coco_mask(r.get("segmentation"), f"{w_r}.segmentation")
+    return Detection(np.asarray(box), score=score, label=label, mask=mask)
 
 
 def _coco_categories(data: dict[str, Any], where: str) -> dict[int, str]:
