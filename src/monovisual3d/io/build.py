@@ -82,7 +82,13 @@ def build_session(
     ImportResult
     """
     summary = summary if summary is not None else ImportSummary()
-    max_gap = _check_build_options(pose_frame, match, max_gap)
+    if pose_frame not in POSE_FRAMES:
+        raise InputError(f"--pose-frame (pose_frame): got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
+    if match not in MATCH_MODES:
+        raise InputError(f"--match (match): got {match!r}, expected one of {list(MATCH_MODES)}")
+    max_gap = as_float(max_gap, "--max-gap (max_gap)")
+    if not max_gap >= 0:
+        raise InputError(f"--max-gap (max_gap): got {max_gap}, expected seconds >= 0")
     pose_source = poses.source or "poses"
     det_source = summary.source or _detections_source(detections)
     if len(poses) == 0:
@@ -170,18 +176,6 @@ def _what_names(names: bool, stamps: bool) -> str:
         (False, True): "stamps, no image names",
         (False, False): "neither image names nor stamps",
     }[(names, stamps)]
-
-
-def _check_build_options(pose_frame: str, match: str, max_gap: float) -> float:
-    """Check the options of :func:`build_session`; returns ``max_gap`` as a float, seconds."""
-    if pose_frame not in POSE_FRAMES:
-        raise InputError(f"--pose-frame (pose_frame): got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
-    if match not in MATCH_MODES:
-        raise InputError(f"--match (match): got {match!r}, expected one of {list(MATCH_MODES)}")
-    max_gap = as_float(max_gap, "--max-gap (max_gap)")
-    if not max_gap >= 0:
-        raise InputError(f"--max-gap (max_gap): got {max_gap}, expected seconds >= 0")
-    return max_gap
 
 
 def _auto_match_mode(
@@ -348,6 +342,76 @@ def _check_boxes_in_image(frame: ImageDetections, camera: Camera) -> None:
 
 
 # ---------------------------------------------------------------------- from files
+def _import_camera(
+    camera: str | Path | Camera | dict[str, Any],
+    camera_format: str | None,
+    camera_name: str | int | None,
+    image_size: tuple[int, int] | None,
+    resize: str,
+    crop_xyxy: ArrayLike | None,
+) -> Camera:
+    """The camera of :func:`import_session`: read from a file or dict, or a Camera scaled to ``image_size``."""
+    if isinstance(camera, Camera):
+        cam = camera
+        if image_size is not None:
+            from .calibration import camera_for_image_size
+
+            cam = camera_for_image_size(cam, image_size, resize)
+    else:
+        cam = read_calibration(
+            camera, format=camera_format, camera_name=camera_name, image_size=image_size, resize=resize, crop_xyxy=crop_xyxy
+        )
+    return cam
+
+
+def _import_detections(
+    detections: str | Path | Sequence[ImageDetections],
+    cam: Camera,
+    detections_format: str | None,
+    class_names: Any,
+    coco_images: str | Path | None,
+    image_size: tuple[int, int] | None,
+    crop_xyxy: ArrayLike | None,
+) -> tuple[list[ImageDetections], str, str | None]:
+    """The detections of :func:`import_session`, their source for messages and the note on YOLO scaling (or None).
+
+    Pixel boxes of an unstated image size are checked with :func:`check_box_extent` unless ``image_size`` is given.
+    """
+    size_note = None
+    pixel_boxes = True  # boxes in pixels of an unstated image size (CSV, COCO without sizes): see check_box_extent
+    if isinstance(detections, (str, Path)):
+        det_source = str(detections)
+        fmt = detections_format.lower() if detections_format else _detection_format(Path(detections))
+        frames = read_detections(detections, format=fmt, image_size=cam.size, class_names=class_names, images=coco_images)
+        if fmt == "yolo":
+            pixel_boxes = False
+            if image_size is not None:
+                given = "the size given by --image-size"
+            elif crop_xyxy is not None:
+                given = "the size of the --crop region"
+            else:
+                given = "the calibration's image size (right for resized whole images; cropped ones need --crop)"
+            size_note = f"YOLO boxes are normalised: scaled to {cam.width}x{cam.height} pixels, {given}"
+    else:
+        frames = list(detections)
+        det_source = _detections_source(frames)
+    if image_size is None and pixel_boxes:
+        check_box_extent(frames, cam, det_source)
+    return frames, det_source, size_note
+
+
+def _import_summary(
+    camera: str | Path | Camera | dict[str, Any], traj: PoseTrajectory, det_source: str, size_note: str | None
+) -> ImportSummary:
+    """The summary :func:`import_session` starts with: where the camera, poses and detections came from."""
+    summary = ImportSummary(source="" if det_source == "given" else det_source)
+    cam_source = str(camera) if not isinstance(camera, (Camera, dict)) else "given"
+    summary.note(f"camera: {cam_source}; poses: {traj.source or 'given'}; detections: {det_source}")
+    if size_note is not None:
+        summary.note(size_note)
+    return summary
+
+
 def import_session(
     camera: str | Path | Camera | dict[str, Any],
     poses: str | Path | PoseTrajectory,
@@ -412,101 +476,16 @@ def import_session(
     frames, det_source, size_note = _import_detections(
         detections, cam, detections_format, class_names, coco_images, image_size, crop_xyxy
     )
-    T_ee_camera = _import_hand_eye(hand_eye, hand_eye_units)
-    summary = _import_summary(camera, traj, det_source, size_note)
-    return build_session(
-        cam,
-        traj,
-        frames,
-        hand_eye=T_ee_camera,
-        pose_frame=pose_frame,
-        match=match,
-        max_gap=max_gap,
-        min_score=min_score,
-        labels=labels,
-        workspace=workspace,
-        summary=summary,
-    )
-
-
-def _import_camera(
-    camera: str | Path | Camera | dict[str, Any],
-    camera_format: str | None,
-    camera_name: str | int | None,
-    image_size: tuple[int, int] | None,
-    resize: str,
-    crop_xyxy: ArrayLike | None,
-) -> Camera:
-    """The camera of :func:`import_session`: read from a file or dict, or a Camera scaled to ``image_size``."""
-    if isinstance(camera, Camera):
-        cam = camera
-        if image_size is not None:
-            from .calibration import camera_for_image_size
-
-            cam = camera_for_image_size(cam, image_size, resize)
-    else:
-        cam = read_calibration(
-            camera, format=camera_format, camera_name=camera_name, image_size=image_size, resize=resize, crop_xyxy=crop_xyxy
-        )
-    return cam
-
-
-def _import_detections(
-    detections: str | Path | Sequence[ImageDetections],
-    cam: Camera,
-    detections_format: str | None,
-    class_names: Any,
-    coco_images: str | Path | None,
-    image_size: tuple[int, int] | None,
-    crop_xyxy: ArrayLike | None,
-) -> tuple[list[ImageDetections], str, str | None]:
-    """The detections of :func:`import_session`, their source for messages and the note on YOLO scaling (or None).
-
-    Pixel boxes of an unstated image size are checked with :func:`check_box_extent` unless ``image_size`` is given.
-    """
-    size_note = None
-    pixel_boxes = True  # boxes in pixels of an unstated image size (CSV, COCO without sizes): see check_box_extent
-    if isinstance(detections, (str, Path)):
-        det_source = str(detections)
-        fmt = detections_format.lower() if detections_format else _detection_format(Path(detections))
-        frames = read_detections(detections, format=fmt, image_size=cam.size, class_names=class_names, images=coco_images)
-        if fmt == "yolo":
-            pixel_boxes = False
-            if image_size is not None:
-                given = "the size given by --image-size"
-            elif crop_xyxy is not None:
-                given = "the size of the --crop region"
-            else:
-                given = "the calibration's image size (right for resized whole images; cropped ones need --crop)"
-            size_note = f"YOLO boxes are normalised: scaled to {cam.width}x{cam.height} pixels, {given}"
-    else:
-        frames = list(detections)
-        det_source = _detections_source(frames)
-    if image_size is None and pixel_boxes:
-        check_box_extent(frames, cam, det_source)
-    return frames, det_source, size_note
-
-
-def _import_hand_eye(hand_eye: str | Path | ArrayLike | dict[str, Any] | None, hand_eye_units: str) -> NDArray[np.float64] | None:
-    """``T_ee_camera`` from the hand-eye option of :func:`import_session`, or None."""
     T_ee_camera = None
     if hand_eye is not None:
         if hand_eye_units not in POSITION_UNITS:
             raise InputError(f"--hand-eye-units (hand_eye_units): got {hand_eye_units!r}, expected one of {list(POSITION_UNITS)}")
         T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
-    return T_ee_camera
-
-
-def _import_summary(
-    camera: str | Path | Camera | dict[str, Any], traj: PoseTrajectory, det_source: str, size_note: str | None
-) -> ImportSummary:
-    """The summary :func:`import_session` starts with: where the camera, poses and detections came from."""
-    summary = ImportSummary(source="" if det_source == "given" else det_source)
-    cam_source = str(camera) if not isinstance(camera, (Camera, dict)) else "given"
-    summary.note(f"camera: {cam_source}; poses: {traj.source or 'given'}; detections: {det_source}")
-    if size_note is not None:
-        summary.note(size_note)
-    return summary
+    summary = _import_summary(camera, traj, det_source, size_note)
+    return build_session(
+        cam, traj, frames, hand_eye=T_ee_camera, pose_frame=pose_frame, match=match, max_gap=max_gap, min_score=min_score,
+        labels=labels, workspace=workspace, summary=summary,
+    )  # fmt: skip
 
 
 __all__ = [

@@ -283,19 +283,30 @@ def read_coco(
     else:
         raise InputError(f"{where}: expected a COCO object or a list of results, got {type(data).__name__}")
     if images is not None:
-        image_list = images
-        if isinstance(images, (str, Path)):
-            images = load_json(read_text(images), str(images))
-        if isinstance(images, dict):
-            if "images" not in images:
-                raise InputError(f"{where}: the images file has no 'images' list")
-            image_list = images["images"]
-            categories = {**_coco_categories(images, "images"), **categories}
-        else:
-            image_list = images
+        image_list, categories = _coco_images_argument(images, categories, where)
     results = expect_list(results, f"{where}: annotations")
     names = load_class_names(class_names) if class_names is not None else None
-    by_id, order = _coco_images(image_list, where)
+    by_id: dict[Any, ImageDetections] = {}
+    order: list[Any] = []
+    if image_list is not None:
+        for i, im in enumerate(expect_list(image_list, f"{where}: images")):
+            w_im = f"{where}: images[{i}]"
+            im = expect_mapping(im, w_im)
+            if "id" not in im:
+                raise InputError(f"{w_im}.id: missing field")
+            iid = _coco_id(im["id"], f"{w_im}.id")
+            if iid in by_id:
+                raise InputError(f"{w_im}.id: duplicate image id {iid!r}")
+            fname = im.get("file_name", str(iid))
+            if not isinstance(fname, str) or not fname:
+                raise InputError(f"{w_im}.file_name: expected a file name, got {fname!r}")
+            size = None
+            if im.get("width") is not None and im.get("height") is not None:
+                size = (as_int(im["width"], f"{w_im}.width", minimum=1), as_int(im["height"], f"{w_im}.height", minimum=1))
+            stamp = im.get("stamp", im.get("timestamp"))
+            stamp = as_float(stamp, f"{w_im}.stamp") if stamp is not None else stamp_from_name(fname)
+            by_id[iid] = ImageDetections(image=fname, stamp=stamp, image_size=size, source=where)
+            order.append(iid)
     dets: dict[Any, list[Detection]] = {k: [] for k in by_id}
     for j, r in enumerate(results):
         w_r = f"{where}: annotations[{j}]"
@@ -319,30 +330,22 @@ def read_coco(
     return [replace(by_id[k], detections=tuple(dets[k])) for k in order]
 
 
-def _coco_images(image_list: Any, where: str) -> tuple[dict[Any, ImageDetections], list[Any]]:
-    """The COCO ``images`` list (or None) as image id -> ImageDetections without detections, and the ids in order."""
-    by_id: dict[Any, ImageDetections] = {}
-    order: list[Any] = []
-    if image_list is not None:
-        for i, im in enumerate(expect_list(image_list, f"{where}: images")):
-            w_im = f"{where}: images[{i}]"
-            im = expect_mapping(im, w_im)
-            if "id" not in im:
-                raise InputError(f"{w_im}.id: missing field")
-            iid = _coco_id(im["id"], f"{w_im}.id")
-            if iid in by_id:
-                raise InputError(f"{w_im}.id: duplicate image id {iid!r}")
-            fname = im.get("file_name", str(iid))
-            if not isinstance(fname, str) or not fname:
-                raise InputError(f"{w_im}.file_name: expected a file name, got {fname!r}")
-            size = None
-            if im.get("width") is not None and im.get("height") is not None:
-                size = (as_int(im["width"], f"{w_im}.width", minimum=1), as_int(im["height"], f"{w_im}.height", minimum=1))
-            stamp = im.get("stamp", im.get("timestamp"))
-            stamp = as_float(stamp, f"{w_im}.stamp") if stamp is not None else stamp_from_name(fname)
-            by_id[iid] = ImageDetections(image=fname, stamp=stamp, image_size=size, source=where)
-            order.append(iid)
-    return by_id, order
+def _coco_images_argument(images: Any, categories: dict[int, str], where: str) -> tuple[Any, dict[int, str]]:
+    """The ``images`` of :func:`read_coco` (a list, a COCO dict or its file): the images list and the categories.
+
+    The categories of a COCO ``images`` file are added to ``categories`` (which win on equal ids).
+    """
+    image_list = images
+    if isinstance(images, (str, Path)):
+        images = load_json(read_text(images), str(images))
+    if isinstance(images, dict):
+        if "images" not in images:
+            raise InputError(f"{where}: the images file has no 'images' list")
+        image_list = images["images"]
+        categories = {**_coco_categories(images, "images"), **categories}
+    else:
+        image_list = images
+    return image_list, categories
 
 
 def _coco_detection(r: dict[str, Any], w_r: str, categories: dict[int, str], names: dict[int, str] | None) -> Detection:
