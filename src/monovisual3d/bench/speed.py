@@ -29,7 +29,7 @@ import subprocess
 import sys
 import time
 import tracemalloc
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import partial
@@ -423,9 +423,6 @@ def _run_speed(
     progress: Callable[[str], None] | None,
 ) -> dict[str, Any]:
     """The body of :func:`run_speed` (inside its thread limit)."""
-    from ..engine.params import pack_views
-    from ..engine.sparse import levels_between
-
     say = progress or (lambda s: None)
     edges = tuple(edges or (QUICK_EDGES if quick else FULL_EDGES))
     repeats = repeats or (2 if quick else 5)
@@ -436,14 +433,7 @@ def _run_speed(
     rng = np.random.default_rng(0)
     meta = machine_metadata()
     meta["repeats"] = repeats
-    torch_dev = None
-    try:
-        from ..engine.torch_backend import resolve_device
-
-        torch_dev = resolve_device(torch_device)
-    except ImportError:
-        if "torch" in methods:
-            meta["skipped"] = ["torch: not importable, no torch rows (install the [gpu] extra to time it)"]
+    torch_dev = _torch_device(torch_device, methods, meta)
 
     for edge in edges:
         grid = paper_grid(views, edge)
@@ -470,29 +460,7 @@ def _run_speed(
                 say(f"torch-{torch_dev.type} {tag}")
                 _torch_row(rows, grid, camera, views, kernel, repeats, torch_dev)
 
-    # sparse at 1 mm effective resolution over the same cube (no dense grid could hold it: 1.7 G cells)
-    sparse_fine: list[dict[str, Any]] = []
-    fine = VoxelGrid.in_front_of_camera(views[0].T_base_optical, sparse_refine_to, CUBE_M / 2, max_bytes=2**62)
-    for kernel in kernels if "sparse" in methods else ():
-        say(f"sparse {sparse_refine_to * 1e3:g} mm {kernel}")
-        packed = pack_views(fine, camera, views, kernel, 0.5)
-        levels = levels_between(0.016, sparse_refine_to)
-        last: dict[str, Any] = {}
-        t = time_call(partial(_run_sparse, fine, packed, levels, 1e-3, last), 1 if quick else max(2, repeats // 2))
-        st = last["s"].stats
-        sparse_fine.append(
-            {
-                "kernel": kernel,
-                "virtual_cells": fine.n_cells,
-                "refine_to_mm": sparse_refine_to * 1e3,
-                "root_mm": 16.0,
-                "views": n_v,
-                "total_ms": t.summary(1e3),
-                "per_view_ms": t.summary(1e3 / n_v),
-                "threshold": 1e-3,
-                **{k: st[k] for k in ("active_cells", "peak_bytes", "complete", "final_resolution_m", "levels")},
-            }
-        )
+    sparse_fine = _sparse_fine_rows(camera, views, kernels if "sparse" in methods else (), sparse_refine_to, repeats, quick, say)
 
     scaling_rows: dict[str, Any] = {}
     if scaling:
@@ -513,6 +481,59 @@ def _run_speed(
         "end_to_end": e2e,
         "paper_default_vs_numpy": paper,
     }
+
+
+def _torch_device(torch_device: str | None, methods: tuple[str, ...], meta: dict[str, Any]) -> Any:
+    """The torch device to time on, or None where torch is not importable (then noted in ``meta["skipped"]``)."""
+    torch_dev = None
+    try:
+        from ..engine.torch_backend import resolve_device
+
+        torch_dev = resolve_device(torch_device)
+    except ImportError:
+        if "torch" in methods:
+            meta["skipped"] = ["torch: not importable, no torch rows (install the [gpu] extra to time it)"]
+    return torch_dev
+
+
+def _sparse_fine_rows(
+    camera: Camera,
+    views: list[View],
+    kernels: Iterable[str],
+    sparse_refine_to: float,
+    repeats: int,
+    quick: bool,
+    say: Callable[[str], None],
+) -> list[dict[str, Any]]:
+    """Sparse at ``sparse_refine_to`` effective resolution over the paper's cube, one row per kernel."""
+    from ..engine.params import pack_views
+    from ..engine.sparse import levels_between
+
+    n_v = len(views)
+    # sparse at 1 mm effective resolution over the same cube (no dense grid could hold it: 1.7 G cells)
+    sparse_fine: list[dict[str, Any]] = []
+    fine = VoxelGrid.in_front_of_camera(views[0].T_base_optical, sparse_refine_to, CUBE_M / 2, max_bytes=2**62)
+    for kernel in kernels:
+        say(f"sparse {sparse_refine_to * 1e3:g} mm {kernel}")
+        packed = pack_views(fine, camera, views, kernel, 0.5)
+        levels = levels_between(0.016, sparse_refine_to)
+        last: dict[str, Any] = {}
+        t = time_call(partial(_run_sparse, fine, packed, levels, 1e-3, last), 1 if quick else max(2, repeats // 2))
+        st = last["s"].stats
+        sparse_fine.append(
+            {
+                "kernel": kernel,
+                "virtual_cells": fine.n_cells,
+                "refine_to_mm": sparse_refine_to * 1e3,
+                "root_mm": 16.0,
+                "views": n_v,
+                "total_ms": t.summary(1e3),
+                "per_view_ms": t.summary(1e3 / n_v),
+                "threshold": 1e-3,
+                **{k: st[k] for k in ("active_cells", "peak_bytes", "complete", "final_resolution_m", "levels")},
+            }
+        )
+    return sparse_fine
 
 
 #: End-to-end configurations: name -> localize options.

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.table import Table
@@ -42,6 +42,32 @@ def speed(
 ) -> None:
     """Time the per-view update: naive Python loop, numpy, fused numba, sparse, torch."""
     from ..bench.speed import format_table, run_speed, write_json
+
+    edge_t, chosen, kernels = _speed_choices(edges, methods, kernel)
+    result = run_speed(
+        quick=quick, edges=edge_t, kernels=kernels, repeats=repeats, torch_device=device, sparse_refine_to=refine_to,
+        scaling=not no_scaling, threads=threads, methods=chosen, progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
+    )  # fmt: skip
+    meta = result["meta"]
+    table = Table(
+        title="Per-view update, mean of the paper's 3 views, paper scene "
+        f"({meta['cpu']}, {meta['cores']} cores, numba {meta.get('numba')}, load {meta.get('load_average_1m', float('nan')):.1f})"
+    )
+    for col in ("method", "kernel", "cells", "ms/view median [min-max]", "CPU ms", "cells/s", "vs naive", "B/cell", "notes"):
+        table.add_column(col, justify="left" if col in ("method", "kernel", "notes") else "right", no_wrap=col != "notes")
+    for row in format_table(result):
+        table.add_row(*row)
+    console.print(table)
+    _print_speed_lines(result)
+    if output is not None:
+        write_json(result, str(output))
+        console.print(f"wrote {output}", highlight=False)
+
+
+def _speed_choices(
+    edges: str | None, methods: str, kernel: str
+) -> tuple[tuple[int, ...] | None, tuple[str, ...], tuple[str, ...]]:
+    """Parse and check the comma-separated ``--edges``, ``--methods`` and ``--kernel`` of ``bench speed``."""
     from ..errors import InputError
 
     try:
@@ -58,20 +84,12 @@ def speed(
     for k in kernels:
         if k not in ("square", "gaussian"):
             raise InputError(f"--kernel: got {k!r}, expected square and/or gaussian")
-    result = run_speed(
-        quick=quick, edges=edge_t, kernels=kernels, repeats=repeats, torch_device=device, sparse_refine_to=refine_to,
-        scaling=not no_scaling, threads=threads, methods=chosen, progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
-    )  # fmt: skip
+    return edge_t, chosen, kernels
+
+
+def _print_speed_lines(result: dict[str, Any]) -> None:
+    """Print the lines of ``bench speed`` below its table: skipped methods, sparse, scaling, end to end."""
     meta = result["meta"]
-    table = Table(
-        title="Per-view update, mean of the paper's 3 views, paper scene "
-        f"({meta['cpu']}, {meta['cores']} cores, numba {meta.get('numba')}, load {meta.get('load_average_1m', float('nan')):.1f})"
-    )
-    for col in ("method", "kernel", "cells", "ms/view median [min-max]", "CPU ms", "cells/s", "vs naive", "B/cell", "notes"):
-        table.add_column(col, justify="left" if col in ("method", "kernel", "notes") else "right", no_wrap=col != "notes")
-    for row in format_table(result):
-        table.add_row(*row)
-    console.print(table)
     for note in meta.get("skipped", []):
         console.print(f"[yellow]skipped:[/] {note}", highlight=False)
     for r in result["sparse_fine"]:
@@ -101,6 +119,3 @@ def speed(
             f"[{1e3 * sec['min']:.0f}-{1e3 * sec['max']:.0f}]",
             highlight=False,
         )
-    if output is not None:
-        write_json(result, str(output))
-        console.print(f"wrote {output}", highlight=False)

@@ -12,7 +12,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
+from ..camera import Camera
 from ..errors import InputError, InputWarning
 from ..localize import DEFAULT_METHOD, METHODS, localize
 from ..metrics import Metrics, evaluate
@@ -141,20 +143,7 @@ def run_demo(
     notes: list[str] = []
     if figure:
         try:
-            from .. import viz
-
-            fig = viz.plot_scene(
-                scene.centres,
-                scene.radii,
-                estimates=result.positions,
-                estimate_radii=[o.radius for o in result.objects],
-                camera=camera,
-                poses=poses,
-                occluders=scene.occluders,
-                title=f"greenhouse truss (seed {seed}): {len(scene.fruits)} true fruit (green), "
-                f"{len(result.objects)} found by '{result.method}' (red)",
-            )
-            files["figure"] = viz.save_figure(fig, out / "scene.png")
+            files["figure"] = _scene_figure(out / "scene.png", seed, scene, result, camera, poses)
         except ImportError as exc:
             notes.append(f"figure skipped: {exc}")
         try:
@@ -166,3 +155,24 @@ def run_demo(
     seconds["evaluate_and_figure"] = time.perf_counter() - t2
     seconds["total"] = time.perf_counter() - t0
     return DemoResult(scene, session, result, metrics, files, noise, seconds, notes)
+
+
+def _scene_figure(path: Path, seed: int, scene: Scene, result: Result, camera: Camera, poses: NDArray[np.float64]) -> Path:
+    """Draw the scene's truth, the estimates and the cameras (``poses``: ``T_base_optical``, shape (N, 4, 4)) into ``path``.
+
+    Raises ImportError without matplotlib (extra ``[viz]``).
+    """
+    from .. import viz
+
+    fig = viz.plot_scene(
+        scene.centres,
+        scene.radii,
+        estimates=result.positions,
+        estimate_radii=[o.radius for o in result.objects],
+        camera=camera,
+        poses=poses,
+        occluders=scene.occluders,
+        title=f"greenhouse truss (seed {seed}): {len(scene.fruits)} true fruit (green), "
+        f"{len(result.objects)} found by '{result.method}' (red)",
+    )
+    return viz.save_figure(fig, path)

@@ -95,35 +95,15 @@ def build_session(
         raise InputError(f"{pose_source}: no poses")
     frames = filter_detections(detections, min_score=min_score, labels=labels, summary=summary)
     _check_image_sizes(frames, camera)
-    T_frame = poses.T_base_frame
     if match == "auto":
-        if poses.images is not None and frames and all(f.image is not None for f in frames):
-            match = "name"
-        elif poses.stamps is not None and frames and all(f.stamp is not None for f in frames):
-            match = "stamp"
-        else:
-            raise InputError(
-                f"cannot match the poses ({pose_source}: {_what_names(poses.images is not None, poses.stamps is not None)}) "
-                f"to the detections ({det_source}: {_what_names(*_frames_have_names_stamps(frames))}): "
-                "matching by name needs image names on both sides (--match name, match='name') and by time, stamps "
-                "on both sides (--match stamp, match='stamp'); to pair the i-th pose with the i-th image, "
-                "pass --match order (match='order')"
-            )
-        summary.note(f"matched poses to detections by {'file name' if match == 'name' else 'time stamp'}")
+        match = _auto_match_mode(poses, frames, summary, pose_source, det_source)
     pairs: list[tuple[NDArray[np.float64], ImageDetections]] = []
     if match == "name":
         pairs = _match_by_name(poses, frames, summary, det_source)
     elif match == "stamp":
         pairs = _match_by_stamp(poses, frames, max_gap, summary, det_source)
     else:
-        if len(poses) != len(frames):
-            raise InputError(
-                f"{pose_source}: --match order (match='order'): {len(poses)} poses but {len(frames)} images in the "
-                f"detections ({det_source}); pairing in order needs one pose per image"
-            )
-        pairs = [(T_frame[i], f) for i, f in enumerate(frames)]
-        last = f", ..., pose {len(frames) - 1} with {frames[-1].name}" if len(frames) > 1 else ""
-        summary.note(f"paired poses and images in order (--match order): pose 0 with {frames[0].name}{last}")
+        pairs = _match_by_order(poses, frames, summary, pose_source, det_source)
     if not pairs:
         raise InputError("no view left: no pose matches any image (see the skipped items above)")
     T_all = np.stack([T for T, _ in pairs])
@@ -198,6 +178,26 @@ def _what_names(names: bool, stamps: bool) -> str:
     }[(names, stamps)]
 
 
+def _auto_match_mode(
+    poses: PoseTrajectory, frames: Sequence[ImageDetections], summary: ImportSummary, pose_source: str, det_source: str
+) -> str:
+    """``match="auto"``: ``"name"`` when both sides name their images, else ``"stamp"`` when both have stamps."""
+    if poses.images is not None and frames and all(f.image is not None for f in frames):
+        match = "name"
+    elif poses.stamps is not None and frames and all(f.stamp is not None for f in frames):
+        match = "stamp"
+    else:
+        raise InputError(
+            f"cannot match the poses ({pose_source}: {_what_names(poses.images is not None, poses.stamps is not None)}) "
+            f"to the detections ({det_source}: {_what_names(*_frames_have_names_stamps(frames))}): "
+            "matching by name needs image names on both sides (--match name, match='name') and by time, stamps "
+            "on both sides (--match stamp, match='stamp'); to pair the i-th pose with the i-th image, "
+            "pass --match order (match='order')"
+        )
+    summary.note(f"matched poses to detections by {'file name' if match == 'name' else 'time stamp'}")
+    return match
+
+
 def _match_by_name(
     poses: PoseTrajectory, frames: Sequence[ImageDetections], summary: ImportSummary, det_source: str
 ) -> list[tuple[NDArray[np.float64], ImageDetections]]:
@@ -258,6 +258,22 @@ def _match_by_stamp(
             pairs.append((T[i], f))
         else:
             summary.skip("view", f.name, f"no pose within max_gap {max_gap:g} s", str(why[i]))
+    return pairs
+
+
+def _match_by_order(
+    poses: PoseTrajectory, frames: Sequence[ImageDetections], summary: ImportSummary, pose_source: str, det_source: str
+) -> list[tuple[NDArray[np.float64], ImageDetections]]:
+    """``match="order"``: the i-th pose with the i-th image (equal counts)."""
+    T_frame = poses.T_base_frame
+    if len(poses) != len(frames):
+        raise InputError(
+            f"{pose_source}: --match order (match='order'): {len(poses)} poses but {len(frames)} images in the "
+            f"detections ({det_source}); pairing in order needs one pose per image"
+        )
+    pairs = [(T_frame[i], f) for i, f in enumerate(frames)]
+    last = f", ..., pose {len(frames) - 1} with {frames[-1].name}" if len(frames) > 1 else ""
+    summary.note(f"paired poses and images in order (--match order): pose 0 with {frames[0].name}{last}")
     return pairs
 
 
@@ -326,6 +342,76 @@ def _check_boxes_in_image(frame: ImageDetections, camera: Camera) -> None:
 
 
 # ---------------------------------------------------------------------- from files
+def _import_camera(
+    camera: str | Path | Camera | dict[str, Any],
+    camera_format: str | None,
+    camera_name: str | int | None,
+    image_size: tuple[int, int] | None,
+    resize: str,
+    crop_xyxy: ArrayLike | None,
+) -> Camera:
+    """The camera of :func:`import_session`: read from a file or dict, or a Camera scaled to ``image_size``."""
+    if isinstance(camera, Camera):
+        cam = camera
+        if image_size is not None:
+            from .calibration import camera_for_image_size
+
+            cam = camera_for_image_size(cam, image_size, resize)
+    else:
+        cam = read_calibration(
+            camera, format=camera_format, camera_name=camera_name, image_size=image_size, resize=resize, crop_xyxy=crop_xyxy
+        )
+    return cam
+
+
+def _import_detections(
+    detections: str | Path | Sequence[ImageDetections],
+    cam: Camera,
+    detections_format: str | None,
+    class_names: Any,
+    coco_images: str | Path | None,
+    image_size: tuple[int, int] | None,
+    crop_xyxy: ArrayLike | None,
+) -> tuple[list[ImageDetections], str, str | None]:
+    """The detections of :func:`import_session`, their source for messages and the note on YOLO scaling (or None).
+
+    Pixel boxes of an unstated image size are checked with :func:`check_box_extent` unless ``image_size`` is given.
+    """
+    size_note = None
+    pixel_boxes = True  # boxes in pixels of an unstated image size (CSV, COCO without sizes): see check_box_extent
+    if isinstance(detections, (str, Path)):
+        det_source = str(detections)
+        fmt = detections_format.lower() if detections_format else _detection_format(Path(detections))
+        frames = read_detections(detections, format=fmt, image_size=cam.size, class_names=class_names, images=coco_images)
+        if fmt == "yolo":
+            pixel_boxes = False
+            if image_size is not None:
+                given = "the size given by --image-size"
+            elif crop_xyxy is not None:
+                given = "the size of the --crop region"
+            else:
+                given = "the calibration's image size (right for resized whole images; cropped ones need --crop)"
+            size_note = f"YOLO boxes are normalised: scaled to {cam.width}x{cam.height} pixels, {given}"
+    else:
+        frames = list(detections)
+        det_source = _detections_source(frames)
+    if image_size is None and pixel_boxes:
+        check_box_extent(frames, cam, det_source)
+    return frames, det_source, size_note
+
+
+def _import_summary(
+    camera: str | Path | Camera | dict[str, Any], traj: PoseTrajectory, det_source: str, size_note: str | None
+) -> ImportSummary:
+    """The summary :func:`import_session` starts with: where the camera, poses and detections came from."""
+    summary = ImportSummary(source="" if det_source == "given" else det_source)
+    cam_source = str(camera) if not isinstance(camera, (Camera, dict)) else "given"
+    summary.note(f"camera: {cam_source}; poses: {traj.source or 'given'}; detections: {det_source}")
+    if size_note is not None:
+        summary.note(size_note)
+    return summary
+
+
 def import_session(
     camera: str | Path | Camera | dict[str, Any],
     poses: str | Path | PoseTrajectory,
@@ -385,60 +471,21 @@ def import_session(
     >>> r = import_session("calib.yaml", "poses.csv", "labels/")  # doctest: +SKIP
     >>> r.session.to_json("session.json"); print("\\n".join(r.summary.lines()))  # doctest: +SKIP
     """
-    if isinstance(camera, Camera):
-        cam = camera
-        if image_size is not None:
-            from .calibration import camera_for_image_size
-
-            cam = camera_for_image_size(cam, image_size, resize)
-    else:
-        cam = read_calibration(
-            camera, format=camera_format, camera_name=camera_name, image_size=image_size, resize=resize, crop_xyxy=crop_xyxy
-        )
+    cam = _import_camera(camera, camera_format, camera_name, image_size, resize, crop_xyxy)
     traj = poses if isinstance(poses, PoseTrajectory) else read_poses(poses, format=pose_format, units=units)
-    size_note = None
-    pixel_boxes = True  # boxes in pixels of an unstated image size (CSV, COCO without sizes): see check_box_extent
-    if isinstance(detections, (str, Path)):
-        det_source = str(detections)
-        fmt = detections_format.lower() if detections_format else _detection_format(Path(detections))
-        frames = read_detections(detections, format=fmt, image_size=cam.size, class_names=class_names, images=coco_images)
-        if fmt == "yolo":
-            pixel_boxes = False
-            if image_size is not None:
-                given = "the size given by --image-size"
-            elif crop_xyxy is not None:
-                given = "the size of the --crop region"
-            else:
-                given = "the calibration's image size (right for resized whole images; cropped ones need --crop)"
-            size_note = f"YOLO boxes are normalised: scaled to {cam.width}x{cam.height} pixels, {given}"
-    else:
-        frames = list(detections)
-        det_source = _detections_source(frames)
-    if image_size is None and pixel_boxes:
-        check_box_extent(frames, cam, det_source)
+    frames, det_source, size_note = _import_detections(
+        detections, cam, detections_format, class_names, coco_images, image_size, crop_xyxy
+    )
     T_ee_camera = None
     if hand_eye is not None:
         if hand_eye_units not in POSITION_UNITS:
             raise InputError(f"--hand-eye-units (hand_eye_units): got {hand_eye_units!r}, expected one of {list(POSITION_UNITS)}")
         T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
-    summary = ImportSummary(source="" if det_source == "given" else det_source)
-    cam_source = str(camera) if not isinstance(camera, (Camera, dict)) else "given"
-    summary.note(f"camera: {cam_source}; poses: {traj.source or 'given'}; detections: {det_source}")
-    if size_note is not None:
-        summary.note(size_note)
+    summary = _import_summary(camera, traj, det_source, size_note)
     return build_session(
-        cam,
-        traj,
-        frames,
-        hand_eye=T_ee_camera,
-        pose_frame=pose_frame,
-        match=match,
-        max_gap=max_gap,
-        min_score=min_score,
-        labels=labels,
-        workspace=workspace,
-        summary=summary,
-    )
+        cam, traj, frames, hand_eye=T_ee_camera, pose_frame=pose_frame, match=match, max_gap=max_gap, min_score=min_score,
+        labels=labels, workspace=workspace, summary=summary,
+    )  # fmt: skip
 
 
 __all__ = [

@@ -115,16 +115,7 @@ def read_calibration(
     if fmt not in CALIBRATION_FORMATS:
         raise InputError(f"{where}: --camera-format (format): got {format!r}, expected one of {list(CALIBRATION_FORMATS)}")
     try:
-        if fmt == "kalibr":
-            camera = camera_from_kalibr(data, camera_name)
-        elif fmt == "ros":
-            camera = camera_from_camera_info(data)
-        elif fmt == "opencv":
-            camera = camera_from_opencv_storage(data, distortion_model=distortion_model, image_size=image_size)
-        elif fmt == "depthai":
-            camera = camera_from_depthai(data, camera_name)
-        else:
-            camera = _camera_from_monovisual3d(data)
+        camera = _camera_in_format(fmt, data, camera_name, distortion_model, image_size)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
     if crop_xyxy is not None:
@@ -142,6 +133,23 @@ def _load_calibration_file(path: Path) -> Any:
     if path.suffix.lower() == ".json" or text.lstrip()[:1] == "{":
         return load_json(text, str(path))
     return load_yaml(text, str(path))
+
+
+def _camera_in_format(
+    fmt: str, data: Any, camera_name: str | int | None, distortion_model: str | None, image_size: tuple[int, int] | None
+) -> Camera:
+    """The reader of calibration format ``fmt`` (one of :data:`CALIBRATION_FORMATS`) applied to ``data``."""
+    if fmt == "kalibr":
+        camera = camera_from_kalibr(data, camera_name)
+    elif fmt == "ros":
+        camera = camera_from_camera_info(data)
+    elif fmt == "opencv":
+        camera = camera_from_opencv_storage(data, distortion_model=distortion_model, image_size=image_size)
+    elif fmt == "depthai":
+        camera = camera_from_depthai(data, camera_name)
+    else:
+        camera = _camera_from_monovisual3d(data)
+    return camera
 
 
 def calibration_format(data: Any, where: str = "calibration") -> str:

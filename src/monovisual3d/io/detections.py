@@ -283,16 +283,7 @@ def read_coco(
     else:
         raise InputError(f"{where}: expected a COCO object or a list of results, got {type(data).__name__}")
     if images is not None:
-        image_list = images
-        if isinstance(images, (str, Path)):
-            images = load_json(read_text(images), str(images))
-        if isinstance(images, dict):
-            if "images" not in images:
-                raise InputError(f"{where}: the images file has no 'images' list")
-            image_list = images["images"]
-            categories = {**_coco_categories(images, "images"), **categories}
-        else:
-            image_list = images
+        image_list, categories = _coco_images_argument(images, categories, where)
     results = expect_list(results, f"{where}: annotations")
     names = load_class_names(class_names) if class_names is not None else None
     by_id: dict[Any, ImageDetections] = {}
@@ -335,20 +326,43 @@ def read_coco(
             by_id[iid] = ImageDetections(image=iid, stamp=stamp_from_name(iid), source=where)
             dets[iid] = []
             order.append(iid)
-        x, y, w, h = as_array(r["bbox"], f"{w_r}.bbox", size=4).ravel().tolist()
-        box = _finite_box([x, y, x + w, y + h], f"{w_r}.bbox")
-        score = None
-        if r.get("score") is not None:
-            score = as_float(r["score"], f"{w_r}.score")
-            if not 0.0 <= score <= 1.0:
-                raise InputError(f"{w_r}.score: {score:g}, expected a value in [0, 1]")
-        label = None
-        if r.get("category_id") is not None:
-            cid = as_int(r["category_id"], f"{w_r}.category_id")
-            label = categories.get(cid) or (names or {}).get(cid) or str(cid)
-        mask = _coco_mask(r.get("segmentation"), f"{w_r}.segmentation")
-        dets[iid].append(Detection(np.asarray(box), score=score, label=label, mask=mask))
+        dets[iid].append(_coco_detection(r, w_r, categories, names))
     return [replace(by_id[k], detections=tuple(dets[k])) for k in order]
+
+
+def _coco_images_argument(images: Any, categories: dict[int, str], where: str) -> tuple[Any, dict[int, str]]:
+    """The ``images`` of :func:`read_coco` (a list, a COCO dict or its file): the images list and the categories.
+
+    The categories of a COCO ``images`` file are added to ``categories`` (which win on equal ids).
+    """
+    image_list = images
+    if isinstance(images, (str, Path)):
+        images = load_json(read_text(images), str(images))
+    if isinstance(images, dict):
+        if "images" not in images:
+            raise InputError(f"{where}: the images file has no 'images' list")
+        image_list = images["images"]
+        categories = {**_coco_categories(images, "images"), **categories}
+    else:
+        image_list = images
+    return image_list, categories
+
+
+def _coco_detection(r: dict[str, Any], w_r: str, categories: dict[int, str], names: dict[int, str] | None) -> Detection:
+    """One COCO result or annotation ``r`` (``bbox [x, y, w, h]``, ``score``, ``category_id``, ``segmentation``)."""
+    x, y, w, h = as_array(r["bbox"], f"{w_r}.bbox", size=4).ravel().tolist()
+    box = _finite_box([x, y, x + w, y + h], f"{w_r}.bbox")
+    score = None
+    if r.get("score") is not None:
+        score = as_float(r["score"], f"{w_r}.score")
+        if not 0.0 <= score <= 1.0:
+            raise InputError(f"{w_r}.score: {score:g}, expected a value in [0, 1]")
+    label = None
+    if r.get("category_id") is not None:
+        cid = as_int(r["category_id"], f"{w_r}.category_id")
+        label = categories.get(cid) or (names or {}).get(cid) or str(cid)
+    mask = _coco_mask(r.get("segmentation"), f"{w_r}.segmentation")
+    return Detection(np.asarray(box), score=score, label=label, mask=mask)
 
 
 def _coco_categories(data: dict[str, Any], where: str) -> dict[int, str]:

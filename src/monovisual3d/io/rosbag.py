@@ -174,21 +174,11 @@ def read_bag(
     >>> r = read_bag("run.bag", base_frame="base_link", camera_frame="camera_optical_frame")  # doctest: +SKIP
     >>> r.session.to_json("session.json")  # doctest: +SKIP
     """
-    require("rosbags", "ros")
-    from rosbags.highlevel import AnyReader
-
+    reader_class = _any_reader_class()
     if pose_frame not in POSE_FRAMES:
         raise InputError(f"pose_frame: got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
     bag = _bag_path(path)
-    summary = ImportSummary(source=str(bag))
-    names = load_class_names(class_names) if class_names is not None else None
-    try:
-        reader = AnyReader([bag], default_typestore=typestore_for(2))
-        reader.open()
-    except InputError:
-        raise
-    except Exception as exc:  # rosbags raises its own errors, OSError, ValueError... for unreadable bags
-        raise InputError(f"{bag}: cannot open the bag: {_one_line(exc)}") from None
+    summary, names, reader = _open_bag(reader_class, bag, class_names)
     try:
         return _read_open_bag(
             reader,
@@ -214,10 +204,94 @@ def read_bag(
     except Exception as exc:  # corrupt data found while reading (truncated chunks, bad lengths...)
         raise InputError(f"{bag}: cannot read the bag ({type(exc).__name__}: {_one_line(exc)})") from None
     finally:
-        try:
-            reader.close()
-        except Exception:  # closing the reader of a corrupt bag must not hide the error above
-            pass
+        _close_quietly(reader)
+
+
+def _any_reader_class() -> Any:
+    """rosbags' ``AnyReader`` (ImportError naming the ``[ros]`` extra without rosbags)."""
+    require("rosbags", "ros")
+    from rosbags.highlevel import AnyReader
+
+    return AnyReader
+
+
+def _open_bag(reader_class: Any, bag: Path, class_names: Any) -> tuple[ImportSummary, dict[int, str] | None, Any]:
+    """The bag's import summary, the class names, and the bag opened with ``reader_class`` (InputError if unreadable)."""
+    summary = ImportSummary(source=str(bag))
+    names = load_class_names(class_names) if class_names is not None else None
+    try:
+        reader = reader_class([bag], default_typestore=typestore_for(2))
+        reader.open()
+    except InputError:
+        raise
+    except Exception as exc:  # rosbags raises its own errors, OSError, ValueError... for unreadable bags
+        raise InputError(f"{bag}: cannot open the bag: {_one_line(exc)}") from None
+    return summary, names, reader
+
+
+def _close_quietly(reader: Any) -> None:
+    """Close the reader; an error while closing a corrupt bag is dropped."""
+    try:
+        reader.close()
+    except Exception:  # closing the reader of a corrupt bag must not hide the error above
+        pass
+
+
+def _read_transforms(reader: Any, bag: Path, tf_topics: tuple[str, ...], t0: int) -> TransformTree:
+    """All transforms of the bag's ``tf_topics`` (``*tf_static`` ones static), stamped in seconds since ``t0`` (ns)."""
+    tree = TransformTree()
+    tf_conns = [c for c in reader.connections if c.topic in tf_topics and c.msgtype.lower().endswith("tfmessage")]
+    if not tf_conns:
+        raise InputError(f"{bag}: no transforms: none of the topics {list(tf_topics)} is in the bag")
+    for conn, ns, raw in reader.messages(connections=tf_conns):
+        msg = _deserialize(reader, raw, conn, ns)
+        static = conn.topic.rstrip("/").endswith("tf_static")
+        for k, tr in enumerate(msg.transforms):
+            where = f"{bag}: {conn.topic} at {ns * 1e-9:.9f} s, transform {k}"
+            T = _transform_from_msg(tr, where)
+            stamp = None if static else (_stamp_ns(tr.header.stamp) - t0) * 1e-9
+            tree.add(tr.header.frame_id, tr.child_frame_id, T, stamp=stamp)
+    return tree
+
+
+def _read_detection_frames(
+    reader: Any, bag: Path, det_topic: str, t0: int, names: dict[int, str] | None, summary: ImportSummary
+) -> tuple[list[tuple[ImageDetections, float]], set[str], int]:
+    """The Detection2DArray messages of ``det_topic``.
+
+    Returns
+    -------
+    frames : list of (ImageDetections, float seconds since ``t0``), one per message
+    frame_ids : set of str, the normalised header frames of the messages
+    unstamped : int, messages without a header stamp (their record time is used)
+    """
+    frames: list[tuple[ImageDetections, float]] = []
+    det_conns = [c for c in reader.connections if c.topic == det_topic]
+    frame_ids: set[str] = set()
+    unstamped = 0
+    for conn, ns, raw in reader.messages(connections=det_conns):
+        msg = _deserialize(reader, raw, conn, ns)
+        stamp_ns = _stamp_ns(msg.header.stamp)
+        if stamp_ns == 0:
+            stamp_ns = ns
+            unstamped += 1
+        if msg.header.frame_id:
+            frame_ids.add(normalise_frame(msg.header.frame_id))
+        stamp = stamp_ns * 1e-9
+        dets = []
+        for j, d in enumerate(msg.detections):
+            det, problem = _detection_from_msg(d, names)
+            if det is None:
+                summary.skip("detection", f"stamp {stamp:.6f} #{j}", problem or "unusable")
+            else:
+                dets.append(det)
+        frames.append(
+            (
+                ImageDetections(image=None, stamp=stamp, detections=tuple(dets), source=f"{bag}:{det_topic}"),
+                (stamp_ns - t0) * 1e-9,
+            )
+        )
+    return frames, frame_ids, unstamped
 
 
 def _read_open_bag(reader: Any, bag: Path, summary: ImportSummary, **kw: Any) -> ImportResult:
@@ -239,18 +313,7 @@ def _read_open_bag(reader: Any, bag: Path, summary: ImportSummary, **kw: Any) ->
     t0 = int(reader.start_time) if reader.connections else 0
 
     # transforms ---------------------------------------------------------------
-    tree = TransformTree()
-    tf_conns = [c for c in reader.connections if c.topic in kw["tf_topics"] and c.msgtype.lower().endswith("tfmessage")]
-    if not tf_conns:
-        raise InputError(f"{bag}: no transforms: none of the topics {list(kw['tf_topics'])} is in the bag")
-    for conn, ns, raw in reader.messages(connections=tf_conns):
-        msg = _deserialize(reader, raw, conn, ns)
-        static = conn.topic.rstrip("/").endswith("tf_static")
-        for k, tr in enumerate(msg.transforms):
-            where = f"{bag}: {conn.topic} at {ns * 1e-9:.9f} s, transform {k}"
-            T = _transform_from_msg(tr, where)
-            stamp = None if static else (_stamp_ns(tr.header.stamp) - t0) * 1e-9
-            tree.add(tr.header.frame_id, tr.child_frame_id, T, stamp=stamp)
+    tree = _read_transforms(reader, bag, kw["tf_topics"], t0)
     tree.check_connected(kw["base_frame"], kw["camera_frame"])
 
     # camera -------------------------------------------------------------------
@@ -259,32 +322,7 @@ def _read_open_bag(reader: Any, bag: Path, summary: ImportSummary, **kw: Any) ->
         camera = camera_for_image_size(camera, kw["image_size"], kw["resize"])
 
     # detections ---------------------------------------------------------------
-    frames: list[tuple[ImageDetections, float]] = []
-    det_conns = [c for c in reader.connections if c.topic == det_topic]
-    frame_ids: set[str] = set()
-    unstamped = 0
-    for conn, ns, raw in reader.messages(connections=det_conns):
-        msg = _deserialize(reader, raw, conn, ns)
-        stamp_ns = _stamp_ns(msg.header.stamp)
-        if stamp_ns == 0:
-            stamp_ns = ns
-            unstamped += 1
-        if msg.header.frame_id:
-            frame_ids.add(normalise_frame(msg.header.frame_id))
-        stamp = stamp_ns * 1e-9
-        dets = []
-        for j, d in enumerate(msg.detections):
-            det, problem = _detection_from_msg(d, kw["names"])
-            if det is None:
-                summary.skip("detection", f"stamp {stamp:.6f} #{j}", problem or "unusable")
-            else:
-                dets.append(det)
-        frames.append(
-            (
-                ImageDetections(image=None, stamp=stamp, detections=tuple(dets), source=f"{bag}:{det_topic}"),
-                (stamp_ns - t0) * 1e-9,
-            )
-        )
+    frames, frame_ids, unstamped = _read_detection_frames(reader, bag, det_topic, t0, kw["names"], summary)
     if not frames:
         raise InputError(f"{bag}: topic {det_topic!r} has no messages")
     if unstamped:
