@@ -93,7 +93,7 @@ def fixed_sequence(target: ArrayLike, n: int) -> NDArray[np.float64]:
     if n <= 3:
         return P[:n]
     first = P[0]
-    right, up, axis = first[:3, 0], -first[:3, 1], first[:3, 2]
+    right, up = first[:3, 0], -first[:3, 1]
     cam0 = first[:3, 3]
     out = list(P)
     for az in (135.0, 315.0, 0.0, 180.0, 90.0, 270.0)[: n - 3]:
@@ -103,7 +103,6 @@ def fixed_sequence(target: ArrayLike, n: int) -> NDArray[np.float64]:
         out.append(look_at(cam0 + shift, t))
     if n > len(out):
         raise InputError(f"fixed_sequence: at most {len(out)} poses, got n={n}")
-    _ = axis
     return np.stack(out)
 
 

@@ -194,6 +194,8 @@ class Plan:
     done : bool, the stopping rule
     ellipsoid_mm : ndarray, shape (M,), largest 95 % semi-axis of each object now, millimetres
     unexplained : list of (view, detection), boxes no object explains
+    target_gains : ndarray, shape (N, M + U), first-pick expected gain (mm) of every candidate for every
+        object (M, in the order given) and every tentative object (U, one per unexplained box)
     timing_s : float, planning time (without the localisation)
     """
 
@@ -206,6 +208,7 @@ class Plan:
     done: bool
     ellipsoid_mm: NDArray[np.float64]
     unexplained: list[tuple[int, int]]
+    target_gains: NDArray[np.float64]
     timing_s: float = 0.0
 
     @property
@@ -548,6 +551,7 @@ def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 
     gains: list[float] = []
     components: dict[str, NDArray[np.float64]] = {}
     first_scores = np.full(N, -np.inf)
+    target_gains = np.zeros((N, len(tg.centres)))
     for step in range(int(count)):
         s_now = np.minimum(_rms_mm(info), cap)  # (M,)
         s_new = np.minimum(_rms_mm(info[None] + F), cap)  # (N, M)
@@ -564,6 +568,7 @@ def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 
         if step == 0:
             first_scores = total.copy()
             components = {"information": obj_gain, "discovery": disc_gain, "coverage": cov_gain, "motion": motion}
+            target_gains = per
         best = int(np.argmax(total))  # first maximum: ties go to the lower index
         picked.append(best)
         gains.append(float(total[best]))
@@ -589,8 +594,30 @@ def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 
         done=done,
         ellipsoid_mm=ell,
         unexplained=unexplained,
+        target_gains=target_gains,
         timing_s=time.perf_counter() - t0,
     )
+
+
+def load_planning_session(source: str | Path | dict[str, Any] | Session) -> Session:
+    """:func:`monovisual3d.load_session`, also accepting a session with no views yet (``"views": []``).
+
+    The planner needs only the camera and the workspace before the first view.
+    """
+    from ..session import camera_from_dict, load_session, read_structured_file, workspace_from_dict
+
+    if isinstance(source, Session):
+        return source
+    data = read_structured_file(source) if isinstance(source, (str, Path)) else source
+    if isinstance(data, dict) and data.get("views") == []:
+        name = str(source) if isinstance(source, (str, Path)) else None
+        try:
+            camera = camera_from_dict(data.get("camera"))
+            ws = workspace_from_dict(data["workspace"], "workspace") if data.get("workspace") is not None else None
+        except InputError as exc:
+            raise InputError(f"{name}: {exc}" if name else str(exc)) from None
+        return Session(camera, (), ws, name)
+    return load_session(data if not isinstance(source, (str, Path)) else source)
 
 
 def plan_next_view(
@@ -632,8 +659,6 @@ def plan_next_view(
     >>> 0 <= plan.index < 20
     True
     """
-    from ..session import load_session
-
     if config is not None and options:
         raise InputError("config and keyword options: give one or the other")
     try:
@@ -651,7 +676,7 @@ def plan_next_view(
             objects = loc.estimate()
     else:
         if isinstance(session_or_localizer, (str, Path, dict, Session)):
-            session = load_session(session_or_localizer)
+            session = load_planning_session(session_or_localizer)
         else:
             raise InputError(
                 f"session_or_localizer: expected a Session, path or BayesLocalizer, got {type(session_or_localizer).__name__}"

@@ -64,16 +64,26 @@ def next_view(
     import numpy as np
 
     from ..active.candidates import CapSpec, cap_poses, load_candidates, pose_to_dict
-    from ..active.planner import PlannerConfig, PlannerState, default_workspace, plan_from_state
+    from ..active.planner import PlannerConfig, PlannerState, default_workspace, load_planning_session, plan_from_state
     from ..localize import localize
-    from ..session import load_session, read_structured_file
+    from ..session import read_structured_file
 
     if isinstance(count, bool) or count < 1:
         raise InputError(f"--count: got {count}, expected a positive integer")
     raw = read_structured_file(session)
     pose_frame = raw.get("pose_frame", "optical") if isinstance(raw, dict) else "optical"
-    sess = load_session(session)
+    sess = load_planning_session(session)
     base_c = _vector3(base, "--base")
+    generated = candidates.strip().startswith("cap:")
+    # validate the candidates (and --count) before the localisation, which takes the time
+    if generated:
+        spec = CapSpec.parse(candidates)
+        n_max = spec.n
+    else:
+        cands = load_candidates(candidates, pose_frame)
+        n_max = len(cands)
+    if count > n_max:
+        raise InputError(f"--count: got {count}, expected at most {n_max} (the number of candidates)")
     n_with = sum(1 for v in sess.views if v.detections)
     objects = []
     if n_with >= 2:
@@ -83,10 +93,8 @@ def next_view(
             warnings.simplefilter("ignore")
             objects = localize(sess).objects
     state = PlannerState(sess.camera, sess.views, tuple(objects), sess.workspace)
-    generated = candidates.strip().startswith("cap:")
     reach_m = reach
     if generated:
-        spec = CapSpec.parse(candidates)
         if target is not None:
             centre = np.array(_vector3(target, "--target"))
         else:
@@ -99,8 +107,6 @@ def next_view(
         cands = cap_poses(spec, centre, axis=axis, base_centre=base_c)
         if reach_m is None and math.isfinite(spec.reach_m):
             reach_m = spec.reach_m
-    else:
-        cands = load_candidates(candidates, pose_frame)
     if count > len(cands):
         raise InputError(f"--count: got {count}, expected at most {len(cands)} (the number of candidates)")
     if reach_m is not None and not (reach_m > 0 and math.isfinite(reach_m)):
@@ -149,21 +155,37 @@ def bench_active(
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the results as JSON here.")] = None,
     plot: Annotated[Path | None, typer.Option(help="Write the error-vs-views plot (PNG) here.")] = None,
     markdown: Annotated[Path | None, typer.Option(help="Write the Markdown tables here too.")] = None,
+    report: Annotated[
+        str | None,
+        typer.Option(help="Run nothing: join these results files (comma separated, from --output) into one report and plot."),
+    ] = None,
 ) -> None:
     """Next-best-view against fixed, random and view-sphere viewpoints: error, recall, 95 % ellipsoid vs. views."""
     from rich.progress import Progress
 
-    from ..active.bench import format_markdown, run_active_bench, save
+    from ..active.bench import format_markdown, merge_results, run_active_bench, save
     from ..active.bench import plot as plot_results
 
-    seed_t = _parse_seeds(seeds)
-    conds = tuple(c.strip() for c in conditions.split(",") if c.strip())
-    with Progress(console=console, transient=True) as bar:
-        task = bar.add_task("active benchmark", total=None)
-        res = run_active_bench(
-            conditions=conds, seeds=seed_t, max_views=views, n_candidates=candidates,
-            progress=lambda msg: bar.update(task, description=msg),
-        )  # fmt: skip
+    if report is not None:
+        parts = []
+        for name in report.split(","):
+            try:
+                parts.append(json.loads(Path(name).read_text()))
+            except json.JSONDecodeError as exc:
+                raise InputError(f"{name}: not a results file ({exc.msg})") from None
+        res = merge_results(parts)
+    else:
+        seed_t = _parse_seeds(seeds)
+        conds = tuple(c.strip() for c in conditions.split(",") if c.strip())
+        with Progress(console=console, transient=True, disable=not console.is_terminal) as bar:
+            task = bar.add_task("active benchmark", total=None)
+
+            def progress(msg: str) -> None:
+                bar.update(task, description=msg)
+                if not console.is_terminal:
+                    console.print(f"done {msg}", highlight=False)
+
+            res = run_active_bench(conditions=conds, seeds=seed_t, max_views=views, n_candidates=candidates, progress=progress)
     command = "monovisual3d bench active " + " ".join(shlex.quote(a) for a in sys.argv[3:]) if len(sys.argv) > 3 else None
     text = format_markdown(res, command)
     print(text)
