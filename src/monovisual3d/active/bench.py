@@ -351,6 +351,7 @@ def plot(res: dict[str, Any], path: str) -> None:
     require("matplotlib", "viz")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import FormatStrFormatter
 
     conds = list(res["results"])
     fig = Figure(figsize=(4.2 * len(conds), 6.4), layout="constrained")
@@ -367,6 +368,8 @@ def plot(res: dict[str, Any], path: str) -> None:
             axes[1, j].plot(range(2, len(rows) + 1), rc, color=colour, marker=marker, label=s)
         axes[0, j].set_title(c)
         axes[0, j].set_yscale("log")
+        axes[0, j].yaxis.set_major_formatter(FormatStrFormatter("%g"))
+        axes[0, j].yaxis.set_minor_formatter(FormatStrFormatter("%g"))
         axes[0, j].set_ylabel("mean error (mm)")
         axes[1, j].set_ylabel("recall")
         axes[1, j].set_xlabel("views")
