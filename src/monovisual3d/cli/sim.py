@@ -33,6 +33,9 @@ def simulate(
     supersample: Annotated[int, typer.Option(help="Sub-pixel rays per pixel and axis (box accuracy 1/N px).")] = 1,
     images: Annotated[bool, typer.Option("--images/--no-images", help="Write a PNG of each view.")] = True,
     seed: Annotated[int, typer.Option(help="Random seed (scene generation and noise).")] = 0,
+    active: Annotated[
+        int | None, typer.Option(help="Choose N views with the next-best-view loop (cap:60 candidates) instead of --views.")
+    ] = None,
 ) -> None:
     """Simulate the bounding-box camera on a scene and write session + ground truth.
 
@@ -70,6 +73,17 @@ def simulate(
     else:
         options = {"camera": camera} if scene in ("greenhouse", *SHAPE_SCENES) else {}
         sc = scene_by_name(scene, rng, n_fruit=n_fruit, **options)
+    if active is not None:
+        from ..active.loop import write_active_simulation
+
+        if active < 1:
+            raise InputError(f"--active: got {active}, expected a positive number of views")
+        paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
+        console.print(
+            f"active loop: {active} views of {len(sc.fruits)} fruit ({sc.name}); wrote {', '.join(p.name for p in paths.values())} to {output}",
+            highlight=False,
+        )
+        return
     poses = poses_by_name(views, scene_target(sc), distance=distance)
     paths = write_simulation(output, sc, camera, poses, noise=noise_model, rng=rng, supersample=supersample, images=images)
     console.print(

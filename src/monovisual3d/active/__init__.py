@@ -1,0 +1,26 @@
+"""Active perception: choose the next camera pose (next-best-view) and know when to stop.
+
+- :mod:`~monovisual3d.active.candidates`: candidate poses from a file or on a spherical cap;
+- :mod:`~monovisual3d.active.planner`: :func:`plan_next_view` ranks candidates by expected gain
+  (information, visibility, discovery, motion) and applies the stopping rule;
+- :mod:`~monovisual3d.active.loop`: the closed loop in simulation (plan, render, detect, update)
+  and the baselines the benchmark compares with.
+"""
+
+from __future__ import annotations
+
+from .candidates import CapSpec, cap_poses, check_candidates, load_candidates
+from .planner import Plan, PlannerConfig, PlannerState, ellipsoid95_mm, plan_from_state, plan_next_view
+
+__all__ = [
+    "CapSpec",
+    "Plan",
+    "PlannerConfig",
+    "PlannerState",
+    "cap_poses",
+    "check_candidates",
+    "ellipsoid95_mm",
+    "load_candidates",
+    "plan_from_state",
+    "plan_next_view",
+]
