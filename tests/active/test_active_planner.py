@@ -6,12 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from monovisual3d.bayes.likelihood import predict_boxes
 from numpy.testing import assert_allclose, assert_array_equal
 
 from monovisual3d import Camera
 from monovisual3d.active import CapSpec, PlannerConfig, PlannerState, cap_poses, ellipsoid95_mm, plan_from_state, plan_next_view
 from monovisual3d.active.planner import boxes_and_jacobians, occlusion_by_known
-from monovisual3d.bayes.likelihood import predict_boxes
 from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.result import DetectedObject

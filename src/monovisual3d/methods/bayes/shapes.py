@@ -9,7 +9,7 @@ edges left out):
 - ``sphere``: the sphere estimate is kept (the shape fields are filled in);
 - ``spheroid`` / ``ellipsoid``: that model is fitted;
 - ``auto`` (default): round-looking objects stay spheres without a fit; an
-  object whose boxes are consistently not square (:func:`looks_round`) is
+  object whose boxes are elongated the same way in every view (:func:`looks_round`) is
   fitted as sphere, spheroid and (with at least
   :data:`MIN_VIEWS_FOR_ELLIPSOID` views) ellipsoid, and the model with the
   lowest BIC is kept.
@@ -28,7 +28,8 @@ from .problem import Problem
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
 MIN_VIEWS_FOR_ELLIPSOID = 4
-#: ``auto`` fits shapes when the mean |log(box aspect / sphere's predicted aspect)| over untruncated boxes exceeds this.
+#: ``auto`` fits shapes when log(box aspect / sphere's predicted aspect) exceeds this, with one sign, in at least two
+#: boxes not cut by the image border (one truncated or occluded box does not make a fruit elongated).
 ROUNDNESS_THRESHOLD = 0.08
 
 
@@ -56,7 +57,10 @@ def looks_round(problem: Problem, obj: DetectedObject) -> bool:
         if not np.all(np.isfinite([px1, py1, px2, py2])) or min(x2 - x1, y2 - y1) <= 0:
             continue
         deviations.append(np.log((y2 - y1) / (x2 - x1)) - np.log((py2 - py1) / (px2 - px1)))
-    return not deviations or abs(float(np.mean(deviations))) <= ROUNDNESS_THRESHOLD
+    # a non-round fruit is elongated the same way in every view; occlusion truncates one view's box at random
+    d = np.asarray(deviations)
+    consistent = len(d) >= 2 and (np.all(d > ROUNDNESS_THRESHOLD) or np.all(d < -ROUNDNESS_THRESHOLD))
+    return not consistent
 
 
 def as_sphere(obj: DetectedObject) -> DetectedObject:
