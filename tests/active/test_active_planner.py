@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from monovisual3d.bayes.likelihood import predict_boxes
 from numpy.testing import assert_allclose, assert_array_equal
 
 from monovisual3d import Camera
@@ -14,6 +13,7 @@ from monovisual3d.active import CapSpec, PlannerConfig, PlannerState, cap_poses,
 from monovisual3d.active.planner import boxes_and_jacobians, occlusion_by_known
 from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, look_at
+from monovisual3d.geometry.sphere import predict_sphere_boxes as predict_boxes
 from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, View, Workspace
 
@@ -231,7 +231,7 @@ def test_bad_planner_input_is_rejected(camera: Camera) -> None:
 
 
 def test_plan_next_view_with_a_localizer(camera: Camera) -> None:
-    from monovisual3d.bayes import BayesLocalizer
+    from monovisual3d.methods.bayes import BayesLocalizer
 
     state, cands = hidden_setup(camera)
     loc = BayesLocalizer(camera, workspace=WS)

@@ -12,7 +12,7 @@ given (the paper's axial pose by default), the rest are chosen by the strategy:
 
 Detections come from the simulator (:func:`monovisual3d.sim.simulate.simulate_views`:
 ray-cast bounding-box camera, then the noise model); the estimate after each view is the
-``bayes`` method's (:class:`~monovisual3d.bayes.BayesLocalizer`).
+``bayes`` method's (:class:`~monovisual3d.methods.bayes.BayesLocalizer`).
 """
 
 from __future__ import annotations
@@ -28,10 +28,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..bayes import BayesConfig, BayesLocalizer
 from ..camera import Camera
 from ..errors import InputError
 from ..frames import look_at
+from ..methods.bayes import BayesConfig, BayesLocalizer
 from ..result import DetectedObject
 from ..session import Detection, Session, View, Workspace
 from ..sim.noise import NoiseModel

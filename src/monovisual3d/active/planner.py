@@ -6,7 +6,7 @@ The planner predicts, from the current estimate only (no new posterior per candi
     Every estimated object ``i`` (centre ``c``, radius ``r``) has an information matrix
     ``L_i`` (4 x 4 over ``(c, r)``) rebuilt from the views it was associated in: the Fisher
     information ``J^T W J`` of its four predicted box edges under the ``bayes`` sensor model
-    (edge noise ``sigma = alpha * size + sigma0_px``, :class:`~monovisual3d.bayes.likelihood.SensorModel`),
+    (edge noise ``sigma = alpha * size + sigma0_px``, :class:`~monovisual3d.methods.bayes.likelihood.SensorModel`),
     leaving out the edges the observed box shows occluded (inside the prediction by more than
     ``occluded_edge_sigma``) or cut by the image border. A candidate adds ``J^T W J`` of its
     own predicted box, each edge weighted by its visibility. The gain of object ``i`` is the
@@ -50,9 +50,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..bayes.likelihood import SensorModel, predict_boxes
 from ..camera import Camera
 from ..errors import InputError
+from ..geometry.sphere import predict_sphere_boxes as predict_boxes
+from ..methods.bayes.likelihood import SensorModel
 from ..result import DetectedObject, Result
 from ..session import Session, View, Workspace
 from .candidates import check_candidates
@@ -635,7 +636,7 @@ def plan_next_view(
 
     Parameters
     ----------
-    session_or_localizer : Session, path, dict, or :class:`monovisual3d.bayes.BayesLocalizer`
+    session_or_localizer : Session, path, dict, or :class:`monovisual3d.methods.bayes.BayesLocalizer`
         The views so far. A session is localised with the ``bayes`` method (``localize_options``)
         unless ``objects`` is given; a localizer's :meth:`estimate` is used likewise.
     candidates : array_like, shape (N, 4, 4), ``T_base_optical`` of each candidate
@@ -666,7 +667,7 @@ def plan_next_view(
     except TypeError as exc:
         raise InputError(f"plan_next_view: {exc}") from None
     try:
-        from ..bayes import BayesLocalizer
+        from ..methods.bayes import BayesLocalizer
     except ImportError:  # pragma: no cover
         BayesLocalizer = ()  # type: ignore[assignment,misc]
     if isinstance(session_or_localizer, BayesLocalizer):
