@@ -232,6 +232,29 @@ def plot_scene(
     >>> len(fig.axes)
     3
     """
+    tc, tr, ec, er, P = _scene_inputs(truth_centres, truth_radii, estimates, estimate_radii, camera, poses)
+    with_r = [i for i, r in enumerate(er) if r is not None and np.isfinite(r)]
+
+    fig = _figure(figsize)
+    _scene_3d_panel(fig, tc, tr, ec, er, with_r, camera, P, occluders, frustum_depth)
+    _scene_2d_panels(fig, tc, tr, ec, er, with_r, occluders)
+    handles = _scene_legend_handles(with_r=bool(with_r), cameras=len(P) > 0, occluders=occluders)
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=9, frameon=False)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def _scene_inputs(
+    truth_centres: ArrayLike,
+    truth_radii: ArrayLike,
+    estimates: ArrayLike | None,
+    estimate_radii: Sequence[float | None] | None,
+    camera: Camera | None,
+    poses: ArrayLike | None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], list[float | None], NDArray[np.float64]]:
+    """The checked inputs of :func:`plot_scene`: truth centres (M, 3) and radii (M,), estimates (K, 3),
+    their K radii (None: unknown) and poses (N, 4, 4)."""
     tc = _as_points(truth_centres, "truth_centres")
     tr = np.asarray(truth_radii, dtype=float).reshape(-1)
     if len(tr) != len(tc):
@@ -243,9 +266,22 @@ def plot_scene(
     P = np.zeros((0, 4, 4)) if poses is None else np.asarray(poses, dtype=float).reshape(-1, 4, 4)
     if len(P) and camera is None:
         raise InputError("camera: needed to draw the poses")
-    with_r = [i for i, r in enumerate(er) if r is not None and np.isfinite(r)]
+    return tc, tr, ec, er, P
 
-    fig = _figure(figsize)
+
+def _scene_3d_panel(
+    fig: Figure,
+    tc: NDArray[np.float64],
+    tr: NDArray[np.float64],
+    ec: NDArray[np.float64],
+    er: list[float | None],
+    with_r: list[int],
+    camera: Camera | None,
+    P: NDArray[np.float64],
+    occluders: Sequence[Any],
+    frustum_depth: float,
+) -> None:
+    """The left panel of :func:`plot_scene`: occluders, true and estimated fruit and the cameras in 3D."""
     ax = fig.add_subplot(1, 3, 1, projection="3d")
     ax.computed_zorder = False  # draw in zorder, so the camera numbers stay on top of the fruit
     _draw_occluders(ax, occluders)
@@ -263,8 +299,18 @@ def plot_scene(
     ax.view_init(elev=20, azim=-150)
     ax.set_title("3D (cameras numbered by view index)" if len(P) else "3D", fontsize=9)
 
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Circle, Patch
+
+def _scene_2d_panels(
+    fig: Figure,
+    tc: NDArray[np.float64],
+    tr: NDArray[np.float64],
+    ec: NDArray[np.float64],
+    er: list[float | None],
+    with_r: list[int],
+    occluders: Sequence[Any],
+) -> None:
+    """The front (base y-z) and top (base y-x) panels of :func:`plot_scene`, zoomed on the fruit."""
+    from matplotlib.patches import Circle
 
     fruit_pts = np.concatenate([tc + tr[:, None], tc - tr[:, None], ec]) if len(tc) or len(ec) else np.zeros((1, 3))
     lo, hi = fruit_pts.min(axis=0) - 0.02, fruit_pts.max(axis=0) + 0.02
@@ -288,6 +334,13 @@ def plot_scene(
         ax2.set_ylabel("z (m)" if b == 2 else "x (m)")
         ax2.set_title(name, fontsize=9)
         ax2.grid(True, alpha=0.2)
+
+
+def _scene_legend_handles(*, with_r: bool, cameras: bool, occluders: Sequence[Any]) -> list[Any]:
+    """Legend entries of :func:`plot_scene` for what it draws: truth, estimates, and cameras and occluders when present."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
     handles = [
         Line2D(
             [], [], color=TRUTH_COLOUR, marker="o", markerfacecolor="none", linestyle="none", markersize=10, label="true fruit"
@@ -301,17 +354,14 @@ def plot_scene(
             label="estimate (centre x, size dashed)" if with_r else "estimate (centre)",
         ),
     ]
-    if len(P):
+    if cameras:
         handles.append(Line2D([], [], color=CAMERA_COLOUR, label="camera frustum (3D panel)"))
     kinds = {type(o).__name__ for o in occluders}
     if "Leaf" in kinds:
         handles.append(Patch(facecolor=OCCLUDER_COLOUR, alpha=0.35, edgecolor=OCCLUDER_COLOUR, label="leaf"))
     if "Stem" in kinds:
         handles.append(Line2D([], [], color=STEM_COLOUR, linewidth=1.5, label="stem"))
-    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=9, frameon=False)
-    if title:
-        fig.suptitle(title)
-    return fig
+    return handles
 
 
 def label_positions(boxes_xyxy: ArrayLike, label_sizes: ArrayLike, image_size: tuple[int, int]) -> NDArray[np.float64]:
@@ -618,14 +668,7 @@ def plot_posterior_snapshots(
     >>> len(plot_posterior_snapshots(g, [p / p.sum()]).axes)
     2
     """
-    if not history:
-        raise InputError("history: expected at least one posterior snapshot (HistogramFilter(keep_history=True))")
-    if not 0.0 < threshold <= 1.0:
-        raise InputError(f"threshold: got {threshold}, expected a value in (0, 1]")
-    snaps = [np.asarray(h, dtype=float).reshape(-1) for h in history]
-    for i, s in enumerate(snaps):
-        if s.size != grid.n_cells:
-            raise InputError(f"history[{i}]: expected {grid.n_cells} cells, got {s.size}")
+    snaps = _posterior_snapshots(grid, history, threshold)
     rng = np.random.default_rng(rng)
     tc = _as_points(truth_centres, "truth_centres")
     tr = np.zeros(len(tc)) if truth_radii is None else np.asarray(truth_radii, dtype=float).reshape(-1)
@@ -638,15 +681,9 @@ def plot_posterior_snapshots(
     for i, s in enumerate(snaps):
         ax = fig.add_subplot(1, n, i + 1, projection="3d")
         axes.append(ax)
-        m = s.max()
-        idx = np.flatnonzero(s >= threshold * m) if m > 0 else np.zeros(0, dtype=np.intp)
-        n_above = len(idx)
-        if len(idx) > max_points:
-            idx = np.sort(rng.choice(idx, max_points, replace=False))
-        pts = grid.centres_base(idx) if len(idx) else np.zeros((0, 3))
+        pts, scatter, n_above = _posterior_cells(ax, grid, s, threshold, max_points, rng)
         keep_all.append(pts)
-        if len(pts):
-            last = ax.scatter(*pts.T, c=s[idx] / m, cmap="viridis", vmin=threshold, vmax=1.0, s=2, alpha=0.35, depthshade=False)
+        last = scatter if scatter is not None else last
         if len(tc):
             _draw_spheres(ax, tc, tr, color=TRUTH_COLOUR, linewidth=0.5)
         if camera is not None and len(P):
@@ -666,6 +703,39 @@ def plot_posterior_snapshots(
     if suptitle:
         fig.suptitle(suptitle)
     return fig
+
+
+def _posterior_snapshots(grid: VoxelGrid, history: Sequence[ArrayLike], threshold: float) -> list[NDArray[np.float64]]:
+    """The checked snapshots of :func:`plot_posterior_snapshots`, each flat, shape (grid.n_cells,)."""
+    if not history:
+        raise InputError("history: expected at least one posterior snapshot (HistogramFilter(keep_history=True))")
+    if not 0.0 < threshold <= 1.0:
+        raise InputError(f"threshold: got {threshold}, expected a value in (0, 1]")
+    snaps = [np.asarray(h, dtype=float).reshape(-1) for h in history]
+    for i, s in enumerate(snaps):
+        if s.size != grid.n_cells:
+            raise InputError(f"history[{i}]: expected {grid.n_cells} cells, got {s.size}")
+    return snaps
+
+
+def _posterior_cells(
+    ax: Any, grid: VoxelGrid, s: NDArray[np.float64], threshold: float, max_points: int, rng: np.random.Generator
+) -> tuple[NDArray[np.float64], Any, int]:
+    """Scatter the cells of one snapshot ``s`` with ``p >= threshold * max(p)``, coloured by ``p / max(p)``.
+
+    Returns the drawn cells' centres (D, 3) (a random subset of ``max_points`` when more are above the
+    threshold), the scatter (None when no cell is drawn) and the number of cells above the threshold.
+    """
+    m = s.max()
+    idx = np.flatnonzero(s >= threshold * m) if m > 0 else np.zeros(0, dtype=np.intp)
+    n_above = len(idx)
+    if len(idx) > max_points:
+        idx = np.sort(rng.choice(idx, max_points, replace=False))
+    pts = grid.centres_base(idx) if len(idx) else np.zeros((0, 3))
+    scatter = None
+    if len(pts):
+        scatter = ax.scatter(*pts.T, c=s[idx] / m, cmap="viridis", vmin=threshold, vmax=1.0, s=2, alpha=0.35, depthshade=False)
+    return pts, scatter, n_above
 
 
 def plot_curves(

@@ -308,32 +308,63 @@ def scene_figure(
         if value is not None and not (math.isfinite(value) and value > 0):
             raise InputError(f"{name}: got {value!r}, expected a positive distance in metres")
 
-    cam = session.camera
-    P = np.stack([v.T_base_optical for v in session.views])
-    centres = P[:, :3, 3]
+    depth, far, axis_len = _scene_scales(session, fruits, tru, frustum_depth, cone_depth)
+    traces: list[Any] = _base_axes_traces(axis_len) + _workspace_traces(session)
+    for i, view in enumerate(session.views):
+        traces += _view_traces(session.camera, i, view, depth)
+    cones = _cone_traces(session, far)
+    cone_idx = list(range(len(traces), len(traces) + len(cones)))
+    cone_labels = [f"view {t.meta['view']} box #{t.meta['detection']}" for t in cones]
+    traces += cones + _fruit_traces(fruits) + _error_ellipsoid_traces(fruits)
+    if tru is not None and len(tru.positions):
+        traces += _truth_traces(tru) + (_error_line_traces(fruits, tru) if fruits else [])
+
+    fig = go.Figure(data=traces)
+    default_title = _default_title(session, fruits if result is not None else None, tru)
+    fig.update_layout(**_scene_layout(title or default_title, fruits, cone_idx, cone_labels))
+    return fig
+
+
+def _workspace_corners(session: Session) -> NDArray[np.float64] | None:
+    """The 8 corners (8, 3) of the session's workspace box, metres, base frame, or None without a workspace."""
+    ws = session.workspace
+    if ws is None:
+        return None
+    return np.array([[x, y, z] for x in (ws.min[0], ws.max[0]) for y in (ws.min[1], ws.max[1]) for z in (ws.min[2], ws.max[2])])
+
+
+def _scene_scales(
+    session: Session, fruits: list[Fruit], tru: ObjectSet | None, frustum_depth: float | None, cone_depth: float | None
+) -> tuple[float, float, float]:
+    """Depth of the image planes, depth of the viewing cones and length of the base axes, metres.
+
+    The scales follow the cameras' distances to the scene's anchors: the fruit and the truth, else
+    the workspace's centre (see :func:`scene_figure` for the defaults).
+    """
+    centres = np.stack([v.T_base_optical for v in session.views])[:, :3, 3]
     anchors = [f.position for f in fruits] + (list(tru.positions) if tru is not None else [])
     ws = session.workspace
-    if ws is not None:
-        corners = np.array(
-            [[x, y, z] for x in (ws.min[0], ws.max[0]) for y in (ws.min[1], ws.max[1]) for z in (ws.min[2], ws.max[2])]
-        )
+    corners = _workspace_corners(session)
     if not anchors and ws is not None:
         anchors = [0.5 * (ws.min + ws.max)]
     if anchors:
         target = np.mean(anchors, axis=0)
         dist = np.linalg.norm(centres - target, axis=1)
         depth = frustum_depth or float(np.clip(0.25 * np.median(dist), 0.02, 0.3))
-        far_pts = np.array(anchors + (list(corners) if ws is not None else []))
+        far_pts = np.array(anchors + (list(corners) if corners is not None else []))
         far = cone_depth or 1.2 * float(np.max(np.linalg.norm(centres[:, None] - far_pts[None], axis=-1)))
     else:
         depth = frustum_depth or 0.1
         far = cone_depth or 1.0
-
-    traces: list[Any] = []
-    rect = np.array([[0.0, 0.0], [cam.width, 0.0], [cam.width, cam.height], [0.0, cam.height], [0.0, 0.0]])
-
-    # base frame axes and workspace
     axis_len = float(np.clip(0.2 * np.ptp(np.concatenate([centres, np.array(anchors).reshape(-1, 3)]), axis=0).max(), 0.05, 0.5))
+    return depth, far, axis_len
+
+
+def _base_axes_traces(axis_len: float) -> list[Any]:
+    """The base frame's x, y and z axes (red, green, blue) of length ``axis_len`` metres."""
+    import plotly.graph_objects as go
+
+    traces = []
     for k, (name, colour) in enumerate((("x", "red"), ("y", "green"), ("z", "blue"))):
         end = np.zeros(3)
         end[k] = axis_len
@@ -353,104 +384,133 @@ def scene_figure(
                 meta={"kind": "base_axes", "axis": name},
             )
         )
-    if ws is not None:
-        edges = []
-        for a in range(8):
-            for b in range(a + 1, 8):
-                if np.count_nonzero(corners[a] != corners[b]) == 1:
-                    edges.append(np.stack([corners[a], corners[b]]))
-        traces.append(
-            go.Scatter3d(
-                **dict(zip("xyz", _polyline(edges), strict=True)),
-                mode="lines",
-                line={"color": WORKSPACE_COLOUR, "width": 2, "dash": "dash"},
-                name="workspace",
-                hovertemplate=f"workspace {_mm(ws.min)} to {_mm(ws.max)}<extra></extra>",
-                meta={"kind": "workspace"},
-            )
-        )
+    return traces
 
-    # cameras: frustum + boxes on its image plane
-    cone_idx: list[int] = []
-    cone_labels: list[str] = []
+
+def _workspace_traces(session: Session) -> list[Any]:
+    """The session's workspace box as dashed edges (no trace without a workspace)."""
+    import plotly.graph_objects as go
+
+    ws = session.workspace
+    corners = _workspace_corners(session)
+    if ws is None or corners is None:
+        return []
+    edges = []
+    for a in range(8):
+        for b in range(a + 1, 8):
+            if np.count_nonzero(corners[a] != corners[b]) == 1:
+                edges.append(np.stack([corners[a], corners[b]]))
+    return [
+        go.Scatter3d(
+            **dict(zip("xyz", _polyline(edges), strict=True)),
+            mode="lines",
+            line={"color": WORKSPACE_COLOUR, "width": 2, "dash": "dash"},
+            name="workspace",
+            hovertemplate=f"workspace {_mm(ws.min)} to {_mm(ws.max)}<extra></extra>",
+            meta={"kind": "workspace"},
+        )
+    ]
+
+
+def _box_corners_uv(bbox_xyxy: Sequence[float]) -> NDArray[np.float64]:
+    """The closed outline (5, 2) of a box ``x1, y1, x2, y2``, pixels."""
+    x1, y1, x2, y2 = bbox_xyxy
+    return np.array([[x1, y1], [x2, y1], [x2, y2], [x1, y2], [x1, y1]])
+
+
+def _view_hover(i: int, view: Any, origin: NDArray[np.float64]) -> str:
+    """Hover text of view ``i``'s camera: its image, position and detections."""
+    lines = [f"<b>view {i}</b>" + (f" ({view.image})" if view.image else ""), f"camera at {_mm(origin)}"]
+    lines.append(f"{len(view.detections)} detection(s):")
+    for j, d in enumerate(view.detections):
+        score = f", score {d.score:.2f}" if d.score is not None else ""
+        lines.append(f"  #{j}: [{', '.join(f'{v:.0f}' for v in d.bbox_xyxy)}] px{score}")
+    return "<br>".join(lines)
+
+
+def _view_traces(cam: Camera, i: int, view: Any, depth: float) -> list[Any]:
+    """View ``i``'s frustum to depth ``depth`` metres, its number, and its boxes on the frustum's image plane."""
+    import plotly.graph_objects as go
+
+    rect = np.array([[0.0, 0.0], [cam.width, 0.0], [cam.width, cam.height], [0.0, cam.height], [0.0, 0.0]])
+    T = view.T_base_optical
+    plane = image_plane_points(cam, T, rect, depth)
+    origin = T[:3, 3]
+    segs = [plane] + [np.stack([origin, plane[c]]) for c in range(4)]
+    hover = _view_hover(i, view, origin)
+    xs, ys, zs = _polyline(segs)
+    traces = [
+        go.Scatter3d(
+            x=xs,
+            y=ys,
+            z=zs,
+            mode="lines",
+            line={"color": CAMERA_COLOUR, "width": 3},
+            name=f"view {i}: {len(view.detections)} box" + ("" if len(view.detections) == 1 else "es"),
+            legendgroup=f"view{i}",
+            hovertext=[hover] * len(xs),
+            hoverinfo="text",
+            meta={"kind": "frustum", "view": i},
+        ),
+        go.Scatter3d(
+            x=[float(origin[0])],
+            y=[float(origin[1])],
+            z=[float(origin[2])],
+            mode="text",
+            text=[f"<b>{i}</b>"],
+            textfont={"color": CAMERA_COLOUR, "size": 14},
+            legendgroup=f"view{i}",
+            showlegend=False,
+            hovertext=[hover],
+            hoverinfo="text",
+            meta={"kind": "camera_label", "view": i},
+        ),
+    ]
+    if view.detections:
+        traces.append(_box_trace(cam, i, view, depth))
+    return traces
+
+
+def _box_trace(cam: Camera, i: int, view: Any, depth: float) -> Any:
+    """View ``i``'s detection boxes drawn on its image plane at depth ``depth`` metres."""
+    import plotly.graph_objects as go
+
+    T = view.T_base_optical
+    box_segs, box_text = [], []
+    for j, d in enumerate(view.detections):
+        x1, y1, x2, y2 = d.bbox_xyxy
+        box_segs.append(image_plane_points(cam, T, _box_corners_uv(d.bbox_xyxy), depth))
+        score = f"<br>score {d.score:.2f}" if d.score is not None else ""
+        label = f"<br>label {d.label}" if d.label else ""
+        box_text += [f"view {i}, detection #{j}<br>[{x1:.0f}, {y1:.0f}, {x2:.0f}, {y2:.0f}] px{score}{label}"] * 6
+    xs, ys, zs = _polyline(box_segs)
+    return go.Scatter3d(
+        x=xs,
+        y=ys,
+        z=zs,
+        mode="lines",
+        line={"color": BOX_COLOUR, "width": 4},
+        name=f"view {i} boxes",
+        legendgroup=f"view{i}",
+        showlegend=False,
+        hovertext=box_text,
+        hoverinfo="text",
+        meta={"kind": "boxes", "view": i},
+    )
+
+
+def _cone_traces(session: Session, far: float) -> list[Any]:
+    """The viewing cone of every box to depth ``far`` metres, hidden until chosen (``visible="legendonly"``)."""
+    import plotly.graph_objects as go
+
+    traces = []
     for i, view in enumerate(session.views):
         T = view.T_base_optical
-        plane = image_plane_points(cam, T, rect, depth)
-        origin = T[:3, 3]
-        segs = [plane] + [np.stack([origin, plane[c]]) for c in range(4)]
-        lines = [f"<b>view {i}</b>" + (f" ({view.image})" if view.image else ""), f"camera at {_mm(origin)}"]
-        lines.append(f"{len(view.detections)} detection(s):")
-        for j, d in enumerate(view.detections):
-            score = f", score {d.score:.2f}" if d.score is not None else ""
-            lines.append(f"  #{j}: [{', '.join(f'{v:.0f}' for v in d.bbox_xyxy)}] px{score}")
-        hover = "<br>".join(lines)
-        xs, ys, zs = _polyline(segs)
-        traces.append(
-            go.Scatter3d(
-                x=xs,
-                y=ys,
-                z=zs,
-                mode="lines",
-                line={"color": CAMERA_COLOUR, "width": 3},
-                name=f"view {i}: {len(view.detections)} box" + ("" if len(view.detections) == 1 else "es"),
-                legendgroup=f"view{i}",
-                hovertext=[hover] * len(xs),
-                hoverinfo="text",
-                meta={"kind": "frustum", "view": i},
-            )
-        )
-        traces.append(
-            go.Scatter3d(
-                x=[float(origin[0])],
-                y=[float(origin[1])],
-                z=[float(origin[2])],
-                mode="text",
-                text=[f"<b>{i}</b>"],
-                textfont={"color": CAMERA_COLOUR, "size": 14},
-                legendgroup=f"view{i}",
-                showlegend=False,
-                hovertext=[hover],
-                hoverinfo="text",
-                meta={"kind": "camera_label", "view": i},
-            )
-        )
-        if view.detections:
-            box_segs, box_text = [], []
-            for j, d in enumerate(view.detections):
-                x1, y1, x2, y2 = d.bbox_xyxy
-                corners_uv = np.array([[x1, y1], [x2, y1], [x2, y2], [x1, y2], [x1, y1]])
-                box_segs.append(image_plane_points(cam, T, corners_uv, depth))
-                score = f"<br>score {d.score:.2f}" if d.score is not None else ""
-                label = f"<br>label {d.label}" if d.label else ""
-                box_text += [f"view {i}, detection #{j}<br>[{x1:.0f}, {y1:.0f}, {x2:.0f}, {y2:.0f}] px{score}{label}"] * 6
-            xs, ys, zs = _polyline(box_segs)
-            traces.append(
-                go.Scatter3d(
-                    x=xs,
-                    y=ys,
-                    z=zs,
-                    mode="lines",
-                    line={"color": BOX_COLOUR, "width": 4},
-                    name=f"view {i} boxes",
-                    legendgroup=f"view{i}",
-                    showlegend=False,
-                    hovertext=box_text,
-                    hoverinfo="text",
-                    meta={"kind": "boxes", "view": i},
-                )
-            )
-    # viewing cones, hidden until chosen
-    for i, view in enumerate(session.views):
-        T = view.T_base_optical
         origin = T[:3, 3]
         for j, d in enumerate(view.detections):
-            x1, y1, x2, y2 = d.bbox_xyxy
-            corners_uv = np.array([[x1, y1], [x2, y1], [x2, y2], [x1, y2], [x1, y1]])
-            far_rect = image_plane_points(cam, T, corners_uv, far)
+            far_rect = image_plane_points(session.camera, T, _box_corners_uv(d.bbox_xyxy), far)
             segs = [far_rect] + [np.stack([origin, far_rect[c]]) for c in range(4)]
             xs, ys, zs = _polyline(segs)
-            cone_idx.append(len(traces))
-            cone_labels.append(f"view {i} box #{j}")
             traces.append(
                 go.Scatter3d(
                     x=xs,
@@ -460,29 +520,38 @@ def scene_figure(
                     line={"color": CONE_COLOUR, "width": 2},
                     name="viewing cones of all boxes",
                     legendgroup="cones",
-                    showlegend=len(cone_idx) == 1,
+                    showlegend=not traces,
                     visible="legendonly",
                     hovertemplate=f"viewing cone of view {i}, detection #{j}<extra></extra>",
                     meta={"kind": "cone", "view": i, "detection": j},
                 )
             )
+    return traces
 
-    # estimated fruit and their 95 % error ellipsoids
-    scores = np.array([f.score for f in fruits]) if fruits else np.zeros(0)
+
+def _fruit_hover(k: int, f: Fruit, axes: NDArray[np.float64]) -> str:
+    """Hover text of fruit ``k`` drawn with semi-axes ``axes``: position, size, score, 1-sigma and boxes."""
+    if f.semi_axes is None:
+        size = "size unknown (drawn as a 5 mm marker)"
+    elif np.ptp(axes) < 1e-9:
+        size = f"radius {1000 * axes[0]:.1f} mm"
+    else:
+        size = "semi-axes " + ", ".join(f"{1000 * v:.1f}" for v in axes) + " mm"
+    seen = ", ".join(f"view {a} #{b}" for a, b in sorted(f.associations.items())) or "-"
+    sd = ""
+    if f.covariance is not None:
+        sd = "<br>1-sigma (x, y, z) " + _mm(np.sqrt(np.clip(np.diag(f.covariance), 0, None)))
+    return f"<b>fruit {k}</b><br>at {_mm(f.position)}<br>{size}<br>score {f.score:.3g}{sd}<br>boxes: {seen}<extra></extra>"
+
+
+def _fruit_traces(fruits: list[Fruit]) -> list[Any]:
+    """The estimated fruit as meshes of their shapes, coloured by score on the figure's coloraxis."""
+    import plotly.graph_objects as go
+
+    traces = []
     for k, f in enumerate(fruits):
         axes = f.semi_axes if f.semi_axes is not None else np.full(3, POINT_RADIUS_M)
         v, fc = ellipsoid_mesh(f.position, axes, f.R_base_fruit)
-        if f.semi_axes is None:
-            size = "size unknown (drawn as a 5 mm marker)"
-        elif np.ptp(axes) < 1e-9:
-            size = f"radius {1000 * axes[0]:.1f} mm"
-        else:
-            size = "semi-axes " + ", ".join(f"{1000 * v:.1f}" for v in axes) + " mm"
-        seen = ", ".join(f"view {a} #{b}" for a, b in sorted(f.associations.items())) or "-"
-        sd = ""
-        if f.covariance is not None:
-            sd = "<br>1-sigma (x, y, z) " + _mm(np.sqrt(np.clip(np.diag(f.covariance), 0, None)))
-        hover = f"<b>fruit {k}</b><br>at {_mm(f.position)}<br>{size}<br>score {f.score:.3g}{sd}<br>boxes: {seen}<extra></extra>"
         traces.append(
             go.Mesh3d(
                 x=v[:, 0],
@@ -497,11 +566,18 @@ def scene_figure(
                 flatshading=False,
                 name=f"fruit {k} (score {f.score:.3g})",
                 showlegend=True,
-                hovertemplate=hover,
+                hovertemplate=_fruit_hover(k, f, axes),
                 meta={"kind": "fruit", "index": k},
             )
         )
-    n_ell = 0
+    return traces
+
+
+def _error_ellipsoid_traces(fruits: list[Fruit]) -> list[Any]:
+    """The 95 % position-error ellipsoid of every fruit with a covariance."""
+    import plotly.graph_objects as go
+
+    traces = []
     for k, f in enumerate(fruits):
         if f.covariance is None:
             continue
@@ -519,84 +595,114 @@ def scene_figure(
                 opacity=0.18,
                 name="95 % position-error ellipsoids",
                 legendgroup="error_ellipsoids",
-                showlegend=n_ell == 0,
+                showlegend=not traces,
                 hovertemplate=f"fruit {k}: 95 % position-error ellipsoid<br>semi-axes "
                 + ", ".join(f"{1000 * v:.1f}" for v in a)
                 + " mm<extra></extra>",
                 meta={"kind": "error_ellipsoid", "index": k},
             )
         )
-        n_ell += 1
+    return traces
 
-    # truth and error lines
-    if tru is not None and len(tru.positions):
-        for t, (c, r) in enumerate(zip(tru.positions, tru.radii)):
-            radius = float(r) if np.isfinite(r) else POINT_RADIUS_M
-            v, fc = ellipsoid_mesh(c, np.full(3, radius), n_lat=8, n_lon=12)
-            size = f"radius {1000 * r:.1f} mm" if np.isfinite(r) else "radius unknown"
-            traces.append(
-                go.Mesh3d(
-                    x=v[:, 0],
-                    y=v[:, 1],
-                    z=v[:, 2],
-                    i=fc[:, 0],
-                    j=fc[:, 1],
-                    k=fc[:, 2],
-                    color=TRUTH_COLOUR,
-                    opacity=0.3,
-                    name="true fruit",
-                    legendgroup="truth",
-                    showlegend=t == 0,
-                    hovertemplate=f"<b>true fruit {t}</b><br>at {_mm(c)}<br>{size}<extra></extra>",
-                    meta={"kind": "truth", "index": t},
-                )
-            )
-        if fruits:
-            ei, ti = match(np.array([f.position for f in fruits]), tru.positions)
-            segs, text = [], []
-            for e, t in zip(ei, ti):
-                a, b = fruits[e].position, tru.positions[t]
-                segs.append(np.stack([a, b]))
-                text += [f"fruit {e} -> true fruit {t}: error {1000 * np.linalg.norm(a - b):.1f} mm"] * 3
-            xs, ys, zs = _polyline(segs)
-            traces.append(
-                go.Scatter3d(
-                    x=xs,
-                    y=ys,
-                    z=zs,
-                    mode="lines",
-                    line={"color": ERROR_COLOUR, "width": 5},
-                    name="error (estimate to matched truth)",
-                    hovertext=text,
-                    hoverinfo="text",
-                    meta={"kind": "error_lines"},
-                )
-            )
 
-    fig = go.Figure(data=traces)
+def _truth_traces(tru: ObjectSet) -> list[Any]:
+    """The true fruit as spheres (a 5 mm marker where the radius is unknown)."""
+    import plotly.graph_objects as go
+
+    traces = []
+    for t, (c, r) in enumerate(zip(tru.positions, tru.radii)):
+        radius = float(r) if np.isfinite(r) else POINT_RADIUS_M
+        v, fc = ellipsoid_mesh(c, np.full(3, radius), n_lat=8, n_lon=12)
+        size = f"radius {1000 * r:.1f} mm" if np.isfinite(r) else "radius unknown"
+        traces.append(
+            go.Mesh3d(
+                x=v[:, 0],
+                y=v[:, 1],
+                z=v[:, 2],
+                i=fc[:, 0],
+                j=fc[:, 1],
+                k=fc[:, 2],
+                color=TRUTH_COLOUR,
+                opacity=0.3,
+                name="true fruit",
+                legendgroup="truth",
+                showlegend=t == 0,
+                hovertemplate=f"<b>true fruit {t}</b><br>at {_mm(c)}<br>{size}<extra></extra>",
+                meta={"kind": "truth", "index": t},
+            )
+        )
+    return traces
+
+
+def _error_line_traces(fruits: list[Fruit], tru: ObjectSet) -> list[Any]:
+    """One line from each estimate to its matched true fruit (:func:`monovisual3d.metrics.match`)."""
+    import plotly.graph_objects as go
+
+    ei, ti = match(np.array([f.position for f in fruits]), tru.positions)
+    segs, text = [], []
+    for e, t in zip(ei, ti):
+        a, b = fruits[e].position, tru.positions[t]
+        segs.append(np.stack([a, b]))
+        text += [f"fruit {e} -> true fruit {t}: error {1000 * np.linalg.norm(a - b):.1f} mm"] * 3
+    xs, ys, zs = _polyline(segs)
+    return [
+        go.Scatter3d(
+            x=xs,
+            y=ys,
+            z=zs,
+            mode="lines",
+            line={"color": ERROR_COLOUR, "width": 5},
+            name="error (estimate to matched truth)",
+            hovertext=text,
+            hoverinfo="text",
+            meta={"kind": "error_lines"},
+        )
+    ]
+
+
+def _default_title(session: Session, fruits: list[Fruit] | None, tru: ObjectSet | None) -> str:
+    """The counts of views, boxes, fruit found (``fruits`` None: no result given) and true fruit, after the session's file name."""
     n_det = sum(len(v.detections) for v in session.views)
     default_title = f"{len(session.views)} views, {n_det} boxes"
-    if result is not None:
+    if fruits is not None:
         default_title += f", {len(fruits)} fruit found"
     if tru is not None:
         default_title += f", {len(tru.positions)} true fruit"
     if session.source:
         default_title = f"{Path(session.source).name}: {default_title}"
+    return default_title
+
+
+def _cone_menu(cone_idx: list[int], cone_labels: list[str]) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """The "viewing cone" drop-down menu that shows one cone (traces ``cone_idx``) at a time, and its caption."""
+    if not cone_idx:
+        return [], []
     buttons = [{"label": "no viewing cone", "method": "restyle", "args": [{"visible": ["legendonly"] * len(cone_idx)}, cone_idx]}]
     for n, label in enumerate(cone_labels):
         vis = ["legendonly"] * len(cone_idx)
         vis[n] = True
         buttons.append({"label": label, "method": "restyle", "args": [{"visible": vis}, cone_idx]})
-    fig.update_layout(
-        title={"text": title or default_title, "x": 0.01},
-        scene={
+    menu = {"buttons": buttons, "direction": "down", "x": 0.99, "xanchor": "right", "y": 0.99, "yanchor": "top"}
+    menu.update({"showactive": True, "active": 0})
+    caption = {"text": "viewing cone of one box:", "showarrow": False, "x": 0.8, "xref": "paper", "xanchor": "right"}
+    caption.update({"y": 0.985, "yref": "paper", "yanchor": "top"})
+    return [menu], [caption]
+
+
+def _scene_layout(title: str, fruits: list[Fruit], cone_idx: list[int], cone_labels: list[str]) -> dict[str, Any]:
+    """The figure's layout: title, 3D axes and view, score colour bar, legend and the viewing-cone menu."""
+    scores = np.array([f.score for f in fruits]) if fruits else np.zeros(0)
+    updatemenus, annotations = _cone_menu(cone_idx, cone_labels)
+    return {
+        "title": {"text": title, "x": 0.01},
+        "scene": {
             "xaxis": {"title": {"text": "x (m)"}},
             "yaxis": {"title": {"text": "y (m)"}},
             "zaxis": {"title": {"text": "z (m)"}},
             "aspectmode": "data",
             "camera": {"eye": {"x": -1.35, "y": -1.35, "z": 0.9}},  # from behind the robot's left shoulder, all in view
         },
-        coloraxis={
+        "coloraxis": {
             "colorscale": SCORE_COLORSCALE,
             "cmin": float(scores.min()) if len(scores) else 0.0,
             "cmax": float(scores.max())
@@ -605,38 +711,11 @@ def scene_figure(
             "colorbar": {"title": {"text": "fruit score"}, "x": 0.0, "xanchor": "left", "len": 0.5},
             "showscale": bool(fruits),
         },
-        legend={"itemsizing": "constant", "title": {"text": "click to show / hide"}},
-        margin={"l": 0, "r": 0, "t": 40, "b": 0},
-        updatemenus=[
-            {
-                "buttons": buttons,
-                "direction": "down",
-                "x": 0.99,
-                "xanchor": "right",
-                "y": 0.99,
-                "yanchor": "top",
-                "showactive": True,
-                "active": 0,
-            }
-        ]
-        if cone_idx
-        else [],
-        annotations=[
-            {
-                "text": "viewing cone of one box:",
-                "showarrow": False,
-                "x": 0.8,
-                "xref": "paper",
-                "xanchor": "right",
-                "y": 0.985,
-                "yref": "paper",
-                "yanchor": "top",
-            }
-        ]
-        if cone_idx
-        else [],
-    )
-    return fig
+        "legend": {"itemsizing": "constant", "title": {"text": "click to show / hide"}},
+        "margin": {"l": 0, "r": 0, "t": 40, "b": 0},
+        "updatemenus": updatemenus,
+        "annotations": annotations,
+    }
 
 
 def write_scene_html(

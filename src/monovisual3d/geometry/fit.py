@@ -22,7 +22,7 @@ bounded by ``size_range``):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -265,6 +265,38 @@ def fit_ellipsoid_to_boxes(
     names = fit_parameters(shape, free_orientation=free_orientation)
     u = check_up(up)
     lo, hi = _size_range(size_range)
+    T, b, used, sigma = _usable_edges(camera, T_base_optical, boxes_xyxy, names, shape, box_sigma, edge_sigma_px, border_px)
+    residuals, jacobian = _edge_residuals(camera, T, used, b[used], sigma, shape, u, free_orientation)
+    starts = _starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
+    best = _least_squares_from(starts, residuals, jacobian, names, lo, hi, loss, robust_scale)
+    c, s, R = ellipsoid_from_parameters(best.x, shape, up=u, free_orientation=free_orientation)
+    r = best.fun
+    return EllipsoidFit(
+        ellipsoid=Ellipsoid.from_rotation(c, s, R),
+        model=shape,
+        names=names,
+        centre_covariance=_centre_covariance(best.jac),
+        residuals_px=r * sigma,
+        chi2=float(np.sum(r * r)),
+        cost=float(best.cost),
+        n_edges=int(used.sum()),
+        n_views=int(np.sum(used.any(axis=1))),
+        success=bool(best.success),
+    )
+
+
+def _usable_edges(
+    camera: Camera,
+    T_base_optical: ArrayLike,
+    boxes_xyxy: ArrayLike,
+    names: tuple[str, ...],
+    shape: str,
+    box_sigma: float,
+    edge_sigma_px: float,
+    border_px: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """Poses (K, 4, 4), boxes (K, 4), the mask (K, 4) of edges used (finite, off the image border)
+    and the noise sigma (E,) of each used edge, pixels; checks there are enough edges for ``names``."""
     if not (box_sigma >= 0 and edge_sigma_px >= 0 and box_sigma + edge_sigma_px > 0):
         raise InputError(f"box_sigma, edge_sigma_px: got {box_sigma!r}, {edge_sigma_px!r}, expected >= 0 and not both 0")
     T = np.asarray(T_base_optical, dtype=float).reshape(-1, 4, 4)
@@ -280,8 +312,20 @@ def fit_ellipsoid_to_boxes(
         )
     wh = np.concatenate([b[:, 2:] - b[:, :2]] * 2, axis=1)
     sigma = np.sqrt((EDGE_NOISE_FACTOR * box_sigma * wh) ** 2 + edge_sigma_px**2)[used]
-    observed = b[used]
+    return T, b, used, sigma
 
+
+def _edge_residuals(
+    camera: Camera,
+    T: NDArray[np.float64],
+    used: NDArray[np.bool_],
+    observed: NDArray[np.float64],
+    sigma: NDArray[np.float64],
+    shape: str,
+    u: NDArray[np.float64],
+    free_orientation: bool,
+) -> tuple[Callable[[NDArray[np.float64]], NDArray[np.float64]], Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
+    """The normalised residuals (E,) of a parameter vector (P,) and their central-difference Jacobian (E, P)."""
     R0 = rotation_upright(0.0, u)
     boxes_of = PinholeBoxes(camera, T) if camera.distortion_model == "none" else None
 
@@ -303,7 +347,20 @@ def fit_ellipsoid_to_boxes(
         r = normalised(np.concatenate([theta + np.diag(h), theta - np.diag(h)]))
         return ((r[: len(theta)] - r[len(theta) :]) / (2 * h[:, None])).T
 
-    starts = _starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
+    return residuals, jacobian
+
+
+def _least_squares_from(
+    starts: list[NDArray[np.float64]],
+    residuals: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    jacobian: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    names: tuple[str, ...],
+    lo: float,
+    hi: float,
+    loss: str,
+    robust_scale: float,
+) -> Any:
+    """The lowest-cost :func:`scipy.optimize.least_squares` result over ``starts``, sizes bounded by ``[lo, hi]`` metres."""
     log_lo, log_hi = math.log(lo), math.log(hi)
     lower = np.array([log_lo if n.startswith("log_") else -np.inf for n in names])
     upper = np.array([log_hi if n.startswith("log_") else np.inf for n in names])
@@ -320,26 +377,17 @@ def fit_ellipsoid_to_boxes(
         if best is None or res.cost < best.cost:
             best = res
     assert best is not None
-    c, s, R = ellipsoid_from_parameters(best.x, shape, up=u, free_orientation=free_orientation)
-    r = best.fun
+    return best
+
+
+def _centre_covariance(jac: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Gauss-Newton covariance (3, 3) of the centre, ``inv(J^T J)[:3, :3]``, NaN when singular."""
     with np.errstate(invalid="ignore", over="ignore"):
-        JtJ = best.jac.T @ best.jac
+        JtJ = jac.T @ jac
         try:
-            cov = np.linalg.inv(JtJ)[:3, :3]
+            return np.linalg.inv(JtJ)[:3, :3]
         except np.linalg.LinAlgError:
-            cov = np.full((3, 3), np.nan)
-    return EllipsoidFit(
-        ellipsoid=Ellipsoid.from_rotation(c, s, R),
-        model=shape,
-        names=names,
-        centre_covariance=cov,
-        residuals_px=r * sigma,
-        chi2=float(np.sum(r * r)),
-        cost=float(best.cost),
-        n_edges=n_edges,
-        n_views=int(np.sum(used.any(axis=1))),
-        success=bool(best.success),
-    )
+            return np.full((3, 3), np.nan)
 
 
 def fit_shape_by_bic(
