@@ -52,7 +52,7 @@ class VoxelGrid:
 
     @property
     def n_cells(self) -> int:
-        return int(np.prod(self.shape))
+        return math.prod(int(n) for n in self.shape)
 
     @property
     def size_m(self) -> NDArray[np.float64]:
@@ -67,8 +67,11 @@ class VoxelGrid:
         lo = np.asarray(min_base, dtype=float)
         hi = np.asarray(max_base, dtype=float)
         _check_resolution(resolution)
-        shape = tuple(int(max(1, math.ceil((h - l) / resolution - 1e-9))) for l, h in zip(lo, hi))
-        check_grid_size(shape, resolution, max_bytes=max_bytes)
+        cells = (hi - lo) / resolution
+        if lo.shape != (3,) or hi.shape != (3,) or not np.all(np.isfinite(cells)):
+            raise InputError(f"workspace: min {lo.tolist()} and max {hi.tolist()} must be 3 finite coordinates, metres")
+        shape = tuple(int(max(1, math.ceil(c - 1e-9))) for c in cells)
+        check_grid_size(shape, resolution, max_bytes=max_bytes, extent="workspace")
         T = np.eye(4)
         T[:3, 3] = lo
         return cls(T, shape, float(resolution))  # type: ignore[arg-type]
@@ -90,9 +93,12 @@ class VoxelGrid:
         _check_resolution(resolution)
         if not (reach > 0 and math.isfinite(reach)):
             raise InputError(f"reach: got {reach}, expected a positive number of metres")
-        n = int(math.ceil(2 * reach / resolution - 1e-9))
+        cells = 2 * reach / resolution
+        if not math.isfinite(cells):
+            raise InputError(f"reach: got {reach}, too large for a {resolution} m resolution")
+        n = int(math.ceil(cells - 1e-9))
         shape = (n, n, n)
-        check_grid_size(shape, resolution, max_bytes=max_bytes)
+        check_grid_size(shape, resolution, max_bytes=max_bytes, extent="reach")
         offset = np.eye(4)
         half = 0.5 * n * resolution  # = reach when 2 * reach is a whole number of cells; keeps the axis centred otherwise
         offset[:3, 3] = [-half, -half, 0.0]
@@ -118,17 +124,32 @@ class VoxelGrid:
         }
 
 
-def check_grid_size(shape: tuple[int, ...], resolution: float, *, max_bytes: int = DEFAULT_MAX_BYTES) -> None:
-    """Refuse a grid whose dense filter would not fit in ``max_bytes``; suggest a resolution."""
-    n = int(np.prod(shape))
+#: A suggested resolution coarser than this (metres) is useless for fruit: the extent is blamed instead.
+_COARSEST_USEFUL_M = 0.1
+
+
+def check_grid_size(
+    shape: tuple[int, ...], resolution: float, *, max_bytes: int = DEFAULT_MAX_BYTES, extent: str = "workspace"
+) -> None:
+    """Refuse a grid whose dense filter would not fit in ``max_bytes``; suggest a resolution.
+
+    Counts in Python integers (no int64 overflow). The message names ``extent``
+    (the parameter that set the grid's size: ``workspace`` or ``reach``) when no
+    useful resolution would fit, else ``resolution``.
+    """
+    n = math.prod(int(v) for v in shape)
     need = n * BYTES_PER_CELL
     if need > max_bytes:
         factor = (need / max_bytes) ** (1 / 3)
         suggestion = resolution * factor * 1.05
+        big = max(shape) >= 10**6
+        dims = "x".join(f"{v:.3g}" if big else str(v) for v in shape)
+        cells = f"{n:,}" if n < 10**12 else f"{float(n):.3g}"
+        field = "resolution" if suggestion <= _COARSEST_USEFUL_M else extent
         raise InputError(
-            f"resolution: a {resolution * 1000:g} mm grid has {n:,} cells ({'x'.join(map(str, shape))}) and needs "
-            f"about {need / 1024**3:.1f} GiB, over the {max_bytes / 1024**3:.1f} GiB limit; use --resolution "
-            f"{suggestion:.4f} or larger, or a smaller workspace"
+            f"{field}: a {resolution * 1000:.6g} mm grid has {cells} cells ({dims}) and needs about "
+            f"{need / 1024**3:.4g} GiB, over the {max_bytes / 1024**3:.1f} GiB limit; use --resolution "
+            f"{suggestion:.4g} or larger, or a smaller {extent}"
         )
 
 

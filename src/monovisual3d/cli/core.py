@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import warnings
 from pathlib import Path
@@ -18,7 +17,7 @@ from ..metrics import Metrics
 from ..metrics import evaluate as evaluate_fn
 from ..result import Result
 from ..truth import load_objects
-from ._app import app, console, handle_errors
+from ._app import app, check_output, console, handle_errors, json_text, write_output
 
 
 def print_objects(result: Result, title: str = "Localised objects") -> None:
@@ -103,7 +102,7 @@ def localize(
         if value is not None:
             options[name] = value
     if k is not None:
-        options["k"] = int(k) if k.isdigit() else k
+        options["k"] = int(k) if k.isascii() and k.isdigit() and len(k) < 10 else k  # "²".isdigit() is True
     if method != "paper":
         for name in ("kernel", "centre", "sigma_fraction", "k", "reach"):
             if name in options and not (name == "reach" and method == "bayes"):
@@ -116,7 +115,7 @@ def localize(
             options[name] = value
     from ..bayes import BayesConfig
     from ..filter import PaperConfig
-    from ..session import load_session
+    from ..session import geometry_warnings, load_session
 
     # validate the options and the file before the progress bar, so an error prints alone and names the option
     if method not in METHODS:
@@ -128,24 +127,33 @@ def localize(
         if field in options:
             raise InputError(f"--{field.replace('_', '-')}:{str(exc).split(':', 1)[1]}") from None
         raise
+    check_output(output, session)
     loaded = load_session(session)
-    if quiet:
-        result = localize_fn(loaded, method=method, **options)
-    else:
-        with Progress(console=console, transient=True) as bar:
-            task = bar.add_task("filtering views", total=None)
+    for message in geometry_warnings(loaded, single_view=True):
+        if message.startswith("views: a single view"):  # load_session warned about the others
+            warnings.warn(InputWarning(f"{loaded.source}: {message}"), stacklevel=1)
+    try:
+        if quiet:
+            result = localize_fn(loaded, method=method, **options)
+        else:
+            with Progress(console=console, transient=True) as bar:
+                task = bar.add_task("filtering views", total=None)
 
-            def progress(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
+                def progress(done: int, total: int) -> None:
+                    bar.update(task, completed=done, total=total)
 
-            result = localize_fn(loaded, method=method, progress=progress, **options)
+                result = localize_fn(loaded, method=method, progress=progress, **options)
+    except InputError as exc:  # e.g. a grid too large for the workspace: name the session file too
+        prefix = f"{loaded.source}: "
+        raise InputError(str(exc) if str(exc).startswith(prefix) else prefix + str(exc)) from None
+    text = json_text(result.to_dict())
     if output is not None:
-        result.to_json(output)
+        write_output(output, text + "\n")
     if not quiet:
         print_objects(result)
         console.print(f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {output}" if output else ""))
     elif output is None:
-        print(result.to_json())
+        print(text)
 
 
 @app.command()
@@ -161,6 +169,9 @@ def evaluate(
     """Compare estimates with ground truth: Euclidean error, MAE, MSE, RMSE, MAPE, recall, precision."""
     if gate is not None and not gate > 0:
         raise InputError(f"--gate: got {gate}, expected a positive distance in metres")
+    if not math.isfinite(gate if gate is not None else 0.0):
+        raise InputError(f"--gate: got {gate}, expected a finite distance in metres")
+    check_output(output, estimates, truth)
     est = load_objects(estimates)
     tru = load_objects(truth, allow_empty=False)
     if tru.from_result and not est.from_result:
@@ -180,4 +191,4 @@ def evaluate(
     )
     print_metrics({str(estimates.name): m})
     if output is not None:
-        Path(output).write_text(json.dumps(m.to_dict(), indent=2) + "\n")
+        write_output(Path(output), json_text(m.to_dict()) + "\n")
