@@ -67,7 +67,8 @@ class VoxelGrid:
         lo = np.asarray(min_base, dtype=float)
         hi = np.asarray(max_base, dtype=float)
         _check_resolution(resolution)
-        cells = (hi - lo) / resolution
+        with np.errstate(over="ignore", invalid="ignore"):  # an infinite extent is refused just below
+            cells = (hi - lo) / resolution
         if lo.shape != (3,) or hi.shape != (3,) or not np.all(np.isfinite(cells)):
             raise InputError(f"workspace: min {lo.tolist()} and max {hi.tolist()} must be 3 finite coordinates, metres")
         shape = tuple(int(max(1, math.ceil(c - 1e-9))) for c in cells)

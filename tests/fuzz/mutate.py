@@ -129,7 +129,7 @@ def hostile_value(rng: random.Random, old: Any = None) -> Any:
         if op == "int":
             return int(old) if not isinstance(old, float) or math.isfinite(old) else 0
         if op == "float":
-            return float(old)
+            return float(old) if abs(old) < 1e308 else old
         if op == "str":
             return str(old)
         return int(old) * 10 ** rng.randint(20, 400) if not isinstance(old, float) or math.isfinite(old) else HUGE_INT

@@ -209,8 +209,9 @@ def read_bag(
             resize=resize,
             workspace=workspace,
         )
-    except InputError:
-        raise
+    except InputError as exc:  # name the bag in every message
+        name = str(bag)
+        raise (exc if str(exc).startswith(name) else InputError(f"{name}: {exc}")) from None
     except Exception as exc:  # corrupt data found while reading (truncated chunks, bad lengths...)
         raise InputError(f"{bag}: cannot read the bag ({type(exc).__name__}: {_one_line(exc)})") from None
     finally:
@@ -332,12 +333,12 @@ def _deserialize(reader: Any, raw: bytes, conn: Any, ns: int) -> Any:
         return reader.deserialize(raw, conn.msgtype)
     except Exception as exc:  # malformed data or a definition that does not match the bytes
         raise InputError(
-            f"{conn.topic} at {ns * 1e-9:.9f} s: cannot decode {conn.msgtype} ({type(exc).__name__}: {_one_line(exc)}); "
-            "if the bag carries no message definitions, it may use another vision_msgs version"
+            f"{conn.topic} at {ns * 1e-9:.9f} s: cannot decode {conn.msgtype} ({type(exc).__name__}: {_one_line(exc, 60)}); "
+            "another vision_msgs version?"
         ) from None
 
 
-def _one_line(exc: BaseException, limit: int = 300) -> str:
+def _one_line(exc: BaseException, limit: int = 120) -> str:
     text = " ".join(str(exc).split())
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
