@@ -366,3 +366,8 @@ def test_excerpt_is_bounded() -> None:
     assert len(excerpt(bomb)) <= 60
     assert excerpt(10**5000) == "an integer of over 4000 digits"
     assert one_line("a\nb\x1b") == "a\\nb\\x1b"
+
+
+def test_yaml_size_is_bounded(tmp_path: Path) -> None:
+    path = write(tmp_path, "metadata: [" + "0, " * (1024**2) + "0]\n", "s.yaml")
+    assert error_of(path) == f"{path}: {len(path.read_text())} characters, larger than the 2097152 accepted in YAML (use JSON)"

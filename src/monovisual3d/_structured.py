@@ -24,7 +24,7 @@ from typing import Any
 import yaml
 
 from .errors import InputError, excerpt, one_line
-from .limits import MAX_FILE_BYTES, MAX_NESTING, MAX_NODES
+from .limits import MAX_FILE_BYTES, MAX_NESTING, MAX_NODES, MAX_YAML_BYTES, MAX_YAML_NODES
 
 
 def read_text(path: str | Path) -> str:
@@ -106,6 +106,7 @@ class SafeLoader(yaml.SafeLoader):
     def __init__(self, stream: Any) -> None:
         super().__init__(stream)
         self._depth = 0
+        self._nodes = 0
 
     def compose_node(self, parent: Any, index: Any) -> Any:
         event = self.peek_event()
@@ -118,6 +119,11 @@ class SafeLoader(yaml.SafeLoader):
         ):
             raise _ComposeLimit(f"tag {excerpt(tag)} is not accepted (YAML tags are not supported)", event.start_mark)
         self._depth += 1
+        self._nodes += 1
+        if self._nodes > MAX_YAML_NODES:
+            raise _ComposeLimit(
+                f"more than {MAX_YAML_NODES:,} values, the most a YAML file may hold (use JSON)", event.start_mark
+            )
         if self._depth > MAX_NESTING:
             raise _ComposeLimit(f"nested deeper than {MAX_NESTING} levels", event.start_mark)
         try:
@@ -158,6 +164,8 @@ SafeLoader.add_implicit_resolver(
 def load_yaml(text: str, source: str, loader: type[SafeLoader] = SafeLoader) -> Any:
     """Parse YAML text with ``loader`` (a :class:`SafeLoader`); malformed or hostile content is a one-line error."""
     source = one_line(source)
+    if len(text) > MAX_YAML_BYTES:
+        raise InputError(f"{source}: {len(text)} characters, larger than the {MAX_YAML_BYTES} accepted in YAML (use JSON)")
     try:
         data = yaml.load(text, Loader=loader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as exc:

@@ -8,8 +8,12 @@ the field, never by running out of memory or time.
 
 from __future__ import annotations
 
-#: Files larger than this are refused, bytes.
-MAX_FILE_BYTES = 256 * 1024 * 1024
+#: Files larger than this are refused, bytes (a JSON file takes up to ~25 times its size in memory once parsed).
+MAX_FILE_BYTES = 64 * 1024 * 1024
+#: YAML files larger than this are refused, bytes (YAML is parsed in pure Python: use JSON for big sessions).
+MAX_YAML_BYTES = 2 * 1024 * 1024
+#: Most values in a YAML file before aliases are expanded (parsing time grows with them).
+MAX_YAML_NODES = 100_000
 #: Deepest nesting of lists/objects in a JSON or YAML file (a session needs 6).
 MAX_NESTING = 64
 #: Most values (list items, object members and scalars, aliases expanded) in one JSON or YAML file.
