@@ -26,8 +26,8 @@ MAX_ABS_STAMP_S = 1e12
 MAX_ABS_ANGLE_RAD = 1e3
 #: Largest image side, pixels.
 MAX_IMAGE_SIDE = 32768
-#: Largest image, pixels (width * height): 2**28, a 16384 x 16384 image; an RLE mask decodes to this many bytes.
-MAX_IMAGE_PIXELS = 2**28
+#: Largest image, pixels (width * height): 2**26, e.g. 8192 x 8192; an RLE mask decodes to this many bytes.
+MAX_IMAGE_PIXELS = 2**26
 #: Largest |intrinsic| (fx, fy, cx, cy), pixels.
 MAX_ABS_INTRINSIC_PX = 1e7
 #: Largest |distortion coefficient|.
