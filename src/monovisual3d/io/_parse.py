@@ -73,7 +73,7 @@ def where_join(where: str, key: str | int) -> str:
 def as_float(value: Any, where: str) -> float:
     """A finite float from a number (not a bool) or a numeric string."""
     if isinstance(value, bool) or value is None:
-        raise InputError(f"{where}: expected a number, got {value!r}")
+        raise InputError(f"{where}: expected a number, got {excerpt(value)}")
     if isinstance(value, str):
         try:
             out = float(value.strip())
