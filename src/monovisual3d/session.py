@@ -451,7 +451,7 @@ def _check_mask(mask: Any, where: str, camera: Camera) -> None:
     if not isinstance(size, list) or len(size) != 2 or [v for v in size if isinstance(v, bool) or not isinstance(v, int)]:
         raise InputError(f"{where}.size: expected [height, width] = {expected}, got {excerpt(size)}")
     if size != expected:
-        raise InputError(f"{where}.size: got {size}, expected the image size [height, width] = {expected}")
+        raise InputError(f"{where}.size: got {excerpt(size)}, expected the image size [height, width] = {expected}")
     from .bayes.masks import rle_counts  # late import: the bayes package imports this module
 
     try:
