@@ -67,7 +67,6 @@ hostile_json = st.recursive(
     scalars, lambda inner: st.lists(inner, max_size=5) | st.dictionaries(st.text(max_size=8), inner, max_size=5), max_leaves=20
 )
 BASES = mutate.base_sessions()
-FIELDS = [p for base in BASES[:2] for p in mutate._nodes(base) if p]
 
 
 @seed(SEED)

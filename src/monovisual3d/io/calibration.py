@@ -172,7 +172,7 @@ def calibration_format(data: Any, where: str = "calibration") -> str:
     if {"width", "height"} <= keys and ({"fx", "fy", "cx", "cy"} <= keys or "hfov_deg" in keys):
         return "monovisual3d"
     raise InputError(
-        f"{where}: unrecognised calibration (top-level keys {sorted(map(str, keys))[:8]}); "
+        f"{where}: unrecognised calibration (top-level keys {excerpt(sorted(keys, key=excerpt)[:8], 80)}); "
         f"expected one of {list(CALIBRATION_FORMATS)}, or name the format with --camera-format (format=...)"
     )
 
