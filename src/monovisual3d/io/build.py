@@ -105,9 +105,7 @@ def build_session(
             raise InputError(
                 f"cannot match the poses ({pose_source}: {_what_names(poses.images is not None, poses.stamps is not None)}) "
                 f"to the detections ({det_source}: {_what_names(*_frames_have_names_stamps(frames))}): "
-                "matching by name needs image names on both sides (--match name, match='name') and by time, stamps "
-                "on both sides (--match stamp, match='stamp'); to pair the i-th pose with the i-th image, "
-                "pass --match order (match='order')"
+                "name or stamp matching needs them on both sides; to pair in order, pass --match order (match='order')"
             )
         summary.note(f"matched poses to detections by {'file name' if match == 'name' else 'time stamp'}")
     pairs: list[tuple[NDArray[np.float64], ImageDetections]] = []
