@@ -30,7 +30,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import InputError
+from .errors import InputError, excerpt
 
 DISTORTION_ALIASES = {
     "none": "none",
@@ -124,7 +124,7 @@ class Camera:
         model = DISTORTION_ALIASES.get(str(self.distortion_model).lower())
         if model is None:
             raise InputError(
-                f"camera.distortion.model: unknown model {self.distortion_model!r}, expected one of {sorted(DISTORTION_ALIASES)}"
+                f"camera.distortion.model: unknown model {excerpt(self.distortion_model)}, expected one of {sorted(DISTORTION_ALIASES)}"
             )
         coeffs = tuple(float(c) for c in self.distortion_coefficients)
         if not all(math.isfinite(c) for c in coeffs):

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import InputError
+from .errors import InputError, excerpt
 
 #: Rotation of the optical frame expressed in the ROS camera_link frame, as
 #: given in the paper: quaternion (x, y, z, w) = (-0.5, 0.5, -0.5, 0.5).
@@ -219,12 +219,14 @@ def look_at(position: ArrayLike, target: ArrayLike, up: ArrayLike = (0.0, 0.0, 1
 def _finite_array(value: ArrayLike, shape: tuple[int, ...], where: str) -> NDArray[np.float64]:
     # text, booleans and None are not numbers, even where numpy would convert them
     if not _all_numbers(value):
-        got = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else repr(value)
+        got = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else excerpt(value)
         raise InputError(f"{where}: expected numbers with shape {list(shape)}, got {got}")
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"{where}: expected numbers with shape {list(shape)}, got {value!r}") from None
+        raise InputError(f"{where}: expected numbers with shape {list(shape)}, got {excerpt(value)}") from None
+    except OverflowError:
+        raise InputError(f"{where}: got {excerpt(value)}, a number too large") from None
     if arr.shape != shape:
         raise InputError(f"{where}: expected shape {list(shape)}, got {list(arr.shape)}")
     if not np.all(np.isfinite(arr)):

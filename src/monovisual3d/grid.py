@@ -72,8 +72,12 @@ class VoxelGrid:
         lo = np.asarray(min_base, dtype=float)
         hi = np.asarray(max_base, dtype=float)
         _check_resolution(resolution)
-        shape = tuple(int(max(1, math.ceil((h - l) / resolution - 1e-9))) for l, h in zip(lo, hi))
-        check_grid_size(shape, resolution, max_bytes=max_bytes)
+        with np.errstate(over="ignore", invalid="ignore"):  # an infinite extent is refused just below
+            cells = (hi - lo) / resolution
+        if lo.shape != (3,) or hi.shape != (3,) or not np.all(np.isfinite(cells)):
+            raise InputError(f"workspace: min {lo.tolist()} and max {hi.tolist()} must be 3 finite coordinates, metres")
+        shape = tuple(int(max(1, math.ceil(c - 1e-9))) for c in cells)
+        check_grid_size(shape, resolution, max_bytes=max_bytes, extent="workspace")
         T = np.eye(4)
         T[:3, 3] = lo
         return cls(T, shape, float(resolution))  # type: ignore[arg-type]
@@ -95,9 +99,12 @@ class VoxelGrid:
         _check_resolution(resolution)
         if not (reach > 0 and math.isfinite(reach)):
             raise InputError(f"reach: got {reach}, expected a positive number of metres")
-        n = int(math.ceil(2 * reach / resolution - 1e-9))
+        cells = 2 * reach / resolution
+        if not math.isfinite(cells):
+            raise InputError(f"reach: got {reach}, too large for a {resolution} m resolution")
+        n = int(math.ceil(cells - 1e-9))
         shape = (n, n, n)
-        check_grid_size(shape, resolution, max_bytes=max_bytes)
+        check_grid_size(shape, resolution, max_bytes=max_bytes, extent="reach")
         offset = np.eye(4)
         half = 0.5 * n * resolution  # = reach when 2 * reach is a whole number of cells; keeps the axis centred otherwise
         offset[:3, 3] = [-half, -half, 0.0]
@@ -123,31 +130,47 @@ class VoxelGrid:
         }
 
 
+#: A suggested resolution coarser than this (metres) is useless for fruit: the extent is blamed instead.
+_COARSEST_USEFUL_M = 0.1
+
+
 def check_grid_size(
-    shape: tuple[int, ...], resolution: float, *, max_bytes: int = DEFAULT_MAX_BYTES, bytes_per_cell: int = BYTES_PER_CELL
+    shape: tuple[int, ...],
+    resolution: float,
+    *,
+    max_bytes: int = DEFAULT_MAX_BYTES,
+    bytes_per_cell: int = BYTES_PER_CELL,
+    extent: str = "workspace",
 ) -> None:
     """Refuse a grid whose dense filter would not fit in ``max_bytes``; the error suggests a resolution that fits.
 
-    The suggestion is checked: a grid over the same extent at the suggested resolution passes this check.
+    Counts in Python integers (no int64 overflow). The suggestion is checked: a grid over the same
+    extent at the suggested resolution passes this check. The message names ``extent`` (the parameter
+    that set the grid's size: ``workspace`` or ``reach``) when no useful resolution would fit, else
+    ``resolution``.
     """
     n = math.prod(int(v) for v in shape)
     need = n * bytes_per_cell
     if need <= max_bytes:
         return
-    extent = [int(v) * resolution for v in shape]
+    sizes = [int(v) * resolution for v in shape]
 
     def cells(res: float) -> int:
-        return math.prod(max(1, math.ceil(e / res - 1e-9)) for e in extent)
+        return math.prod(max(1, math.ceil(e / res - 1e-9)) for e in sizes)
 
     suggestion = float(f"{resolution * (need / max_bytes) ** (1 / 3):.3g}")
     while cells(suggestion) * bytes_per_cell > max_bytes:
         suggestion = float(f"{suggestion * 1.05:.3g}")
     from .methods.options import format_bytes
 
+    big = max(shape) >= 10**6
+    dims = "x".join(f"{v:.3g}" if big else str(v) for v in shape)
+    count = f"{n:,}" if n < 10**12 else f"{float(n):.3g}"
+    field = "resolution" if suggestion <= _COARSEST_USEFUL_M else extent
     raise InputError(
-        f"resolution: a {resolution * 1000:g} mm grid has {n:,} cells ({'x'.join(map(str, shape))}) and needs "
-        f"about {format_bytes(need)}, over the max_memory budget of {format_bytes(max_bytes)}; resolution "
-        f"{suggestion:g} m fits, or use a smaller workspace or a larger max_memory"
+        f"{field}: a {resolution * 1000:.6g} mm grid has {count} cells ({dims}) and needs about {format_bytes(need)}, "
+        f"over the max_memory budget of {format_bytes(max_bytes)}; resolution {suggestion:.4g} m fits, "
+        f"or use a smaller {extent} or a larger max_memory"
     )
 
 

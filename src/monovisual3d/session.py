@@ -20,8 +20,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from . import limits
+from ._structured import load_structured
 from .camera import Camera
-from .errors import InputError, InputWarning
+from .errors import InputError, InputWarning, excerpt, one_line
 from .frames import (
     T_base_optical_from_T_base_cameralink,
     check_quaternion_xyzw,
@@ -29,7 +31,7 @@ from .frames import (
     position_quaternion_from_transform,
     transform_from_position_quaternion,
 )
-from .masks import decode_rle
+from .masks import rle_counts
 
 POSE_FRAMES = ("optical", "camera_link")
 #: A camera farther than this from the base origin (metres) is flagged: probably millimetres.
@@ -165,26 +167,15 @@ class Session:
 
 # ---------------------------------------------------------------------- loading
 def read_structured_file(path: str | Path) -> Any:
-    """Read JSON or YAML (by suffix) with a one-line error for malformed content."""
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: file not found")
-    if path.is_dir():
-        raise InputError(f"{path}: is a directory, expected a JSON or YAML file")
-    text = path.read_text(encoding="utf-8", errors="replace")
-    if path.suffix.lower() in (".yaml", ".yml"):
-        import yaml
+    """Read JSON or YAML (by suffix) with a one-line error for malformed or hostile content.
 
-        try:
-            return yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-            raise InputError(f"{path}: not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    Strict UTF-8, no duplicate keys, bounded size, nesting and YAML aliases, no YAML
+    tags (see :mod:`monovisual3d.limits`).
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{one_line(str(path))}: is a directory, expected a JSON or YAML file")
+    return load_structured(path)
 
 
 def load_session(source: str | Path | dict[str, Any] | Session) -> Session:
@@ -218,7 +209,7 @@ def load_session(source: str | Path | dict[str, Any] | Session) -> Session:
     if not isinstance(source, (str, Path)):
         raise InputError(f"load_session: expected a file path, a dict or a Session, got {type(source).__name__}")
     data = read_structured_file(source)
-    return session_from_dict(data, str(source))
+    return session_from_dict(data, one_line(str(source)))
 
 
 def session_from_dict(data: Any, source: str | None = None) -> Session:
@@ -239,7 +230,7 @@ def _session_from_dict(data: Any, source: str | None) -> Session:
     camera = camera_from_dict(data["camera"])
     pose_frame = data.get("pose_frame", "optical")
     if pose_frame not in POSE_FRAMES:
-        raise InputError(f"pose_frame: got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
+        raise InputError(f"pose_frame: got {excerpt(pose_frame)}, expected one of {list(POSE_FRAMES)}")
     if "views" not in data:
         raise InputError("views: missing field, expected a list of views")
     views_data = data["views"]
@@ -247,11 +238,17 @@ def _session_from_dict(data: Any, source: str | None) -> Session:
         raise InputError(f"views: expected a list, got {type(views_data).__name__}")
     if not views_data:
         raise InputError("views: empty, expected at least one view")
+    if len(views_data) > limits.MAX_VIEWS:
+        raise InputError(f"views: {len(views_data)} views, more than the {limits.MAX_VIEWS} accepted")
     views = tuple(_view_from_dict(v, f"views[{i}]", camera, pose_frame, source) for i, v in enumerate(views_data))
     workspace = None
     if data.get("workspace") is not None:
         workspace = workspace_from_dict(data["workspace"], "workspace")
-    return Session(camera=camera, views=views, workspace=workspace, source=source)
+    session = Session(camera=camera, views=views, workspace=workspace, source=source)
+    prefix = f"{source}: " if source else ""
+    for message in geometry_warnings(session):
+        warnings.warn(InputWarning(prefix + message), stacklevel=4)
+    return session
 
 
 def camera_from_dict(data: Any, where: str = "camera") -> Camera:
@@ -263,7 +260,13 @@ def camera_from_dict(data: Any, where: str = "camera") -> Camera:
             raise InputError(f"{where}.{name}: missing field, expected a positive integer (pixels)")
         value = data[name]
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value <= 0:
-            raise InputError(f"{where}.{name}: expected a positive integer (pixels), got {value!r}")
+            raise InputError(f"{where}.{name}: expected a positive integer (pixels), got {excerpt(value)}")
+        if value > limits.MAX_IMAGE_SIDE:
+            raise InputError(f"{where}.{name}: got {excerpt(value)}, more than the {limits.MAX_IMAGE_SIDE} pixels accepted")
+    if int(data["width"]) * int(data["height"]) > limits.MAX_IMAGE_PIXELS:
+        raise InputError(
+            f"{where}: a {data['width']}x{data['height']} image, more than the {limits.MAX_IMAGE_PIXELS:,} pixels accepted"
+        )
     has_k = [k for k in ("fx", "fy", "cx", "cy") if k in data]
     if "hfov_deg" in data:
         if has_k:
@@ -277,7 +280,7 @@ def camera_from_dict(data: Any, where: str = "camera") -> Camera:
         missing = [k for k in ("fx", "fy", "cx", "cy") if k not in data]
         if missing:
             raise InputError(f"{where}.{missing[0]}: missing field, expected fx, fy, cx, cy (pixels) or hfov_deg")
-        vals = {k: _number(data[k], f"{where}.{k}") for k in ("fx", "fy", "cx", "cy")}
+        vals = {k: _number(data[k], f"{where}.{k}", limits.MAX_ABS_INTRINSIC_PX, "pixels") for k in ("fx", "fy", "cx", "cy")}
         for k in ("fx", "fy"):
             if vals[k] <= 0:
                 raise InputError(f"{where}.{k}: got {vals[k]}, expected a positive focal length in pixels")
@@ -288,12 +291,16 @@ def camera_from_dict(data: Any, where: str = "camera") -> Camera:
         _expect_object(dist, f"{where}.distortion")
         _reject_unknown(dist, {"model", "coefficients"}, f"{where}.distortion")
         model = dist.get("model", "plumb_bob")
+        if model is not None and not isinstance(model, str):
+            raise InputError(f"{where}.distortion.model: expected a model name (text), got {excerpt(model)}")
         raw = dist.get("coefficients")
         if isinstance(raw, np.ndarray) and raw.ndim == 1:
             raw = raw.tolist()
         if not isinstance(raw, list):
-            raise InputError(f"{where}.distortion.coefficients: expected a list of numbers, got {raw!r}")
-        coeffs = tuple(_number(c, f"{where}.distortion.coefficients[{i}]") for i, c in enumerate(raw))
+            raise InputError(f"{where}.distortion.coefficients: expected a list of numbers, got {excerpt(raw)}")
+        if len(raw) > 14:
+            raise InputError(f"{where}.distortion.coefficients: {len(raw)} numbers, expected at most 14 (OpenCV)")
+        coeffs = tuple(_number(c, f"{where}.distortion.coefficients[{i}]", limits.MAX_ABS_DISTORTION) for i, c in enumerate(raw))
     try:
         return Camera(cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy, model, coeffs)
     except InputError as exc:
@@ -308,13 +315,16 @@ def pose_from_dict(data: Any, where: str) -> NDArray[np.float64]:
     _expect_object(data, where)
     if "matrix" in data:
         _reject_unknown(data, {"matrix"}, where)
-        return check_transform(data["matrix"], where=f"{where}.matrix")
+        T = check_transform(data["matrix"], where=f"{where}.matrix")
+        _check_position(T[:3, 3], f"{where}.matrix")
+        return T
     _reject_unknown(data, {"position", "quaternion_xyzw"}, where)
     if "position" not in data:
         raise InputError(f"{where}.position: missing field, expected [x, y, z] in metres (or give 'matrix')")
     if "quaternion_xyzw" not in data:
         raise InputError(f"{where}.quaternion_xyzw: missing field, expected [qx, qy, qz, qw] (or give 'matrix')")
     position = _vector(data["position"], 3, f"{where}.position")
+    _check_position(position, f"{where}.position")
     q = check_quaternion_xyzw(data["quaternion_xyzw"], where=f"{where}.quaternion_xyzw")
     return transform_from_position_quaternion(position, q)
 
@@ -327,6 +337,8 @@ def workspace_from_dict(data: Any, where: str) -> Workspace:
             raise InputError(f"{where}.{k}: missing field, expected [x, y, z] in metres, base frame")
     lo = _vector(data["min"], 3, f"{where}.min")
     hi = _vector(data["max"], 3, f"{where}.max")
+    _check_position(lo, f"{where}.min")
+    _check_position(hi, f"{where}.max")
     if np.any(hi <= lo):
         raise InputError(f"{where}: max {hi.tolist()} must exceed min {lo.tolist()} on every axis")
     return Workspace(lo, hi)
@@ -355,6 +367,10 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
         raise InputError(f"{where}.detections: missing field, expected a list (may be empty)")
     if not isinstance(dets_data, list):
         raise InputError(f"{where}.detections: expected a list, got {type(dets_data).__name__}")
+    if len(dets_data) > limits.MAX_DETECTIONS_PER_VIEW:
+        raise InputError(
+            f"{where}.detections: {len(dets_data)} detections, more than the {limits.MAX_DETECTIONS_PER_VIEW} accepted"
+        )
     prefix = f"{source}: " if source else ""
     if not dets_data:
         warnings.warn(
@@ -364,10 +380,10 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
     dets = tuple(_detection_from_dict(d, f"{where}.detections[{j}]", camera, prefix) for j, d in enumerate(dets_data))
     stamp = data.get("stamp")
     if stamp is not None:
-        stamp = _number(stamp, f"{where}.stamp")
+        stamp = _number(stamp, f"{where}.stamp", limits.MAX_ABS_STAMP_S, "seconds")
     image = data.get("image")
     if image is not None and not isinstance(image, str):
-        raise InputError(f"{where}.image: expected a file name (string), got {image!r}")
+        raise InputError(f"{where}.image: expected a file name (string), got {excerpt(image)}")
     return View(T_base_optical=T, detections=dets, image=image, stamp=stamp)
 
 
@@ -398,6 +414,10 @@ def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> 
             raise InputError(f"{where}.score: got {score}, expected a confidence in [0, 1]")
     label = data.get("label")
     if label is not None and not isinstance(label, str):
+        if isinstance(label, (bool, np.bool_)) or not isinstance(label, (int, float, np.integer, np.floating)):
+            raise InputError(f"{where}.label: expected a class name (text), got {excerpt(label)}")
+        if isinstance(label, (int, np.integer)) and abs(int(label)) > 10**18:
+            raise InputError(f"{where}.label: got {excerpt(label)}, expected a class name (text) or a class number")
         label = str(label)
     mask = data.get("mask")
     if mask is not None:
@@ -413,8 +433,16 @@ def _check_mask(mask: Any, where: str, camera: Camera) -> None:
         poly = mask["polygon"]
         if not isinstance(poly, list) or len(poly) < 3:
             raise InputError(f"{where}.polygon: expected a list of at least 3 [u, v] points (pixels)")
+        if len(poly) > limits.MAX_POLYGON_POINTS:
+            raise InputError(f"{where}.polygon: {len(poly)} points, more than the {limits.MAX_POLYGON_POINTS} accepted")
+        W, H = camera.width, camera.height
+        m = limits.POLYGON_MARGIN_IMAGES
         for i, pt in enumerate(poly):
-            _vector(pt, 2, f"{where}.polygon[{i}]")
+            u, v = _vector(pt, 2, f"{where}.polygon[{i}]")
+            if not (-m * W <= u <= (1 + m) * W and -m * H <= v <= (1 + m) * H):
+                raise InputError(
+                    f"{where}.polygon[{i}]: [{u:.6g}, {v:.6g}] lies more than one image size outside the {W}x{H} image"
+                )
         return
     if not {"counts", "size"} <= set(mask):
         raise InputError(f"{where}: expected {{'polygon': [[u, v], ...]}} or COCO RLE {{'size': [h, w], 'counts': ...}}")
@@ -422,15 +450,76 @@ def _check_mask(mask: Any, where: str, camera: Camera) -> None:
     size = mask["size"]
     expected = [camera.height, camera.width]
     if not isinstance(size, list) or len(size) != 2 or [v for v in size if isinstance(v, bool) or not isinstance(v, int)]:
-        raise InputError(f"{where}.size: expected [height, width] = {expected}, got {size!r}")
+        raise InputError(f"{where}.size: expected [height, width] = {expected}, got {excerpt(size)}")
     if size != expected:
-        raise InputError(f"{where}.size: got {size}, expected the image size [height, width] = {expected}")
+        raise InputError(f"{where}.size: got {excerpt(size)}, expected the image size [height, width] = {expected}")
     try:
-        pixels = decode_rle(mask)
+        counts = rle_counts(mask)  # checked run by run: the mask is not decoded here
     except InputError as exc:
         raise InputError(f"{where}.{str(exc).removeprefix('mask.')}") from None
-    if not pixels.any():
+    if not any(counts[1::2]):
         raise InputError(f"{where}.counts: the mask is empty, expected the detection's pixels")
+
+
+# ---------------------------------------------------------------------- geometry
+#: Views whose camera positions span less than this angle, seen from the scene, cannot triangulate depth well.
+MIN_BASELINE_DEG = 3.0
+
+
+def geometry_warnings(session: Session, *, single_view: bool = False) -> list[str]:
+    """Warnings about view geometry that cannot triangulate depth (empty when the views are well spread).
+
+    Parameters
+    ----------
+    session : Session
+    single_view : bool
+        Also warn when the session has a single view (a method asked to localise from one view).
+
+    Returns
+    -------
+    list of str, one-line messages naming the field (``views``)
+
+    Notes
+    -----
+    The scene point is the workspace centre when there is a workspace, else the
+    point closest to all optical axes (1 m in front of the cameras when the axes
+    are parallel). The baseline is the largest angle between two camera
+    positions seen from that point.
+    """
+    views = session.views
+    n = len(views)
+    if n == 1:
+        return ["views: a single view; depth comes from the box size alone, give views from several poses"] if single_view else []
+    T = np.stack([v.T_base_optical for v in views])
+    P, Z = T[:, :3, 3], T[:, :3, 2]
+    R0 = T[0, :3, :3]
+    cos_rot = np.clip((np.einsum("nij,ij->n", T[:, :3, :3], R0) - 1) / 2, -1.0, 1.0)
+    if np.all(np.linalg.norm(P - P[0], axis=1) < 1e-3) and np.all(np.degrees(np.arccos(cos_rot)) < 0.1):
+        return [f"views: all {n} views have the same pose; depth cannot be triangulated from one viewpoint"]
+    if session.workspace is not None:
+        target = 0.5 * (session.workspace.min + session.workspace.max)
+    else:
+        A = n * np.eye(3) - Z.T @ Z
+        b = (P - Z * np.sum(Z * P, axis=1, keepdims=True)).sum(0)
+        target = P.mean(0) + Z.mean(0)  # parallel axes: 1 m in front of the cameras
+        if np.linalg.cond(A) < 1e6:
+            candidate = np.linalg.solve(A, b)
+            if np.all(np.sum((candidate - P) * Z, axis=1) > 0):
+                target = candidate
+    d = P - target
+    norm = np.linalg.norm(d, axis=1)
+    if np.any(norm < 1e-9):
+        return []
+    u = d / norm[:, None]
+    far = int(np.argmin(u @ u[0]))  # two passes of farthest direction: the largest pairwise angle, to a factor < 2
+    span = float(np.degrees(np.arccos(np.clip(np.min(u @ u[far]), -1.0, 1.0))))
+    if span < MIN_BASELINE_DEG:
+        where = ", ".join(f"{x:.3g}" for x in target)
+        return [
+            f"views: the camera positions span {span:.2g} degrees seen from the scene (near [{where}] m), under "
+            f"{MIN_BASELINE_DEG:g}; depth is poorly determined, move the camera farther between views"
+        ]
+    return []
 
 
 # ---------------------------------------------------------------------- helpers
@@ -440,26 +529,41 @@ def _expect_object(data: Any, where: str) -> None:
 
 
 def _reject_unknown(data: dict[str, Any], allowed: set[str], where: str) -> None:
-    unknown = sorted(set(data) - allowed, key=str)  # YAML keys may be numbers or None, not only text
+    unknown = sorted(set(data) - allowed, key=excerpt)  # YAML keys may be numbers or None, not only text
     if unknown:
-        name = str(unknown[0]) if str(unknown[0]).isprintable() else repr(unknown[0])  # keep the message one line
+        key = unknown[0]
+        name = one_line(key, limits.EXCERPT_CHARS) if isinstance(key, str) else excerpt(key)  # keep the message one line
         path = f"{where}.{name}" if where else name
         raise InputError(f"{path}: unknown field, expected one of {sorted(allowed)}")
 
 
-def _number(value: Any, where: str) -> float:
+def _number(value: Any, where: str, bound: float | None = None, unit: str = "") -> float:
+    """A finite float (not a bool); with ``bound``, ``|value| <= bound`` (``unit`` names it in the message)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InputError(f"{where}: expected a number, got {value!r}")
-    if not math.isfinite(value):
-        raise InputError(f"{where}: got {value}, expected a finite number")
-    return float(value)
+        raise InputError(f"{where}: expected a number, got {excerpt(value)}")
+    try:
+        out = float(value)
+    except OverflowError:
+        raise InputError(f"{where}: got {excerpt(value)}, too large for a number") from None
+    if not math.isfinite(out):
+        raise InputError(f"{where}: got {out}, expected a finite number")
+    if bound is not None and not abs(out) <= bound:
+        raise InputError(f"{where}: got {out:.6g}, beyond the {bound:g}{' ' + unit if unit else ''} accepted")
+    return out
+
+
+def _check_position(p: NDArray[np.float64], where: str) -> None:
+    """Refuse a position with a coordinate beyond :data:`~monovisual3d.limits.MAX_ABS_POSITION_M` metres."""
+    big = float(np.max(np.abs(p)))
+    if not big <= limits.MAX_ABS_POSITION_M:
+        raise InputError(f"{where}: coordinate {big:.3g} m, beyond the {limits.MAX_ABS_POSITION_M:g} m accepted (wrong units?)")
 
 
 def _vector(value: Any, n: int, where: str) -> NDArray[np.float64]:
     if isinstance(value, np.ndarray) and value.ndim == 1:
         value = value.tolist()
     if not isinstance(value, (list, tuple)):
-        raise InputError(f"{where}: expected a list of {n} numbers, got {value!r}")
+        raise InputError(f"{where}: expected a list of {n} numbers, got {excerpt(value)}")
     if len(value) != n:
         raise InputError(f"{where}: expected {n} numbers, got {len(value)}")
     return np.array([_number(v, f"{where}[{i}]") for i, v in enumerate(value)])

@@ -18,8 +18,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputError
-from .session import _number, _vector, read_structured_file
+from .errors import InputError, one_line
+from .limits import MAX_ABS_POSITION_M
+from .session import _check_position, _number, _vector, read_structured_file
 
 
 @dataclass(frozen=True)
@@ -47,7 +48,7 @@ class ObjectSet:
 
 def load_objects(source: str | Path | dict[str, Any], *, allow_empty: bool = True) -> ObjectSet:
     """Read ``{"objects": [...]}`` from a file or dict, with one-line errors naming the field."""
-    name = None if isinstance(source, dict) else str(source)
+    name = None if isinstance(source, dict) else one_line(str(source))
     data = source if isinstance(source, dict) else read_structured_file(source)
     try:
         return objects_from_dict(data, allow_empty=allow_empty)
@@ -70,12 +71,14 @@ def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:
             raise InputError(f"objects[{i}]: expected an object, got {type(o).__name__}")
         if "position" not in o:
             raise InputError(f"objects[{i}].position: missing field, expected [x, y, z] in metres")
-        pos.append(_vector(o["position"], 3, f"objects[{i}].position"))
+        p = _vector(o["position"], 3, f"objects[{i}].position")
+        _check_position(p, f"objects[{i}].position")
+        pos.append(p)
         r = o.get("radius")
         if r is None:
             radii.append(np.nan)
         else:
-            r = _number(r, f"objects[{i}].radius")
+            r = _number(r, f"objects[{i}].radius", MAX_ABS_POSITION_M, "m")
             if r <= 0:
                 raise InputError(f"objects[{i}].radius: got {r}, expected a positive number of metres")
             radii.append(r)

@@ -3,16 +3,20 @@
 from __future__ import annotations
 
 import functools
+import json
+import math
+import os
 import sys
 import warnings
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar
 
 import typer
 from rich.console import Console
 from rich.markup import escape
 
-from ..errors import InputError
+from ..errors import InputError, one_line
 
 app = typer.Typer(
     name="monovisual3d",
@@ -52,17 +56,73 @@ def handle_errors(fn: F) -> F:
         try:
             return fn(*args, **kwargs)
         except InputError as exc:
-            err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True, soft_wrap=True)
+            _print_error(str(exc))
             raise typer.Exit(2) from None
-        except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-            err_console.print(f"[bold red]error:[/] {escape(f'{exc.filename}: {exc.strerror}')}", highlight=False, soft_wrap=True)
+        except OSError as exc:  # file system errors (missing, read-only, disk full, I/O): one line naming the file
+            name = exc.filename if exc.filename is not None else "(file)"
+            _print_error(f"{name}: {exc.strerror or type(exc).__name__}")
             raise typer.Exit(2) from None
 
     return wrapper  # type: ignore[return-value]
 
 
+def _print_error(message: str) -> None:
+    err_console.print(f"[bold red]error:[/] {escape(one_line(message))}", highlight=False, markup=True, soft_wrap=True)
+
+
+def check_output(output: Path | None, *inputs: Path | None) -> None:
+    """Refuse an output path that cannot be written, before any computation.
+
+    The folder must exist and be writable, the path must not be a folder, and it
+    must not be one of the ``inputs`` (which it would overwrite).
+    """
+    if output is None:
+        return
+    name = one_line(str(output))
+    if output.is_dir():
+        raise InputError(f"{name}: is a directory, expected a file to write")
+    parent = output.parent if str(output.parent) else Path(".")
+    if not parent.is_dir():
+        raise InputError(f"{name}: cannot write, folder {one_line(str(parent))} does not exist")
+    if output.exists() and not os.access(output, os.W_OK) or not output.exists() and not os.access(parent, os.W_OK):
+        raise InputError(f"{name}: cannot write (permission denied)")
+    for source in inputs:
+        if source is None or not source.exists() or not output.exists():
+            continue
+        try:
+            same = os.path.samefile(source, output)
+        except OSError:
+            same = False
+        if same:
+            raise InputError(f"{name}: is also an input file; refusing to overwrite it, choose another --output")
+
+
+def json_text(data: object, indent: int = 2) -> str:
+    """JSON text with non-finite numbers written as ``null`` (``NaN`` and ``Infinity`` are not JSON)."""
+
+    def clean(v: object) -> object:
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, list | tuple):
+            return [clean(x) for x in v]
+        return v
+
+    return json.dumps(clean(data), indent=indent, allow_nan=False)
+
+
+def write_output(path: Path, text: str) -> None:
+    """Write ``text`` to ``path``; a failure (disk full, read-only, I/O error) is a one-line error naming the file."""
+    try:
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+    except OSError as exc:
+        raise InputError(f"{one_line(str(path))}: cannot write ({exc.strerror or type(exc).__name__})") from None
+
+
 def _show_warning(message: Any, category: type[Warning], filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
-    err_console.print(f"[yellow]warning:[/] {escape(str(message))}", highlight=False, soft_wrap=True)
+    err_console.print(f"[yellow]warning:[/] {escape(one_line(str(message)))}", highlight=False, soft_wrap=True)
 
 
 def main() -> None:

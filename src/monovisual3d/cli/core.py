@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import warnings
 from pathlib import Path
@@ -17,7 +16,7 @@ from ..metrics import Metrics
 from ..metrics import evaluate as evaluate_fn
 from ..result import Result
 from ..truth import load_objects
-from ._app import app, console, handle_errors
+from ._app import app, check_output, console, handle_errors, json_text, write_output
 from .options import method_config, translate_error, with_method_options
 
 
@@ -90,11 +89,17 @@ def localize(
     from rich.progress import Progress
 
     from ..localize import localize as localize_fn
-    from ..session import load_session
+    from ..session import geometry_warnings, load_session
 
-    # validate the options and the file before the progress bar, so an error prints alone and names the option
+    # validate the options, the files and the outputs before the progress bar, so an error prints alone
     config = method_config(method, method_options)
+    check_output(output, session)
+    if view is not None:
+        check_output(view, session)
     loaded = load_session(session)
+    for message in geometry_warnings(loaded, single_view=True):
+        if message.startswith("views: a single view"):  # load_session warned about the others
+            warnings.warn(InputWarning(f"{loaded.source}: {message}"), stacklevel=1)
     try:
         if quiet:
             result = localize_fn(loaded, config=config)
@@ -108,8 +113,9 @@ def localize(
                 result = localize_fn(loaded, config=config, progress=progress)
     except InputError as exc:
         raise translate_error(exc, session) from None
+    text = json_text(result.to_dict())
     if output is not None:
-        result.to_json(output)
+        write_output(output, text + "\n")
     if view is not None:
         from ..viz3d import write_scene_html
 
@@ -118,7 +124,7 @@ def localize(
         print_objects(result)
         console.print(f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {output}" if output else ""))
     elif output is None:
-        print(result.to_json())
+        print(text)
 
 
 @app.command()
@@ -134,6 +140,9 @@ def evaluate(
     """Compare estimates with ground truth: Euclidean error, MAE, MSE, RMSE, MAPE, recall, precision."""
     if gate is not None and not gate > 0:
         raise InputError(f"--gate: got {gate}, expected a positive distance in metres")
+    if not math.isfinite(gate if gate is not None else 0.0):
+        raise InputError(f"--gate: got {gate}, expected a finite distance in metres")
+    check_output(output, estimates, truth)
     est = load_objects(estimates)
     tru = load_objects(truth, allow_empty=False)
     if tru.from_result and not est.from_result:
@@ -155,4 +164,4 @@ def evaluate(
     )
     print_metrics({str(estimates.name): m})
     if output is not None:
-        Path(output).write_text(json.dumps(m.to_dict(), indent=2) + "\n")
+        write_output(Path(output), json_text(m.to_dict()) + "\n")

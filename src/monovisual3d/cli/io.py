@@ -6,9 +6,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
+from rich.markup import escape
 
-from ..errors import InputError
-from ._app import app, console, handle_errors
+from ..errors import InputError, one_line
+from ._app import app, check_output, console, handle_errors, write_output
 
 if TYPE_CHECKING:
     from ..io.summary import ImportResult
@@ -47,8 +48,8 @@ def _workspace(text: str | None) -> dict[str, list[float]] | None:
 
 
 def _report(result: ImportResult, output: Path) -> None:
-    result.session.to_json(output)
-    console.print(f"wrote {output}", highlight=False, soft_wrap=True)
+    write_output(output, result.session.to_json() + "\n")
+    console.print(f"wrote {escape(one_line(str(output)))}", highlight=False, soft_wrap=True)
     for line in result.summary.lines():
         console.print(f"  {line}", highlight=False, markup=False, soft_wrap=True)
 
@@ -104,6 +105,7 @@ def import_cmd(
     """Build a session file from a calibration, poses and detections, and print what was skipped."""
     from ..io.build import import_session
 
+    check_output(output, camera, poses, detections, hand_eye, class_names, coco_images)
     result = import_session(
         camera,
         poses,
@@ -164,6 +166,7 @@ def import_bag_cmd(
     """Build a session file from a ROS bag: TF poses, CameraInfo and Detection2DArray."""
     from ..io.rosbag import read_bag
 
+    check_output(output, bag, camera, class_names)
     result = read_bag(
         bag,
         base_frame=base_frame,

@@ -100,7 +100,7 @@ def _parameter(spec: OptionSpec) -> inspect.Parameter:
 
 def _convert(spec: OptionSpec, value: Any) -> Any:
     if spec.name == "k" and isinstance(value, str):  # "max|mode|min|last" or a whole number
-        return int(value) if value.isascii() and value.isdigit() else value
+        return int(value) if value.isascii() and value.isdigit() and len(value) < 10 else value
     return value
 
 

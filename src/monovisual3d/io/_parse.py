@@ -7,7 +7,6 @@ for malformed content.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from pathlib import Path
@@ -17,49 +16,23 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from ..errors import InputError
+from .. import _structured
+from ..errors import InputError, excerpt
+from ..limits import MAX_ABS_ANGLE_RAD, MAX_ABS_POSITION_M, MAX_ABS_STAMP_S, MAX_FILE_BYTES  # noqa: F401 - re-exported
 
-#: Files larger than this are refused (calibrations, pose and detection lists are small).
-MAX_FILE_BYTES = 256 * 1024 * 1024
-#: Largest accepted |coordinate| of a position, metres: far beyond any robot, small enough to compute with.
-MAX_ABS_POSITION_M = 1e6
-#: Largest accepted |time stamp|, seconds (epoch times are ~1.7e9).
-MAX_ABS_STAMP_S = 1e12
-#: Largest accepted |angle| (rotation vector norm, roll/pitch/yaw), radians.
-MAX_ABS_ANGLE_RAD = 1e3
-
-
-def read_text(path: str | Path) -> str:
-    """Read a UTF-8 text file with a one-line error for missing, directory or binary files."""
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: file not found")
-    if path.is_dir():
-        raise InputError(f"{path}: is a directory, expected a file")
-    try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise InputError(f"{path}: {size} bytes, larger than the {MAX_FILE_BYTES} bytes accepted")
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read ({exc.strerror})") from None
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start})") from None
-    if "\x00" in text:
-        raise InputError(f"{path}: contains NUL bytes, expected a text file")
-    return text
+read_text = _structured.read_text
+load_json = _structured.load_json
 
 
 # ---------------------------------------------------------------------- YAML
-class _Loader(yaml.SafeLoader):
-    """Safe YAML loader that also reads OpenCV FileStorage files.
+class _Loader(_structured.SafeLoader):
+    """The safe, bounded YAML loader that also reads OpenCV FileStorage files.
 
-    - ``!!opencv-matrix`` (and other ``!!opencv-*`` tags) become plain mappings
-      with ``type_id`` set, like OpenCV's JSON output.
-    - Floats without a dot (``1e-05``) are numbers, as in YAML 1.2 and OpenCV.
+    ``!!opencv-matrix`` (and other ``!!opencv-*`` tags) become plain mappings with
+    ``type_id`` set, like OpenCV's JSON output; other tags are refused.
     """
+
+    allow_tag_prefixes = ("tag:yaml.org,2002:opencv-",)
 
 
 def _construct_opencv(loader: yaml.SafeLoader, suffix: str, node: yaml.Node) -> dict[str, Any]:
@@ -70,18 +43,6 @@ def _construct_opencv(loader: yaml.SafeLoader, suffix: str, node: yaml.Node) -> 
 
 
 _Loader.add_multi_constructor("tag:yaml.org,2002:opencv-", _construct_opencv)
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(
-        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-        |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-        |[-+]?\.(?:inf|Inf|INF)
-        |\.(?:nan|NaN|NAN))$""",
-        re.X,
-    ),
-    list("-+0123456789."),
-)
 
 _OPENCV_DIRECTIVE = re.compile(r"\A\s*%YAML[: ]?1\.\d+[^\n]*\n")
 
@@ -89,25 +50,7 @@ _OPENCV_DIRECTIVE = re.compile(r"\A\s*%YAML[: ]?1\.\d+[^\n]*\n")
 def load_yaml(text: str, source: str) -> Any:
     """Parse YAML text, accepting OpenCV FileStorage's ``%YAML:1.0`` header and ``!!opencv-matrix`` tags."""
     text = _OPENCV_DIRECTIVE.sub("", text, count=1)
-    try:
-        return yaml.load(text, Loader=_Loader)  # a SafeLoader subclass: no arbitrary objects
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise InputError(f"{source}: not valid YAML{where}: {problem}") from None
-    except (ValueError, TypeError, OverflowError, RecursionError) as exc:  # PyYAML constructors on odd scalars
-        raise InputError(f"{source}: not valid YAML: {exc}") from None
-
-
-def load_json(text: str, source: str) -> Any:
-    """Parse JSON text with a one-line error."""
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{source}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
-    except (ValueError, RecursionError) as exc:
-        raise InputError(f"{source}: not valid JSON: {exc}") from None
+    return _structured.load_yaml(text, source, _Loader)
 
 
 def load_structured(path: str | Path) -> Any:
@@ -130,7 +73,7 @@ def where_join(where: str, key: str | int) -> str:
 def as_float(value: Any, where: str) -> float:
     """A finite float from a number (not a bool) or a numeric string."""
     if isinstance(value, bool) or value is None:
-        raise InputError(f"{where}: expected a number, got {value!r}")
+        raise InputError(f"{where}: expected a number, got {excerpt(value)}")
     if isinstance(value, str):
         try:
             out = float(value.strip())
@@ -163,10 +106,15 @@ def as_array(value: Any, where: str, shape: tuple[int, ...] | None = None, size:
     """A finite float array from nested lists (or an array), optionally with a fixed shape or size."""
     if isinstance(value, (str, bytes, dict)) or value is None or isinstance(value, bool):
         raise InputError(f"{where}: expected a list of numbers, got {_short(value)}")
+    bad = _first_non_number(value)
+    if bad is not None:
+        raise InputError(f"{where}: expected a list of numbers, got {_short(bad)} in {_short(value)}")
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
+    except (TypeError, ValueError):
         raise InputError(f"{where}: expected a list of numbers, got {_short(value)}") from None
+    except OverflowError:
+        raise InputError(f"{where}: number too large in {_short(value)}") from None
     if arr.dtype == object:
         raise InputError(f"{where}: expected a list of numbers, got {_short(value)}")
     if shape is not None and arr.shape != shape:
@@ -179,6 +127,21 @@ def as_array(value: Any, where: str, shape: tuple[int, ...] | None = None, size:
     if not np.all(np.isfinite(arr)):
         raise InputError(f"{where}: contains NaN or infinity")
     return arr
+
+
+def _first_non_number(value: Any) -> Any:
+    """The first element of nested lists that is not a number (booleans and numeric text are not), else None."""
+    stack = [value]
+    while stack:
+        v = stack.pop()
+        if isinstance(v, np.ndarray):
+            if v.dtype.kind not in "iuf":
+                return v
+        elif isinstance(v, (list, tuple)):
+            stack.extend(reversed(v))
+        elif isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+            return v
+    return None
 
 
 def check_translations(T: NDArray[np.float64], where: str) -> None:
@@ -247,5 +210,4 @@ def image_key(name: str) -> str:
 
 
 def _short(value: Any, n: int = 60) -> str:
-    text = repr(value)
-    return text if len(text) <= n else text[: n - 3] + "..."
+    return excerpt(value, n)

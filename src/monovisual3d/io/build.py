@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
-from ..errors import InputError
+from ..errors import InputError, excerpt
 from ..frames import T_base_optical_from_T_base_cameralink
 from ..session import POSE_FRAMES, Workspace, session_from_dict, workspace_from_dict
 from ._parse import as_float, image_key
@@ -83,9 +83,9 @@ def build_session(
     """
     summary = summary if summary is not None else ImportSummary()
     if pose_frame not in POSE_FRAMES:
-        raise InputError(f"--pose-frame (pose_frame): got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
+        raise InputError(f"--pose-frame (pose_frame): got {excerpt(pose_frame)}, expected one of {list(POSE_FRAMES)}")
     if match not in MATCH_MODES:
-        raise InputError(f"--match (match): got {match!r}, expected one of {list(MATCH_MODES)}")
+        raise InputError(f"--match (match): got {excerpt(match)}, expected one of {list(MATCH_MODES)}")
     max_gap = as_float(max_gap, "--max-gap (max_gap)")
     if not max_gap >= 0:
         raise InputError(f"--max-gap (max_gap): got {max_gap}, expected seconds >= 0")
@@ -190,9 +190,7 @@ def _auto_match_mode(
         raise InputError(
             f"cannot match the poses ({pose_source}: {_what_names(poses.images is not None, poses.stamps is not None)}) "
             f"to the detections ({det_source}: {_what_names(*_frames_have_names_stamps(frames))}): "
-            "matching by name needs image names on both sides (--match name, match='name') and by time, stamps "
-            "on both sides (--match stamp, match='stamp'); to pair the i-th pose with the i-th image, "
-            "pass --match order (match='order')"
+            "name or stamp matching needs them on both sides; to pair in order, pass --match order (match='order')"
         )
     summary.note(f"matched poses to detections by {'file name' if match == 'name' else 'time stamp'}")
     return match
@@ -214,7 +212,7 @@ def _match_by_name(
             )
         key = image_key(f.image)
         if key in by_key:
-            raise InputError(f"{det_source}: two detection sets for image {key!r} ({by_key[key].source}, {f.source})")
+            raise InputError(f"{det_source}: two detection sets for image {excerpt(key)} ({by_key[key].source}, {f.source})")
         by_key[key] = f
     pairs = []
     used = set()
@@ -479,7 +477,9 @@ def import_session(
     T_ee_camera = None
     if hand_eye is not None:
         if hand_eye_units not in POSITION_UNITS:
-            raise InputError(f"--hand-eye-units (hand_eye_units): got {hand_eye_units!r}, expected one of {list(POSITION_UNITS)}")
+            raise InputError(
+                f"--hand-eye-units (hand_eye_units): got {excerpt(hand_eye_units)}, expected one of {list(POSITION_UNITS)}"
+            )
         T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
     summary = _import_summary(camera, traj, det_source, size_note)
     return build_session(

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
-from ..errors import InputError, InputWarning
+from ..errors import InputError, InputWarning, excerpt
 from ._parse import as_array, as_int, expect_mapping, load_json, load_yaml, read_text
 
 CALIBRATION_FORMATS = ("kalibr", "ros", "opencv", "depthai", "monovisual3d")
@@ -113,7 +113,7 @@ def read_calibration(
             format = "ros"
     fmt = calibration_format(data, where) if format is None else format.lower()
     if fmt not in CALIBRATION_FORMATS:
-        raise InputError(f"{where}: --camera-format (format): got {format!r}, expected one of {list(CALIBRATION_FORMATS)}")
+        raise InputError(f"{where}: --camera-format (format): got {excerpt(format)}, expected one of {list(CALIBRATION_FORMATS)}")
     try:
         camera = _camera_in_format(fmt, data, camera_name, distortion_model, image_size)
     except InputError as exc:
@@ -180,7 +180,7 @@ def calibration_format(data: Any, where: str = "calibration") -> str:
     if {"width", "height"} <= keys and ({"fx", "fy", "cx", "cy"} <= keys or "hfov_deg" in keys):
         return "monovisual3d"
     raise InputError(
-        f"{where}: unrecognised calibration (top-level keys {sorted(map(str, keys))[:8]}); "
+        f"{where}: unrecognised calibration (top-level keys {excerpt(sorted(keys, key=excerpt)[:8], 80)}); "
         f"expected one of {list(CALIBRATION_FORMATS)}, or name the format with --camera-format (format=...)"
     )
 
@@ -217,13 +217,13 @@ def camera_from_kalibr(data: Any, camera_name: str | int | None = None) -> Camer
             by_topic = [k for k, v in cams.items() if isinstance(v, dict) and v.get("rostopic") == name]
             if not by_topic:
                 raise InputError(
-                    f"--camera-name (camera_name): no camera {name!r} in the camchain, expected one of {sorted(cams)}"
+                    f"--camera-name (camera_name): no camera {excerpt(name)} in the camchain, expected one of {sorted(cams)}"
                 )
             name = by_topic[0]
     cam = expect_mapping(cams[name], name)
     model = str(cam.get("camera_model", "pinhole"))
     if model != "pinhole":
-        raise InputError(f"{name}.camera_model: {model!r} is not supported, expected 'pinhole'")
+        raise InputError(f"{name}.camera_model: {excerpt(model)} is not supported, expected 'pinhole'")
     if "intrinsics" not in cam:
         raise InputError(f"{name}.intrinsics: missing field, expected [fu, fv, pu, pv]")
     fu, fv, pu, pv = as_array(cam["intrinsics"], f"{name}.intrinsics", size=4).tolist()
@@ -231,14 +231,14 @@ def camera_from_kalibr(data: Any, camera_name: str | int | None = None) -> Camer
         raise InputError(f"{name}.resolution: missing field, expected [width, height]")
     res = cam["resolution"]
     if not isinstance(res, list) or len(res) != 2:
-        raise InputError(f"{name}.resolution: expected [width, height], got {res!r}")
+        raise InputError(f"{name}.resolution: expected [width, height], got {excerpt(res)}")
     width = as_int(res[0], f"{name}.resolution[0]", minimum=1)
     height = as_int(res[1], f"{name}.resolution[1]", minimum=1)
     dist = str(cam.get("distortion_model", "none")).lower()
     coeffs = as_array(cam.get("distortion_coeffs", []), f"{name}.distortion_coeffs").ravel()
     kalibr_models = {"radtan": "plumb_bob", "equidistant": "equidistant", "none": "none"}
     if dist not in kalibr_models:
-        raise InputError(f"{name}.distortion_model: {dist!r} is not supported, expected one of {sorted(kalibr_models)}")
+        raise InputError(f"{name}.distortion_model: {excerpt(dist)} is not supported, expected one of {sorted(kalibr_models)}")
     expected = {"radtan": 4, "equidistant": 4, "none": 0}[dist]
     if coeffs.size != expected:
         raise InputError(f"{name}.distortion_coeffs: {dist} takes {expected} coefficients, got {coeffs.size}")
@@ -425,7 +425,7 @@ def camera_from_depthai(data: Any, socket: str | int | None = None) -> Camera:
         name = str(socket).strip().lower().replace("camerabordsocket.", "").replace("cameraboardsocket.", "")
         if name not in DEPTHAI_SOCKETS:
             raise InputError(
-                f"--camera-name (camera_name): unknown DepthAI socket {socket!r}, "
+                f"--camera-name (camera_name): unknown DepthAI socket {excerpt(socket)}, "
                 f"expected a number or one of {sorted(DEPTHAI_SOCKETS)}"
             )
         number = DEPTHAI_SOCKETS[name]
@@ -501,7 +501,7 @@ def camera_for_image_size(camera: Camera, image_size: tuple[int, int], resize: s
     """
     w, h = _check_size(image_size, "--image-size (image_size)")
     if resize not in RESIZE_MODES:
-        raise InputError(f"--resize (resize): got {resize!r}, expected one of {list(RESIZE_MODES)}")
+        raise InputError(f"--resize (resize): got {excerpt(resize)}, expected one of {list(RESIZE_MODES)}")
     W, H = camera.size
     if (w, h) == (W, H):
         return camera
@@ -588,7 +588,7 @@ def opencv_distortion(coefficients: ArrayLike, model: str | None, where: str = "
     else:
         canon = DISTORTION_ALIASES.get(str(model).strip().lower())
         if canon is None:
-            raise InputError(f"{where}: unknown distortion model {model!r}, expected one of {sorted(DISTORTION_ALIASES)}")
+            raise InputError(f"{where}: unknown distortion model {excerpt(model)}, expected one of {sorted(DISTORTION_ALIASES)}")
     keep = {"none": 0, "plumb_bob": 5, "rational_polynomial": 8, "equidistant": 4}[canon]
     if canon == "plumb_bob" and n == 4:
         keep = 4
@@ -625,7 +625,7 @@ def _opencv_camera(K: ArrayLike, width: int, height: int, model: str | None, coe
 
 def _check_size(size: Any, where: str) -> tuple[int, int]:
     if isinstance(size, (str, bytes)) or not hasattr(size, "__len__") or len(size) != 2:
-        raise InputError(f"{where}: expected (width, height), got {size!r}")
+        raise InputError(f"{where}: expected (width, height), got {excerpt(size)}")
     return as_int(size[0], f"{where}[0]", minimum=1), as_int(size[1], f"{where}[1]", minimum=1)
 
 
@@ -633,7 +633,7 @@ def parse_image_size(text: str) -> tuple[int, int]:
     """``"640x480"`` -> ``(640, 480)`` (also ``640,480``)."""
     m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)
     if not m:
-        raise InputError(f"--image-size: got {text!r}, expected WIDTHxHEIGHT such as 640x480")
+        raise InputError(f"--image-size: got {excerpt(text)}, expected WIDTHxHEIGHT such as 640x480")
     return _check_size((int(m.group(1)), int(m.group(2))), "--image-size")
 
 

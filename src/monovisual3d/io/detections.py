@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, excerpt
 from ..session import Detection
 from ._parse import (
     as_array,
@@ -99,7 +99,7 @@ def read_detections(
         return read_coco(path, images=images, class_names=class_names)
     if fmt == "csv":
         return read_detections_csv(path, class_names=class_names)
-    raise InputError(f"{path}: --detections-format (format): got {format!r}, expected one of {list(DETECTION_FORMATS)}")
+    raise InputError(f"{path}: --detections-format (format): got {excerpt(format)}, expected one of {list(DETECTION_FORMATS)}")
 
 
 def _detection_format(path: Path) -> str:
@@ -115,7 +115,7 @@ def _detection_format(path: Path) -> str:
     if suffix in (".csv", ".tsv"):
         return "csv"
     raise InputError(
-        f"{path}: cannot tell the detection format from the suffix {suffix!r}: "
+        f"{path}: cannot tell the detection format from the suffix {excerpt(suffix)}: "
         "pass --detections-format yolo, coco or csv (format=...)"
     )
 
@@ -143,13 +143,13 @@ def load_class_names(source: Any) -> dict[int, str]:
     if isinstance(data, (list, tuple)):
         return {i: _name(n, f"{where}[{i}]") for i, n in enumerate(data)}
     if isinstance(data, Mapping):
-        return {as_int(k, f"{where} key {k!r}", minimum=0): _name(v, f"{where}[{k!r}]") for k, v in data.items()}
+        return {as_int(k, f"{where} key {excerpt(k)}", minimum=0): _name(v, f"{where}[{excerpt(k)}]") for k, v in data.items()}
     raise InputError(f"{where}: expected a list of names or a mapping id -> name, got {type(data).__name__}")
 
 
 def _name(value: Any, where: str) -> str:
     if isinstance(value, (dict, list)) or value is None:
-        raise InputError(f"{where}: expected a class name, got {value!r}")
+        raise InputError(f"{where}: expected a class name, got {excerpt(value)}")
     return str(value)
 
 
@@ -296,10 +296,10 @@ def read_coco(
                 raise InputError(f"{w_im}.id: missing field")
             iid = _coco_id(im["id"], f"{w_im}.id")
             if iid in by_id:
-                raise InputError(f"{w_im}.id: duplicate image id {iid!r}")
+                raise InputError(f"{w_im}.id: duplicate image id {excerpt(iid)}")
             fname = im.get("file_name", str(iid))
             if not isinstance(fname, str) or not fname:
-                raise InputError(f"{w_im}.file_name: expected a file name, got {fname!r}")
+                raise InputError(f"{w_im}.file_name: expected a file name, got {excerpt(fname)}")
             size = None
             if im.get("width") is not None and im.get("height") is not None:
                 size = (as_int(im["width"], f"{w_im}.width", minimum=1), as_int(im["height"], f"{w_im}.height", minimum=1))
@@ -317,10 +317,10 @@ def read_coco(
         iid = _coco_id(r["image_id"], f"{w_r}.image_id")
         if iid not in by_id:
             if image_list is not None:
-                raise InputError(f"{w_r}.image_id: {iid!r} is not in the images list")
+                raise InputError(f"{w_r}.image_id: {excerpt(iid)} is not in the images list")
             if not isinstance(iid, str):
                 raise InputError(
-                    f"{w_r}.image_id: numeric id {iid!r} and no images list: give the COCO file that has the images "
+                    f"{w_r}.image_id: numeric id {excerpt(iid)} and no images list: give the COCO file that has the images "
                     "with --coco-images FILE (images=... in read_coco, coco_images=... in import_session)"
                 )
             by_id[iid] = ImageDetections(image=iid, stamp=stamp_from_name(iid), source=where)
@@ -497,7 +497,7 @@ def read_csv_table(
                 break
     missing = [c for c in required if c not in col]
     if missing:
-        raise InputError(f"{path}: header {header[:10]} lacks the column(s) {missing}")
+        raise InputError(f"{path}: header {excerpt(header[:10], 120)} lacks the column(s) {missing}")
     rows = []
     for (lineno, _), cells in zip(lines[1:], parsed[1:]):
         if len(cells) > len(header):
@@ -543,7 +543,7 @@ def filter_detections(
             if wanted is not None and d.label not in wanted:
                 reason = "no label" if d.label is None else f"label not in {sorted(wanted)}"
                 if summary is not None:
-                    summary.skip("detection", item, reason, f"label {d.label!r}", warn=False)
+                    summary.skip("detection", item, reason, f"label {excerpt(d.label)}", warn=False)
                 continue
             if min_score is not None:
                 if d.score is None:

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
-from ..errors import InputError
+from ..errors import InputError, excerpt
 from ..frames import check_quaternion_xyzw, check_transform, transform_from_position_quaternion
 from ._parse import (
     as_array,
@@ -87,7 +87,7 @@ def make_trajectory(
     if ims is not None and len(set(ims)) != len(ims):
         seen: set[str] = set()
         first = next(i for i in ims if i in seen or seen.add(i))  # type: ignore[func-returns-value]
-        raise InputError(f"{source}: image {first!r} has two poses")
+        raise InputError(f"{source}: image {excerpt(first)} has two poses")
     return PoseTrajectory(Ts, st, ims, source)
 
 
@@ -113,7 +113,7 @@ def read_poses(source: str | Path, *, format: str | None = None, units: str = "m
         return read_pose_csv(path, units=units)
     if fmt == "json":
         return read_pose_json(path, units=units)
-    raise InputError(f"{path}: --pose-format (format): got {format!r}, expected one of {list(POSE_FORMATS)}")
+    raise InputError(f"{path}: --pose-format (format): got {excerpt(format)}, expected one of {list(POSE_FORMATS)}")
 
 
 def _pose_format(path: Path) -> str:
@@ -127,7 +127,7 @@ def _pose_format(path: Path) -> str:
 
 def _scale(units: str) -> float:
     if units not in POSITION_UNITS:
-        raise InputError(f"--units (units): got {units!r}, expected one of {list(POSITION_UNITS)}")
+        raise InputError(f"--units (units): got {excerpt(units)}, expected one of {list(POSITION_UNITS)}")
     return POSITION_UNITS[units]
 
 
@@ -265,7 +265,7 @@ def read_pose_json(source: str | Path | list[Any] | dict[str, Any], *, units: st
             if stamp is not None:
                 stamp = as_float(stamp, f"{w}.stamp")
             if image is not None and not isinstance(image, str):
-                raise InputError(f"{w}.image: expected a file name, got {image!r}")
+                raise InputError(f"{w}.image: expected a file name, got {excerpt(image)}")
             Ti = _pose_object(item, w)
         else:
             Ti = check_transform(as_array(item, w), where=w)

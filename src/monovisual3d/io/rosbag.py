@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from .._extras import require
 from ..camera import Camera
-from ..errors import InputError, InputWarning
+from ..errors import InputError, InputWarning, excerpt
 from ..frames import T_base_optical_from_T_base_cameralink, transform_from_position_quaternion
 from ..session import POSE_FRAMES, Detection, Workspace
 from ._parse import MAX_ABS_POSITION_M
@@ -176,7 +176,7 @@ def read_bag(
     """
     reader_class = _any_reader_class()
     if pose_frame not in POSE_FRAMES:
-        raise InputError(f"pose_frame: got {pose_frame!r}, expected one of {list(POSE_FRAMES)}")
+        raise InputError(f"pose_frame: got {excerpt(pose_frame)}, expected one of {list(POSE_FRAMES)}")
     bag = _bag_path(path)
     summary, names, reader = _open_bag(reader_class, bag, class_names)
     try:
@@ -199,8 +199,9 @@ def read_bag(
             resize=resize,
             workspace=workspace,
         )
-    except InputError:
-        raise
+    except InputError as exc:  # name the bag in every message
+        name = str(bag)
+        raise (exc if str(exc).startswith(name) else InputError(f"{name}: {exc}")) from None
     except Exception as exc:  # corrupt data found while reading (truncated chunks, bad lengths...)
         raise InputError(f"{bag}: cannot read the bag ({type(exc).__name__}: {_one_line(exc)})") from None
     finally:
@@ -302,9 +303,9 @@ def _read_open_bag(reader: Any, bag: Path, summary: ImportSummary, **kw: Any) ->
     det_topic = kw["detections_topic"]
     det_types = sorted(t for t, m in topics.items() if m.endswith("/Detection2DArray"))
     if det_topic not in topics:
-        raise InputError(f"{bag}: no topic {det_topic!r}; Detection2DArray topics in the bag: {det_types or 'none'}")
+        raise InputError(f"{bag}: no topic {excerpt(det_topic)}; Detection2DArray topics in the bag: {det_types or 'none'}")
     if not topics[det_topic].endswith("/Detection2DArray"):
-        raise InputError(f"{bag}: topic {det_topic!r} carries {topics[det_topic]}, expected vision_msgs/Detection2DArray")
+        raise InputError(f"{bag}: topic {excerpt(det_topic)} carries {topics[det_topic]}, expected vision_msgs/Detection2DArray")
     _ensure_types(
         reader,
         ros_version,
@@ -324,14 +325,14 @@ def _read_open_bag(reader: Any, bag: Path, summary: ImportSummary, **kw: Any) ->
     # detections ---------------------------------------------------------------
     frames, frame_ids, unstamped = _read_detection_frames(reader, bag, det_topic, t0, kw["names"], summary)
     if not frames:
-        raise InputError(f"{bag}: topic {det_topic!r} has no messages")
+        raise InputError(f"{bag}: topic {excerpt(det_topic)} has no messages")
     if unstamped:
         summary.note(f"{unstamped} detection messages had no header stamp; used the time they were recorded")
     other = sorted(frame_ids - {kw["camera_frame"]})
     if other:
         warnings.warn(
             InputWarning(
-                f"{bag}: detections are in frame {other[0]!r} but camera_frame is {kw['camera_frame']!r}; using camera_frame"
+                f"{bag}: detections are in frame {excerpt(other[0])} but camera_frame is {excerpt(kw['camera_frame'])}; using camera_frame"
             ),
             stacklevel=3,
         )
@@ -370,12 +371,12 @@ def _deserialize(reader: Any, raw: bytes, conn: Any, ns: int) -> Any:
         return reader.deserialize(raw, conn.msgtype)
     except Exception as exc:  # malformed data or a definition that does not match the bytes
         raise InputError(
-            f"{conn.topic} at {ns * 1e-9:.9f} s: cannot decode {conn.msgtype} ({type(exc).__name__}: {_one_line(exc)}); "
-            "if the bag carries no message definitions, it may use another vision_msgs version"
+            f"{conn.topic} at {ns * 1e-9:.9f} s: cannot decode {conn.msgtype} ({type(exc).__name__}: {_one_line(exc, 60)}); "
+            "another vision_msgs version?"
         ) from None
 
 
-def _one_line(exc: BaseException, limit: int = 300) -> str:
+def _one_line(exc: BaseException, limit: int = 120) -> str:
     text = " ".join(str(exc).split())
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
@@ -416,7 +417,7 @@ def _bag_camera(reader: Any, bag: Path, topics: dict[str, str], summary: ImportS
         topic = info_topics[0]
         summary.note(f"camera from {topic}")
     elif topic not in topics:
-        raise InputError(f"{bag}: no topic {topic!r}; CameraInfo topics in the bag: {info_topics or 'none'}")
+        raise InputError(f"{bag}: no topic {excerpt(topic)}; CameraInfo topics in the bag: {info_topics or 'none'}")
     conns = [c for c in reader.connections if c.topic == topic]
     first = None
     changed = False
@@ -431,7 +432,7 @@ def _bag_camera(reader: Any, bag: Path, topics: dict[str, str], summary: ImportS
         elif cam != first:
             changed = True
     if first is None:
-        raise InputError(f"{bag}: topic {topic!r} has no messages")
+        raise InputError(f"{bag}: topic {excerpt(topic)} has no messages")
     if changed:
         warnings.warn(InputWarning(f"{bag}: {topic} changes during the recording; using its first message"), stacklevel=4)
     return first

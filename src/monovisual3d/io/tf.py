@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError
+from ..errors import InputError, excerpt
 from ..frames import invert_transform
 from .poses import interpolate_poses
 
@@ -66,15 +66,15 @@ class TransformTree:
         """Add ``T_parent_child``; ``stamp`` None makes it static (latest wins)."""
         parent, child = normalise_frame(parent), normalise_frame(child)
         if not parent or not child:
-            raise InputError(f"transform {parent!r} -> {child!r}: empty frame name")
+            raise InputError(f"transform {excerpt(parent)} -> {excerpt(child)}: empty frame name")
         if parent == child:
-            raise InputError(f"transform {parent!r} -> {child!r}: a frame cannot be its own parent")
+            raise InputError(f"transform {excerpt(parent)} -> {excerpt(child)}: a frame cannot be its own parent")
         T = np.asarray(T_parent_child, dtype=float)
         edge = self._edges.get(child)
         if edge is None:
             edge = self._edges[child] = _Edge(parent)
         elif edge.parent != parent:
-            raise InputError(f"frame {child!r} has two parents, {edge.parent!r} and {parent!r}: not a tree")
+            raise InputError(f"frame {excerpt(child)} has two parents, {excerpt(edge.parent)} and {excerpt(parent)}: not a tree")
         if stamp is None:
             edge.static = T
         else:
@@ -88,7 +88,7 @@ class TransformTree:
         while chain[-1] in self._edges:
             parent = self._edges[chain[-1]].parent
             if parent in seen:
-                raise InputError(f"transform tree has a loop through {parent!r}")
+                raise InputError(f"transform tree has a loop through {excerpt(parent)}")
             seen.add(parent)
             chain.append(parent)
         return chain
@@ -100,10 +100,10 @@ class TransformTree:
         for name, what in ((base, "base frame"), (frame, "camera frame")):
             if name not in known:
                 listing = sorted(known)
-                raise InputError(f"{what} {name!r} is not in the transforms; frames seen: {listing[:20]}")
+                raise InputError(f"{what} {excerpt(name)} is not in the transforms; frames seen: {listing[:20]}")
         if not set(self._chain(base)) & set(self._chain(frame)):
             raise InputError(
-                f"frames {base!r} and {frame!r} are not connected (roots {self._chain(base)[-1]!r} and {self._chain(frame)[-1]!r})"
+                f"frames {excerpt(base)} and {excerpt(frame)} are not connected (roots {self._chain(base)[-1]!r} and {self._chain(frame)[-1]!r})"
             )
 
     def _to_ancestor(self, frame: str, ancestor: str, stamp: float, max_gap: float) -> NDArray[np.float64]:

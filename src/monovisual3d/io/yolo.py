@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._extras import require
-from ..errors import InputError
+from ..errors import InputError, excerpt
 from ..session import Detection
 from ._parse import stamp_from_name
 from .detections import ImageDetections
@@ -97,9 +97,9 @@ def image_detections_from_result(result: Any, image: str | None = None, *, masks
         try:
             h, w = (int(v) for v in tuple(shape)[:2])
         except (TypeError, ValueError):
-            raise InputError(f"{where}: orig_shape {shape!r} is not (height, width)") from None
+            raise InputError(f"{where}: orig_shape {excerpt(shape)} is not (height, width)") from None
         if h <= 0 or w <= 0:
-            raise InputError(f"{where}: orig_shape {shape!r} is not a positive (height, width)")
+            raise InputError(f"{where}: orig_shape {excerpt(shape)} is not a positive (height, width)")
         size = (w, h)
     boxes = getattr(result, "boxes", None)
     if boxes is None:

@@ -200,6 +200,10 @@ class _SphereResiduals:
 _FD_REL_STEP = float(np.sqrt(np.finfo(float).eps))
 
 
+#: Most residual evaluations of one refinement (well-posed ones converge in under 20).
+MAX_NFEV = 60
+
+
 def refine_sphere(
     camera: Camera,
     observations: Sequence[Observation],
@@ -223,7 +227,13 @@ def refine_sphere(
     # residuals and the forward-difference Jacobian in batched numpy passes
     fun = _SphereResiduals(camera, observations, model, use_masks)
     sol = least_squares(
-        fun, x0, jac=fun.jacobian, loss=robust_loss(model.inward_floor), method="trf", x_scale=np.array([0.01, 0.01, 0.01, 0.1])
+        fun,
+        x0,
+        jac=fun.jacobian,
+        loss=robust_loss(model.inward_floor),
+        method="trf",
+        x_scale=np.array([0.01, 0.01, 0.01, 0.1]),
+        max_nfev=MAX_NFEV,  # bounded: near-degenerate views (depth unconstrained) otherwise wander for 400 evaluations
     )
     # scipy returns the Jacobian already scaled by the robust loss (J^T J is its
     # Gauss-Newton Hessian), so no further weighting here
