@@ -18,7 +18,7 @@ from monovisual3d import Camera, load_session
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError
 from monovisual3d.frames import look_at
-from monovisual3d.sphere import sphere_bbox
+from monovisual3d.geometry.sphere import sphere_bbox
 
 pytest.importorskip("plotly")
 from monovisual3d.viz3d import (  # noqa: E402

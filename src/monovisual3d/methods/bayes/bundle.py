@@ -22,7 +22,7 @@ Unknowns: ``(x, y, z, log r)`` per object (base frame, metres) and the
 active pose parameters per view (rotation if ``rotation_sigma > 0``,
 translation if ``position_sigma > 0``). Residuals: the normalised box-edge
 (or mask) residuals of every associated (object, view) pair, computed by
-:func:`monovisual3d.bayes.refine.observation_residuals` under the robust
+:func:`monovisual3d.methods.bayes.refine.observation_residuals` under the robust
 loss of :mod:`.refine`, and the prior residuals ``w_v / rotation_sigma`` and
 ``t_v / position_sigma`` as plain squares. The edge noise carries no pose
 term here (the poses are unknowns, not noise). Each residual touches one

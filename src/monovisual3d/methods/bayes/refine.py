@@ -35,7 +35,7 @@ class Observation:
     contour_uv : ndarray, shape (M, 2), pixels, mask outline points, or None
     extra_sigma_px : float, pixels, extra edge noise added in quadrature (e.g. the
         camera-pose uncertainty projected into the image, see
-        :func:`monovisual3d.bayes.likelihood.pose_sigma_px`); 0 by default
+        :func:`monovisual3d.methods.bayes.likelihood.pose_sigma_px`); 0 by default
     """
 
     T_optical_base: NDArray[np.float64]
