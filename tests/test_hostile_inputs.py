@@ -183,22 +183,29 @@ def test_rle_mask_is_checked_run_by_run(example: dict[str, Any]) -> None:
 
 
 # ---------------------------------------------------------------------- 5. grid-size guard
-@pytest.mark.parametrize("method", ["paper", "bayes"])
-def test_huge_workspace_is_a_grid_size_error(example: dict[str, Any], method: str) -> None:
+def test_huge_workspace_is_a_grid_size_error_for_the_paper_method(example: dict[str, Any]) -> None:
     from monovisual3d import localize
 
     example["workspace"] = {"min": [-1e5] * 3, "max": [1e5] * 3}
     with pytest.raises(InputError, match=r"^workspace: a \d+ mm grid has [0-9.e+]+ cells \(.*\) and needs about .* GiB") as info:
-        localize(example, method=method)
-    assert info.value.args[0].endswith("or a smaller workspace")
+        localize(example, method="paper")
+    assert info.value.args[0].endswith("or use a smaller workspace or a larger max_memory")
+
+
+def test_huge_workspace_is_searched_coarse_to_fine_by_bayes(example: dict[str, Any]) -> None:
+    from monovisual3d import localize
+
+    example["workspace"] = {"min": [-1e5] * 3, "max": [1e5] * 3}
+    result = localize(example)  # the first search level coarsens until it fits; nothing is allocated densely
+    assert len(result.objects) == 1 and result.diagnostics["start_cell_size"] > 1000
 
 
 def test_grid_guard_counts_in_python_integers() -> None:
     with pytest.raises(InputError) as info:
         VoxelGrid.from_bounds([-3e4] * 3, [3e4] * 3, 0.01)
     assert str(info.value) == (
-        "workspace: a 10 mm grid has 2.16e+20 cells (6e+06x6e+06x6e+06) and needs about 3.219e+12 GiB, "
-        "over the 4.0 GiB limit; use --resolution 97.66 or larger, or a smaller workspace"
+        "workspace: a 10 mm grid has 2.16e+20 cells (6e+06x6e+06x6e+06) and needs about 9.656e+12 GiB, "
+        "over the max_memory budget of 2.0 GiB; resolution 177 m fits, or use a smaller workspace or a larger max_memory"
     )
     with pytest.raises(InputError, match=r"^workspace: min \[.*\] and max \[.*\] must be 3 finite coordinates"):
         VoxelGrid.from_bounds([-1e308] * 3, [1e308] * 3, 0.01)
@@ -209,8 +216,8 @@ def test_grid_guard_counts_in_python_integers() -> None:
 def test_reach_too_large_in_the_cli(tmp_path: Path) -> None:
     line = cli_error(["localize", str(example_session_path()), "-q", "--method", "paper", "--reach", "1e5"])
     assert line == (
-        f"{example_session_path()}: reach: a 10 mm grid has 8e+21 cells (2e+07x2e+07x2e+07) and needs about "
-        "1.192e+14 GiB, over the 4.0 GiB limit; use --resolution 325.5 or larger, or a smaller reach"
+        f"{example_session_path()}: --reach: a 10 mm grid has 8e+21 cells (2e+07x2e+07x2e+07) and needs about "
+        "3.576e+14 GiB, over the --max-memory budget of 2.0 GiB; --resolution 591 fits, or use a smaller reach or a larger --max-memory"
     )
 
 

@@ -158,8 +158,8 @@ def translate_error(exc: InputError, source: object | None = None) -> InputError
     field, sep, rest = text.partition(":")
     if sep and field in specs:
         text = specs[field].flag + ":" + rest
-        text = re.sub(r"\b" + field + r" ([0-9.e+-]+) m fits", specs[field].flag + r" \1 fits", text)
-        text = re.sub(r"\bmax_memory\b", "--max-memory", text)
+    text = re.sub(r"\bresolution ([0-9.e+-]+) m fits", r"--resolution \1 fits", text)
+    text = re.sub(r"\bmax_memory\b", "--max-memory", text)
     if source is not None and not text.startswith(f"{source}:"):
         text = f"{source}: {text}"
     return InputError(text)

@@ -59,5 +59,6 @@ def format_bytes(n: float) -> str:
     """``1.5 GiB``-style text of a byte count."""
     for unit, size in (("GiB", 1024**3), ("MiB", 1024**2), ("KiB", 1024)):
         if n >= size:
-            return f"{n / size:.1f} {unit}"
+            v = n / size
+            return f"{v:.1f} {unit}" if v < 1e5 else f"{v:.4g} {unit}"
     return f"{int(n)} B"

@@ -21,7 +21,7 @@ def region_grid(config: BayesConfig, workspace: Workspace | None, first_view: Vi
 
     Only a description (nothing is allocated): the search picks a coarser first level if it is too large.
     """
-    huge = 2**62
+    huge = 10**40  # a description only: no limit here (the search bounds its own memory)
     if workspace is not None:
         return VoxelGrid.from_bounds(workspace.min, workspace.max, config.search_start, max_bytes=huge)
     return VoxelGrid.in_front_of_camera(first_view.T_base_optical, config.search_start, config.reach, max_bytes=huge)
