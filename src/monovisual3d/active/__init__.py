@@ -3,12 +3,14 @@
 - :mod:`~monovisual3d.active.candidates`: candidate poses from a file or on a spherical cap;
 - :mod:`~monovisual3d.active.planner`: :func:`plan_next_view` ranks candidates by expected gain
   (information, visibility, discovery, motion) and applies the stopping rule;
+- :mod:`~monovisual3d.active.api`: :func:`plan_session`, a session file to a JSON-ready plan (``next-view``);
 - :mod:`~monovisual3d.active.loop`: the closed loop in simulation (plan, render, detect, update)
   and the baselines the benchmark compares with.
 """
 
 from __future__ import annotations
 
+from .api import plan_session
 from .candidates import CapSpec, cap_poses, check_candidates, load_candidates
 from .planner import Plan, PlannerConfig, PlannerState, ellipsoid95_mm, plan_from_state, plan_next_view
 
@@ -23,4 +25,5 @@ __all__ = [
     "load_candidates",
     "plan_from_state",
     "plan_next_view",
+    "plan_session",
 ]

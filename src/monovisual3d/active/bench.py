@@ -30,12 +30,13 @@ from typing import Any
 
 import numpy as np
 
+from ..camera import Camera
 from ..errors import InputError
 from ..sim.noise import NoiseModel
 from ..sim.scene import Scene
 from ..sim.scenes import default_camera, greenhouse_scene, paper_scene, scene_target
 from .candidates import CapSpec, cap_poses
-from .loop import STRATEGIES, evaluate_step, run_loop
+from .loop import STRATEGIES, LoopRun, evaluate_step, run_loop
 from .planner import PlannerConfig, PlannerState, plan_from_state
 
 #: Budgets whose errors the target averages, the reduction required, the stopping rule's view limit and success rate.
@@ -106,69 +107,10 @@ def run_active_bench(
     if max_views < 1 or n_candidates < max_views:
         raise InputError(f"max_views/n_candidates: got {max_views}/{n_candidates}, expected 1 <= views <= candidates")
     camera = default_camera()
-    results: dict[str, Any] = {}
-    for cname in conditions:
-        cond = known[cname]
-        cfg = PlannerConfig(box_noise=cond.box_noise)
-        acc = {s: [{"errors": [], "tp": 0, "n_truth": 0, "n_est": 0, "ell": []} for _ in range(max_views)] for s in strategies}
-        stops: list[dict[str, Any]] = []
-        plan_s: list[float] = []
-        runs: dict[str, list[list[int]]] = {s: [] for s in strategies}
-        for seed in seeds:
-            scene = cond.scene(seed)
-            target = scene_target(scene)
-            cands = cap_poses(CapSpec(n=n_candidates), target)
-            for s in strategies:
-                run = run_loop(
-                    scene, camera, cands, max_views, strategy=s, target=target, noise=cond.noise, rng=seed,
-                    choice_rng=10_000 + seed, planner=cfg,
-                )  # fmt: skip
-                runs[s].append(run.chosen)
-                for k, step in enumerate(run.steps):
-                    e = evaluate_step(step.objects, scene)
-                    a = acc[s][k]
-                    a["errors"] += e["errors"]
-                    a["tp"] += e["true_positives"]
-                    a["n_truth"] += e["n_truth"]
-                    a["n_est"] += e["n_estimates"]
-                    a["ell"] += e["ellipsoid_mm"]
-                if s == "nbv":
-                    plan_s += [st.plan_s for st in run.steps if st.plan is not None]
-                    done_at = next((k + 1 for k, st in enumerate(run.steps) if st.plan is not None and st.plan.done), None)
-                    within = math.inf
-                    if done_at is not None:
-                        within = evaluate_step(run.steps[done_at - 1].objects, scene)["all_within_mm"]
-                    stops.append(
-                        {
-                            "seed": seed,
-                            "done_at_views": done_at,
-                            "max_error_mm_at_stop": within if math.isfinite(within) else None,
-                        }
-                    )
-                if progress is not None:
-                    progress(f"{cname} seed {seed} {s}")
-        table = {
-            s: [
-                {
-                    "views": k + 1,
-                    "mean_mm": float(np.mean(a["errors"]) * 1e3) if a["errors"] else None,
-                    "recall": a["tp"] / a["n_truth"] if a["n_truth"] else None,
-                    "precision": a["tp"] / a["n_est"] if a["n_est"] else None,
-                    "ellipsoid95_mm": float(np.mean(a["ell"])) if a["ell"] else None,
-                }
-                for k, a in enumerate(acc[s])
-            ]
-            for s in strategies
-        }
-        results[cname] = {
-            "description": cond.description,
-            "box_noise_stated": cond.box_noise,
-            "seeds": list(seeds),
-            "table": table,
-            "stopping": stops,
-            "plan_s_median": float(np.median(plan_s)) if plan_s else None,
-            "chosen": runs,
-        }
+    results = {
+        cname: _run_condition(cname, known[cname], camera, seeds, max_views, n_candidates, strategies, progress)
+        for cname in conditions
+    }
     timing = time_planning(repeats=timing_repeats)
     return {
         "benchmark": "active",
@@ -179,6 +121,84 @@ def run_active_bench(
         "timing": timing,
         "targets": check_targets(results, timing),
     }
+
+
+def _run_condition(
+    cname: str,
+    cond: ActiveCondition,
+    camera: Camera,
+    seeds: tuple[int, ...],
+    max_views: int,
+    n_candidates: int,
+    strategies: tuple[str, ...],
+    progress: Callable[[str], None] | None,
+) -> dict[str, Any]:
+    """One condition of :func:`run_active_bench`: every strategy on every seed, pooled per number of views."""
+    cfg = PlannerConfig(box_noise=cond.box_noise)
+    acc = {s: [{"errors": [], "tp": 0, "n_truth": 0, "n_est": 0, "ell": []} for _ in range(max_views)] for s in strategies}
+    stops: list[dict[str, Any]] = []
+    plan_s: list[float] = []
+    runs: dict[str, list[list[int]]] = {s: [] for s in strategies}
+    for seed in seeds:
+        scene = cond.scene(seed)
+        target = scene_target(scene)
+        cands = cap_poses(CapSpec(n=n_candidates), target)
+        for s in strategies:
+            run = run_loop(
+                scene, camera, cands, max_views, strategy=s, target=target, noise=cond.noise, rng=seed,
+                choice_rng=10_000 + seed, planner=cfg,
+            )  # fmt: skip
+            runs[s].append(run.chosen)
+            _accumulate(acc[s], run, scene)
+            if s == "nbv":
+                plan_s += [st.plan_s for st in run.steps if st.plan is not None]
+                stops.append(_stopping(run, scene, seed))
+            if progress is not None:
+                progress(f"{cname} seed {seed} {s}")
+    return {
+        "description": cond.description,
+        "box_noise_stated": cond.box_noise,
+        "seeds": list(seeds),
+        "table": {s: _table(acc[s]) for s in strategies},
+        "stopping": stops,
+        "plan_s_median": float(np.median(plan_s)) if plan_s else None,
+        "chosen": runs,
+    }
+
+
+def _accumulate(acc: list[dict[str, Any]], run: LoopRun, scene: Scene) -> None:
+    """Add each step's errors, counts and ellipsoids to ``acc[k]`` (k: the view's index)."""
+    for k, step in enumerate(run.steps):
+        e = evaluate_step(step.objects, scene)
+        a = acc[k]
+        a["errors"] += e["errors"]
+        a["tp"] += e["true_positives"]
+        a["n_truth"] += e["n_truth"]
+        a["n_est"] += e["n_estimates"]
+        a["ell"] += e["ellipsoid_mm"]
+
+
+def _stopping(run: LoopRun, scene: Scene, seed: int) -> dict[str, Any]:
+    """When the ``nbv`` run's plan first said done, and the largest error then (mm; None if a fruit was missed)."""
+    done_at = next((k + 1 for k, st in enumerate(run.steps) if st.plan is not None and st.plan.done), None)
+    within = math.inf
+    if done_at is not None:
+        within = evaluate_step(run.steps[done_at - 1].objects, scene)["all_within_mm"]
+    return {"seed": seed, "done_at_views": done_at, "max_error_mm_at_stop": within if math.isfinite(within) else None}
+
+
+def _table(acc: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Rows per number of views: mean error (mm), recall, precision, mean ellipsoid semi-axis (mm)."""
+    return [
+        {
+            "views": k + 1,
+            "mean_mm": float(np.mean(a["errors"]) * 1e3) if a["errors"] else None,
+            "recall": a["tp"] / a["n_truth"] if a["n_truth"] else None,
+            "precision": a["tp"] / a["n_est"] if a["n_est"] else None,
+            "ellipsoid95_mm": float(np.mean(a["ell"])) if a["ell"] else None,
+        }
+        for k, a in enumerate(acc)
+    ]
 
 
 def merge_results(parts: list[dict[str, Any]]) -> dict[str, Any]:

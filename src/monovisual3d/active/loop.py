@@ -183,26 +183,15 @@ def run_loop(
     cand_index = -1
     reachable = np.linalg.norm(candidates[:, :3, 3] - np.asarray(cfg.base_centre), axis=1) <= cfg.reach_m
     for k in range(n_views):
-        view = observe(scene, camera, T_next, noise, rng)
-        loc.update(view)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            objects = loc.estimate()
-        step = LoopStep(T_next, cand_index, objects)
+        step = _observe_step(loc, scene, camera, T_next, cand_index, noise, rng)
         steps.append(step)
         if strategy == "nbv":
-            t0 = time.perf_counter()
-            state = PlannerState(camera, tuple(loc.views), tuple(objects), workspace)
-            free = np.setdiff1d(np.arange(len(candidates)), sorted(used))
-            plan = plan_from_state(state, candidates[free], config=cfg)
-            step.plan, step.plan_s = plan, time.perf_counter() - t0
+            plan, free_idx = _plan_step(step, loc, camera, workspace, candidates, used, cfg)
             if k + 1 >= n_views or (stop and plan.done):
                 break
-            cand_index = int(free[plan.index])
+            cand_index = int(free_idx[plan.index])
         elif k + 1 >= n_views:
             break
-        if strategy == "nbv":
-            pass
         elif strategy == "fixed":
             assert fixed is not None
             T_next, cand_index = fixed[k + 1], -1
@@ -216,6 +205,45 @@ def run_loop(
         used.add(cand_index)
         T_next = candidates[cand_index]
     return LoopRun(Session(camera, tuple(loc.views)), steps)
+
+
+def _observe_step(
+    loc: BayesLocalizer,
+    scene: Scene,
+    camera: Camera,
+    T_base_optical: NDArray[np.float64],
+    cand_index: int,
+    noise: NoiseModel,
+    rng: np.random.Generator,
+) -> LoopStep:
+    """Take the view at ``T_base_optical``, update the localizer, return the step with its estimate."""
+    view = observe(scene, camera, T_base_optical, noise, rng)
+    loc.update(view)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        objects = loc.estimate()
+    return LoopStep(T_base_optical, cand_index, objects)
+
+
+def _plan_step(
+    step: LoopStep,
+    loc: BayesLocalizer,
+    camera: Camera,
+    workspace: Workspace,
+    candidates: NDArray[np.float64],
+    used: set[int],
+    cfg: PlannerConfig,
+) -> tuple[Plan, NDArray[np.intp]]:
+    """``nbv``: plan over the unused candidates and store the plan (and its time) in ``step``.
+
+    Returns the plan and the candidate indices its indices refer to.
+    """
+    t0 = time.perf_counter()
+    state = PlannerState(camera, tuple(loc.views), tuple(step.objects), workspace)
+    free = np.setdiff1d(np.arange(len(candidates)), sorted(used))
+    plan = plan_from_state(state, candidates[free], config=cfg)
+    step.plan, step.plan_s = plan, time.perf_counter() - t0
+    return plan, free
 
 
 def evaluate_step(objects: list[DetectedObject], scene: Scene) -> dict[str, Any]:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import shlex
 import sys
 from pathlib import Path
@@ -15,15 +14,16 @@ from ..errors import InputError
 from ._app import app, console, handle_errors
 from .bench import bench_app
 
+#: plan_session's parameters named in its errors, and the flags they come from.
+_FLAGS = {"count": "--count", "reach_m": "--reach", "base": "--base", "target": "--target"}
 
-def _vector3(text: str, option: str) -> tuple[float, float, float]:
-    try:
-        v = tuple(float(x) for x in text.split(","))
-    except ValueError:
-        v = ()
-    if len(v) != 3 or not all(math.isfinite(x) for x in v):
-        raise InputError(f"{option}: got {text!r}, expected X,Y,Z in metres")
-    return v  # type: ignore[return-value]
+
+def _as_flags(message: str) -> str:
+    """A library error message with the parameter names turned into this command's flags."""
+    name, sep, rest = message.partition(":")
+    if sep and name in _FLAGS:
+        return _FLAGS[name] + sep + rest
+    return message.replace("; give target X,Y,Z", "; give --target X,Y,Z")
 
 
 @app.command("next-view")
@@ -61,84 +61,22 @@ def next_view(
     "indices", "poses" and "gains". Indices refer to the candidate list (for cap:N, the poses left
     after the reach filter, listed in "candidates").
     """
-    import numpy as np
+    from ..active.api import plan_session
 
-    from ..active.candidates import CapSpec, cap_poses, load_candidates, pose_to_dict
-    from ..active.planner import PlannerConfig, PlannerState, default_workspace, load_planning_session, plan_from_state
-    from ..localize import localize
-    from ..session import read_structured_file
-
-    if isinstance(count, bool) or count < 1:
-        raise InputError(f"--count: got {count}, expected a positive integer")
-    raw = read_structured_file(session)
-    pose_frame = raw.get("pose_frame", "optical") if isinstance(raw, dict) else "optical"
-    sess = load_planning_session(session)
-    base_c = _vector3(base, "--base")
-    generated = candidates.strip().startswith("cap:")
-    # validate the candidates (and --count) before the localisation, which takes the time
-    if generated:
-        spec = CapSpec.parse(candidates)
-        n_max = spec.n
-    else:
-        cands = load_candidates(candidates, pose_frame)
-        n_max = len(cands)
-    if count > n_max:
-        raise InputError(f"--count: got {count}, expected at most {n_max} (the number of candidates)")
-    n_with = sum(1 for v in sess.views if v.detections)
-    objects = []
-    if n_with >= 2:
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            objects = localize(sess).objects
-    state = PlannerState(sess.camera, sess.views, tuple(objects), sess.workspace)
-    reach_m = reach
-    if generated:
-        if target is not None:
-            centre = np.array(_vector3(target, "--target"))
-        else:
-            try:
-                ws = default_workspace(state)
-            except InputError:
-                raise InputError(f"{session}: no views and no workspace; give --target X,Y,Z for the cap") from None
-            centre = 0.5 * (ws.min + ws.max)
-        axis = sess.views[0].T_base_optical[:3, 3] if sess.views else None
-        cands = cap_poses(spec, centre, axis=axis, base_centre=base_c)
-        if reach_m is None and math.isfinite(spec.reach_m):
-            reach_m = spec.reach_m
-    if count > len(cands):
-        raise InputError(f"--count: got {count}, expected at most {len(cands)} (the number of candidates)")
-    if reach_m is not None and not (reach_m > 0 and math.isfinite(reach_m)):
-        raise InputError(f"--reach: got {reach_m}, expected a positive number of metres")
-    cfg = PlannerConfig(
-        target_mm=target_mm, motion_weight=motion_weight, reach_m=reach_m if reach_m is not None else math.inf,
-        base_centre=base_c, box_noise=box_noise,
-    )  # fmt: skip
-    if target is not None and sess.workspace is None:
-        c = np.array(_vector3(target, "--target"))
-        from ..session import Workspace
-
-        state = PlannerState(sess.camera, sess.views, tuple(objects), Workspace(c - 0.2, c + 0.2))
     try:
-        plan = plan_from_state(state, cands, count=count, config=cfg)
+        out = plan_session(
+            session, candidates, count=count, target_mm=target_mm, motion_weight=motion_weight, reach_m=reach,
+            base=base, target=target, box_noise=box_noise,
+        )  # fmt: skip
     except InputError as exc:
-        msg = str(exc)
-        if msg.startswith("count:"):
-            raise InputError("--" + msg) from None
-        raise
-    out = plan.to_dict(pose_frame)
-    out["n_objects"] = len(objects)
-    out["views"] = len(sess.views)
-    if generated:
-        out["candidates"] = [pose_to_dict(T, pose_frame) for T in cands]
+        raise InputError(_as_flags(str(exc))) from None
     text = json.dumps(out, indent=2)
     if output is None:
         sys.stdout.write(text + "\n")
     else:
         output.write_text(text + "\n")
         console.print(
-            f"next view: candidate {plan.index} (gain {plan.gain:.2f}), done={str(plan.done).lower()}; wrote {output}",
+            f"next view: candidate {out['index']} (gain {out['gain']:.2f}), done={str(out['done']).lower()}; wrote {output}",
             highlight=False,
         )
 

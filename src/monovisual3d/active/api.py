@@ -1,0 +1,145 @@
+"""One call from a session file to a next-view plan: what ``monovisual3d next-view`` runs.
+
+:func:`plan_session` validates the candidates and ``count`` (before the localisation, which
+takes the time), localises the session's views, builds the ``cap:`` candidates when asked,
+plans and returns the JSON-ready plan. Errors are :class:`~monovisual3d.errors.InputError`
+whose message starts with the parameter's name (``count: ...``, ``reach_m: ...``,
+``base: ...``, ``target: ...``) or with the file at fault.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import InputError
+from ..result import DetectedObject
+from ..session import Session, Workspace
+from .candidates import CapSpec, cap_poses, load_candidates, pose_to_dict
+from .planner import PlannerConfig, PlannerState, default_workspace, load_planning_session, plan_from_state
+
+#: A point given as ``"X,Y,Z"`` (metres) or as three numbers.
+Point = str | Sequence[float]
+
+
+def parse_point(value: Point, name: str) -> tuple[float, float, float]:
+    """A point in metres from ``"X,Y,Z"`` or three numbers; InputError ``NAME: got ..., expected X,Y,Z in metres``."""
+    try:
+        v = tuple(float(x) for x in (value.split(",") if isinstance(value, str) else value))
+    except (ValueError, TypeError):
+        v = ()
+    if len(v) != 3 or not all(math.isfinite(x) for x in v):
+        raise InputError(f"{name}: got {value!r}, expected X,Y,Z in metres")
+    return v  # type: ignore[return-value]
+
+
+def plan_session(
+    session: str | Path,
+    candidates: str,
+    *,
+    count: int = 1,
+    target_mm: float = 5.0,
+    motion_weight: float = 0.0,
+    reach_m: float | None = None,
+    base: Point = (0.0, 0.0, 0.0),
+    target: Point | None = None,
+    box_noise: float | None = None,
+) -> dict[str, Any]:
+    """Choose the next camera pose(s) for the views in a session file; report "done" when good enough.
+
+    Parameters
+    ----------
+    session : path of a session file (JSON/YAML); it may have no views yet
+    candidates : str, a candidate file ``{"poses": [...]}`` in the session's ``pose_frame``, or a
+        ``cap:N[...]`` spec (:class:`~monovisual3d.active.candidates.CapSpec`)
+    count : int, views to choose jointly (batch)
+    target_mm : float, stopping rule: largest 95 % semi-axis of every object, mm
+    motion_weight : float, gain (mm) lost per metre of camera travel
+    reach_m : float, arm reach in metres around ``base`` (default: the cap's ``reach``, else none)
+    base : centre of the reach sphere, metres, base frame
+    target : cap centre, metres; default the workspace centre, else the estimates' mean, else
+        0.5 m along the first view. Also the workspace (a 0.4 m cube) when the session has none.
+    box_noise : float, detector box noise as a fraction of the box size (default: the planner's)
+
+    Returns
+    -------
+    dict
+        :meth:`~monovisual3d.active.planner.Plan.to_dict` plus ``n_objects``, ``views`` and, for
+        ``cap:``, ``candidates`` (the poses the indices refer to, after the reach filter).
+    """
+    if isinstance(count, bool) or count < 1:
+        raise InputError(f"count: got {count}, expected a positive integer")
+    pose_frame = _pose_frame(session)
+    sess = load_planning_session(session)
+    base_c = parse_point(base, "base")
+    generated = candidates.strip().startswith("cap:")
+    # validate the candidates (and count) before the localisation, which takes the time
+    spec = CapSpec.parse(candidates) if generated else None
+    cands = None if spec is not None else load_candidates(candidates, pose_frame)
+    n_max = spec.n if spec is not None else len(cands)  # type: ignore[arg-type]
+    if count > n_max:
+        raise InputError(f"count: got {count}, expected at most {n_max} (the number of candidates)")
+    objects = _localise(sess)
+    state = PlannerState(sess.camera, sess.views, tuple(objects), sess.workspace)
+    if spec is not None:
+        cands = _cap_candidates(spec, state, session, target, base_c)
+        if reach_m is None and math.isfinite(spec.reach_m):
+            reach_m = spec.reach_m
+    assert cands is not None
+    if count > len(cands):
+        raise InputError(f"count: got {count}, expected at most {len(cands)} (the number of candidates)")
+    if reach_m is not None and not (reach_m > 0 and math.isfinite(reach_m)):
+        raise InputError(f"reach_m: got {reach_m}, expected a positive number of metres")
+    cfg = PlannerConfig(
+        target_mm=target_mm, motion_weight=motion_weight, reach_m=reach_m if reach_m is not None else math.inf,
+        base_centre=base_c, box_noise=box_noise,
+    )  # fmt: skip
+    if target is not None and sess.workspace is None:
+        c = np.array(parse_point(target, "target"))
+        state = PlannerState(sess.camera, sess.views, tuple(objects), Workspace(c - 0.2, c + 0.2))
+    out = plan_from_state(state, cands, count=count, config=cfg).to_dict(pose_frame)
+    out["n_objects"] = len(objects)
+    out["views"] = len(sess.views)
+    if generated:
+        out["candidates"] = [pose_to_dict(T, pose_frame) for T in cands]
+    return out
+
+
+def _pose_frame(session: str | Path) -> str:
+    from ..session import read_structured_file
+
+    raw = read_structured_file(session)
+    return raw.get("pose_frame", "optical") if isinstance(raw, dict) else "optical"
+
+
+def _localise(sess: Session) -> list[DetectedObject]:
+    """The session's objects, or none before two views with detections."""
+    from ..localize import localize
+
+    if sum(1 for v in sess.views if v.detections) < 2:
+        return []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return list(localize(sess).objects)
+
+
+def _cap_candidates(
+    spec: CapSpec, state: PlannerState, session: str | Path, target: Point | None, base_c: tuple[float, float, float]
+) -> NDArray[np.float64]:
+    """The cap's poses around ``target`` (default: the workspace's centre), axis along the first view."""
+    if target is not None:
+        centre = np.array(parse_point(target, "target"))
+    else:
+        try:
+            ws = default_workspace(state)
+        except InputError:
+            raise InputError(f"{session}: no views and no workspace; give target X,Y,Z for the cap") from None
+        centre = 0.5 * (ws.min + ws.max)
+    axis = state.views[0].T_base_optical[:3, 3] if state.views else None
+    return cap_poses(spec, centre, axis=axis, base_centre=base_c)
