@@ -39,7 +39,8 @@ def _top_level_imports(path: Path) -> set[str]:
             else:
                 mod = node.module or ""
             if mod.startswith("monovisual3d"):
-                out.add(mod)
+                if node.module:  # ``from .x import y`` needs x; ``from . import x`` needs only the submodule x
+                    out.add(mod)
                 out.update(f"{mod}.{a.name}" for a in node.names)
         elif isinstance(node, ast.Import):
             out.update(a.name for a in node.names if a.name.startswith("monovisual3d"))

@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 import yaml
-from monovisual3d.masks import encode_rle
 
 from monovisual3d.examples import example_session_path, example_truth_path
 from monovisual3d.frames import look_at
+from monovisual3d.masks import encode_rle
 
 HUGE_INT = 10**400
 

@@ -283,6 +283,8 @@ def _semi_axis_errors(objects: list[Any], scene: Scene, ei: Any, ti: Any) -> lis
     out = []
     for e, t in zip(ei, ti):
         o, f = objects[e], scene.fruits[t]
+        if o.semi_axes is None and o.radius is None:  # a method without sizes (paper)
+            continue
         est = np.sort(o.semi_axes) if o.semi_axes is not None else np.full(3, float(o.radius))
         true = np.sort(np.asarray(getattr(f, "semi_axes", None) if getattr(f, "semi_axes", None) is not None else [f.radius] * 3))
         out.append(float(np.mean(np.abs(est - true))))
