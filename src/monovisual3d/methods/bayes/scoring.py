@@ -128,13 +128,17 @@ def _radius_ok(problem: Problem, radius: float) -> bool:
 
 
 def _object(problem: Problem, refined: object, score: float, assoc: Sequence[int], n_views: int) -> DetectedObject:
+    """The accepted object; an undetermined covariance (singular Gauss-Newton matrix, e.g. all views from one
+    pose) is reported as None, never as NaN."""
+    cov = refined.covariance  # type: ignore[attr-defined]
+    radius_std = float(refined.radius_std)  # type: ignore[attr-defined]
     return DetectedObject(
         position=refined.centre,  # type: ignore[attr-defined]
         score=score,
         radius=float(refined.radius),  # type: ignore[attr-defined]
-        covariance=refined.covariance,  # type: ignore[attr-defined]
+        covariance=cov if cov is not None and np.all(np.isfinite(cov)) else None,
         associations={vd.index: int(a) for vd, a in zip(problem.views, assoc) if a >= 0},
-        extra={"radius_std": refined.radius_std, "n_views": int(n_views)},  # type: ignore[attr-defined]
+        extra={"radius_std": radius_std if np.isfinite(radius_std) else None, "n_views": int(n_views)},
     )
 
 
