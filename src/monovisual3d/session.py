@@ -170,7 +170,12 @@ def read_structured_file(path: str | Path) -> Any:
         raise InputError(f"{path}: file not found")
     if path.is_dir():
         raise InputError(f"{path}: is a directory, expected a JSON or YAML file")
-    text = path.read_text(encoding="utf-8", errors="replace")
+    return parse_structured_text(path.read_text(encoding="utf-8", errors="replace"), path)
+
+
+def parse_structured_text(text: str, path: str | Path) -> Any:
+    """Parse JSON or YAML text read from ``path`` (YAML by suffix), with the one-line errors of :func:`read_structured_file`."""
+    path = Path(path)
     if path.suffix.lower() in (".yaml", ".yml"):
         import yaml
 
