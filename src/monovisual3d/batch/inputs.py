@@ -14,6 +14,10 @@ from ..errors import InputError
 SESSION_NAMES = ("session.json", "session.yaml", "session.yml")
 #: Ground truth looked for beside each session.
 TRUTH_NAME = "truth.json"
+#: Files a glob may match beside sessions that are not sessions (ground truth, the simulator's scene).
+COMPANION_NAMES = (TRUTH_NAME, "scene.json")
+#: Suffixes of the session files a glob may match.
+SESSION_SUFFIXES = (".json", ".yaml", ".yml")
 
 
 @dataclass(frozen=True)
@@ -64,7 +68,9 @@ def find_sessions(inputs: Sequence[str | Path]) -> list[SessionInput]:
     inputs : sequence of str or Path
         Session files (any name), folders (searched recursively for
         ``session.json``, ``session.yaml``, ``session.yml``) and globs
-        (``runs/*/session.json``, ``runs/**``; a matched folder is searched).
+        (``runs/*/session.json``, ``runs/**``; a matched folder is searched, and of
+        the matched files those ending in .json/.yaml/.yml are sessions except
+        ``truth.json`` and ``scene.json``).
 
     Returns
     -------
@@ -99,6 +105,8 @@ def find_sessions(inputs: Sequence[str | Path]) -> list[SessionInput]:
                 raise InputError(f"{text}: matched no file or folder")
             roots.append(_abs(_glob_root(text)))
             for m in matches:
+                if m.is_file() and (m.name in COMPANION_NAMES or m.suffix.lower() not in SESSION_SUFFIXES):
+                    continue
                 for f in _session_files(m) if m.is_dir() else [m]:
                     files[_abs(f)] = None
             continue

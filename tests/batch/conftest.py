@@ -1,0 +1,50 @@
+"""Shared fixtures of the batch tests: a few small simulated sessions with ground truth, and bad ones."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+pytest.importorskip("distributed")
+pytest.importorskip("pyarrow")
+
+from monovisual3d.sim.scenes import paper_scene  # noqa: E402
+from monovisual3d.sim.simulate import write_simulation  # noqa: E402
+
+#: A fast localisation: the paper method on a coarse grid (numpy backend, no compilation).
+FAST: dict[str, Any] = {"method": "paper", "resolution": 0.05}
+
+#: Columns that differ from run to run (timing, which worker).
+VOLATILE = ["runtime_s", "worker"]
+
+
+@pytest.fixture(scope="session")
+def sim_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``runs/{a/s0, a/s1, b/s2}/session.json`` + ``truth.json``: three noise-free paper-scene sessions."""
+    root = tmp_path_factory.mktemp("sim") / "runs"
+    for seed, sub in enumerate(("a/s0", "a/s1", "b/s2")):
+        write_simulation(root / sub, paper_scene(), rng=seed, images=False)
+    return root
+
+
+@pytest.fixture
+def runs(sim_root: Path, tmp_path: Path) -> Path:
+    """A private copy of :func:`sim_root` that a test may change."""
+    return Path(shutil.copytree(sim_root, tmp_path / "runs"))
+
+
+@pytest.fixture
+def mixed(runs: Path) -> Path:
+    """:func:`runs` plus a corrupt, an empty and an invalid session."""
+    for name, text in (("corrupt", '{"camera": {"width": 640,'), ("empty", ""), ("invalid", '{"views": []}')):
+        (runs / "bad" / name).mkdir(parents=True)
+        (runs / "bad" / name / "session.json").write_text(text)
+    return runs
+
+
+def comparable(df: Any) -> Any:
+    """The table without the columns that change from run to run."""
+    return df.drop(columns=[c for c in VOLATILE if c in df.columns])
