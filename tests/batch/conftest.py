@@ -36,13 +36,32 @@ def runs(sim_root: Path, tmp_path: Path) -> Path:
     return Path(shutil.copytree(sim_root, tmp_path / "runs"))
 
 
+def add_bad_sessions(root: Path) -> Path:
+    """Add a corrupt, an empty and an invalid session under ``root/bad``."""
+    for name, text in (("corrupt", '{"camera": {"width": 640,'), ("empty", ""), ("invalid", '{"views": []}')):
+        (root / "bad" / name).mkdir(parents=True)
+        (root / "bad" / name / "session.json").write_text(text)
+    return root
+
+
 @pytest.fixture
 def mixed(runs: Path) -> Path:
     """:func:`runs` plus a corrupt, an empty and an invalid session."""
-    for name, text in (("corrupt", '{"camera": {"width": 640,'), ("empty", ""), ("invalid", '{"views": []}')):
-        (runs / "bad" / name).mkdir(parents=True)
-        (runs / "bad" / name / "session.json").write_text(text)
-    return runs
+    return add_bad_sessions(runs)
+
+
+@pytest.fixture(scope="session")
+def mixed_root(sim_root: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of :func:`sim_root` with the bad sessions of :func:`mixed`, shared by the tests that only read it."""
+    return add_bad_sessions(Path(shutil.copytree(sim_root, tmp_path_factory.mktemp("mixed") / "runs")))
+
+
+@pytest.fixture(scope="session")
+def reference(mixed_root: Path, tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """The tables of the batch over :func:`mixed_root`, run in this process."""
+    from monovisual3d.batch import run
+
+    return run([mixed_root], tmp_path_factory.mktemp("reference") / "out", workers=0, **FAST)
 
 
 def comparable(df: Any) -> Any:

@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import FAST, comparable
 from numpy.testing import assert_allclose
 from pandas.testing import assert_frame_equal
 
 import monovisual3d as mv3d
+from conftest import FAST, comparable
 from monovisual3d.batch import FRUIT_COLUMNS, SESSION_COLUMNS, BatchProgress, read_tables, run
 from monovisual3d.errors import InputError
 
@@ -54,7 +54,11 @@ def test_bad_sessions_are_recorded_and_the_batch_goes_on(mixed: Path, tmp_path: 
     assert set(fruit["session_id"]) == {"a/s0/session.json", "a/s1/session.json", "b/s2/session.json"}
     bad = by_id.loc[["bad/corrupt/session.json", "bad/empty/session.json", "bad/invalid/session.json"]]
     assert (bad["status"] == "error").all() and (bad["error_type"] == "InputError").all()
-    assert bad["error"].iloc[0].endswith("corrupt/session.json: not valid JSON at line 1, column 26: Expecting property name enclosed in double quotes")
+    assert (
+        bad["error"]
+        .iloc[0]
+        .endswith("corrupt/session.json: not valid JSON at line 1, column 26: Expecting property name enclosed in double quotes")
+    )
     assert "empty/session.json: not valid JSON at line 1, column 1" in bad["error"].iloc[1]
     assert "invalid/session.json: camera: missing field" in bad["error"].iloc[2]
     assert (by_id["status"] == "ok").sum() == 3

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import itertools
 import logging
@@ -73,9 +74,18 @@ def _killed_row(job: Job, exc: BaseException, max_deaths: int | None) -> dict[st
 
 
 @contextlib.contextmanager
-def _dask_client(
-    workers: int | None, scheduler: str | None, max_worker_deaths: int, dashboard_address: str | None
+def dask_client(
+    workers: int | None = None,
+    scheduler: str | None = None,
+    max_worker_deaths: int = DEFAULT_MAX_WORKER_DEATHS,
+    dashboard_address: str | None = None,
 ) -> Iterator[Any]:
+    """A ``distributed.Client`` on ``scheduler``, or on the local cluster :func:`run` starts (closed on exit).
+
+    The local cluster has ``workers`` processes (default one per core) of one
+    thread each, numba limited to one thread, ``allowed-failures`` set to
+    ``max_worker_deaths`` and one session at a time per worker.
+    """
     require("distributed", "dask")
     import dask
     from distributed import Client, LocalCluster
@@ -86,8 +96,11 @@ def _dask_client(
         return
     n = workers if workers is not None else (os.cpu_count() or 1)
     # One single-threaded process per core; numba's thread pool is sized to match so processes don't compete.
+    # A worker holds one session at a time (saturation 1.0): when it dies, only the session it was running
+    # counts a failure (Dask counts one for every task a dead worker held).
+    config = {"distributed.scheduler.allowed-failures": max_worker_deaths, "distributed.scheduler.worker-saturation": 1.0}
     with (
-        dask.config.set({"distributed.scheduler.allowed-failures": max_worker_deaths}),
+        dask.config.set(config),
         LocalCluster(
             n_workers=n,
             threads_per_worker=1,
@@ -201,7 +214,7 @@ def run(
         elif client is not None:
             runner.run_dask(client, localizer, None)
         else:
-            with _dask_client(workers, scheduler, max_worker_deaths, dashboard_address) as c:
+            with dask_client(workers, scheduler, max_worker_deaths, dashboard_address) as c:
                 runner.run_dask(c, localizer, max_worker_deaths if scheduler is None else None)
     finally:
         writer.flush()
@@ -288,10 +301,11 @@ class _Runner:
         queue = as_completed(first)
         for fut in queue:
             job = pending.pop(fut)
-            if fut.status == "finished":
+            try:
+                # result() waits again when a finished result was lost with its worker and is being recomputed
                 row, fruit = fut.result()
-            else:
-                row, fruit = _killed_row(job, fut.exception(), max_deaths), []
+            except (Exception, asyncio.CancelledError) as exc:  # KilledWorker, a cancelled task: not the session's fault
+                row, fruit = _killed_row(job, exc, max_deaths), []
             fut.release()
             self.record(row, fruit)
             nxt = submit_next()

@@ -74,7 +74,7 @@ SESSION_COLUMNS: dict[str, str] = {
 }
 
 #: Error types that say nothing about the input (a lost worker, a cancelled task): ``resume`` runs them again.
-TRANSIENT_ERRORS = frozenset({"KilledWorker", "CancelledError"})
+TRANSIENT_ERRORS = frozenset({"KilledWorker", "CancelledError", "FutureCancelledError"})
 
 _PART = re.compile(r"^(fruit|sessions)-(\d{6})\.parquet$")
 

@@ -71,13 +71,11 @@ def run_bench_batch(
     progress: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Run the benchmark; returns a JSON-serialisable dict (``meta``, ``loop``, ``batch``, ``derived``)."""
-    import logging
-
     import dask
     import numba
-    from distributed import Client, LocalCluster
 
     from ..batch import run
+    from ..batch.run import dask_client
     from .speed import machine_metadata
 
     options = dict(options or {})
@@ -106,13 +104,7 @@ def run_bench_batch(
     }
     for w in worker_counts:
         t0 = time.perf_counter()
-        with (
-            LocalCluster(
-                n_workers=w, threads_per_worker=1, processes=True, dashboard_address=None,
-                silence_logs=logging.ERROR, env={"NUMBA_NUM_THREADS": "1"},
-            ) as cluster,
-            Client(cluster) as client,
-        ):  # fmt: skip
+        with dask_client(w) as client:
             client.run(_warm, method, options)
             startup = time.perf_counter() - t0
             walls = []
