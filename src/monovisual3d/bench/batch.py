@@ -6,7 +6,9 @@ Rows: sessions per second in-process (a plain loop of ``load_session`` +
 thread each). Derived: the speed-up of N workers over 1 and the overhead per
 session of the 1-worker batch over the loop,
 ``wall_1w / n - loop_mean`` (reading, hashing, sending, evaluating against
-``truth.json``, writing the parts and tables). Cluster start-up and the first
+``truth.json``, writing the parts and tables), in wall-clock time and in CPU
+time summed over all processes (this one, which holds the scheduler, and the
+workers): on a shared machine the CPU figure is the steadier. Cluster start-up and the first
 (kernel-loading) call of each worker are timed apart and excluded.
 """
 
@@ -40,6 +42,20 @@ def simulate_sessions(folder: Path, n: int, progress: Callable[[str], None] | No
         if progress is not None and (seed + 1) % 200 == 0:
             progress(f"simulated {seed + 1}/{n} sessions")
     return paths
+
+
+def _cpu_s() -> float:
+    """CPU seconds (user + system) of this process and all its descendants (the local cluster's workers)."""
+    import psutil
+
+    me = psutil.Process()
+    total = sum(me.cpu_times()[:2])
+    for child in me.children(recursive=True):
+        try:
+            total += sum(child.cpu_times()[:2])
+        except psutil.Error:  # pragma: no cover - a process that just ended
+            pass
+    return total
 
 
 def _loop(paths: list[Path], method: str, options: dict[str, Any]) -> float:
@@ -92,16 +108,23 @@ def run_bench_batch(
     try:
         with threadpool_limits(1):
             _warm(method, options)
-            loop_s = []
+            loop_s, loop_cpu = [], []
             for r in range(repeats):
                 say(f"in-process loop over {n_sessions} sessions ({r + 1}/{repeats})")
+                c0 = time.process_time()
                 loop_s.append(_loop(paths, method, options))
+                loop_cpu.append(time.process_time() - c0)
     finally:
         numba.set_num_threads(threads)
     loop_wall = statistics.median(loop_s)
     out: dict[str, Any] = {
         "meta": meta,
-        "loop": {"wall_s": loop_s, "per_session_ms": 1000 * loop_wall / n_sessions, "sessions_per_s": n_sessions / loop_wall},
+        "loop": {
+            "wall_s": loop_s,
+            "per_session_ms": 1000 * loop_wall / n_sessions,
+            "sessions_per_s": n_sessions / loop_wall,
+            "cpu_per_session_ms": 1000 * statistics.median(loop_cpu) / n_sessions,
+        },
         "batch": [],
     }
     for w in worker_counts:
@@ -109,13 +132,14 @@ def run_bench_batch(
         with dask_client(w) as client:
             client.run(_warm, method, options)
             startup = time.perf_counter() - t0
-            walls = []
+            walls, cpus = [], []
             for r in range(repeats):
                 say(f"batch of {n_sessions} sessions on {w} worker(s) ({r + 1}/{repeats})")
                 with tempfile.TemporaryDirectory(prefix="mv3d-bench-batch-out-") as out_dir:
-                    t1 = time.perf_counter()
+                    t1, c1 = time.perf_counter(), _cpu_s()
                     tables = run(paths, out_dir, client=client, method=method, **options)
                     walls.append(time.perf_counter() - t1)
+                    cpus.append(_cpu_s() - c1)
                 n_ok = int((tables.sessions["status"] == "ok").sum())
                 if n_ok != n_sessions:
                     raise RuntimeError(
@@ -129,12 +153,15 @@ def run_bench_batch(
                 "sessions_per_s": n_sessions / wall,
                 "startup_s": startup,
                 "per_session_ms": 1000 * wall / n_sessions,
+                "cpu_s": cpus,
+                "cpu_per_session_ms": 1000 * statistics.median(cpus) / n_sessions,
             }
         )
     rows = {r["workers"]: r for r in out["batch"]}
     derived: dict[str, Any] = {}
     if 1 in rows:
         derived["overhead_per_session_ms"] = rows[1]["per_session_ms"] - out["loop"]["per_session_ms"]
+        derived["cpu_overhead_per_session_ms"] = rows[1]["cpu_per_session_ms"] - out["loop"]["cpu_per_session_ms"]
         for w, r in rows.items():
             if w != 1:
                 derived[f"speedup_{w}w_over_1w"] = r["sessions_per_s"] / rows[1]["sessions_per_s"]
@@ -149,11 +176,13 @@ def format_rows(result: dict[str, Any]) -> list[str]:
     lines = [
         f"{m['n_sessions']} paper-scene sessions, method {m['method']} {json.dumps(m['options'])}, "
         f"{m.get('cores')} cores, load {m.get('load_average_1m', float('nan')):.1f} (median of {m['repeats']})",
-        f"in-process loop (1 thread): {result['loop']['sessions_per_s']:.2f} sessions/s, {result['loop']['per_session_ms']:.1f} ms/session",
+        f"in-process loop (1 thread): {result['loop']['sessions_per_s']:.2f} sessions/s, {result['loop']['per_session_ms']:.1f} ms/session, "
+        f"{result['loop']['cpu_per_session_ms']:.1f} CPU ms/session",
     ]
     for r in result["batch"]:
         lines.append(
-            f"batch, {r['workers']} worker(s): {r['sessions_per_s']:.2f} sessions/s, {r['per_session_ms']:.1f} ms/session "
+            f"batch, {r['workers']} worker(s): {r['sessions_per_s']:.2f} sessions/s, {r['per_session_ms']:.1f} ms/session, "
+            f"{r['cpu_per_session_ms']:.1f} CPU ms/session (all processes) "
             f"(cluster start-up + warm-up {r['startup_s']:.1f} s, not counted)"
         )
     for k, v in result["derived"].items():
