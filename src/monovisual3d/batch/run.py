@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import hashlib
 import itertools
 import logging
 import os
@@ -51,7 +52,7 @@ class BatchProgress:
     elapsed_s : float, seconds since the first session was sent
     workers : int, worker threads of the cluster (0: in-process)
     dashboard : str or None, the Dask dashboard address when there is one
-    last : dict or None, the ``sessions`` row that just arrived
+    last : dict or None, the ``sessions`` row that just arrived (None in the first call, before any session)
     """
 
     done: int
@@ -62,6 +63,13 @@ class BatchProgress:
     workers: int
     dashboard: str | None = None
     last: dict[str, Any] | None = None
+
+
+def _sha256(path: Path) -> str:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return ""  # unreadable: never done, reported when it is read for the run
 
 
 def _killed_row(job: Job, exc: BaseException, max_deaths: int | None) -> dict[str, Any]:
@@ -244,8 +252,11 @@ class _Runner:
         self.found, self.done_keys = found, done
         self.method, self.options, self.cfg_hash = method, options, cfg_hash
         self.writer, self.progress = writer, progress
-        self.done = self.failed = self.skipped = 0
-        self.total = len(found)
+        self.done = self.failed = 0
+        if done:  # resuming: find what is done first, so that the total is right from the start
+            self.found = [s for s in found if (s.session_id, _sha256(s.path), cfg_hash) not in done]
+        self.skipped = len(found) - len(self.found)
+        self.total = len(self.found)
         self.t0 = time.perf_counter()
         self.workers = 0
         self.dashboard: str | None = None
@@ -260,7 +271,7 @@ class _Runner:
                 message = f"{exc.filename or s.path}: {exc.strerror or exc}"
                 self.record(session_row(job, status="error", error=message, error_type=type(exc).__name__), [])
                 continue
-            if (job.session_id, job.input_sha256, job.config_sha256) in self.done_keys:
+            if (job.session_id, job.input_sha256, job.config_sha256) in self.done_keys:  # changed back since the first look
                 self.skipped += 1
                 self.total -= 1
                 continue
@@ -271,6 +282,9 @@ class _Runner:
         self.writer.add(row, fruit, now)
         self.done += 1
         self.failed += row["status"] != "ok"
+        self.report(now, row)
+
+    def report(self, now: float, row: dict[str, Any] | None = None) -> None:
         if self.progress is not None:
             self.progress(
                 BatchProgress(self.done, self.total, self.failed, self.skipped, now - self.t0, self.workers, self.dashboard, row)
@@ -278,6 +292,7 @@ class _Runner:
 
     def run_in_process(self, localizer: Callable[..., Result] | None) -> None:
         self.t0 = time.perf_counter()
+        self.report(self.t0)
         for job in self.jobs():
             self.record(*run_job(job, localizer))
 
@@ -293,6 +308,7 @@ class _Runner:
         pending: dict[Any, Job] = {}
         run_token, counter = uuid.uuid4().hex[:12], itertools.count()
         self.t0 = time.perf_counter()
+        self.report(self.t0)
 
         def submit_next() -> Any:
             job = next(jobs, None)
