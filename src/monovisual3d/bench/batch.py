@@ -114,6 +114,7 @@ def run_bench_batch(
                 c0 = time.process_time()
                 loop_s.append(_loop(paths, method, options))
                 loop_cpu.append(time.process_time() - c0)
+                say(f"  loop: {loop_s[-1]:.1f} s wall, {loop_cpu[-1]:.1f} CPU s")
     finally:
         numba.set_num_threads(threads)
     loop_wall = statistics.median(loop_s)
@@ -140,6 +141,7 @@ def run_bench_batch(
                     tables = run(paths, out_dir, client=client, method=method, **options)
                     walls.append(time.perf_counter() - t1)
                     cpus.append(_cpu_s() - c1)
+                say(f"  {w} worker(s): {walls[-1]:.1f} s wall, {cpus[-1]:.1f} CPU s")
                 n_ok = int((tables.sessions["status"] == "ok").sum())
                 if n_ok != n_sessions:
                     raise RuntimeError(
