@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import hashlib
 import itertools
 import logging
 import os
@@ -20,9 +19,9 @@ from ..errors import InputError
 from ..result import Result
 from . import tables
 from .inputs import SessionInput, find_sessions
-from .work import Job, config_hash, make_job, one_line, run_job, session_row
+from .work import Job, config_hash, input_hash, make_job, one_line, run_job, session_row
 
-#: Sessions a worker may be running when it dies before they count as failed (Dask's ``allowed-failures``).
+#: Worker deaths a session may cause before it is recorded as failed (Dask's ``allowed-failures``).
 DEFAULT_MAX_WORKER_DEATHS = 3
 
 
@@ -67,7 +66,7 @@ class BatchProgress:
 
 def _sha256(path: Path) -> str:
     try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        return input_hash(Path(path).read_bytes())
     except OSError:
         return ""  # unreadable: never done, reported when it is read for the run
 

@@ -56,6 +56,11 @@ def options_json(options: dict[str, Any]) -> str:
     return json.dumps(options, sort_keys=True, default=repr)
 
 
+def input_hash(data: bytes) -> str:
+    """SHA-256 (hex) of a session file's bytes: the ``input_sha256`` column and the key of ``resume``."""
+    return hashlib.sha256(data).hexdigest()
+
+
 def config_hash(method: str, options: dict[str, Any]) -> str:
     """SHA-256 (hex) of a method and its options: equal for equal settings, whatever the key order.
 
@@ -216,7 +221,7 @@ def make_job(
         session_id=session_id,
         path=str(path),
         text=data.decode("utf-8", errors="replace"),
-        input_sha256=hashlib.sha256(data).hexdigest(),
+        input_sha256=input_hash(data),
         method=method,
         options=dict(options),
         config_sha256=config_sha256,
