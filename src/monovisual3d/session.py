@@ -178,6 +178,15 @@ def read_structured_file(path: str | Path) -> Any:
     return load_structured(path)
 
 
+def parse_structured_text(text: str, path: str | Path) -> Any:
+    """Parse JSON or YAML text read from ``path`` (YAML by suffix), with the checks and errors of :func:`read_structured_file`."""
+    from ._structured import load_json, load_yaml
+
+    if Path(path).suffix.lower() in (".yaml", ".yml"):
+        return load_yaml(text, str(path))
+    return load_json(text, str(path))
+
+
 def load_session(source: str | Path | dict[str, Any] | Session) -> Session:
     """Load and validate a session from a JSON/YAML file or an already-parsed dict.
 

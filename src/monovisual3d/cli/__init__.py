@@ -9,6 +9,7 @@ from __future__ import annotations
 from . import (
     accuracy,  # noqa: F401
     active,  # noqa: F401
+    batch,  # noqa: F401
     bench,  # noqa: F401
     core,  # noqa: F401  (registers commands)
     experiments,  # noqa: F401

@@ -1,0 +1,160 @@
+"""``batch``: localise many sessions on a Dask cluster into two tables; ``bench batch``: its throughput."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from ..errors import InputError
+from ._app import app, console, handle_errors
+from .bench import bench_app
+
+
+def parse_options(items: list[str] | None) -> dict[str, Any]:
+    """``KEY=VALUE`` strings as a dict; a value is read as JSON when it parses (``3``, ``0.01``, ``true``), else kept as text.
+
+    Examples
+    --------
+    >>> parse_options(["resolution=0.01", "kernel=gaussian", "k=3"])
+    {'resolution': 0.01, 'kernel': 'gaussian', 'k': 3}
+    """
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key.isidentifier():
+            raise InputError(f"--option: got {item!r}, expected KEY=VALUE with KEY a method option name")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
+@app.command()
+@handle_errors
+def batch(
+    inputs: Annotated[list[str], typer.Argument(help="Session files, folders (searched for session.json/.yaml) or globs.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Folder for fruit/sessions .parquet and .csv, summary.json.")],
+    workers: Annotated[
+        int | None, typer.Option(min=0, help="Local worker processes (default: one per core; 0: in this process, no Dask).")
+    ] = None,
+    scheduler: Annotated[str | None, typer.Option(help="Address of a running Dask scheduler, e.g. tcp://host:8786.")] = None,
+    method: Annotated[str | None, typer.Option(help="Localisation method (default: localize's default).")] = None,
+    option: Annotated[
+        list[str] | None,
+        typer.Option("--option", help="Method option KEY=VALUE (VALUE read as JSON when it parses); repeatable."),
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Skip sessions already in --output (same id, content and options).")
+    ] = False,
+    part_size: Annotated[int, typer.Option(min=1, help="Sessions per written part file.")] = 100,
+    max_worker_deaths: Annotated[
+        int, typer.Option(min=1, help="Worker deaths a session may cause before it counts as failed (local cluster).")
+    ] = 3,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+) -> None:
+    """Localise many sessions in parallel; write one table of fruit and one of sessions.
+
+    Bad sessions are recorded with their error and the batch goes on; the exit
+    code is 1 when any session failed, 2 on a usage error.
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    from ..batch import BatchProgress, run
+
+    if workers is not None and scheduler is not None:
+        raise InputError("--workers, --scheduler: give one of them (--scheduler uses the cluster's workers)")
+    options = parse_options(option)
+    shown: dict[str, bool] = {"dashboard": False}
+
+    def announce(p: BatchProgress) -> None:
+        if not shown["dashboard"]:
+            shown["dashboard"] = True
+            where = "in this process" if p.workers == 0 else f"on {p.workers} worker thread(s)"
+            console.print(f"running {p.total} session(s) {where}" + (f"; {p.skipped} already done" if p.skipped else ""))
+            if p.dashboard:
+                console.print(f"Dask dashboard: {p.dashboard}", highlight=False)
+
+    if quiet:
+        tables = run(inputs, output, method=method, workers=workers, scheduler=scheduler, resume=resume,
+                     part_size=part_size, max_worker_deaths=max_worker_deaths, **options)  # fmt: skip
+    else:
+        columns = (
+            TextColumn("[progress.description]{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[rate]:.2f} sessions/s"),
+            TextColumn("[red]{task.fields[failed]} failed"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+        )
+        with Progress(*columns, console=console, transient=False) as bar:
+            task = bar.add_task("batch", total=None, rate=0.0, failed=0)
+
+            def progress(p: BatchProgress) -> None:
+                announce(p)
+                rate = p.done / p.elapsed_s if p.elapsed_s > 0 else 0.0
+                bar.update(task, completed=p.done, total=p.total, rate=rate, failed=p.failed)
+
+            tables = run(inputs, output, method=method, workers=workers, scheduler=scheduler, resume=resume,
+                         part_size=part_size, max_worker_deaths=max_worker_deaths, progress=progress, **options)  # fmt: skip
+    s = tables.summary
+    line = f"{s['n_ok']} ok, {s['n_error']} failed, {s['n_fruit']} fruit; wrote {output}/fruit.parquet, sessions.parquet (+ .csv), summary.json"
+    console.print(line, highlight=False)
+    if "evaluation" in s:
+        e = s["evaluation"]
+        console.print(
+            f"against truth.json ({e['n_sessions']} sessions): recall {e['recall']:.3f}, precision {e['precision']:.3f}, "
+            f"mean error {1000 * e['error_mean_m']:.1f} mm",
+            highlight=False,
+        )
+    if s["n_error"]:
+        failed = tables.sessions[tables.sessions["status"] != "ok"]
+        for _, row in failed.head(5).iterrows():
+            console.print(f"[red]failed:[/] {row['session_id']}: {row['error']}", highlight=False, soft_wrap=True)
+        if len(failed) > 5:
+            console.print(f"... and {len(failed) - 5} more (sessions.csv, column error)")
+        raise typer.Exit(1)
+
+
+@bench_app.command("batch")
+@handle_errors
+def bench_batch(
+    sessions: Annotated[int, typer.Option("--sessions", "-n", min=1, help="Simulated paper-scene sessions.")] = 1000,
+    workers: Annotated[str, typer.Option(help="Worker counts to time, comma separated.")] = "1,2",
+    method: Annotated[str, typer.Option(help="Localisation method.")] = "paper",
+    option: Annotated[
+        list[str] | None, typer.Option("--option", help="Method option KEY=VALUE (default for paper: backend=numba).")
+    ] = None,
+    data: Annotated[
+        Path | None, typer.Option(help="Folder for the simulated sessions (kept and reused; default a temporary folder).")
+    ] = None,
+    repeats: Annotated[int, typer.Option(min=1, help="Timed runs of each configuration (the median is reported).")] = 1,
+    output: Annotated[
+        Path | None, typer.Option("--output", "-o", help="Write the results with machine metadata as JSON.")
+    ] = None,
+) -> None:
+    """Sessions per second of ``batch`` with 1 and 2 workers, and its overhead over ``localize`` in a loop."""
+    from ..bench.batch import format_rows, run_bench_batch
+
+    try:
+        counts = tuple(int(w) for w in workers.split(","))
+    except ValueError:
+        raise InputError(f"--workers: got {workers!r}, expected integers separated by commas") from None
+    if any(c < 1 for c in counts):
+        raise InputError(f"--workers: got {workers!r}, expected positive worker counts")
+    options = parse_options(option) if option else ({"backend": "numba"} if method == "paper" else {})
+    result = run_bench_batch(
+        n_sessions=sessions, worker_counts=counts, method=method, options=options, data=data, repeats=repeats,
+        progress=lambda msg: console.print(f"[dim]{msg}[/]", highlight=False),
+    )  # fmt: skip
+    for line in format_rows(result):
+        console.print(line, highlight=False)
+    if output is not None:
+        output.write_text(json.dumps(result, indent=2) + "\n")
+        console.print(f"wrote {output}")
