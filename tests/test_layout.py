@@ -108,7 +108,7 @@ def _modules_after(code: str) -> set[str]:
 
 def test_import_is_light() -> None:
     loaded = _modules_after("import monovisual3d")
-    assert not {"scipy", "numba", "sklearn", "matplotlib", "typer"} & loaded
+    assert not {"numpy", "scipy", "numba", "sklearn", "matplotlib", "typer"} & loaded
 
 
 def test_cli_help_does_not_load_the_heavy_libraries() -> None:

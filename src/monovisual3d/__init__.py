@@ -38,15 +38,13 @@ _LAZY = {
     "Workspace": "session",
     "evaluate": "metrics",
     "load_session": "session",
+    "localize": "api",
 }
 
-__all__ = sorted([*_LAZY, "localize"])
-
-# ``localize`` is both a submodule and its function: import it now, or a later ``import
-# monovisual3d.localize`` anywhere would leave the module where the function should be.
-from .localize import localize  # noqa: E402  (numpy-level imports only)
+__all__ = sorted(_LAZY)
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from .api import localize
     from .camera import Camera
     from .errors import InputError, InputWarning
     from .filter import HistogramFilter, PaperConfig

@@ -120,7 +120,7 @@ def _pose_frame(session: str | Path) -> str:
 
 def _localise(sess: Session) -> list[DetectedObject]:
     """The session's objects, or none before two views with detections."""
-    from ..localize import localize
+    from ..api import localize
 
     if sum(1 for v in sess.views if v.detections) < 2:
         return []

@@ -226,7 +226,7 @@ def merge_results(parts: list[dict[str, Any]]) -> dict[str, Any]:
 
 def time_planning(n_candidates: int = 100, repeats: int = 7, seed: int = 0) -> dict[str, Any]:
     """Median planning time for ``n_candidates`` candidates and the six fruit of a greenhouse scene (3 paper views)."""
-    from ..localize import localize
+    from ..api import localize
     from ..session import Workspace
     from ..sim.simulate import simulate
 

@@ -688,7 +688,7 @@ def plan_next_view(
             if n_with >= 2:
                 import warnings
 
-                from ..localize import localize
+                from ..api import localize
 
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")

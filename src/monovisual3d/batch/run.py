@@ -196,7 +196,7 @@ def run(
     >>> list(sessions["status"]), len(fruit)
     (['ok'], 1)
     """
-    from ..localize import DEFAULT_METHOD, METHODS
+    from ..api import DEFAULT_METHOD, METHODS
 
     method = method or DEFAULT_METHOD
     if method not in METHODS and localizer is None:

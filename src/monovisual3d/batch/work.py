@@ -183,7 +183,7 @@ def run_job(job: Job, localizer: Callable[..., Result] | None = None) -> tuple[d
     from ..truth import objects_from_dict
 
     if localizer is None:
-        from ..localize import localize as localizer
+        from ..api import localize as localizer
     t0 = time.perf_counter()
     counts: dict[str, Any] = {}
     try:

@@ -44,9 +44,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..api import localize
 from ..errors import InputError
 from ..geometry.sphere import predict_sphere_boxes
-from ..localize import localize
 from ..masks import encode_rle
 from ..metrics import evaluate, match
 from ..session import Detection, Session, View

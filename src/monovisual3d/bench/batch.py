@@ -60,7 +60,7 @@ def _cpu_s() -> float:
 
 def _loop(paths: list[Path], method: str, options: dict[str, Any]) -> float:
     """Seconds for ``load_session`` + ``localize`` of every path, in this process."""
-    from ..localize import localize
+    from ..api import localize
     from ..session import load_session
 
     t0 = time.perf_counter()
@@ -71,8 +71,8 @@ def _loop(paths: list[Path], method: str, options: dict[str, Any]) -> float:
 
 def _warm(method: str, options: dict[str, Any]) -> None:
     """Load the compiled kernels of this process: one localisation of the built-in example."""
+    from ..api import localize
     from ..examples import example_session_path
-    from ..localize import localize
 
     localize(example_session_path(), method=method, **options)
 

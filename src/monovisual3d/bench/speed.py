@@ -583,7 +583,7 @@ def end_to_end(
     extraction, refinement / k-means. The session has no workspace, so the paper
     method's grid is its 2R cube (reach 0.6 m: 1.2 m side, 1.7 M cells at 1 cm).
     """
-    from ..localize import localize
+    from ..api import localize
 
     session = _paper_session()
     out = []
@@ -601,8 +601,8 @@ def paper_default_vs_numpy(repeats: int = 3, resolution: float = 0.01) -> dict[s
     Alternates the two (default, reference, default, ...) so that both see the same load;
     returns their medians, the speed-up and the largest distance between their estimates.
     """
+    from ..api import localize
     from ..grid import VoxelGrid
-    from ..localize import localize
 
     session = _paper_session()
     grid = VoxelGrid.in_front_of_camera(session.views[0].T_base_optical, resolution, 0.6)

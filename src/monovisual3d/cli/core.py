@@ -88,7 +88,7 @@ def localize(
     """
     from rich.progress import Progress
 
-    from ..localize import localize as localize_fn
+    from ..api import localize as localize_fn
     from ..session import geometry_warnings, load_session
 
     # validate the options, the files and the outputs before the progress bar, so an error prints alone

@@ -14,9 +14,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..api import DEFAULT_METHOD, METHODS, localize
 from ..camera import Camera
 from ..errors import InputError, InputWarning
-from ..localize import DEFAULT_METHOD, METHODS, localize
 from ..metrics import Metrics, evaluate
 from ..result import Result
 from ..session import Session, load_session

@@ -19,13 +19,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from ...api import localize
 from ...camera import Camera
 from ...errors import InputError, InputWarning
 from ...estimation import CENTRES
 from ...filter import HistogramFilter, PaperConfig
 from ...grid import VoxelGrid
 from ...kernels import KERNELS
-from ...localize import localize
 from ...result import DetectedObject
 from ...session import Session
 from ...sim.noise import NoiseModel
