@@ -15,7 +15,7 @@ from .result import DetectedObject
 CENTRES = ("weighted", "geometric")
 K_RULES = ("max", "mode", "min", "last")
 #: Default relative threshold: cells with p >= threshold * max(p) take part in clustering.
-DEFAULT_KEEP_THRESHOLD = 0.1
+from .limits import DEFAULT_KEEP_THRESHOLD  # noqa: E402  (re-exported)
 
 
 def choose_k(counts: Sequence[int], rule: str | int = "max") -> int:

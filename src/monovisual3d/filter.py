@@ -1,5 +1,7 @@
 """The paper's histogram filter (MonoVisual3DFilter), dense numpy reference.
 
+:class:`PaperConfig` (the options) lives in :mod:`monovisual3d.methods.paper_config` and is re-exported here.
+
 Pure functions do the maths (:func:`project_grid`, :func:`paper_update`); the
 :class:`HistogramFilter` class holds the state (grid and posterior) for
 incremental use on a robot: create it, call :meth:`HistogramFilter.update` as
@@ -9,9 +11,8 @@ each view arrives, and read :attr:`HistogramFilter.posterior` or
 
 from __future__ import annotations
 
-import math
 import warnings
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
@@ -19,84 +20,16 @@ from numpy.typing import NDArray
 
 from .camera import Camera
 from .errors import InputError, InputWarning
-from .estimation import CENTRES, DEFAULT_KEEP_THRESHOLD, choose_k, kmeans_objects
+from .estimation import choose_k, kmeans_objects
 from .frames import invert_transform, transform_points
-from .grid import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, VoxelGrid, _check_resolution, cone_counts
-from .kernels import check_kernel, paper_view_likelihood
+from .grid import VoxelGrid, cone_counts
+from .kernels import paper_view_likelihood
+from .methods.paper_config import PaperConfig
 from .result import DetectedObject
 from .session import View, Workspace
 
 #: Cells processed per chunk by the numpy reference (bounds temporaries to ~100 MB).
 CHUNK_CELLS = 1 << 20
-
-
-def _default_backend() -> str:
-    from .engine import default_backend
-
-    return default_backend()
-
-
-@dataclass(frozen=True)
-class PaperConfig:
-    """Options of the paper's method.
-
-    Attributes
-    ----------
-    kernel : {"gaussian", "square"}
-    sigma_fraction : float, Gaussian sigma as a fraction of box width/height (paper: 1/2; 1/3 with noise)
-    resolution : float, grid cell size, metres
-    reach : float, manipulator reach R, metres (grid cube of side 2R when no workspace is given)
-    centre : {"weighted", "geometric"}
-    k : "max" | "mode" | "min" | "last" | int, how many clusters (see :func:`choose_k`)
-    keep_threshold : float, relative posterior threshold for the cells that are clustered
-    weighted_kmeans : bool, use the posterior as k-means sample weights
-    max_memory : int or str, bytes (or text such as 2GiB): memory budget; a grid that does not fit is refused
-        with a resolution that fits
-    backend : {"numpy", "numba", "torch"}, engine of the dense update: the numpy reference, the fused
-        numba kernel (float32 posterior, see :mod:`monovisual3d.engine.dense`) or torch (``device``).
-        Default: the fastest CPU engine installed (:func:`monovisual3d.engine.default_backend`, numba);
-        ``"numpy"`` is the readable reference the others are tested against.
-    device : str or None, torch device ("cpu", "cuda"; None: cuda when available); backend "torch" only
-    refine_to : float or None, metres: run the sparse coarse-to-fine path down to this resolution,
-        with ``resolution`` as the root level (see :mod:`monovisual3d.engine.sparse`)
-    threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
-    """
-
-    kernel: str = "gaussian"
-    sigma_fraction: float = 0.5
-    resolution: float = 0.01
-    reach: float = DEFAULT_REACH_M
-    centre: str = "weighted"
-    k: str | int = "max"
-    keep_threshold: float = DEFAULT_KEEP_THRESHOLD
-    weighted_kmeans: bool = False
-    max_memory: int | str = DEFAULT_MAX_BYTES
-    backend: str = field(default_factory=_default_backend)
-    device: str | None = None
-    refine_to: float | None = None
-    threads: int | None = None
-
-    def __post_init__(self) -> None:
-        from .methods.options import check_threads, parse_bytes
-
-        object.__setattr__(self, "max_memory", parse_bytes(self.max_memory))
-        object.__setattr__(self, "threads", check_threads(self.threads))
-        check_kernel(self.kernel)
-        if not (self.sigma_fraction > 0):
-            raise InputError(f"sigma_fraction: got {self.sigma_fraction}, expected a positive fraction of the box size")
-        # Validate every option up front: otherwise a bad centre/k/threshold only surfaces after the
-        # whole filter has run, and not at all when no view has a detection.
-        _check_resolution(self.resolution)
-        if not (isinstance(self.reach, (int, float)) and math.isfinite(self.reach) and self.reach > 0):
-            raise InputError(f"reach: got {self.reach!r}, expected a positive number of metres")
-        if self.centre not in CENTRES:
-            raise InputError(f"centre: got {self.centre!r}, expected one of {list(CENTRES)}")
-        if not (isinstance(self.keep_threshold, (int, float)) and 0.0 < self.keep_threshold <= 1.0):
-            raise InputError(f"keep_threshold: got {self.keep_threshold!r}, expected a value in (0, 1]")
-        choose_k([1], self.k)
-        from .engine import check_backend
-
-        check_backend(self.backend, self.device, self.refine_to, self.resolution)
 
 
 def project_grid(

@@ -22,13 +22,13 @@ if TYPE_CHECKING:
     from .camera import Camera
     from .session import View
 
-#: Default manipulator reach R (metres); the paper's grid is a cube of side 2R.
-DEFAULT_REACH_M = 0.6
+from .limits import DEFAULT_REACH_M  # noqa: E402  (re-exported: the one definition is numpy-free)
+
 #: Working bytes per cell of the paper's dense filter: posterior and likelihood (float64), the compiled engine's
 #: float32 copy, and k-means coordinates and weights when every cell survives the threshold.
 BYTES_PER_CELL = 48
 #: Largest grid the dense filter accepts by default: the default ``max_memory`` (2 GiB).
-DEFAULT_MAX_BYTES = 2 * 1024**3
+from .limits import DEFAULT_MAX_BYTES  # noqa: E402  (re-exported)
 
 
 @dataclass(frozen=True)

@@ -42,3 +42,11 @@ MAX_POLYGON_POINTS = 100_000
 POLYGON_MARGIN_IMAGES = 1.0
 #: Length of a value's excerpt quoted in an error message, characters.
 EXCERPT_CHARS = 60
+
+#: Default manipulator reach R (metres); the paper's grid is a cube of side 2R.
+DEFAULT_REACH_M = 0.6
+
+#: Relative posterior threshold of the cells the paper's k-means clusters (:mod:`monovisual3d.estimation`).
+DEFAULT_KEEP_THRESHOLD = 0.1
+#: Largest dense grid by default, bytes: the default ``max_memory`` (2 GiB) of every method.
+DEFAULT_MAX_BYTES = 2 * 1024**3

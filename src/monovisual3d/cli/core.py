@@ -5,19 +5,19 @@ from __future__ import annotations
 import math
 import warnings
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.table import Table
 
 from ..errors import InputError, InputWarning
 from ..methods import DEFAULT_METHOD, METHODS
-from ..metrics import Metrics
-from ..metrics import evaluate as evaluate_fn
-from ..result import Result
-from ..truth import load_objects
 from ._app import app, check_output, console, handle_errors, json_text, write_output
 from .options import method_config, translate_error, with_method_options
+
+if TYPE_CHECKING:
+    from ..metrics import Metrics
+    from ..result import Result
 
 
 def print_objects(result: Result, title: str = "Localised objects") -> None:
@@ -143,6 +143,9 @@ def evaluate(
     if not math.isfinite(gate if gate is not None else 0.0):
         raise InputError(f"--gate: got {gate}, expected a finite distance in metres")
     check_output(output, estimates, truth)
+    from ..metrics import evaluate as evaluate_fn
+    from ..truth import load_objects
+
     est = load_objects(estimates)
     tru = load_objects(truth, allow_empty=False)
     if tru.from_result and not est.from_result:

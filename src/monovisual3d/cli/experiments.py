@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from ..api import DEFAULT_METHOD, METHODS
+from ..methods import DEFAULT_METHOD, METHODS
 from ._app import app, console, handle_errors
 
 

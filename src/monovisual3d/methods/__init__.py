@@ -13,11 +13,13 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
-from ..result import Result
-from ..session import Session
+
+if TYPE_CHECKING:  # numpy-level modules: keep listing the methods (the CLI's --help) light
+    from ..result import Result
+    from ..session import Session
 
 #: The method used when none is named.
 DEFAULT_METHOD = "bayes"
@@ -74,7 +76,7 @@ METHODS: dict[str, Method] = {
     "paper": Method(
         "paper",
         "MonoVisual3DFilter as published: histogram filter over a voxel grid, square/Gaussian kernel, k-means",
-        "monovisual3d.filter:PaperConfig",
+        "monovisual3d.methods.paper_config:PaperConfig",
         "monovisual3d.methods.paper:run",
     ),
 }

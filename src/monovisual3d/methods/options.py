@@ -12,15 +12,14 @@ import numbers
 import re
 from typing import Any
 
-import numpy as np
-
 from ..engine.threads import check_threads
 from ..errors import InputError
+from ..limits import DEFAULT_MAX_BYTES
 
 __all__ = ["DEFAULT_MAX_MEMORY", "check_threads", "format_bytes", "is_real", "parse_bytes"]
 
 #: Default memory budget of one ``localize`` call, bytes (2 GiB).
-DEFAULT_MAX_MEMORY = 2 * 1024**3
+DEFAULT_MAX_MEMORY = DEFAULT_MAX_BYTES
 #: Smallest budget accepted, bytes (below this nothing useful fits).
 MIN_MAX_MEMORY = 16 * 1024**2
 
@@ -29,8 +28,8 @@ _UNITS = {"": 1, "b": 1, "k": 1000, "kb": 1000, "kib": 1024, "m": 1000**2, "mb":
 
 
 def is_real(v: Any) -> bool:
-    """A real number (Python or numpy), not a bool."""
-    return isinstance(v, (numbers.Real, np.floating, np.integer)) and not isinstance(v, (bool, np.bool_))
+    """A real number (Python or numpy: numpy registers its scalars as :class:`numbers.Real`), not a bool."""
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
 
 def parse_bytes(value: Any, name: str = "max_memory") -> int:

@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
-from typing import Any
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING, Any
 
 from ...errors import InputError
-from ...grid import DEFAULT_REACH_M
+from ...limits import DEFAULT_REACH_M
 from ..options import DEFAULT_MAX_MEMORY, check_threads, is_real, parse_bytes
-from .likelihood import SensorModel
+from .sensor import SensorModel
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 #: Object models of ``BayesConfig.shape``.
 SHAPES = ("auto", "sphere", "spheroid", "ellipsoid")
@@ -21,6 +23,8 @@ BACKENDS = ("numba", "numpy")
 
 def _floats(value: Any, n: int, name: str, expected: str) -> NDArray[np.float64]:
     """``n`` finite numbers from a sequence or a comma-separated string."""
+    import numpy as np
+
     items: Any = value.split(",") if isinstance(value, str) else value
     try:
         out = np.array([float(v) for v in items], dtype=float)
@@ -131,20 +135,20 @@ class BayesConfig:
         object.__setattr__(self, "radius_margin_bins", int(v))
         for name in ("radius_min", "radius_max", "resolution", "coarse_resolution", "reach"):
             v = getattr(self, name)
-            if not (is_real(v) and np.isfinite(v) and v > 0):
+            if not (is_real(v) and math.isfinite(v) and v > 0):
                 raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
         if not self.radius_min < self.radius_max:
             raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
         for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin"):
             v = getattr(self, name)
-            if not (is_real(v) and np.isfinite(v) and v >= 0):
+            if not (is_real(v) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
-        if not (is_real(self.accept) and np.isfinite(self.accept)):
+        if not (is_real(self.accept) and math.isfinite(self.accept)):
             raise InputError(f"accept: got {self.accept!r}, expected a finite number of nats")
         if self.min_views < 2:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
         for name in ("use_masks", "swap", "steal", "free_orientation"):
-            if not isinstance(getattr(self, name), (bool, np.bool_)):
+            if not (isinstance(getattr(self, name), bool) or type(getattr(self, name)).__name__ == "bool_"):
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
         if self.backend not in BACKENDS:
             raise InputError(f"backend: got {self.backend!r}, expected one of {list(BACKENDS)} for method 'bayes'")
@@ -155,6 +159,8 @@ class BayesConfig:
     def _check_shape_fields(self) -> None:
         if self.shape not in SHAPES:
             raise InputError(f"shape: got {self.shape!r}, expected one of {list(SHAPES)}")
+        import numpy as np
+
         up = _floats(self.up, 3, "up", "three numbers, e.g. 0,0,1")
         if not np.linalg.norm(up) > 1e-12:
             raise InputError(f"up: got {up.tolist()}, expected a vector of non-zero length (base frame vertical, e.g. 0,0,1)")
@@ -170,6 +176,8 @@ class BayesConfig:
     @property
     def up_vector(self) -> NDArray[np.float64]:
         """The vertical of the upright models, shape (3,), unit, base frame."""
+        import numpy as np
+
         return np.asarray(self.up, dtype=float)
 
     @property
@@ -197,7 +205,7 @@ class BayesConfig:
     @property
     def pose_rotation_sigma(self) -> float:
         """Stated camera rotation uncertainty, radians per axis."""
-        return float(np.radians(self.pose_sigma_deg))
+        return math.radians(float(self.pose_sigma_deg))
 
     @property
     def poses_uncertain(self) -> bool:
@@ -206,6 +214,8 @@ class BayesConfig:
     @property
     def radii(self) -> NDArray[np.float64]:
         """Radius bins, shape (n_radii,), metres."""
+        import numpy as np
+
         if self.n_radii == 1:
             return np.array([np.sqrt(self.radius_min * self.radius_max)])
         return np.geomspace(self.radius_min, self.radius_max, self.n_radii)
