@@ -196,9 +196,58 @@ def run(
     >>> list(sessions["status"]), len(fruit)
     (['ok'], 1)
     """
-    from ..api import DEFAULT_METHOD, METHODS
+    from ..api import DEFAULT_METHOD
 
     method = method or DEFAULT_METHOD
+    _check_run_args(method, localizer, workers, scheduler, client, part_size, max_worker_deaths, output, resume)
+    output = Path(output)
+    found = find_sessions(inputs)
+    output.mkdir(parents=True, exist_ok=True)
+    cfg_hash = config_hash(method, options)
+    done = tables.done_keys(output) if resume else set()
+    writer = tables.PartWriter(output, part_size=part_size, part_seconds=part_seconds)
+    runner = _Runner(found, done, method, options, cfg_hash, writer, progress)
+    try:
+        _dispatch(runner, localizer, workers, scheduler, client, max_worker_deaths, dashboard_address)
+    finally:
+        writer.flush()
+    fruit, sessions, _ = tables.consolidate(output)
+    return BatchTables(fruit, sessions)
+
+
+def _dispatch(
+    runner: _Runner,
+    localizer: Callable[..., Result] | None,
+    workers: int | None,
+    scheduler: str | None,
+    client: Any,
+    max_worker_deaths: int,
+    dashboard_address: str | None,
+) -> None:
+    """Run ``runner`` in this process (``workers == 0``), on ``client``, or on a cluster of :func:`dask_client`."""
+    if workers == 0:
+        runner.run_in_process(localizer)
+    elif client is not None:
+        runner.run_dask(client, localizer, None)
+    else:
+        with dask_client(workers, scheduler, max_worker_deaths, dashboard_address) as c:
+            runner.run_dask(c, localizer, max_worker_deaths if scheduler is None else None)
+
+
+def _check_run_args(
+    method: str,
+    localizer: Callable[..., Result] | None,
+    workers: int | None,
+    scheduler: str | None,
+    client: Any,
+    part_size: int,
+    max_worker_deaths: int,
+    output: str | Path,
+    resume: bool,
+) -> None:
+    """Raise :class:`InputError` on the first bad argument of :func:`run`, in its order."""
+    from ..api import METHODS
+
     if method not in METHODS and localizer is None:
         raise InputError(f"method: got {method!r}, expected one of {sorted(METHODS)}")
     if workers is not None and workers < 0:
@@ -215,24 +264,6 @@ def run(
         raise InputError(f"{output}: exists and is not a folder")
     if not resume and tables.has_parts(output):
         raise InputError(f"{output}: holds an earlier batch; resume it, or choose an empty folder")
-    found = find_sessions(inputs)
-    output.mkdir(parents=True, exist_ok=True)
-    cfg_hash = config_hash(method, options)
-    done = tables.done_keys(output) if resume else set()
-    writer = tables.PartWriter(output, part_size=part_size, part_seconds=part_seconds)
-    runner = _Runner(found, done, method, options, cfg_hash, writer, progress)
-    try:
-        if workers == 0:
-            runner.run_in_process(localizer)
-        elif client is not None:
-            runner.run_dask(client, localizer, None)
-        else:
-            with dask_client(workers, scheduler, max_worker_deaths, dashboard_address) as c:
-                runner.run_dask(c, localizer, max_worker_deaths if scheduler is None else None)
-    finally:
-        writer.flush()
-    fruit, sessions, _ = tables.consolidate(output)
-    return BatchTables(fruit, sessions)
 
 
 class _Runner:

@@ -88,11 +88,7 @@ def run_bench_batch(
 ) -> dict[str, Any]:
     """Run the benchmark; returns a JSON-serialisable dict (``meta``, ``loop``, ``batch``, ``derived``)."""
     import dask
-    import numba
-    from threadpoolctl import threadpool_limits
 
-    from ..batch import run
-    from ..batch.run import dask_client
     from .speed import machine_metadata
 
     options = dict(options or {})
@@ -102,7 +98,24 @@ def run_bench_batch(
     paths = simulate_sessions(data, n_sessions, say)
     meta = machine_metadata()
     meta.update(n_sessions=n_sessions, method=method, options=options, repeats=repeats, dask=dask.__version__)
+    out: dict[str, Any] = {
+        "meta": meta,
+        "loop": _bench_loop(paths, method, options, repeats, say),
+        "batch": [_bench_workers(paths, w, method, options, repeats, say) for w in worker_counts],
+    }
+    out["derived"] = _derived(out["loop"], out["batch"])
+    tmp.cleanup()
+    return json.loads(json.dumps(out, default=float))
 
+
+def _bench_loop(
+    paths: list[Path], method: str, options: dict[str, Any], repeats: int, say: Callable[[str], None]
+) -> dict[str, Any]:
+    """Time the in-process loop over ``paths`` on one thread, ``repeats`` times; the ``loop`` entry of the result."""
+    import numba
+    from threadpoolctl import threadpool_limits
+
+    n_sessions = len(paths)
     threads = numba.get_num_threads()
     numba.set_num_threads(1)  # like each worker process (NUMBA_NUM_THREADS=1, OMP/BLAS 1 thread)
     try:
@@ -118,58 +131,63 @@ def run_bench_batch(
     finally:
         numba.set_num_threads(threads)
     loop_wall = statistics.median(loop_s)
-    out: dict[str, Any] = {
-        "meta": meta,
-        "loop": {
-            "wall_s": loop_s,
-            "per_session_ms": 1000 * loop_wall / n_sessions,
-            "sessions_per_s": n_sessions / loop_wall,
-            "cpu_per_session_ms": 1000 * statistics.median(loop_cpu) / n_sessions,
-        },
-        "batch": [],
+    return {
+        "wall_s": loop_s,
+        "per_session_ms": 1000 * loop_wall / n_sessions,
+        "sessions_per_s": n_sessions / loop_wall,
+        "cpu_per_session_ms": 1000 * statistics.median(loop_cpu) / n_sessions,
     }
-    for w in worker_counts:
-        t0 = time.perf_counter()
-        with dask_client(w) as client:
-            client.run(_warm, method, options)
-            startup = time.perf_counter() - t0
-            walls, cpus = [], []
-            for r in range(repeats):
-                say(f"batch of {n_sessions} sessions on {w} worker(s) ({r + 1}/{repeats})")
-                with tempfile.TemporaryDirectory(prefix="mv3d-bench-batch-out-") as out_dir:
-                    t1, c1 = time.perf_counter(), _cpu_s()
-                    tables = run(paths, out_dir, client=client, method=method, **options)
-                    walls.append(time.perf_counter() - t1)
-                    cpus.append(_cpu_s() - c1)
-                say(f"  {w} worker(s): {walls[-1]:.1f} s wall, {cpus[-1]:.1f} CPU s")
-                n_ok = int((tables.sessions["status"] == "ok").sum())
-                if n_ok != n_sessions:
-                    raise RuntimeError(
-                        f"bench batch: {n_sessions - n_ok} sessions failed: {tables.sessions['error'].dropna().iloc[0]}"
-                    )
-        wall = statistics.median(walls)
-        out["batch"].append(
-            {
-                "workers": w,
-                "wall_s": walls,
-                "sessions_per_s": n_sessions / wall,
-                "startup_s": startup,
-                "per_session_ms": 1000 * wall / n_sessions,
-                "cpu_s": cpus,
-                "cpu_per_session_ms": 1000 * statistics.median(cpus) / n_sessions,
-            }
-        )
-    rows = {r["workers"]: r for r in out["batch"]}
+
+
+def _bench_workers(
+    paths: list[Path], w: int, method: str, options: dict[str, Any], repeats: int, say: Callable[[str], None]
+) -> dict[str, Any]:
+    """Time :func:`monovisual3d.batch.run` on a local cluster of ``w`` workers; one row of the ``batch`` entry."""
+    from ..batch import run
+    from ..batch.run import dask_client
+
+    n_sessions = len(paths)
+    t0 = time.perf_counter()
+    with dask_client(w) as client:
+        client.run(_warm, method, options)
+        startup = time.perf_counter() - t0
+        walls, cpus = [], []
+        for r in range(repeats):
+            say(f"batch of {n_sessions} sessions on {w} worker(s) ({r + 1}/{repeats})")
+            with tempfile.TemporaryDirectory(prefix="mv3d-bench-batch-out-") as out_dir:
+                t1, c1 = time.perf_counter(), _cpu_s()
+                tables = run(paths, out_dir, client=client, method=method, **options)
+                walls.append(time.perf_counter() - t1)
+                cpus.append(_cpu_s() - c1)
+            say(f"  {w} worker(s): {walls[-1]:.1f} s wall, {cpus[-1]:.1f} CPU s")
+            n_ok = int((tables.sessions["status"] == "ok").sum())
+            if n_ok != n_sessions:
+                raise RuntimeError(
+                    f"bench batch: {n_sessions - n_ok} sessions failed: {tables.sessions['error'].dropna().iloc[0]}"
+                )
+    wall = statistics.median(walls)
+    return {
+        "workers": w,
+        "wall_s": walls,
+        "sessions_per_s": n_sessions / wall,
+        "startup_s": startup,
+        "per_session_ms": 1000 * wall / n_sessions,
+        "cpu_s": cpus,
+        "cpu_per_session_ms": 1000 * statistics.median(cpus) / n_sessions,
+    }
+
+
+def _derived(loop: dict[str, Any], batch: list[dict[str, Any]]) -> dict[str, Any]:
+    """Dask overhead per session (1 worker minus loop) and speed-up of each worker count over 1 worker."""
+    rows = {r["workers"]: r for r in batch}
     derived: dict[str, Any] = {}
     if 1 in rows:
-        derived["overhead_per_session_ms"] = rows[1]["per_session_ms"] - out["loop"]["per_session_ms"]
-        derived["cpu_overhead_per_session_ms"] = rows[1]["cpu_per_session_ms"] - out["loop"]["cpu_per_session_ms"]
+        derived["overhead_per_session_ms"] = rows[1]["per_session_ms"] - loop["per_session_ms"]
+        derived["cpu_overhead_per_session_ms"] = rows[1]["cpu_per_session_ms"] - loop["cpu_per_session_ms"]
         for w, r in rows.items():
             if w != 1:
                 derived[f"speedup_{w}w_over_1w"] = r["sessions_per_s"] / rows[1]["sessions_per_s"]
-    out["derived"] = derived
-    tmp.cleanup()
-    return json.loads(json.dumps(out, default=float))
+    return derived
 
 
 def format_rows(result: dict[str, Any]) -> list[str]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -62,16 +63,53 @@ def batch(
     Bad sessions are recorded with their error and the batch goes on; the exit
     code is 1 when any session failed, 2 on a usage error.
     """
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-    from ..batch import BatchProgress, run
+    from ..batch import run
 
     if workers is not None and scheduler is not None:
         raise InputError("--workers, --scheduler: give one of them (--scheduler uses the cluster's workers)")
     options = parse_options(option)
+    kwargs = dict(method=method, workers=workers, scheduler=scheduler, resume=resume,
+                  part_size=part_size, max_worker_deaths=max_worker_deaths)  # fmt: skip
+    if quiet:
+        tables = run(inputs, output, **kwargs, **options)
+    else:
+        tables = _run_with_bar(inputs, output, kwargs, options)
+    _report(tables, output)
+
+
+def _run_with_bar(inputs: list[str], output: Path, kwargs: dict[str, Any], options: dict[str, Any]) -> Any:
+    """:func:`monovisual3d.batch.run` with a rich progress bar, after a line saying where the sessions run."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    from ..batch import BatchProgress, run
+
+    announce = _announcer()
+    columns = (
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]:.2f} sessions/s"),
+        TextColumn("[red]{task.fields[failed]} failed"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+    )
+    with Progress(*columns, console=console, transient=False) as bar:
+        task = bar.add_task("batch", total=None, rate=0.0, failed=0)
+
+        def progress(p: BatchProgress) -> None:
+            announce(p)
+            rate = p.done / p.elapsed_s if p.elapsed_s > 0 else 0.0
+            bar.update(task, completed=p.done, total=p.total, rate=rate, failed=p.failed)
+
+        return run(inputs, output, **kwargs, progress=progress, **options)
+
+
+def _announcer() -> Callable[[Any], None]:
+    """A progress callback that prints, once, how many sessions run where and the Dask dashboard's address."""
     shown: dict[str, bool] = {"dashboard": False}
 
-    def announce(p: BatchProgress) -> None:
+    def announce(p: Any) -> None:
         if not shown["dashboard"]:
             shown["dashboard"] = True
             where = "in this process" if p.workers == 0 else f"on {p.workers} worker thread(s)"
@@ -79,30 +117,11 @@ def batch(
             if p.dashboard:
                 console.print(f"Dask dashboard: {p.dashboard}", highlight=False)
 
-    if quiet:
-        tables = run(inputs, output, method=method, workers=workers, scheduler=scheduler, resume=resume,
-                     part_size=part_size, max_worker_deaths=max_worker_deaths, **options)  # fmt: skip
-    else:
-        columns = (
-            TextColumn("[progress.description]{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("{task.fields[rate]:.2f} sessions/s"),
-            TextColumn("[red]{task.fields[failed]} failed"),
-            TimeElapsedColumn(),
-            TextColumn("ETA"),
-            TimeRemainingColumn(),
-        )
-        with Progress(*columns, console=console, transient=False) as bar:
-            task = bar.add_task("batch", total=None, rate=0.0, failed=0)
+    return announce
 
-            def progress(p: BatchProgress) -> None:
-                announce(p)
-                rate = p.done / p.elapsed_s if p.elapsed_s > 0 else 0.0
-                bar.update(task, completed=p.done, total=p.total, rate=rate, failed=p.failed)
 
-            tables = run(inputs, output, method=method, workers=workers, scheduler=scheduler, resume=resume,
-                         part_size=part_size, max_worker_deaths=max_worker_deaths, progress=progress, **options)  # fmt: skip
+def _report(tables: Any, output: Path) -> None:
+    """Print the batch summary, the evaluation against truth and the first failures; exit 1 when any session failed."""
     s = tables.summary
     line = f"{s['n_ok']} ok, {s['n_error']} failed, {s['n_fruit']} fruit; wrote {output}/fruit.parquet, sessions.parquet (+ .csv), summary.json"
     console.print(line, highlight=False)
