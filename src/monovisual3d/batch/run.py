@@ -107,10 +107,13 @@ def dask_client(
     # counts a failure (Dask counts one for every task a dead worker held).
     # Dask sets MALLOC_TRIM_THRESHOLD_ in its workers, which turns off glibc's adaptive mmap threshold: every
     # large grid is then a fresh mmap + page faults (measured 1.6 s vs 1.0 s per paper session); unset it.
+    # The worker profiler is off (a dashboard's profile page is then empty).
     config = {
         "distributed.scheduler.allowed-failures": max_worker_deaths,
         "distributed.scheduler.worker-saturation": 1.0,
         "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+        # the statistical profiler samples every worker thread every 10 ms: CPU a short session pays for
+        "distributed.worker.profile.enabled": False,
     }
     with (
         dask.config.set(config),
