@@ -11,7 +11,9 @@ from rich.table import Table
 from ._app import app, console, handle_errors
 
 bench_app = typer.Typer(
-    help="Benchmarks: accuracy of the methods on simulated scenes, speed of the histogram update.", no_args_is_help=True
+    help="Benchmarks: accuracy of the methods on simulated scenes, speed, start-up, next-best-view and batch.",
+    no_args_is_help=True,
+    rich_markup_mode=None,
 )
 app.add_typer(bench_app, name="bench")
 

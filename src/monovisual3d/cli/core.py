@@ -131,7 +131,7 @@ def localize(
 @handle_errors
 def evaluate(
     estimates: Annotated[Path, typer.Argument(help="Result JSON written by `localize --output`.")],
-    truth: Annotated[Path, typer.Argument(help='Truth JSON: {"objects": \\[{"position": \\[x, y, z], "radius": r}]}.')],
+    truth: Annotated[Path, typer.Argument(help='Truth JSON: {"objects": [{"position": [x, y, z], "radius": r}]}.')],
     gate: Annotated[
         float | None, typer.Option(help="Match gate in metres for recall/precision (default: true radius, >= 20 mm).")
     ] = None,

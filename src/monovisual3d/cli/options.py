@@ -86,7 +86,7 @@ def option_specs() -> list[OptionSpec]:
 
 def _help(spec: OptionSpec) -> str:
     who = "" if len(spec.methods) == len(METHODS) else f"{'/'.join(spec.methods)} method: "
-    return who + spec.help.replace("``", "").replace("[", "\\[")
+    return who + spec.help.replace("``", "")
 
 
 def _parameter(spec: OptionSpec) -> inspect.Parameter:

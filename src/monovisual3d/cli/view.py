@@ -18,7 +18,7 @@ def view(
     session: Annotated[Path, typer.Argument(help="Session file (JSON or YAML).")],
     result: Annotated[Path | None, typer.Option("--result", "-r", help="Result JSON written by `localize --output`.")] = None,
     truth: Annotated[
-        Path | None, typer.Option("--truth", "-t", help='Truth JSON: {"objects": \\[{"position": \\[x, y, z], "radius": r}]}.')
+        Path | None, typer.Option("--truth", "-t", help='Truth JSON: {"objects": [{"position": [x, y, z], "radius": r}]}.')
     ] = None,
     output: Annotated[Path, typer.Option("--output", "-o", help="HTML file to write.")] = Path("scene.html"),
     open_: Annotated[bool, typer.Option("--open", help="Open the file in the default web browser.")] = False,
