@@ -546,20 +546,15 @@ def _fruit_hover(k: int, f: Fruit, axes: NDArray[np.float64]) -> str:
 
 def _fruit_traces(fruits: list[Fruit]) -> list[Any]:
     """The estimated fruit as meshes of their shapes, coloured by score on the figure's coloraxis."""
-    import plotly.graph_objects as go
 
     traces = []
     for k, f in enumerate(fruits):
         axes = f.semi_axes if f.semi_axes is not None else np.full(3, POINT_RADIUS_M)
         v, fc = ellipsoid_mesh(f.position, axes, f.R_base_fruit)
         traces.append(
-            go.Mesh3d(
-                x=v[:, 0],
-                y=v[:, 1],
-                z=v[:, 2],
-                i=fc[:, 0],
-                j=fc[:, 1],
-                k=fc[:, 2],
+            _mesh3d(
+                v,
+                fc,
                 intensity=np.full(len(v), f.score),
                 coloraxis="coloraxis",
                 opacity=0.9,
@@ -575,7 +570,6 @@ def _fruit_traces(fruits: list[Fruit]) -> list[Any]:
 
 def _error_ellipsoid_traces(fruits: list[Fruit]) -> list[Any]:
     """The 95 % position-error ellipsoid of every fruit with a covariance."""
-    import plotly.graph_objects as go
 
     traces = []
     for k, f in enumerate(fruits):
@@ -584,13 +578,9 @@ def _error_ellipsoid_traces(fruits: list[Fruit]) -> list[Any]:
         a, R = error_ellipsoid_axes(f.covariance)
         v, fc = ellipsoid_mesh(f.position, np.maximum(a, 1e-5), R)
         traces.append(
-            go.Mesh3d(
-                x=v[:, 0],
-                y=v[:, 1],
-                z=v[:, 2],
-                i=fc[:, 0],
-                j=fc[:, 1],
-                k=fc[:, 2],
+            _mesh3d(
+                v,
+                fc,
                 color=ERROR_COLOUR,
                 opacity=0.18,
                 name="95 % position-error ellipsoids",
@@ -605,9 +595,15 @@ def _error_ellipsoid_traces(fruits: list[Fruit]) -> list[Any]:
     return traces
 
 
+def _mesh3d(vertices: NDArray[np.float64], faces: NDArray[np.int64], **style: Any) -> Any:
+    """A plotly ``Mesh3d`` of a triangle mesh (vertices (V, 3), metres, base frame; faces (F, 3) vertex indices)."""
+    import plotly.graph_objects as go
+
+    return go.Mesh3d(x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=faces[:, 0], j=faces[:, 1], k=faces[:, 2], **style)
+
+
 def _truth_traces(tru: ObjectSet) -> list[Any]:
     """The true fruit as spheres (a 5 mm marker where the radius is unknown)."""
-    import plotly.graph_objects as go
 
     traces = []
     for t, (c, r) in enumerate(zip(tru.positions, tru.radii)):
@@ -615,13 +611,9 @@ def _truth_traces(tru: ObjectSet) -> list[Any]:
         v, fc = ellipsoid_mesh(c, np.full(3, radius), n_lat=8, n_lon=12)
         size = f"radius {1000 * r:.1f} mm" if np.isfinite(r) else "radius unknown"
         traces.append(
-            go.Mesh3d(
-                x=v[:, 0],
-                y=v[:, 1],
-                z=v[:, 2],
-                i=fc[:, 0],
-                j=fc[:, 1],
-                k=fc[:, 2],
+            _mesh3d(
+                v,
+                fc,
                 color=TRUTH_COLOUR,
                 opacity=0.3,
                 name="true fruit",
