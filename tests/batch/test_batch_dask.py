@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from pandas.testing import assert_frame_equal
 
 import monovisual3d
@@ -19,9 +20,13 @@ from monovisual3d.batch import run
 LOST = "b/s2/session.json"
 
 
-def test_local_cluster_with_killed_workers_loses_and_duplicates_nothing(mixed_root: Path, tmp_path: Path, reference) -> None:
+@pytest.mark.parametrize("chunk_size", [1, 3])
+def test_local_cluster_with_killed_workers_loses_and_duplicates_nothing(
+    mixed_root: Path, tmp_path: Path, reference, chunk_size: int
+) -> None:
     """On 2 worker processes: a/s1 kills its worker once (then succeeds on a retry); b/s2 kills every worker
-    that runs it, so it is recorded as failed after ``max_worker_deaths``; everything else is as in-process."""
+    that runs it, so it is recorded as failed after ``max_worker_deaths`` (with chunks of 3 sessions per task:
+    its chunk is split and the others of the chunk succeed alone); everything else is as in-process."""
     marker = tmp_path / "kill-once"
     marker.write_text("")
 
@@ -40,7 +45,8 @@ def test_local_cluster_with_killed_workers_loses_and_duplicates_nothing(mixed_ro
     out = tmp_path / "out"
     progress = []
     fruit, sessions = run(
-        [mixed_root], out, workers=2, max_worker_deaths=1, localizer=crashing, dashboard_address=None, progress=progress.append, **FAST
+        [mixed_root], out, workers=2, max_worker_deaths=1, chunk_size=chunk_size, localizer=crashing, dashboard_address=None,
+        progress=progress.append, **FAST,
     )  # fmt: skip
     assert not marker.exists()  # the first attempt of a/s1 did kill its worker
     assert progress[-1].workers == 2 and progress[-1].done == 6 and progress[-1].failed == 4

@@ -65,10 +65,11 @@ def test_bad_sessions_are_recorded_and_the_batch_goes_on(mixed: Path, tmp_path: 
     assert by_id.loc["bad/corrupt/session.json", "n_views"] is pd.NA
 
 
-def test_an_option_error_is_recorded_per_session(runs: Path, tmp_path: Path) -> None:
-    _, sessions = run([runs], tmp_path / "out", workers=0, method="paper", colour="red")
-    assert (sessions["status"] == "error").all()
-    assert sessions["error"].str.contains("colour: not an option of method 'paper'").all()
+def test_an_option_error_stops_the_batch_before_any_session(runs: Path, tmp_path: Path) -> None:
+    for options, match in (({"colour": "red"}, "colour: not an option of method 'paper'"), ({"resolution": -1}, "resolution")):
+        with pytest.raises(InputError, match=match):
+            run([runs], tmp_path / "out", workers=0, method="paper", **options)
+        assert not (tmp_path / "out" / "parts").exists()
 
 
 def test_outputs_are_readable_with_the_documented_types(mixed: Path, tmp_path: Path) -> None:
@@ -155,6 +156,7 @@ def test_resume_reruns_sessions_whose_content_or_options_changed(runs: Path, tmp
         ({"workers": 2, "scheduler": "tcp://x:1"}, "workers, scheduler: give at most one"),
         ({"workers": 0, "part_size": 0}, "part_size: got 0"),
         ({"workers": 0, "max_worker_deaths": 0}, "max_worker_deaths: got 0"),
+        ({"workers": 0, "chunk_size": 0}, "chunk_size: got 0"),
         ({"workers": 0, "method": "magic"}, "method: got 'magic', expected one of"),
     ],
 )

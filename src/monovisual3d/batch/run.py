@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import collections
 import contextlib
 import itertools
 import logging
@@ -19,10 +20,13 @@ from ..errors import InputError
 from ..result import Result
 from . import tables
 from .inputs import SessionInput, find_sessions
-from .work import Job, config_hash, input_hash, make_job, one_line, run_job, session_row
+from .work import Job, config_hash, input_hash, make_job, one_line, run_job, run_jobs, session_row
 
 #: Worker deaths a session may cause before it is recorded as failed (Dask's ``allowed-failures``).
 DEFAULT_MAX_WORKER_DEATHS = 3
+
+#: Most sessions per Dask task when ``chunk_size`` is not given.
+MAX_CHUNK = 16
 
 
 class BatchTables(NamedTuple):
@@ -150,6 +154,7 @@ def run(
     part_size: int = 100,
     part_seconds: float = 5.0,
     max_worker_deaths: int = DEFAULT_MAX_WORKER_DEATHS,
+    chunk_size: int | None = None,
     localizer: Callable[..., Result] | None = None,
     progress: Callable[[BatchProgress], None] | None = None,
     dashboard_address: str | None = ":8787",
@@ -157,13 +162,11 @@ def run(
 ) -> BatchTables:
     """Localise many sessions on a Dask cluster and collect one table of fruit and one of sessions.
 
-    A bad session is recorded in ``sessions`` with its one-line error and the
-    batch goes on. A worker that dies has its sessions retried on other workers;
-    a session whose workers die ``max_worker_deaths`` times is recorded as
-    failed (``error_type`` ``KilledWorker``). Rows are written to
-    ``output/parts`` as they arrive (every ``part_size`` sessions or
-    ``part_seconds``), then consolidated into ``fruit``/``sessions`` Parquet
-    and CSV files and ``summary.json``.
+    A bad session is recorded in ``sessions`` with its one-line error and the batch goes on.
+    A worker that dies has its sessions retried on other workers; a session whose workers die
+    ``max_worker_deaths`` times is recorded as failed (``error_type`` ``KilledWorker``). Rows are
+    written to ``output/parts`` as they arrive (every ``part_size`` sessions or ``part_seconds``),
+    then consolidated into ``fruit``/``sessions`` Parquet and CSV files and ``summary.json``.
 
     Parameters
     ----------
@@ -178,7 +181,11 @@ def run(
     part_size : int, sessions per written part
     part_seconds : float, longest time a finished session waits before it is written, seconds
     max_worker_deaths : int, worker deaths a session may cause before it counts as failed
-        (local cluster only; a running scheduler keeps its own ``distributed.scheduler.allowed-failures``)
+        (local cluster only; a running scheduler keeps its own ``distributed.scheduler.allowed-failures``).
+        A chunk whose workers die that often is split and its sessions retried one by one
+        (a session that kills every worker is recorded after up to twice this many deaths).
+    chunk_size : int, sessions per Dask task (default: up to :data:`MAX_CHUNK`, at least
+        four chunks per worker thread); fewer tasks, less overhead per session
     localizer : callable(session, method=..., **options) -> Result, default :func:`monovisual3d.localize`
     progress : callable(BatchProgress), called after each session
     dashboard_address : str or None, where the local cluster serves its dashboard (needs bokeh); None for none
@@ -199,17 +206,14 @@ def run(
     >>> list(sessions["status"]), len(fruit)
     (['ok'], 1)
     """
-    from ..api import DEFAULT_METHOD
-
-    method = method or DEFAULT_METHOD
-    _check_run_args(method, localizer, workers, scheduler, client, part_size, max_worker_deaths, output, resume)
-    output = Path(output)
-    found = find_sessions(inputs)
+    method = method or _default_method()
+    _check_run_args(method, localizer, workers, scheduler, client, part_size, max_worker_deaths, chunk_size, output, resume)
+    _check_options(method, localizer, options)
+    found, output = find_sessions(inputs), Path(output)
     output.mkdir(parents=True, exist_ok=True)
-    cfg_hash = config_hash(method, options)
     done = tables.done_keys(output) if resume else set()
     writer = tables.PartWriter(output, part_size=part_size, part_seconds=part_seconds)
-    runner = _Runner(found, done, method, options, cfg_hash, writer, progress)
+    runner = _Runner(found, done, method, options, config_hash(method, options), writer, progress, chunk_size)
     try:
         _dispatch(runner, localizer, workers, scheduler, client, max_worker_deaths, dashboard_address)
     finally:
@@ -245,6 +249,7 @@ def _check_run_args(
     client: Any,
     part_size: int,
     max_worker_deaths: int,
+    chunk_size: int | None,
     output: str | Path,
     resume: bool,
 ) -> None:
@@ -262,11 +267,27 @@ def _check_run_args(
         raise InputError(f"part_size: got {part_size}, expected a positive number of sessions")
     if max_worker_deaths < 1:
         raise InputError(f"max_worker_deaths: got {max_worker_deaths}, expected a positive integer")
+    if chunk_size is not None and chunk_size < 1:
+        raise InputError(f"chunk_size: got {chunk_size}, expected a positive number of sessions per task")
     output = Path(output)
     if output.exists() and not output.is_dir():
         raise InputError(f"{output}: exists and is not a folder")
     if not resume and tables.has_parts(output):
         raise InputError(f"{output}: holds an earlier batch; resume it, or choose an empty folder")
+
+
+def _default_method() -> str:
+    from ..api import DEFAULT_METHOD
+
+    return DEFAULT_METHOD
+
+
+def _check_options(method: str, localizer: Callable[..., Result] | None, options: dict[str, Any]) -> None:
+    """Raise :class:`InputError` on a bad method option: it is the same for every session, so say it once, before any work."""
+    if localizer is None:
+        from ..methods import get_method
+
+        get_method(method).make_config(**options)
 
 
 class _Runner:
@@ -281,8 +302,10 @@ class _Runner:
         cfg_hash: str,
         writer: tables.PartWriter,
         progress: Callable[[BatchProgress], None] | None,
+        chunk_size: int | None = None,
     ) -> None:
         self.found, self.done_keys = found, done
+        self.chunk_size = chunk_size
         self.method, self.options, self.cfg_hash = method, options, cfg_hash
         self.writer, self.progress = writer, progress
         self.done = self.failed = 0
@@ -329,40 +352,53 @@ class _Runner:
         for job in self.jobs():
             self.record(*run_job(job, localizer))
 
+    def chunk(self, threads: int) -> int:
+        """Sessions per task: ``chunk_size``, or up to :data:`MAX_CHUNK` with at least four chunks per thread."""
+        if self.chunk_size is not None:
+            return self.chunk_size
+        return max(1, min(MAX_CHUNK, self.total // (4 * threads)))
+
     def run_dask(self, client: Any, localizer: Callable[..., Result] | None, max_deaths: int | None) -> None:
         from distributed import as_completed
 
         self.workers = max(1, sum(client.nthreads().values()))
         self.dashboard = _dashboard(client)
-        # A bounded window of tasks in flight: memory stays flat for any batch size, and a client
+        size = self.chunk(self.workers)
+        # A bounded window of chunks in flight: memory stays flat for any batch size, and a client
         # that stops loses at most these (plus the rows waiting for the next part).
-        window = max(16, 4 * self.workers)
+        window = max(4, 2 * self.workers) if size > 1 else max(16, 4 * self.workers)
         jobs = self.jobs()
-        pending: dict[Any, Job] = {}
+        retry: collections.deque[list[Job]] = collections.deque()  # sessions of a lost chunk, one task each
+        pending: dict[Any, list[Job]] = {}
         run_token, counter = uuid.uuid4().hex[:12], itertools.count()
         self.t0 = time.perf_counter()
         self.report(self.t0)
 
         def submit_next() -> Any:
-            job = next(jobs, None)
-            if job is None:
+            chunk = retry.popleft() if retry else list(itertools.islice(jobs, size))
+            if not chunk:
                 return None
-            key = f"monovisual3d-batch-{run_token}-{next(counter)}-{job.input_sha256[:12]}"
-            fut = client.submit(run_job, job, localizer, pure=False, key=key)
-            pending[fut] = job
+            key = f"monovisual3d-batch-{run_token}-{next(counter)}-{chunk[0].input_sha256[:12]}"
+            fut = client.submit(run_jobs, chunk, localizer, pure=False, key=key)
+            pending[fut] = chunk
             return fut
 
-        first = [f for f in (submit_next() for _ in range(window)) if f is not None]
-        queue = as_completed(first)
+        queue = as_completed([f for f in (submit_next() for _ in range(window)) if f is not None])
         for fut in queue:
-            job = pending.pop(fut)
+            chunk = pending.pop(fut)
             try:
                 # result() waits again when a finished result was lost with its worker and is being recomputed
-                row, fruit = fut.result()
+                results = fut.result()
             except (Exception, asyncio.CancelledError) as exc:  # KilledWorker, a cancelled task: not the session's fault
-                row, fruit = _killed_row(job, exc, max_deaths), []
+                if len(chunk) > 1:  # find the session at fault: each one again, alone
+                    retry.extend([job] for job in chunk)
+                    results = []
+                else:
+                    results = [(_killed_row(chunk[0], exc, max_deaths), [])]
             fut.release()
-            self.record(row, fruit)
-            nxt = submit_next()
-            if nxt is not None:
-                queue.add(nxt)
+            for row, fruit in results:
+                self.record(row, fruit)
+            for _ in range(len(chunk) if not results else 1):  # keep the window full
+                nxt = submit_next()
+                if nxt is not None:
+                    queue.add(nxt)

@@ -211,6 +211,18 @@ def run_job(job: Job, localizer: Callable[..., Result] | None = None) -> tuple[d
     return row, fruit
 
 
+def run_jobs(
+    jobs: list[Job], localizer: Callable[..., Result] | None = None
+) -> list[tuple[dict[str, Any], list[dict[str, Any]]]]:
+    """:func:`run_job` over several jobs, in order: one Dask task for a chunk of sessions.
+
+    Returns
+    -------
+    list of (session_row, fruit_rows), one per job
+    """
+    return [run_job(job, localizer) for job in jobs]
+
+
 def _utf8(data: bytes, path: Path) -> str:
     """Strict UTF-8 text (a BOM allowed), as every reader of the package: invalid bytes are an error, not replaced."""
     try:

@@ -4,8 +4,8 @@ Rows: sessions per second in-process (a plain loop of ``load_session`` +
 ``localize``, numba, OpenMP and BLAS limited to one thread like each worker) and through
 :func:`monovisual3d.batch.run` with 1, 2, ... local worker processes (one
 thread each). Derived: the speed-up of N workers over 1 and the overhead per
-session of the 1-worker batch over the loop,
-``wall_1w / n - loop_mean`` (reading, hashing, sending, evaluating against
+session of the 1-worker batch over the loop, the median over repeats of
+``(wall_1w - wall_loop) / n`` with the loop timed right before each batch (reading, hashing, sending, evaluating against
 ``truth.json``, writing the parts and tables), in wall-clock time and in CPU
 time summed over all processes (this one, which holds the scheduler, and the
 workers): on a shared machine the CPU figure is the steadier. Cluster start-up and the first
@@ -86,7 +86,12 @@ def run_bench_batch(
     repeats: int = 1,
     progress: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
-    """Run the benchmark; returns a JSON-serialisable dict (``meta``, ``loop``, ``batch``, ``derived``)."""
+    """Run the benchmark; returns a JSON-serialisable dict (``meta``, ``loop``, ``batch``, ``derived``).
+
+    The in-process loop is timed right before each 1-worker batch (same
+    repeat, same machine state), so the overhead is the median of paired
+    differences and slow drifts of a shared machine cancel.
+    """
     import dask
 
     from .speed import machine_metadata
@@ -98,51 +103,59 @@ def run_bench_batch(
     paths = simulate_sessions(data, n_sessions, say)
     meta = machine_metadata()
     meta.update(n_sessions=n_sessions, method=method, options=options, repeats=repeats, dask=dask.__version__)
-    out: dict[str, Any] = {
-        "meta": meta,
-        "loop": _bench_loop(paths, method, options, repeats, say),
-        "batch": [_bench_workers(paths, w, method, options, repeats, say) for w in worker_counts],
-    }
-    out["derived"] = _derived(out["loop"], out["batch"])
+    loop: dict[str, list[float]] = {"wall_s": [], "cpu_s": []}
+    batch = []
+    for w in worker_counts:
+        # the loop is timed once per repeat, beside the 1-worker batch (or the first worker count without one)
+        with_loop = w == 1 or (1 not in worker_counts and w == worker_counts[0])
+        batch.append(_bench_workers(paths, w, method, options, repeats, say, loop if with_loop else None))
+    out: dict[str, Any] = {"meta": meta, "loop": _loop_entry(loop, n_sessions), "batch": batch}
+    out["derived"] = _derived(out["loop"], out["batch"], n_sessions)
     tmp.cleanup()
     return json.loads(json.dumps(out, default=float))
 
 
-def _bench_loop(
-    paths: list[Path], method: str, options: dict[str, Any], repeats: int, say: Callable[[str], None]
-) -> dict[str, Any]:
-    """Time the in-process loop over ``paths`` on one thread, ``repeats`` times; the ``loop`` entry of the result."""
+def _time_loop(paths: list[Path], method: str, options: dict[str, Any]) -> tuple[float, float]:
+    """Wall and CPU seconds of the in-process loop over ``paths`` on one thread (numba, OpenMP, BLAS), like a worker."""
     import numba
     from threadpoolctl import threadpool_limits
 
-    n_sessions = len(paths)
     threads = numba.get_num_threads()
     numba.set_num_threads(1)  # like each worker process (NUMBA_NUM_THREADS=1, OMP/BLAS 1 thread)
     try:
         with threadpool_limits(1):
             _warm(method, options)
-            loop_s, loop_cpu = [], []
-            for r in range(repeats):
-                say(f"in-process loop over {n_sessions} sessions ({r + 1}/{repeats})")
-                c0 = time.process_time()
-                loop_s.append(_loop(paths, method, options))
-                loop_cpu.append(time.process_time() - c0)
-                say(f"  loop: {loop_s[-1]:.1f} s wall, {loop_cpu[-1]:.1f} CPU s")
+            c0 = time.process_time()
+            wall = _loop(paths, method, options)
+            return wall, time.process_time() - c0
     finally:
         numba.set_num_threads(threads)
-    loop_wall = statistics.median(loop_s)
+
+
+def _loop_entry(loop: dict[str, list[float]], n_sessions: int) -> dict[str, Any]:
+    """The ``loop`` entry of the result from its timed runs."""
+    loop_wall = statistics.median(loop["wall_s"])
     return {
-        "wall_s": loop_s,
+        "wall_s": loop["wall_s"],
         "per_session_ms": 1000 * loop_wall / n_sessions,
         "sessions_per_s": n_sessions / loop_wall,
-        "cpu_per_session_ms": 1000 * statistics.median(loop_cpu) / n_sessions,
+        "cpu_per_session_ms": 1000 * statistics.median(loop["cpu_s"]) / n_sessions,
     }
 
 
 def _bench_workers(
-    paths: list[Path], w: int, method: str, options: dict[str, Any], repeats: int, say: Callable[[str], None]
+    paths: list[Path],
+    w: int,
+    method: str,
+    options: dict[str, Any],
+    repeats: int,
+    say: Callable[[str], None],
+    loop: dict[str, list[float]] | None = None,
 ) -> dict[str, Any]:
-    """Time :func:`monovisual3d.batch.run` on a local cluster of ``w`` workers; one row of the ``batch`` entry."""
+    """Time :func:`monovisual3d.batch.run` on a local cluster of ``w`` workers; one row of the ``batch`` entry.
+
+    With ``loop``, the in-process loop is timed before each repeat and appended to it.
+    """
     from ..batch import run
     from ..batch.run import dask_client
 
@@ -153,6 +166,12 @@ def _bench_workers(
         startup = time.perf_counter() - t0
         walls, cpus = [], []
         for r in range(repeats):
+            if loop is not None:
+                say(f"in-process loop over {n_sessions} sessions ({r + 1}/{repeats})")
+                wall, cpu = _time_loop(paths, method, options)
+                loop["wall_s"].append(wall)
+                loop["cpu_s"].append(cpu)
+                say(f"  loop: {wall:.1f} s wall, {cpu:.1f} CPU s")
             say(f"batch of {n_sessions} sessions on {w} worker(s) ({r + 1}/{repeats})")
             with tempfile.TemporaryDirectory(prefix="mv3d-bench-batch-out-") as out_dir:
                 t1, c1 = time.perf_counter(), _cpu_s()
@@ -177,16 +196,20 @@ def _bench_workers(
     }
 
 
-def _derived(loop: dict[str, Any], batch: list[dict[str, Any]]) -> dict[str, Any]:
-    """Dask overhead per session (1 worker minus loop) and speed-up of each worker count over 1 worker."""
+def _derived(loop: dict[str, Any], batch: list[dict[str, Any]], n_sessions: int) -> dict[str, Any]:
+    """Dask overhead per session (1 worker minus loop, median of the paired repeats) and the speed-up of each
+    worker count over 1 worker."""
     rows = {r["workers"]: r for r in batch}
     derived: dict[str, Any] = {}
     if 1 in rows:
-        derived["overhead_per_session_ms"] = rows[1]["per_session_ms"] - loop["per_session_ms"]
-        derived["cpu_overhead_per_session_ms"] = rows[1]["cpu_per_session_ms"] - loop["cpu_per_session_ms"]
+        one = rows[1]
+        paired = [1000 * (b - a) / n_sessions for a, b in zip(loop["wall_s"], one["wall_s"])]
+        derived["overhead_per_session_ms"] = statistics.median(paired)
+        derived["overhead_per_session_ms_runs"] = paired
+        derived["cpu_overhead_per_session_ms"] = one["cpu_per_session_ms"] - loop["cpu_per_session_ms"]
         for w, r in rows.items():
             if w != 1:
-                derived[f"speedup_{w}w_over_1w"] = r["sessions_per_s"] / rows[1]["sessions_per_s"]
+                derived[f"speedup_{w}w_over_1w"] = r["sessions_per_s"] / one["sessions_per_s"]
     return derived
 
 
@@ -206,5 +229,8 @@ def format_rows(result: dict[str, Any]) -> list[str]:
             f"(cluster start-up + warm-up {r['startup_s']:.1f} s, not counted)"
         )
     for k, v in result["derived"].items():
-        lines.append(f"{k}: {v:.2f}")
+        if isinstance(v, list):
+            lines.append(f"{k}: {', '.join(f'{x:.2f}' for x in v)}")
+        else:
+            lines.append(f"{k}: {v:.2f}")
     return lines

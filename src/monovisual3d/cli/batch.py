@@ -56,6 +56,9 @@ def batch(
     max_worker_deaths: Annotated[
         int, typer.Option(min=1, help="Worker deaths a session may cause before it counts as failed (local cluster).")
     ] = 3,
+    chunk_size: Annotated[
+        int | None, typer.Option(min=1, help="Sessions per Dask task (default: up to 16, at least 4 tasks per worker).")
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Localise many sessions in parallel; write one table of fruit and one of sessions.
@@ -69,7 +72,7 @@ def batch(
         raise InputError("--workers, --scheduler: give one of them (--scheduler uses the cluster's workers)")
     options = parse_options(option)
     kwargs = dict(method=method, workers=workers, scheduler=scheduler, resume=resume,
-                  part_size=part_size, max_worker_deaths=max_worker_deaths)  # fmt: skip
+                  part_size=part_size, max_worker_deaths=max_worker_deaths, chunk_size=chunk_size)  # fmt: skip
     if quiet:
         tables = run(inputs, output, **kwargs, **options)
     else:
