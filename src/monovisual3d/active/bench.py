@@ -6,7 +6,7 @@ candidates (``n_candidates`` on the default :class:`~monovisual3d.active.candida
 around the scene's target), ``max_views`` views. After every view the ``bayes`` estimate is
 scored against the truth: errors of the Hungarian-matched pairs pooled over seeds (mean, mm),
 recall (an estimate within the fruit's radius, >= 20 mm, as in ``bench accuracy``) and the mean
-largest semi-axis of the 95 % ellipsoids (mm, from the method's covariance).
+median largest semi-axis of the 95 % ellipsoids (mm, from the method's covariance).
 
 Conditions: ``greenhouse-noise`` (six-fruit tomato trusses with leaf occlusion and the paper's
 box noise, as ``bench accuracy``'s ``greenhouse-noise``: the target's scene), ``greenhouse`` (the
@@ -30,7 +30,6 @@ from typing import Any
 
 import numpy as np
 
-from ..camera import Camera
 from ..errors import InputError
 from ..sim.noise import NoiseModel
 from ..sim.scene import Scene
@@ -93,10 +92,19 @@ def run_active_bench(
     strategies: tuple[str, ...] = STRATEGIES,
     timing_repeats: int = 7,
     progress: Callable[[str], None] | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
 ) -> dict[str, Any]:
-    """Run the benchmark; returns a JSON-ready dict (see :func:`format_markdown`)."""
+    """Run the benchmark; returns a JSON-ready dict (see :func:`format_markdown`).
+
+    With ``workers`` (local processes) or ``scheduler`` (a running Dask cluster) the runs are
+    spread over Dask, one task per condition, seed and strategy; the planning-time row is
+    always timed here, in this process.
+    """
+    from ..batch.spread import check_spread, spread_map
     from ..bench.speed import machine_metadata
 
+    check_spread(workers, scheduler)
     known = active_conditions()
     for c in conditions:
         if c not in known:
@@ -106,11 +114,21 @@ def run_active_bench(
             raise InputError(f"strategies: got {s!r}, expected some of {', '.join(STRATEGIES)}")
     if max_views < 1 or n_candidates < max_views:
         raise InputError(f"max_views/n_candidates: got {max_views}/{n_candidates}, expected 1 <= views <= candidates")
-    camera = default_camera()
+    items = [(c, seed, s, max_views, n_candidates) for c in conditions for seed in seeds for s in strategies]
+
+    def tick(i: int, _: Any) -> None:
+        if progress is not None:
+            progress(f"{items[i][0]} seed {items[i][1]} {items[i][2]}")
+
+    played = spread_map(play_seed, items, workers=workers, scheduler=scheduler, progress=tick)
+    by_key = {(c, seed, s): r for (c, seed, s, _, _), r in zip(items, played)}
     results = {
-        cname: _run_condition(cname, known[cname], camera, seeds, max_views, n_candidates, strategies, progress)
-        for cname in conditions
-    }
+        c: _run_condition(
+            c, known[c], seeds, max_views, n_candidates, strategies,
+            {(seed, s): by_key[(c, seed, s)] for seed in seeds for s in strategies},
+        )
+        for c in conditions
+    }  # fmt: skip
     timing = time_planning(repeats=timing_repeats)
     return {
         "benchmark": "active",
@@ -126,35 +144,30 @@ def run_active_bench(
 def _run_condition(
     cname: str,
     cond: ActiveCondition,
-    camera: Camera,
     seeds: tuple[int, ...],
     max_views: int,
     n_candidates: int,
     strategies: tuple[str, ...],
-    progress: Callable[[str], None] | None,
+    played: dict[tuple[int, str], dict[str, Any]],
 ) -> dict[str, Any]:
-    """One condition of :func:`run_active_bench`: every strategy on every seed, pooled per number of views."""
-    cfg = PlannerConfig(box_noise=cond.box_noise)
+    """One condition of :func:`run_active_bench`: every strategy on every seed (``played``), pooled per number of views."""
     acc = {s: [{"errors": [], "tp": 0, "n_truth": 0, "n_est": 0, "ell": []} for _ in range(max_views)] for s in strategies}
     stops: list[dict[str, Any]] = []
     plan_s: list[float] = []
     runs: dict[str, list[list[int]]] = {s: [] for s in strategies}
     for seed in seeds:
-        scene = cond.scene(seed)
-        target = scene_target(scene)
-        cands = cap_poses(CapSpec(n=n_candidates), target)
         for s in strategies:
-            run = run_loop(
-                scene, camera, cands, max_views, strategy=s, target=target, noise=cond.noise, rng=seed,
-                choice_rng=10_000 + seed, planner=cfg,
-            )  # fmt: skip
-            runs[s].append(run.chosen)
-            _accumulate(acc[s], run, scene)
+            run = played[(seed, s)]
+            runs[s].append(run["chosen"])
+            for a, e in zip(acc[s], run["steps"]):
+                a["errors"] += e["errors"]
+                a["tp"] += e["true_positives"]
+                a["n_truth"] += e["n_truth"]
+                a["n_est"] += e["n_estimates"]
+                a["ell"] += e["ellipsoid_mm"]
             if s == "nbv":
-                plan_s += [st.plan_s for st in run.steps if st.plan is not None]
-                stops.append(_stopping(run, scene, seed))
-            if progress is not None:
-                progress(f"{cname} seed {seed} {s}")
+                plan_s += run["plan_s"]
+                stops.append(run["stopping"])
     return {
         "description": cond.description,
         "box_noise_stated": cond.box_noise,
@@ -166,16 +179,22 @@ def _run_condition(
     }
 
 
-def _accumulate(acc: list[dict[str, Any]], run: LoopRun, scene: Scene) -> None:
-    """Add each step's errors, counts and ellipsoids to ``acc[k]`` (k: the view's index)."""
-    for k, step in enumerate(run.steps):
-        e = evaluate_step(step.objects, scene)
-        a = acc[k]
-        a["errors"] += e["errors"]
-        a["tp"] += e["true_positives"]
-        a["n_truth"] += e["n_truth"]
-        a["n_est"] += e["n_estimates"]
-        a["ell"] += e["ellipsoid_mm"]
+def play_seed(cname: str, seed: int, strategy: str, max_views: int, n_candidates: int) -> dict[str, Any]:
+    """One strategy on one seed of a condition: the candidates chosen, each step's evaluation, planning times, stop."""
+    cond = active_conditions()[cname]
+    scene = cond.scene(seed)
+    target = scene_target(scene)
+    cands = cap_poses(CapSpec(n=n_candidates), target)
+    run = run_loop(
+        scene, default_camera(), cands, max_views, strategy=strategy, target=target, noise=cond.noise, rng=seed,
+        choice_rng=10_000 + seed, planner=PlannerConfig(box_noise=cond.box_noise),
+    )  # fmt: skip
+    return {
+        "chosen": run.chosen,
+        "steps": [evaluate_step(step.objects, scene) for step in run.steps],
+        "plan_s": [st.plan_s for st in run.steps if st.plan is not None],
+        "stopping": _stopping(run, scene, seed) if strategy == "nbv" else None,
+    }
 
 
 def _stopping(run: LoopRun, scene: Scene, seed: int) -> dict[str, Any]:
@@ -187,6 +206,23 @@ def _stopping(run: LoopRun, scene: Scene, seed: int) -> dict[str, Any]:
     return {"seed": seed, "done_at_views": done_at, "max_error_mm_at_stop": within if math.isfinite(within) else None}
 
 
+def seed_text(seeds: list[int]) -> str:
+    """Seeds as runs of consecutive numbers: ``0..9, 100..109``.
+
+    Examples
+    --------
+    >>> seed_text([0, 1, 2, 5, 7, 8])
+    '0..2, 5, 7..8'
+    """
+    runs: list[list[int]] = []
+    for s in seeds:
+        if runs and s == runs[-1][-1] + 1:
+            runs[-1].append(s)
+        else:
+            runs.append([s])
+    return ", ".join(f"{r[0]}..{r[-1]}" if len(r) > 1 else str(r[0]) for r in runs)
+
+
 def _table(acc: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Rows per number of views: mean error (mm), recall, precision, mean ellipsoid semi-axis (mm)."""
     return [
@@ -195,7 +231,8 @@ def _table(acc: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "mean_mm": float(np.mean(a["errors"]) * 1e3) if a["errors"] else None,
             "recall": a["tp"] / a["n_truth"] if a["n_truth"] else None,
             "precision": a["tp"] / a["n_est"] if a["n_est"] else None,
-            "ellipsoid95_mm": float(np.mean(a["ell"])) if a["ell"] else None,
+            # median: two nearly parallel views give a nearly singular covariance, whose axis would dominate a mean
+            "ellipsoid95_mm": float(np.median(a["ell"])) if a["ell"] else None,
         }
         for k, a in enumerate(acc)
     ]
@@ -218,7 +255,7 @@ def merge_results(parts: list[dict[str, Any]]) -> dict[str, Any]:
         for name, r in p["results"].items():
             key = name
             if name in results and results[name]["seeds"] != r["seeds"]:
-                key = f"{name}@{r['seeds'][0]}..{r['seeds'][-1]}"
+                key = f"{name}@{seed_text(r['seeds'])}"
             results.setdefault(key, r)
     last = parts[-1]
     return {**last, "results": results, "targets": check_targets(results, last["timing"])}
@@ -318,7 +355,7 @@ def format_markdown(res: dict[str, Any], command: str | None = None) -> str:
         lines += ["", f"`{command}`"]
     V = res["max_views"]
     for cname, r in res["results"].items():
-        lines += ["", f"**{cname}**: {r['description']}; seeds {r['seeds'][0]}..{r['seeds'][-1]}", ""]
+        lines += ["", f"**{cname}**: {r['description']}; seeds {seed_text(r['seeds'])}", ""]
         lines.append("| strategy | " + " | ".join(f"{k} views" for k in range(1, V + 1)) + " |")
         lines.append("|---|" + "---:|" * V)
         for s, rows in r["table"].items():
@@ -329,7 +366,7 @@ def format_markdown(res: dict[str, Any], command: str | None = None) -> str:
                 else:
                     cells.append(f"{row['mean_mm']:.2f} ({row['recall']:.2f})")
             lines.append(f"| {s} | " + " | ".join(cells) + " |")
-        lines += ["", "95 % ellipsoid, mean largest semi-axis (mm):", ""]
+        lines += ["", "95 % ellipsoid, median largest semi-axis (mm):", ""]
         lines.append("| strategy | " + " | ".join(f"{k}" for k in range(1, V + 1)) + " |")
         lines.append("|---|" + "---:|" * V)
         for s, rows in r["table"].items():

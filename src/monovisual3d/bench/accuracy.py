@@ -202,6 +202,11 @@ class Pool:
     true_positives: int = 0
     bound_sq: list[float] = field(default_factory=list)
 
+    def add(self, values: dict[str, Any]) -> None:
+        """Add one seed's values (a dict of :func:`measure_seed`): lists are extended, counts summed."""
+        for key, value in values.items():
+            setattr(self, key, getattr(self, key) + value)
+
     def summary(self) -> dict[str, Any]:
         e = np.asarray(self.errors) * 1e3
         out: dict[str, Any] = {
@@ -309,51 +314,92 @@ def run_accuracy(
     methods: tuple[str, ...] = ("bayes", "bayes+masks", "paper"),
     only: tuple[str, ...] | None = None,
     progress: Callable[[str], None] | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
 ) -> dict[str, Any]:
-    """Run every condition (or those named in ``only``) with every method; returns a JSON-ready dict."""
+    """Run every condition (or those named in ``only``) with every method; returns a JSON-ready dict.
+
+    With ``workers`` (local processes) or ``scheduler`` (a running Dask cluster) the seeds are
+    spread over Dask (:func:`monovisual3d.batch.spread.spread_map`); the errors are the same,
+    the runtimes are then those of single-threaded workers.
+    """
+    from ..batch.spread import check_spread, spread_map
+
     unknown = sorted(set(methods) - set(METHOD_OPTIONS))
     if unknown:
         raise InputError(f"methods: unknown {unknown[0]!r}, expected some of {sorted(METHOD_OPTIONS)}")
+    check_spread(workers, scheduler)
     conds = [c for c in conditions(quick) if only is None or c.name in only]
     if only is not None and len(conds) != len(set(only)):
         raise InputError(f"only: expected condition names from {[c.name for c in conditions(quick)]}, got {list(only)}")
+    items = [(c.name, quick, seed, methods) for c in conds for seed in c.seeds]
+
+    def tick(i: int, _: Any) -> None:
+        if progress is not None:
+            progress(f"{items[i][0]} seed {items[i][2]}")
+
+    measured = spread_map(measure_seed, items, workers=workers, scheduler=scheduler, progress=tick)
     results: dict[str, dict[str, Any]] = {}
-    # warm-up (untimed): load numba's cached kernels once, as a long-running robot process would
-    warm, _ = simulated_session(random_scene(2, rng=0), NoiseModel(), 0, masks=False)
-    for m in methods:
-        localize(warm, **METHOD_OPTIONS[m])
     for cond in conds:
         pools = {m: Pool() for m in methods if m != "bayes+masks" or cond.masks}
-        for seed in cond.seeds:
-            scene = cond.scene(seed)
-            session, svs = simulated_session(scene, cond.noise, seed, masks=cond.masks)
-            for m, pool in pools.items():
-                opts = cond.method_options(m)
-                t0 = time.perf_counter()
-                res = localize(session, **opts)
-                pool.runtimes.append(time.perf_counter() - t0)
-                est = res.positions
-                est_r = np.array([o.radius if o.radius is not None else np.nan for o in res.objects])
-                met = evaluate(est, scene.centres, truth_radii=scene.radii, estimate_radii=est_r)
-                ei, ti = match(est, scene.centres)
-                pool.errors += np.linalg.norm(est[ei] - scene.centres[ti], axis=1).tolist()
-                ok = np.isfinite(est_r[ei]) if len(ei) else np.zeros(0, bool)
-                pool.radius_errors += np.abs(est_r[ei][ok] - scene.radii[ti][ok]).tolist()
-                pool.semi_axis_errors += _semi_axis_errors(res.objects, scene, ei, ti)
-                pool.n_truth += met.n_truth
-                pool.n_estimates += met.n_estimates
-                pool.true_positives += met.true_positives
-                if m == "bayes" and cond.crlb:
-                    pool.bound_sq += crlb_rms_sq(scene, svs, cond.noise.box_sigma)
-            if progress is not None:
-                progress(f"{cond.name} seed {seed}")
+        for item, per_method in zip(items, measured):
+            if item[0] == cond.name:
+                for m, values in per_method.items():
+                    pools[m].add(values)
         results[cond.name] = {
             "description": cond.description,
             "seeds": list(cond.seeds),
             "options": cond.options,
             "methods": {m: p.summary() for m, p in pools.items()},
         }
-    return {"benchmark": "accuracy", "quick": quick, "machine": machine_metadata(), "results": results, "targets": TARGETS}
+    spread = None if not workers and scheduler is None else {"workers": workers, "scheduler": scheduler}
+    return {
+        "benchmark": "accuracy", "quick": quick, "machine": machine_metadata(), "spread": spread, "results": results,
+        "targets": TARGETS,
+    }  # fmt: skip
+
+
+#: Methods whose kernels this process has loaded (the untimed warm-up of :func:`measure_seed`).
+_WARM: set[str] = set()
+
+
+def measure_seed(name: str, quick: bool, seed: int, methods: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """One seed of one condition with every method: per method, the values a :class:`Pool` adds up.
+
+    The first call in a process first localises a small scene with each method, untimed, so that
+    numba's cached kernels are loaded, as in a long-running robot process.
+    """
+    cond = next(c for c in conditions(quick) if c.name == name)
+    if not _WARM.issuperset(methods):
+        warm, _ = simulated_session(random_scene(2, rng=0), NoiseModel(), 0, masks=False)
+        for m in methods:
+            localize(warm, **METHOD_OPTIONS[m])
+        _WARM.update(methods)
+    scene = cond.scene(seed)
+    session, svs = simulated_session(scene, cond.noise, seed, masks=cond.masks)
+    out: dict[str, dict[str, Any]] = {}
+    for m in methods:
+        if m == "bayes+masks" and not cond.masks:
+            continue
+        t0 = time.perf_counter()
+        res = localize(session, **cond.method_options(m))
+        runtime = time.perf_counter() - t0
+        est = res.positions
+        est_r = np.array([o.radius if o.radius is not None else np.nan for o in res.objects])
+        met = evaluate(est, scene.centres, truth_radii=scene.radii, estimate_radii=est_r)
+        ei, ti = match(est, scene.centres)
+        ok = np.isfinite(est_r[ei]) if len(ei) else np.zeros(0, bool)
+        out[m] = {
+            "errors": np.linalg.norm(est[ei] - scene.centres[ti], axis=1).tolist(),
+            "radius_errors": np.abs(est_r[ei][ok] - scene.radii[ti][ok]).tolist(),
+            "semi_axis_errors": _semi_axis_errors(res.objects, scene, ei, ti),
+            "runtimes": [runtime],
+            "n_truth": met.n_truth,
+            "n_estimates": met.n_estimates,
+            "true_positives": met.true_positives,
+            "bound_sq": crlb_rms_sq(scene, svs, cond.noise.box_sigma) if m == "bayes" and cond.crlb else [],
+        }
+    return out
 
 
 def check_targets(results: dict[str, Any]) -> list[tuple[str, str, float, str, float, bool]]:
@@ -378,7 +424,8 @@ def format_markdown(results: dict[str, Any]) -> str:
     lines = [
         f"Machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}, numba {m.get('numba')}; "
         f"{m['date_utc'][:10]}, load average {m.get('load_average_1m', float('nan')):.1f}"
-        + (" (quick mode)" if results["quick"] else ""),
+        + (" (quick mode)" if results["quick"] else "")
+        + ("; seeds spread over Dask, runtimes of single-threaded workers" if results.get("spread") else ""),
         "",
         "| condition | method | runs | mean mm | median mm | max mm | recall | precision | radius err mm | semi-axis err mm | runtime s |",
         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",

@@ -9,6 +9,7 @@ import typer
 
 from ._app import console, handle_errors
 from .bench import bench_app
+from .options import SpreadScheduler, SpreadWorkers
 
 
 @bench_app.command("accuracy")
@@ -24,6 +25,8 @@ def accuracy(
     output: Annotated[
         Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
     ] = None,
+    workers: SpreadWorkers = None,
+    scheduler: SpreadScheduler = None,
 ) -> None:
     """Fixed-seed simulated scenes: error, recall, precision, radius error and runtime per method."""
     from rich.progress import Progress
@@ -37,6 +40,8 @@ def accuracy(
             methods=tuple(m.strip() for m in methods.split(",")),
             only=tuple(c.strip() for c in only.split(",")) if only else None,
             progress=lambda msg: bar.update(task, description=msg),
+            workers=workers,
+            scheduler=scheduler,
         )
     # plain Markdown, so the table can be pasted as it is (the README's table comes from here)
     print(format_markdown(results))

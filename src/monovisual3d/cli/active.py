@@ -13,6 +13,7 @@ import typer
 from ..errors import InputError
 from ._app import app, console, handle_errors
 from .bench import bench_app
+from .options import SpreadScheduler, SpreadWorkers
 
 #: plan_session's parameters named in its errors, and the flags they come from.
 _FLAGS = {"count": "--count", "reach_m": "--reach", "base": "--base", "target": "--target"}
@@ -97,6 +98,8 @@ def bench_active(
         str | None,
         typer.Option(help="Run nothing: join these results files (comma separated, from --output) into one report and plot."),
     ] = None,
+    workers: SpreadWorkers = None,
+    scheduler: SpreadScheduler = None,
 ) -> None:
     """Next-best-view against fixed, random and view-sphere viewpoints: error, recall, 95 % ellipsoid vs. views."""
     from rich.progress import Progress
@@ -123,7 +126,10 @@ def bench_active(
                 if not console.is_terminal:
                     console.print(f"done {msg}", highlight=False)
 
-            res = run_active_bench(conditions=conds, seeds=seed_t, max_views=views, n_candidates=candidates, progress=progress)
+            res = run_active_bench(
+                conditions=conds, seeds=seed_t, max_views=views, n_candidates=candidates, progress=progress,
+                workers=workers, scheduler=scheduler,
+            )  # fmt: skip
     command = "monovisual3d bench active " + " ".join(shlex.quote(a) for a in sys.argv[3:]) if len(sys.argv) > 3 else None
     text = format_markdown(res, command)
     print(text)

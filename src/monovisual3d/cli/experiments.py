@@ -10,6 +10,7 @@ from rich.markup import escape
 
 from ..methods import DEFAULT_METHOD, METHODS
 from ._app import app, console, handle_errors
+from .options import SpreadScheduler, SpreadWorkers
 
 
 @app.command()
@@ -83,6 +84,8 @@ def reproduce(
     ),
     quick: Annotated[bool, typer.Option("--quick", help="Reduced run (coarse grid, 1 seed, subset) for testing.")] = False,
     seeds: Annotated[int | None, typer.Option(help="Noise seeds of the noisy experiment (default 5; 1 with --quick).")] = None,
+    workers: SpreadWorkers = None,
+    scheduler: SpreadScheduler = None,
 ) -> None:
     """Re-run the paper's simulation experiments and write a Markdown report with figures.
 
@@ -113,7 +116,7 @@ def reproduce(
         def progress(done: int, total: int, what: str) -> None:
             bar.update(task, completed=done, total=total, description=what)
 
-        result = reproduce_fn(output, config, progress=progress)
+        result = reproduce_fn(output, config, progress=progress, workers=workers, scheduler=scheduler)
     console.print(f"reproduction finished in {result.seconds:.0f} s; report: {result.report}", highlight=False)
     for note in result.notes:
         console.print(f"[yellow]note:[/] {note}", highlight=False)

@@ -163,3 +163,18 @@ def translate_error(exc: InputError, source: object | None = None) -> InputError
     if source is not None and not text.startswith(f"{source}:"):
         text = f"{source}: {text}"
     return InputError(text)
+
+
+#: ``--workers`` of the commands that spread seeds over Dask (``bench accuracy``, ``bench active``, ``reproduce``).
+SpreadWorkers = Annotated[
+    int | None,
+    typer.Option(
+        "--workers",
+        min=0,
+        help="Spread the seeds over a local Dask cluster of this many processes (needs the dask extra; default: here).",
+    ),
+]
+#: ``--scheduler`` of the same commands.
+SpreadScheduler = Annotated[
+    str | None, typer.Option("--scheduler", help="Spread the seeds over a running Dask cluster, e.g. tcp://host:8786.")
+]

@@ -15,6 +15,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -157,62 +158,85 @@ class _Progress:
             self.progress(self.done, self.total, what)
 
 
-def _paper_scene_runs(cfg: ReproduceConfig, plan: _Plan, tick: _Progress) -> tuple[list[RunRecord], Snapshots]:
-    """Experiments 1-3 (and 5): every noise draw, ordering and kernel on the paper scene."""
+def _paper_experiment(cfg: ReproduceConfig, index: int) -> tuple[list[RunRecord], Snapshots, list[str]]:
+    """One experiment of the paper scene (noise-free, or one noisy seed): every ordering and kernel.
+
+    Returns the records, the posterior snapshots (noise-free experiment, first ordering) and
+    the steps done (one per ordering and kernel, for the progress bar).
+    """
+    plan = _Plan.from_config(cfg)
     records: list[RunRecord] = []
     snapshots: Snapshots = {}
+    steps: list[str] = []
     scene, camera = plan.scene, plan.camera
-    for experiment, seed, nm, sigma_fraction in plan.experiments:
-        session, _ = simulate(scene, camera, plan.poses, noise=nm, rng=seed)
-        for order in plan.orderings:
-            s = reorder_session(session, order)
-            for kernel in KERNELS:
-                keep_history = experiment == NOISE_FREE and order == plan.orderings[0]
-                filt, skipped, secs = _run_paper(s, camera, kernel, sigma_fraction, cfg, keep_history)
-                if keep_history and filt.grid is not None and filt.history:
-                    snapshots[kernel] = (filt.grid, list(filt.history))
-                for thr in plan.thresholds:
-                    centres = CENTRES if math.isclose(thr, cfg.keep_threshold) else ("weighted",)
-                    mass, n_cells = _off_fruit(filt, thr, scene)
-                    for centre in centres:
-                        objs = filt.estimate(centre=centre, keep_threshold=thr)
-                        records.append(
-                            record_run(
-                                experiment, "paper", kernel, centre, thr, order, seed, scene, objs,
-                                off_fruit_mass=mass, n_clustered=n_cells, skipped_views=skipped, seconds=secs,
-                            )
-                        )  # fmt: skip
-                tick(f"{experiment} {kernel} {''.join(map(str, order))}" + (f" seed {seed}" if seed is not None else ""))
-            if cfg.bayes:
-                objs, secs = _run_bayes(s)
-                records.append(record_run(experiment, "bayes", "-", "-", math.nan, order, seed, scene, objs, seconds=secs))
-                tick(f"{experiment} bayes {''.join(map(str, order))}")
-    return records, snapshots
+    experiment, seed, nm, sigma_fraction = plan.experiments[index]
+    session, _ = simulate(scene, camera, plan.poses, noise=nm, rng=seed)
+    for order in plan.orderings:
+        s = reorder_session(session, order)
+        for kernel in KERNELS:
+            keep_history = experiment == NOISE_FREE and order == plan.orderings[0]
+            filt, skipped, secs = _run_paper(s, camera, kernel, sigma_fraction, cfg, keep_history)
+            if keep_history and filt.grid is not None and filt.history:
+                snapshots[kernel] = (filt.grid, list(filt.history))
+            for thr in plan.thresholds:
+                centres = CENTRES if math.isclose(thr, cfg.keep_threshold) else ("weighted",)
+                mass, n_cells = _off_fruit(filt, thr, scene)
+                for centre in centres:
+                    objs = filt.estimate(centre=centre, keep_threshold=thr)
+                    records.append(
+                        record_run(
+                            experiment, "paper", kernel, centre, thr, order, seed, scene, objs,
+                            off_fruit_mass=mass, n_clustered=n_cells, skipped_views=skipped, seconds=secs,
+                        )
+                    )  # fmt: skip
+            steps.append(f"{experiment} {kernel} {''.join(map(str, order))}" + (f" seed {seed}" if seed is not None else ""))
+        if cfg.bayes:
+            objs, secs = _run_bayes(s)
+            records.append(record_run(experiment, "bayes", "-", "-", math.nan, order, seed, scene, objs, seconds=secs))
+            steps.append(f"{experiment} bayes {''.join(map(str, order))}")
+    return records, snapshots, steps
 
 
-def _ghost_runs(cfg: ReproduceConfig, camera: Camera, tick: _Progress) -> list[RunRecord]:
-    """Experiment 4: random noise-free scenes with more and more fruit, both kernels (weighted centre) and bayes."""
+def _ghost_scene(cfg: ReproduceConfig, n: int, i: int) -> tuple[list[RunRecord], Snapshots, list[str]]:
+    """Experiment 4, one random noise-free scene of ``n`` fruit: both kernels (weighted centre) and bayes."""
+    camera = default_camera()
     records: list[RunRecord] = []
-    for n in cfg.ghost_counts:
-        for i in range(cfg.ghost_scenes):
-            scene_seed = cfg.ghost_seed + 100 * n + i
-            sc = random_scene(n, rng=scene_seed)
-            session, _ = simulate(sc, camera, paper_poses(scene_target(sc)))
-            for kernel in KERNELS:
-                filt, skipped, secs = _run_paper(session, camera, kernel, cfg.sigma_fraction_noise_free, cfg, False)
-                mass, n_cells = _off_fruit(filt, cfg.keep_threshold, sc)
-                objs = filt.estimate(centre="weighted")
-                records.append(
-                    record_run(
-                        "ghost", "paper", kernel, "weighted", cfg.keep_threshold, (0, 1, 2), scene_seed, sc, objs,
-                        off_fruit_mass=mass, n_clustered=n_cells, skipped_views=skipped, seconds=secs,
-                    )
-                )  # fmt: skip
-            if cfg.bayes:
-                objs, secs = _run_bayes(session)
-                records.append(record_run("ghost", "bayes", "-", "-", math.nan, (0, 1, 2), scene_seed, sc, objs, seconds=secs))
-            tick(f"ghost study: {n} fruit, scene {i + 1}/{cfg.ghost_scenes}")
-    return records
+    scene_seed = cfg.ghost_seed + 100 * n + i
+    sc = random_scene(n, rng=scene_seed)
+    session, _ = simulate(sc, camera, paper_poses(scene_target(sc)))
+    for kernel in KERNELS:
+        filt, skipped, secs = _run_paper(session, camera, kernel, cfg.sigma_fraction_noise_free, cfg, False)
+        mass, n_cells = _off_fruit(filt, cfg.keep_threshold, sc)
+        objs = filt.estimate(centre="weighted")
+        records.append(
+            record_run(
+                "ghost", "paper", kernel, "weighted", cfg.keep_threshold, (0, 1, 2), scene_seed, sc, objs,
+                off_fruit_mass=mass, n_clustered=n_cells, skipped_views=skipped, seconds=secs,
+            )
+        )  # fmt: skip
+    if cfg.bayes:
+        objs, secs = _run_bayes(session)
+        records.append(record_run("ghost", "bayes", "-", "-", math.nan, (0, 1, 2), scene_seed, sc, objs, seconds=secs))
+    return records, {}, [f"ghost study: {n} fruit, scene {i + 1}/{cfg.ghost_scenes}"]
+
+
+def run_unit(cfg: ReproduceConfig, kind: str, *args: int) -> tuple[list[RunRecord], Snapshots, list[str]]:
+    """One independent unit of the reproduction (a Dask task with ``workers``/``scheduler``), on one thread.
+
+    ``kind`` ``"paper"`` with the experiment's index, or ``"ghost"`` with the fruit count and the scene's index.
+    """
+    from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
+
+    # k-means (scikit-learn, OpenMP) on a few thousand cells is 5-30x slower with a thread pool than with one
+    # thread when the machine is busy; every step here is small, so one thread is also the fastest when it is idle.
+    with threadpool_limits(limits=1):
+        return _paper_experiment(cfg, *args) if kind == "paper" else _ghost_scene(cfg, *args)
+
+
+def _units(cfg: ReproduceConfig, plan: _Plan) -> list[tuple[Any, ...]]:
+    """The reproduction's units in order: the paper-scene experiments, then the ghost-study scenes."""
+    paper = [(cfg, "paper", k) for k in range(len(plan.experiments))]
+    return paper + [(cfg, "ghost", n, i) for n in cfg.ghost_counts for i in range(cfg.ghost_scenes)]
 
 
 def reproduce(
@@ -220,6 +244,8 @@ def reproduce(
     config: ReproduceConfig | None = None,
     *,
     progress: ProgressFn | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
 ) -> ReproduceResult:
     """Run the experiments and write ``report.md``, ``results.json`` and the figures into ``output``.
 
@@ -228,6 +254,8 @@ def reproduce(
     output : directory (created if needed)
     config : ReproduceConfig, default settings when omitted (:meth:`ReproduceConfig.quick_config` for a fast run)
     progress : callable ``(done, total, description)``, called after each step
+    workers : int, spread the experiments and scenes over a local Dask cluster of this many processes
+    scheduler : str, spread them over a running Dask cluster (``tcp://host:8786``) instead
 
     Returns
     -------
@@ -240,16 +268,16 @@ def reproduce(
     >>> r.report.name  # doctest: +SKIP
     'report.md'
     """
-    cfg = config or ReproduceConfig()
-    from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
+    from ...batch.spread import check_spread
 
-    # k-means (scikit-learn, OpenMP) on a few thousand cells is 5-30x slower with a thread pool than with one
-    # thread when the machine is busy; every step here is small, so one thread is also the fastest when it is idle.
-    with threadpool_limits(limits=1):
-        return _reproduce(output, cfg, progress)
+    check_spread(workers, scheduler)
+    return _reproduce(output, config or ReproduceConfig(), progress, workers, scheduler)
 
 
-def _reproduce(output: str | Path, cfg: ReproduceConfig, progress: ProgressFn | None) -> ReproduceResult:
+def _reproduce(
+    output: str | Path, cfg: ReproduceConfig, progress: ProgressFn | None, workers: int | None, scheduler: str | None
+) -> ReproduceResult:
+    from ...batch.spread import spread_map
     from .figures import write_figures
     from .report import render_report
 
@@ -261,10 +289,20 @@ def _reproduce(output: str | Path, cfg: ReproduceConfig, progress: ProgressFn | 
     plan = _Plan.from_config(cfg)
     tick = _Progress(plan.total, progress)
     t_experiments = time.perf_counter()
-    records, snapshots = _paper_scene_runs(cfg, plan, tick)
-    t_ghost = time.perf_counter()
-    records += _ghost_runs(cfg, plan.camera, tick)
+    units = _units(cfg, plan)
+    n_paper = len(plan.experiments)
+    finished: dict[str, float] = {}
+
+    def done(i: int, result: tuple[list[RunRecord], Snapshots, list[str]]) -> None:
+        for what in result[2]:
+            tick(what)
+        finished["paper" if i < n_paper else "ghost"] = time.perf_counter()
+
+    outcomes = spread_map(run_unit, units, workers=workers, scheduler=scheduler, progress=done)
+    records = [r for recs, _, _ in outcomes for r in recs]
+    snapshots: Snapshots = {k: v for _, snaps, _ in outcomes for k, v in snaps.items()}
     t_figures = time.perf_counter()
+    t_ghost = finished.get("paper", t_experiments)  # in this process: when the last paper-scene experiment ended
     result = ReproduceResult(cfg, records, out / "report.md", {}, 0.0, [])
     if cfg.figures:
         try:
@@ -274,12 +312,11 @@ def _reproduce(output: str | Path, cfg: ReproduceConfig, progress: ProgressFn | 
         tick("figures")
     t_end = time.perf_counter()
     result.seconds = t_end - t_start
-    timing = {
-        "paper scene experiments": t_ghost - t_experiments,
-        "ghost study": t_figures - t_ghost,
-        "figures": t_end - t_figures,
-        "total": t_end - t_start,
-    }
+    timing = {"figures": t_end - t_figures, "total": t_end - t_start}
+    if workers or scheduler is not None:  # units overlap on a cluster: only their span is a wall-clock time
+        timing = {"experiments and ghost study (spread over Dask)": t_figures - t_experiments, **timing}
+    else:
+        timing = {"paper scene experiments": t_ghost - t_experiments, "ghost study": t_figures - t_ghost, **timing}
     results_path = out / "results.json"
     payload = {"config": asdict(cfg), "timing_s": timing, "records": [r.to_dict() for r in records]}
     results_path.write_text(json.dumps(payload, indent=1) + "\n")

@@ -7,6 +7,7 @@ All functions are pure: they read a :class:`~.problem.Problem` and an explicit
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -151,9 +152,37 @@ def refine_and_check(
     score of at least ``accept`` nats.
     """
     cfg = problem.config
-    assoc, centre, radius = list(assoc0), centre0, float(radius0)
+    fit = _refine_associating(problem, taken, centre0, float(radius0), list(assoc0))
+    if fit is not None and fit[1] < cfg.accept and sum(a >= 0 for a in fit[2]) > cfg.min_views:
+        # A box cut by an unseen occluder can pull the least-squares fit off the position where the robust
+        # score is best, and the object is then rejected although the other views agree. Refit without each
+        # view in turn (its box then scores at that fit, or counts as a miss) and keep the best fit.
+        refined, _, assoc = fit
+        for v in [v for v, a in enumerate(assoc) if a >= 0]:
+            without = [-1 if u == v else a for u, a in enumerate(assoc)]
+            alt = _refine_associating(problem, taken, refined.centre, float(refined.radius), without, rounds=1)
+            if alt is not None and alt[1] > fit[1]:
+                fit = alt
+    if fit is None:
+        return None
+    refined, score, assoc = fit
+    n_views = sum(a >= 0 for a in assoc)
+    if n_views < cfg.min_views or score < cfg.accept:
+        return None
+    return _object(problem, refined, score, assoc, n_views)
+
+
+def _refine_associating(
+    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, assoc: list[int], rounds: int = 3
+) -> tuple[Any, float, list[int]] | None:
+    """Refine on the associated boxes, rescore (re-associating the free boxes) and repeat up to ``rounds`` times.
+
+    Returns the refined sphere, its score and the association it was scored with (None: too few
+    views or an implausible radius).
+    """
+    cfg = problem.config
     refined, score = None, -np.inf
-    for _ in range(3):
+    for _ in range(rounds):
         obs = observations(problem, assoc, centre)
         if len(obs) < cfg.min_views:
             return None
@@ -165,10 +194,7 @@ def refine_and_check(
         if new_assoc == assoc:
             break
         assoc = new_assoc
-    n_views = sum(a >= 0 for a in assoc)
-    if refined is None or n_views < cfg.min_views or score < cfg.accept:
-        return None
-    return _object(problem, refined, score, assoc, n_views)
+    return (refined, score, assoc) if refined is not None else None
 
 
 def fit_fixed(problem: Problem, centre0: NDArray[np.float64], radius0: float, assoc: Sequence[int]) -> DetectedObject | None:
