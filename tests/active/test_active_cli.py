@@ -180,3 +180,22 @@ def test_bench_targets_use_the_better_baseline_per_budget(tmp_path: Path) -> Non
     assert "| nbv | 5.00 (0.95) | 5.00 (0.95) | 4.60 (0.95)" in text and "NO" in text
     plot(ok, str(tmp_path / "p.png"))
     assert (tmp_path / "p.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize(("text", "seeds"), [("0..2,7", (0, 1, 2, 7)), ("5", (5,)), ("0..1,100..101", (0, 1, 100, 101))])
+def test_bench_active_seeds_mix_ranges_and_integers(text: str, seeds: tuple[int, ...]) -> None:
+    from monovisual3d.cli.active import _parse_seeds
+
+    assert _parse_seeds(text) == seeds
+
+
+@pytest.mark.parametrize("text", ["3..1", "a", "1,,2", "0..x"])
+def test_bench_active_bad_seeds_exit_2(runner: CliRunner, text: str) -> None:
+    result = runner.invoke(app, ["bench", "active", "--seeds", text])
+    assert result.exit_code == 2 and f"--seeds: got {text!r}, expected A..B ranges or integers" in result.output
+
+
+def test_seed_text_joins_consecutive_seeds() -> None:
+    from monovisual3d.active.bench import seed_text
+
+    assert seed_text([0, 1, 2, 100, 101, 7]) == "0..2, 100..101, 7"

@@ -85,7 +85,9 @@ def next_view(
 @bench_app.command("active")
 @handle_errors
 def bench_active(
-    seeds: Annotated[str, typer.Option(help="Seeds: A..B (inclusive) or a comma-separated list.")] = "0..9",
+    seeds: Annotated[
+        str, typer.Option(help="Seeds: A..B ranges (inclusive) or integers, comma separated, e.g. 0..9,100..109.")
+    ] = "0..9",
     conditions: Annotated[str, typer.Option(help="Comma separated: greenhouse-noise, greenhouse, paper-noise.")] = (
         "greenhouse-noise,greenhouse,paper-noise"
     ),
@@ -144,16 +146,18 @@ def bench_active(
 
 
 def _parse_seeds(text: str) -> tuple[int, ...]:
+    """Seeds from ``A..B`` ranges (inclusive) and integers, comma separated: ``0..9,100..109``, ``1,5,7``."""
+    out: list[int] = []
     try:
-        if ".." in text:
-            a, b = text.split("..")
-            lo, hi = int(a), int(b)
-            if hi < lo:
-                raise ValueError
-            return tuple(range(lo, hi + 1))
-        out = tuple(int(x) for x in text.split(","))
-        if not out:
-            raise ValueError
-        return out
+        for part in text.split(","):
+            if ".." in part:
+                a, b = part.split("..")
+                lo, hi = int(a), int(b)
+                if hi < lo:
+                    raise ValueError
+                out += range(lo, hi + 1)
+            else:
+                out.append(int(part))
     except ValueError:
-        raise InputError(f"--seeds: got {text!r}, expected A..B or a comma-separated list of integers") from None
+        raise InputError(f"--seeds: got {text!r}, expected A..B ranges or integers, comma separated") from None
+    return tuple(out)
