@@ -118,6 +118,14 @@ def test_next_view_bad_input(runner: CliRunner, session_path: Path, tmp_path: Pa
     assert_one_line_error(
         runner.invoke(app, ["next-view", str(session_path), "--candidates", "cap:5:reach=0.1"]), "outside the reach sphere"
     )
+    assert_one_line_error(
+        runner.invoke(app, ["next-view", str(session_path), "--candidates", "cap:5", "--box-noise", "lots"]),
+        "--box-noise: got 'lots', expected a fraction",
+    )
+    assert_one_line_error(
+        runner.invoke(app, ["next-view", str(session_path), "--candidates", "cap:5", "--box-noise", "-0.1"]),
+        "--box-noise: got -0.1, expected a fraction >= 0",
+    )
 
 
 def test_next_view_reach_option_excludes_far_file_candidates(runner: CliRunner, session_path: Path, tmp_path: Path) -> None:

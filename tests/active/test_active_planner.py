@@ -14,6 +14,7 @@ from monovisual3d.active.planner import boxes_and_jacobians, occlusion_by_known
 from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.sphere import predict_sphere_boxes as predict_boxes
+from monovisual3d.methods.bayes.likelihood import SensorModel
 from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, View, Workspace
 
@@ -194,13 +195,18 @@ def test_motion_weight_prefers_nearby_views(camera: Camera) -> None:
 def test_stopping_rule(camera: Camera) -> None:
     state, cands = hidden_setup(camera)
     tight = PlannerState(camera, state.views, tuple(obj(o.position, o.radius, o.associations, 0.0005) for o in state.objects), WS)
-    assert plan_from_state(tight, cands).done
+    # boxes exact to 0.05 px: the two views support the tight covariance
+    exact = PlannerConfig(box_noise=0.0, sensor=SensorModel(sigma0_px=0.05))
+    assert plan_from_state(tight, cands, config=exact).done
+    # the same covariance with boxes known to 5 %: two views of such boxes cannot support it, so not done
+    plan = plan_from_state(tight, cands, config=PlannerConfig(box_noise=0.05))
+    assert not plan.done and np.all(plan.ellipsoid_mm > 5.0)
     loose = PlannerState(camera, state.views, tuple(obj(o.position, o.radius, o.associations, 0.005) for o in state.objects), WS)
     assert not plan_from_state(loose, cands).done
     # an unexplained box keeps it going even when every object is precise
     extra = View(state.views[0].T_base_optical, state.views[0].detections + (Detection(np.array([10.0, 10.0, 40.0, 40.0])),))
     pending = PlannerState(camera, (extra, state.views[1]), tight.objects, WS)
-    plan = plan_from_state(pending, cands)
+    plan = plan_from_state(pending, cands, config=exact)
     assert not plan.done and plan.unexplained == [(0, 2)]
     assert_allclose(ellipsoid95_mm(np.eye(3) * 1e-6), 1e3 * math.sqrt(7.814727903251178) * 1e-3)
 
@@ -239,3 +245,41 @@ def test_plan_next_view_with_a_localizer(camera: Camera) -> None:
         loc.update(v)
     plan = plan_next_view(loc, cands, objects=list(state.objects))
     assert plan.index in (0, 1) and plan.target_gains.shape == (2, 2)
+
+
+def _simulated_state(box_sigma: float, n_views: int) -> PlannerState:
+    from monovisual3d.active.loop import fixed_sequence
+    from monovisual3d.methods.bayes import BayesLocalizer
+    from monovisual3d.sim import default_camera, paper_scene
+    from monovisual3d.sim.noise import NoiseModel
+    from monovisual3d.sim.scenes import scene_target
+    from monovisual3d.sim.simulate import simulate
+
+    scene, cam = paper_scene(), default_camera()
+    session, _ = simulate(scene, cam, fixed_sequence(scene_target(scene), n_views), noise=NoiseModel(box_sigma=box_sigma), rng=3)
+    loc = BayesLocalizer(cam)
+    for v in session.views:
+        loc.update(v)
+    return PlannerState(cam, session.views, tuple(loc.estimate()), None)
+
+
+@pytest.mark.parametrize(("box_sigma", "low", "high"), [(0.0, 0.01, 0.01), (0.03, 0.022, 0.045)])
+def test_auto_box_noise_follows_the_boxes(box_sigma: float, low: float, high: float) -> None:
+    """Edge noise of the simulator: sqrt(1.25) * box_sigma of the size; exact boxes give the 1 % floor."""
+    from monovisual3d.active.planner import estimate_box_noise
+
+    alpha = estimate_box_noise(_simulated_state(box_sigma, 5), PlannerConfig())
+    assert alpha is not None and low <= alpha <= high
+
+
+def test_auto_box_noise_needs_enough_edges(camera: Camera) -> None:
+    from monovisual3d.active.planner import estimate_box_noise
+
+    state, _ = hidden_setup(camera)  # 2 objects x 2 views: 16 edges, 8 parameters: 8 left, enough
+    assert estimate_box_noise(state, PlannerConfig()) == pytest.approx(0.01)  # exact boxes: the floor
+    one = PlannerState(
+        camera, state.views[:1], tuple(obj(o.position, o.radius, {0: o.associations[0]}) for o in state.objects), WS
+    )
+    assert estimate_box_noise(one, PlannerConfig()) is None  # 8 edges, 8 parameters
+    with pytest.raises(InputError, match="box_noise: got 'often', expected a fraction >= 0 or 'auto'"):
+        PlannerConfig(box_noise="often")

@@ -49,7 +49,7 @@ def plan_session(
     reach_m: float | None = None,
     base: Point = (0.0, 0.0, 0.0),
     target: Point | None = None,
-    box_noise: float | None = None,
+    box_noise: float | str | None = "auto",
 ) -> dict[str, Any]:
     """Choose the next camera pose(s) for the views in a session file; report "done" when good enough.
 
@@ -65,7 +65,8 @@ def plan_session(
     base : centre of the reach sphere, metres, base frame
     target : cap centre, metres; default the workspace centre, else the estimates' mean, else
         0.5 m along the first view. Also the workspace (a 0.4 m cube) when the session has none.
-    box_noise : float, detector box noise as a fraction of the box size (default: the planner's)
+    box_noise : float, detector box noise as a fraction of the box size; ``"auto"`` (default): estimated
+        from the boxes seen so far; None: the sensor model's 5 %
 
     Returns
     -------

@@ -36,7 +36,8 @@ information of that view is added to every object and the next view is ranked ag
 
 Stopping rule: ``done`` when there are at least two views, every object's 95 % position
 error ellipsoid (from the method's covariance) has its largest semi-axis within ``target_mm``
-and no box is unexplained.
+and no box is unexplained. With ``joint_confidence`` (default) the 95 % is for all objects at
+once: each ellipsoid is taken at the ``0.95 ** (1 / n)`` quantile (1.23 times larger for six).
 """
 
 from __future__ import annotations
@@ -97,9 +98,13 @@ class PlannerConfig:
     coverage_points : int, workspace sample points per axis for the coverage term
     reach_m : float, arm-reach sphere radius around ``base_centre``: candidates outside are never picked
     base_centre : tuple, metres, base frame, centre of the reach sphere
-    box_noise : float or None, the detector's stated edge noise as a fraction of the box size (None: the
-        sensor model's ``alpha``). The information and the stopping rule use it: the method's covariance
+    box_noise : float, ``"auto"`` or None, the detector's edge noise as a fraction of the box size.
+        ``"auto"`` (default): estimated from how well the current estimate predicts the boxes seen so far
+        (:func:`estimate_box_noise`, at least ``min_box_noise``); None: the sensor model's ``alpha``. The information and the stopping rule use it: the method's covariance
         is scaled by the ratio of the position variances under the stated and the model's edge noise
+    min_box_noise : float, floor of the ``"auto"`` box noise (a few views cannot show less)
+    joint_confidence : bool, stopping rule: the 95 % holds for all fruit together (each fruit's
+        ellipsoid at the ``0.95 ** (1 / n)`` quantile, see :func:`stop_scale`); False: for each fruit alone
     sensor : SensorModel, the ``bayes`` method's sensor model (edge noise ``alpha * size + sigma0_px``)
     """
 
@@ -120,7 +125,9 @@ class PlannerConfig:
     coverage_points: int = 8
     reach_m: float = math.inf
     base_centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    box_noise: float | None = None
+    box_noise: float | str | None = "auto"
+    joint_confidence: bool = True
+    min_box_noise: float = 0.01
     sensor: SensorModel = field(default_factory=SensorModel)
 
     def __post_init__(self) -> None:
@@ -136,12 +143,23 @@ class PlannerConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0 <= v < 1):
                 raise InputError(f"{name}: got {v!r}, expected a probability in [0, 1)")
-        if self.box_noise is not None and not (
-            isinstance(self.box_noise, (int, float)) and math.isfinite(self.box_noise) and self.box_noise >= 0
+        if (
+            self.box_noise is not None
+            and self.box_noise != "auto"
+            and not (
+                isinstance(self.box_noise, (int, float))
+                and not isinstance(self.box_noise, bool)
+                and math.isfinite(self.box_noise)
+                and self.box_noise >= 0
+            )
         ):
-            raise InputError(f"box_noise: got {self.box_noise!r}, expected a fraction >= 0")
+            raise InputError(f"box_noise: got {self.box_noise!r}, expected a fraction >= 0 or 'auto'")
+        if not (isinstance(self.min_box_noise, (int, float)) and 0 <= self.min_box_noise < 1):
+            raise InputError(f"min_box_noise: got {self.min_box_noise!r}, expected a fraction in [0, 1)")
         if not (isinstance(self.reach_m, (int, float)) and self.reach_m > 0):
             raise InputError(f"reach_m: got {self.reach_m!r}, expected a positive number of metres")
+        if not isinstance(self.joint_confidence, bool):
+            raise InputError(f"joint_confidence: got {self.joint_confidence!r}, expected true or false")
         if isinstance(self.coverage_points, bool) or not isinstance(self.coverage_points, int) or self.coverage_points < 2:
             raise InputError(f"coverage_points: got {self.coverage_points!r}, expected an integer >= 2")
         b = np.asarray(self.base_centre, dtype=float)
@@ -151,7 +169,7 @@ class PlannerConfig:
     @property
     def stated_sensor(self) -> SensorModel:
         """The sensor model with the stated box noise as its ``alpha``."""
-        if self.box_noise is None:
+        if self.box_noise is None or self.box_noise == "auto":  # "auto" is resolved per plan (plan_from_state)
             return self.sensor
         return replace(self.sensor, alpha=float(self.box_noise))
 
@@ -281,6 +299,50 @@ def boxes_and_jacobians(
     d_r = (b[7] - b[8]) / (2 * _H)  # (V, M, 4)
     J = np.concatenate([np.einsum("vmek,vkj->vmej", d_opt, R), d_r[..., None]], axis=-1)
     return b[0], J, vis.reshape(9, V, M)[0], p[..., 2]
+
+
+def estimate_box_noise(state: PlannerState, cfg: PlannerConfig) -> float | None:
+    """The detector's edge noise as a fraction of the box size, from the boxes seen so far.
+
+    Each associated box is compared with the box its object's current estimate predicts; edges
+    on the image border and edges far inside the prediction (occluded: more than
+    ``occluded_edge_sigma`` sensor-model sigmas) are left out. The estimate is the robust
+    spread ``1.4826 * median(|residual| / size)``, corrected for the 4 parameters fitted per
+    object, and at least ``min_box_noise``. None when fewer than 8 edges are left beyond the
+    fitted parameters (then the sensor model's ``alpha`` is used).
+
+    Returns
+    -------
+    float or None
+    """
+    objs = [o for o in state.objects if o.associations]
+    if not objs or not state.views:
+        return None
+    cam = state.camera
+    T_ob = np.stack([np.linalg.inv(v.T_base_optical) for v in state.views])
+    C = np.array([o.position for o in objs], dtype=float)
+    R = np.array([o.radius if o.radius is not None else cfg.prior_radius_m for o in objs], dtype=float)
+    boxes, _, _, _ = boxes_and_jacobians(cam, T_ob, C, R)
+    sig = edge_sigma_px(boxes, cfg.sensor)
+    ratios: list[float] = []
+    n_edges = 0
+    for m, o in enumerate(objs):
+        for v, j in o.associations.items():
+            if not 0 <= v < len(state.views) or not 0 <= j < len(state.views[v].detections):
+                continue
+            pred, obs = boxes[v, m], np.asarray(state.views[v].detections[j].bbox_xyxy, dtype=float)
+            if not np.all(np.isfinite(pred)):
+                continue
+            d = np.array([obs[0] - pred[0], obs[1] - pred[1], pred[2] - obs[2], pred[3] - obs[3]])
+            keep = (d <= cfg.occluded_edge_sigma * sig[v, m]) & (border_weights(obs, cam, cfg.border_px) > 0)
+            size = np.array([pred[2] - pred[0], pred[3] - pred[1]] * 2)
+            ratios += (np.abs(d[keep]) / np.maximum(size[keep], 1.0)).tolist()
+            n_edges += int(keep.sum())
+    dof = n_edges - 4 * len(objs)
+    if dof < 8:
+        return None
+    alpha = 1.4826 * float(np.median(ratios)) * math.sqrt(n_edges / dof)
+    return max(alpha, cfg.min_box_noise)
 
 
 def edge_sigma_px(boxes: NDArray[np.floating], sensor: SensorModel) -> NDArray[np.float64]:
@@ -510,6 +572,39 @@ def _motion(T_from: NDArray[np.float64] | None, T_cand: NDArray[np.float64], cfg
     return cfg.motion_weight * (dist + cfg.rotation_scale_m * ang)
 
 
+def _ellipsoids(state: PlannerState, tg: _Targets) -> NDArray[np.float64]:
+    """Largest 95 % semi-axis per object, mm: the method's covariance (scaled to the stated box noise) or, when
+    larger, the one of the planner's own information, which counts nothing from edges seen occluded (a box a
+    leaf cuts says little, however exact the detector)."""
+    out = []
+    for o, k, info in zip(state.objects, tg.variance_ratio, tg.info):
+        if o.covariance is None:
+            out.append(math.inf)
+            continue
+        own = np.linalg.inv(info)[:3, :3]
+        out.append(max(ellipsoid95_mm(np.asarray(o.covariance) * k), ellipsoid95_mm(own)))
+    return np.array(out)
+
+
+def stop_scale(n_objects: int, cfg: PlannerConfig) -> float:
+    """Factor on each 95 % ellipsoid's semi-axis in the stopping rule.
+
+    With ``joint_confidence`` the 95 % holds for all ``n_objects`` fruit at once: each fruit's
+    ellipsoid is taken at the ``0.95 ** (1 / n)`` quantile (Sidak), e.g. 1.23 times the 95 % one
+    for six fruit; otherwise 1.
+
+    Examples
+    --------
+    >>> round(stop_scale(6, PlannerConfig()), 3), stop_scale(6, PlannerConfig(joint_confidence=False))
+    (1.223, 1.0)
+    """
+    if not cfg.joint_confidence or n_objects <= 1:
+        return 1.0
+    from scipy.stats import chi2
+
+    return math.sqrt(float(chi2.ppf(0.95 ** (1.0 / n_objects), 3)) / CHI2_3_95)
+
+
 def default_workspace(state: PlannerState, half_extent: float = 0.2) -> Workspace:
     """The planner's workspace when none is given: a cube of side ``2 * half_extent`` around the estimates.
 
@@ -540,6 +635,9 @@ def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 
     if count > int(reachable.sum()):
         raise InputError(f"count: got {count}, but only {int(reachable.sum())} of {N} candidates are reachable")
     workspace = default_workspace(state)
+    if cfg.box_noise == "auto":
+        estimated = estimate_box_noise(state, cfg)
+        cfg = replace(cfg, box_noise=estimated)  # None (too few boxes yet): the sensor model's alpha
     tg = _targets(state, cfg, workspace)
     T_ob = np.linalg.inv(T_cand)
     F, p_det = _candidate_terms(state, cfg, tg, T_ob, T_cand[:, :3, 3])
@@ -577,14 +675,9 @@ def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 
         cov_count = cov_count + sees[best]
         current = T_cand[best]
     ranking = np.lexsort((np.arange(N), -np.where(np.isfinite(first_scores), first_scores, -1e300)))
-    ell = np.array(
-        [
-            ellipsoid95_mm(np.asarray(o.covariance) * k) if o.covariance is not None else math.inf
-            for o, k in zip(state.objects, tg.variance_ratio)
-        ]
-    )
+    ell = _ellipsoids(state, tg)
     unexplained = state.unexplained
-    done = len(state.views) >= 2 and not unexplained and bool(np.all(ell <= cfg.target_mm))
+    done = len(state.views) >= 2 and not unexplained and bool(np.all(ell * stop_scale(len(ell), cfg) <= cfg.target_mm))
     return Plan(
         indices=tuple(picked),
         poses=T_cand[picked],

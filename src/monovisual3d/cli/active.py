@@ -16,7 +16,10 @@ from .bench import bench_app
 from .options import SpreadScheduler, SpreadWorkers
 
 #: plan_session's parameters named in its errors, and the flags they come from.
-_FLAGS = {"count": "--count", "reach_m": "--reach", "base": "--base", "target": "--target"}
+_FLAGS = {
+    "count": "--count", "reach_m": "--reach", "base": "--base", "target": "--target", "box_noise": "--box-noise",
+    "target_mm": "--target-mm", "motion_weight": "--motion-weight",
+}  # fmt: skip
 
 
 def _as_flags(message: str) -> str:
@@ -53,8 +56,12 @@ def next_view(
         ),
     ] = None,
     box_noise: Annotated[
-        float | None, typer.Option(help="Detector box noise as a fraction of the box size (default: the sensor model's 0.05).")
-    ] = None,
+        str,
+        typer.Option(
+            help="Detector box noise as a fraction of the box size, or auto: estimated from the boxes seen so far "
+            "(at least 0.01; the sensor model's 0.05 until there are enough)."
+        ),
+    ] = "auto",
 ) -> None:
     """Choose the next camera pose from candidates by expected gain; report "done" when the estimate is good enough.
 
@@ -67,7 +74,7 @@ def next_view(
     try:
         out = plan_session(
             session, candidates, count=count, target_mm=target_mm, motion_weight=motion_weight, reach_m=reach,
-            base=base, target=target, box_noise=box_noise,
+            base=base, target=target, box_noise=_box_noise(box_noise),
         )  # fmt: skip
     except InputError as exc:
         raise InputError(_as_flags(str(exc))) from None
@@ -143,6 +150,16 @@ def bench_active(
     if plot is not None:
         plot_results(res, str(plot))
         console.print(f"wrote {plot}", highlight=False)
+
+
+def _box_noise(text: str) -> float | str:
+    """``--box-noise``: ``auto`` or a fraction."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(f"--box-noise: got {text!r}, expected a fraction of the box size (e.g. 0.05) or auto") from None
 
 
 def _parse_seeds(text: str) -> tuple[int, ...]:
