@@ -3,10 +3,11 @@
 Quick use::
 
     from monovisual3d import batch
-    fruit, sessions, summary = batch.run(["runs/"], "out/", method="paper", workers=2)
+    fruit, sessions = batch.run(["runs/"], "out/", method="paper", workers=2)   # pandas DataFrames
 
 Needs the ``dask`` extra (``pip install 'monovisual3d[dask]'``): dask.distributed,
-pandas and pyarrow. See ``docs/batch.md`` for the tables' columns.
+pandas and pyarrow. See ``docs/batch.md`` for the tables' columns. :func:`.spread.spread_map`
+spreads other independent work (benchmark seeds, reproduction runs) over the same kind of cluster.
 """
 
 from __future__ import annotations
