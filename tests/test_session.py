@@ -184,8 +184,11 @@ def test_box_touching_the_image_edge_is_not_clipped(valid_session: dict[str, Any
 def test_view_without_detections_warns_and_is_kept(valid_session: dict[str, Any]) -> None:
     data = with_edits(valid_session, ("views/0/detections", []))
     data["views"].append(copy.deepcopy(VALID_VIEW))
-    with pytest.warns(InputWarning, match=r"views\[0\]: no detections; the view is kept"):
+    with pytest.warns(InputWarning) as record:
         s = load_session(data)
+    messages = [str(w.message) for w in record]
+    assert any(re.search(r"views\[0\]: no detections; the view is kept", m) for m in messages)
+    assert any("all 2 views have the same pose" in m for m in messages)  # the copied view: one viewpoint
     assert len(s.views) == 2
     assert s.views[0].detections == () and s.views[0].boxes_xyxy.shape == (0, 4)
 
