@@ -64,6 +64,10 @@ def test_next_view_with_a_cap_writes_the_documented_json(runner: CliRunner, sess
     assert sorted(r["index"] for r in d["ranking"]) == list(range(20))
     assert math.isclose(np.linalg.norm(d["pose"]["quaternion_xyzw"]), 1.0)
     assert d["n_objects"] == 6 and d["done"] is False  # exact boxes, but the 5 % sensor model says > 5 mm
+    # box noise: the sensor model's 5 % until there are enough boxes to estimate it, or the stated one
+    assert d["box_noise"] > 0
+    res = runner.invoke(app, ["next-view", str(session_path), "--candidates", "cap:20", "--box-noise", "0.02"])
+    assert res.exit_code == 0 and json.loads(res.stdout)["box_noise"] == pytest.approx(0.02)
 
 
 def test_next_view_batch_from_a_file(runner: CliRunner, session_path: Path, tmp_path: Path) -> None:

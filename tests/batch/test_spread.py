@@ -86,3 +86,26 @@ def test_reproduce_spread_gives_the_same_records(scheduler: str, tmp_path: Path)
     assert [key(r) for r in spread.records] == [key(r) for r in here.records]
     assert calls[-1][0] == calls[-1][1]  # the progress reaches its total
     assert (tmp_path / "spread" / "report.md").is_file()
+
+
+def test_an_unreachable_scheduler_is_a_one_line_error() -> None:
+    import dask
+
+    from monovisual3d.batch.run import dask_client
+
+    with (
+        dask.config.set({"distributed.comm.timeouts.connect": "1s"}),
+        pytest.raises(InputError, match=r"^scheduler: cannot connect to 'tcp://127.0.0.1:1': "),
+    ):
+        with dask_client(scheduler="tcp://127.0.0.1:1"):
+            pass
+
+
+@pytest.mark.parametrize("command", [["bench", "accuracy", "--quick"], ["bench", "active"], ["reproduce", "--quick"]])
+def test_spread_flags_conflict_exits_2_naming_the_flags(command: list[str]) -> None:
+    from typer.testing import CliRunner
+
+    from monovisual3d.cli import app
+
+    result = CliRunner().invoke(app, [*command, "--workers", "1", "--scheduler", "tcp://127.0.0.1:1"])
+    assert result.exit_code == 2 and "--workers, --scheduler: give at most one of them" in result.output

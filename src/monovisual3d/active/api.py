@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +87,8 @@ def plan_session(
     n_max = spec.n if spec is not None else len(cands)  # type: ignore[arg-type]
     if count > n_max:
         raise InputError(f"count: got {count}, expected at most {n_max} (the number of candidates)")
+    # every planner option is checked here too, before the localisation
+    cfg = PlannerConfig(target_mm=target_mm, motion_weight=motion_weight, base_centre=base_c, box_noise=box_noise)
     objects = _localise(sess)
     state = PlannerState(sess.camera, sess.views, tuple(objects), sess.workspace)
     if spec is not None:
@@ -97,10 +100,7 @@ def plan_session(
         raise InputError(f"count: got {count}, expected at most {len(cands)} (the number of candidates)")
     if reach_m is not None and not (reach_m > 0 and math.isfinite(reach_m)):
         raise InputError(f"reach_m: got {reach_m}, expected a positive number of metres")
-    cfg = PlannerConfig(
-        target_mm=target_mm, motion_weight=motion_weight, reach_m=reach_m if reach_m is not None else math.inf,
-        base_centre=base_c, box_noise=box_noise,
-    )  # fmt: skip
+    cfg = replace(cfg, reach_m=reach_m if reach_m is not None else math.inf)
     if target is not None and sess.workspace is None:
         c = np.array(parse_point(target, "target"))
         state = PlannerState(sess.camera, sess.views, tuple(objects), Workspace(c - 0.2, c + 0.2))

@@ -133,6 +133,7 @@ def run_active_bench(
         "machine": machine_metadata(),
         "max_views": max_views,
         "n_candidates": n_candidates,
+        "spread": None if not workers and scheduler is None else {"workers": workers, "scheduler": scheduler},
         "results": results,
         "timing": timing,
         "targets": check_targets(results, timing),

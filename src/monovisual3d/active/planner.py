@@ -35,9 +35,11 @@ Batch mode (``count=k``) is greedy on the joint information: after each pick the
 information of that view is added to every object and the next view is ranked again.
 
 Stopping rule: ``done`` when there are at least two views, every object's 95 % position
-error ellipsoid (from the method's covariance) has its largest semi-axis within ``target_mm``
+error ellipsoid has its largest semi-axis within ``target_mm``
 and no box is unexplained. With ``joint_confidence`` (default) the 95 % is for all objects at
-once: each ellipsoid is taken at the ``0.95 ** (1 / n)`` quantile (1.23 times larger for six).
+once: each ellipsoid is taken at the ``0.95 ** (1 / n)`` quantile (1.22 times larger for six).
+The ellipsoid is the larger of the method's (scaled to the box noise) and the one of the planner's
+own information, which counts nothing from edges seen occluded.
 """
 
 from __future__ import annotations
@@ -216,6 +218,8 @@ class Plan:
     target_gains : ndarray, shape (N, M + U), first-pick expected gain (mm) of every candidate for every
         object (M, in the order given) and every tentative object (U, one per unexplained box)
     timing_s : float, planning time (without the localisation)
+    box_noise : float, the box noise (fraction of the box size) the plan used: stated, estimated
+        (``box_noise="auto"``) or the sensor model's
     """
 
     indices: tuple[int, ...]
@@ -229,6 +233,7 @@ class Plan:
     unexplained: list[tuple[int, int]]
     target_gains: NDArray[np.float64]
     timing_s: float = 0.0
+    box_noise: float = 0.05
 
     @property
     def index(self) -> int:
@@ -254,6 +259,7 @@ class Plan:
             "done": bool(self.done),
             "ellipsoid95_mm": [float(x) for x in self.ellipsoid_mm],
             "unexplained": [{"view": v, "detection": d} for v, d in self.unexplained],
+            "box_noise": float(self.box_noise),
             "pose_frame": pose_frame,
         }
         if len(self.indices) > 1:
@@ -590,7 +596,7 @@ def stop_scale(n_objects: int, cfg: PlannerConfig) -> float:
     """Factor on each 95 % ellipsoid's semi-axis in the stopping rule.
 
     With ``joint_confidence`` the 95 % holds for all ``n_objects`` fruit at once: each fruit's
-    ellipsoid is taken at the ``0.95 ** (1 / n)`` quantile (Sidak), e.g. 1.23 times the 95 % one
+    ellipsoid is taken at the ``0.95 ** (1 / n)`` quantile (Sidak), e.g. 1.22 times the 95 % one
     for six fruit; otherwise 1.
 
     Examples
@@ -690,6 +696,7 @@ def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 
         unexplained=unexplained,
         target_gains=target_gains,
         timing_s=time.perf_counter() - t0,
+        box_noise=cfg.stated_sensor.alpha,
     )
 
 

@@ -22,7 +22,8 @@ from . import tables
 from .inputs import SessionInput, find_sessions
 from .work import Job, config_hash, input_hash, make_job, one_line, run_job, run_jobs, session_row
 
-#: Worker deaths a session may cause before it is recorded as failed (Dask's ``allowed-failures``).
+#: Worker deaths a task (a chunk of sessions) may cause before it fails (Dask's ``allowed-failures``); a failed
+#: chunk is split and each session retried alone, with the same allowance.
 DEFAULT_MAX_WORKER_DEATHS = 3
 
 #: Most sessions per Dask task when ``chunk_size`` is not given.
@@ -95,20 +96,26 @@ def dask_client(
 
     The local cluster has ``workers`` processes (default one per core) of one
     thread each, numba limited to one thread, ``allowed-failures`` set to
-    ``max_worker_deaths`` and one session at a time per worker.
+    ``max_worker_deaths`` and one task (a chunk of sessions) at a time per worker.
+    Raises :class:`InputError` when ``scheduler`` cannot be reached.
     """
     require("distributed", "dask")
     import dask
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        with Client(scheduler) as client:
+        try:
+            client = Client(scheduler)
+        except (OSError, TimeoutError, ValueError) as exc:  # refused, timed out, or not an address
+            reason = " ".join(str(exc).split()) or type(exc).__name__
+            raise InputError(f"scheduler: cannot connect to {scheduler!r}: {reason}") from None
+        with client:
             yield client
         return
     n = workers if workers is not None else (os.cpu_count() or 1)
     # One single-threaded process per core; numba's thread pool is sized to match so processes don't compete.
-    # A worker holds one session at a time (saturation 1.0): when it dies, only the session it was running
-    # counts a failure (Dask counts one for every task a dead worker held).
+    # A worker holds one task at a time (saturation 1.0): when it dies, only the chunk it was running counts a
+    # failure (Dask counts one for every task a dead worker held).
     # Dask sets MALLOC_TRIM_THRESHOLD_ in its workers, which turns off glibc's adaptive mmap threshold: every
     # large grid is then a fresh mmap + page faults (measured 1.6 s vs 1.0 s per paper session); unset it.
     # The worker profiler is off (a dashboard's profile page is then empty).
@@ -180,7 +187,7 @@ def run(
     resume : bool, skip the sessions whose id, input hash and options hash are already in ``output``
     part_size : int, sessions per written part
     part_seconds : float, longest time a finished session waits before it is written, seconds
-    max_worker_deaths : int, worker deaths a session may cause before it counts as failed
+    max_worker_deaths : int, worker deaths a task (chunk) may cause before it fails
         (local cluster only; a running scheduler keeps its own ``distributed.scheduler.allowed-failures``).
         A chunk whose workers die that often is split and its sessions retried one by one
         (a session that kills every worker is recorded after up to twice this many deaths).
@@ -398,7 +405,7 @@ class _Runner:
             fut.release()
             for row, fruit in results:
                 self.record(row, fruit)
-            for _ in range(len(chunk) if not results else 1):  # keep the window full
+            for _ in range(len(chunk) if not results else 1):  # one task per finished one; a split chunk adds its singles
                 nxt = submit_next()
                 if nxt is not None:
                     queue.add(nxt)

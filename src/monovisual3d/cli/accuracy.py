@@ -9,7 +9,7 @@ import typer
 
 from ._app import console, handle_errors
 from .bench import bench_app
-from .options import SpreadScheduler, SpreadWorkers
+from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
 
 @bench_app.command("accuracy")
@@ -33,7 +33,7 @@ def accuracy(
 
     from ..bench.accuracy import format_markdown, run_accuracy, save
 
-    with Progress(console=console, transient=True) as bar:
+    with spread_flags(workers, scheduler), Progress(console=console, transient=True) as bar:
         task = bar.add_task("accuracy benchmark", total=None)
         results = run_accuracy(
             quick=quick,

@@ -13,7 +13,7 @@ import typer
 from ..errors import InputError
 from ._app import app, console, handle_errors
 from .bench import bench_app
-from .options import SpreadScheduler, SpreadWorkers
+from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
 #: plan_session's parameters named in its errors, and the flags they come from.
 _FLAGS = {
@@ -127,7 +127,10 @@ def bench_active(
     else:
         seed_t = _parse_seeds(seeds)
         conds = tuple(c.strip() for c in conditions.split(",") if c.strip())
-        with Progress(console=console, transient=True, disable=not console.is_terminal) as bar:
+        with (
+            spread_flags(workers, scheduler),
+            Progress(console=console, transient=True, disable=not console.is_terminal) as bar,
+        ):
             task = bar.add_task("active benchmark", total=None)
 
             def progress(msg: str) -> None:
@@ -159,7 +162,7 @@ def _box_noise(text: str) -> float | str:
     try:
         return float(text)
     except ValueError:
-        raise InputError(f"--box-noise: got {text!r}, expected a fraction of the box size (e.g. 0.05) or auto") from None
+        raise InputError(f"--box-noise: got {text!r}, expected a fraction >= 0 or 'auto'") from None
 
 
 def _parse_seeds(text: str) -> tuple[int, ...]:

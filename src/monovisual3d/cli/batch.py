@@ -12,6 +12,7 @@ import typer
 from ..errors import InputError
 from ._app import app, console, handle_errors
 from .bench import bench_app
+from .options import spread_flags
 
 
 def parse_options(items: list[str] | None) -> dict[str, Any]:
@@ -54,10 +55,17 @@ def batch(
     ] = False,
     part_size: Annotated[int, typer.Option(min=1, help="Sessions per written part file.")] = 100,
     max_worker_deaths: Annotated[
-        int, typer.Option(min=1, help="Worker deaths a session may cause before it counts as failed (local cluster).")
+        int,
+        typer.Option(
+            min=1,
+            help="Worker deaths a task (a chunk of sessions) may cause before it fails; its sessions are then retried one by one with the same allowance (local cluster).",
+        ),
     ] = 3,
     chunk_size: Annotated[
-        int | None, typer.Option(min=1, help="Sessions per Dask task (default: up to 16, at least 4 tasks per worker).")
+        int | None,
+        typer.Option(
+            min=1, help="Sessions per Dask task (default: up to 16, at least 4 tasks per worker; not used with --workers 0)."
+        ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
@@ -73,10 +81,8 @@ def batch(
     options = parse_options(option)
     kwargs = dict(method=method, workers=workers, scheduler=scheduler, resume=resume,
                   part_size=part_size, max_worker_deaths=max_worker_deaths, chunk_size=chunk_size)  # fmt: skip
-    if quiet:
-        tables = run(inputs, output, **kwargs, **options)
-    else:
-        tables = _run_with_bar(inputs, output, kwargs, options)
+    with spread_flags(workers, scheduler):
+        tables = run(inputs, output, **kwargs, **options) if quiet else _run_with_bar(inputs, output, kwargs, options)
     _report(tables, output)
 
 

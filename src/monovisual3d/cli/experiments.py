@@ -10,7 +10,7 @@ from rich.markup import escape
 
 from ..methods import DEFAULT_METHOD, METHODS
 from ._app import app, console, handle_errors
-from .options import SpreadScheduler, SpreadWorkers
+from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
 
 @app.command()
@@ -103,14 +103,17 @@ def reproduce(
         raise InputError(f"--seeds: got {seeds}, expected a positive integer")
     overrides = {} if seeds is None else {"seeds": seeds}
     config = ReproduceConfig.quick_config(**overrides) if quick else ReproduceConfig(**overrides)
-    with Progress(
-        TextColumn("[progress.description]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-    ) as bar:
+    with (
+        spread_flags(workers, scheduler),
+        Progress(
+            TextColumn("[progress.description]{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=console,
+            transient=True,
+        ) as bar,
+    ):
         task = bar.add_task("reproducing", total=None)
 
         def progress(done: int, total: int, what: str) -> None:

@@ -9,10 +9,11 @@ naming the option as typed.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import inspect
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Annotated, Any
 
@@ -178,3 +179,23 @@ SpreadWorkers = Annotated[
 SpreadScheduler = Annotated[
     str | None, typer.Option("--scheduler", help="Spread the seeds over a running Dask cluster, e.g. tcp://host:8786.")
 ]
+
+
+def spread_flags(workers: int | None, scheduler: str | None) -> contextlib.AbstractContextManager[None]:
+    """Check ``--workers``/``--scheduler`` before any work, and name the flags in the errors raised inside
+    (``scheduler: cannot connect ...`` becomes ``--scheduler: cannot connect ...``)."""
+    if workers is not None and scheduler is not None:
+        raise InputError("--workers, --scheduler: give at most one of them")
+    return _flag_errors()
+
+
+@contextlib.contextmanager
+def _flag_errors() -> Iterator[None]:
+    try:
+        yield
+    except InputError as exc:
+        message = str(exc)
+        for name in ("workers", "scheduler"):
+            if message.startswith(f"{name}:"):
+                raise InputError(f"--{message}") from None
+        raise
