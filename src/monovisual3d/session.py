@@ -24,6 +24,7 @@ from . import limits
 from ._structured import load_structured
 from .camera import Camera
 from .errors import InputError, InputWarning, excerpt, one_line
+from .file_kinds import wrong_kind
 from .frames import (
     T_base_optical_from_T_base_cameralink,
     check_quaternion_xyzw,
@@ -226,6 +227,9 @@ def session_from_dict(data: Any, source: str | None = None) -> Session:
     try:
         return _session_from_dict(data, source)
     except InputError as exc:
+        hint = wrong_kind(data, "session")  # a truth or result file given in place of a session: say so
+        if hint is not None:
+            raise InputError(f"{source}: {hint}" if source else hint) from None
         if source and not str(exc).startswith(f"{source}:"):
             raise InputError(f"{source}: {exc}") from None
         raise

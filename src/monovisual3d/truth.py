@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import InputError, one_line
+from .file_kinds import wrong_kind
 from .limits import MAX_ABS_POSITION_M
 from .session import _check_position, _number, _vector, read_structured_file
 
@@ -53,7 +54,9 @@ def load_objects(source: str | Path | dict[str, Any], *, allow_empty: bool = Tru
     try:
         return objects_from_dict(data, allow_empty=allow_empty)
     except InputError as exc:
-        raise InputError(f"{name}: {exc}" if name else str(exc)) from None
+        # a session (or another kind) given in place of a result or truth file: say what it is
+        message = wrong_kind(data, "objects") or str(exc)
+        raise InputError(f"{name}: {message}" if name else message) from None
 
 
 def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:

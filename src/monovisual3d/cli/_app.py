@@ -44,10 +44,41 @@ def _root(
     """Localise fruit in 3D from 2D detections of a monocular camera at known poses."""
 
 
-console = Console()
-err_console = Console(stderr=True)
+# soft_wrap: a line is never cut by rich, so piped output keeps "5.5 mm" whole (see :func:`_fit_consoles` for tables)
+console = Console(soft_wrap=True)
+err_console = Console(stderr=True, soft_wrap=True)
+#: Width given to tables when the output is not a terminal (a file or a pipe): wide enough that no cell wraps.
+PIPE_WIDTH = 400
 
 F = TypeVar("F", bound=Callable[..., Any])
+
+
+def plain(value: object) -> str:
+    """``value`` as text to put in a rich markup string: it prints literally.
+
+    Every user-supplied string (file paths, session keys, labels, error messages, method
+    names read from files) goes through here before rich sees it, so ``[/x]`` or
+    ``[bold]`` in a folder name prints as typed and never raises ``MarkupError``.
+
+    Examples
+    --------
+    >>> plain("runs/[bold]/session.json")
+    'runs/\\[bold]/session.json'
+    """
+    return escape(str(value))
+
+
+def print_warning(message: str) -> None:
+    """One ``warning:`` line on stderr (the message is user text: printed literally, on one line)."""
+    err_console.print(f"[yellow]warning:[/] {plain(one_line(message))}", highlight=False)
+
+
+def _fit_consoles() -> None:
+    """Wide consoles when the output is not a terminal (tables and lines stay whole when piped); the terminal's own width otherwise."""
+    for c in (console, err_console):
+        c.width = None  # type: ignore[assignment]  # back to auto-detection, then decide
+        if not c.is_terminal:
+            c.width = max(c.width, PIPE_WIDTH)
 
 
 def handle_errors(fn: F) -> F:
@@ -55,6 +86,7 @@ def handle_errors(fn: F) -> F:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        _fit_consoles()
         try:
             return fn(*args, **kwargs)
         except InputError as exc:
@@ -69,7 +101,7 @@ def handle_errors(fn: F) -> F:
 
 
 def _print_error(message: str) -> None:
-    err_console.print(f"[bold red]error:[/] {escape(one_line(message))}", highlight=False, markup=True, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {plain(one_line(message))}", highlight=False)
 
 
 def check_output(output: Path | None, *inputs: Path | None) -> None:
@@ -124,7 +156,7 @@ def write_output(path: Path, text: str) -> None:
 
 
 def _show_warning(message: Any, category: type[Warning], filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
-    err_console.print(f"[yellow]warning:[/] {escape(one_line(str(message)))}", highlight=False, soft_wrap=True)
+    print_warning(str(message))
 
 
 def main() -> None:
