@@ -51,8 +51,9 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
     if len(with_boxes) < MIN_VIEWS_WITH_BOXES:
         return []
     if not result.objects:
-        why = result.warnings[0] if result.warnings else f"the boxes agree on no object; {EMPTY_ADVICE}"
-        return [f"no object found although {len(with_boxes)} views have boxes: {why}"]
+        if result.warnings:  # the method's own reason (it names the views with boxes)
+            return [f"no object found: {result.warnings[0]}"]
+        return [f"no object found although {len(with_boxes)} views have boxes: they agree on no object; {EMPTY_ADVICE}"]
     if not any(o.associations for o in result.objects):
         return []  # the method does not associate boxes: nothing to count
     used = {(int(v), int(d)) for o in result.objects for v, d in o.associations.items()}

@@ -12,32 +12,46 @@ from rich.table import Table
 
 from ..errors import InputError, InputWarning
 from ..methods import DEFAULT_METHOD, METHODS
-from ._app import app, check_output, console, handle_errors, json_text, write_output
+from ._app import app, check_output, console, handle_errors, json_text, plain, print_warning, write_output
 from .options import method_config, translate_error, with_method_options
 
 if TYPE_CHECKING:
     from ..metrics import Metrics
     from ..result import Result
+    from ..session import Session
 
 
 def print_objects(result: Result, title: str = "Localised objects") -> None:
-    """A readable table of the objects (positions in millimetres, base frame)."""
-    table = Table(title=f"{title} ({result.method}, base frame)")
-    for col in ("#", "x (mm)", "y (mm)", "z (mm)", "radius (mm)", "score"):
-        table.add_column(col, justify="right")
+    """A readable table of the objects (positions in millimetres, base frame); shape columns when any is not a sphere."""
+    table = Table(title=f"{title} ({plain(result.method)}, base frame)")
+    shaped = any(o.shape not in (None, "sphere") for o in result.objects)
+    columns = ("#", "x (mm)", "y (mm)", "z (mm)", "radius (mm)", *(("shape", "semi-axes (mm)") if shaped else ()), "score")
+    for col in columns:
+        table.add_column(col, justify="left" if col == "shape" else "right")
     for i, o in enumerate(result.objects):
         x, y, z = (1000 * o.position).tolist()
         radius = f"{1000 * o.radius:.1f}" if o.radius is not None else "-"
-        table.add_row(str(i), f"{x:.1f}", f"{y:.1f}", f"{z:.1f}", radius, f"{o.score:.3g}")
+        shape = (o.shape or "-", "/".join(f"{1000 * a:.1f}" for a in o.semi_axes) if o.semi_axes is not None else "-")
+        table.add_row(str(i), f"{x:.1f}", f"{y:.1f}", f"{z:.1f}", radius, *(shape if shaped else ()), f"{o.score:.3g}")
     console.print(table)
 
 
-def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation") -> None:
-    """Metric table, one column per configuration (millimetres and percent)."""
+#: What each metric of :func:`print_metrics` means (printed under the table and in ``evaluate --help``; formulas in
+#: docs/usage.md and :mod:`monovisual3d.metrics`).
+METRIC_NOTE = (
+    "Euclidean: 3D distance from each estimate to its matched true object (mean, median, max over objects). "
+    "MAE, MSE, RMSE, MAPE: over the x, y and z errors separately (the paper's Eqs. 10-13), so RMSE = "
+    "sqrt(mean squared 3D distance / 3) and can be below the Euclidean mean; MAPE divides by the true coordinate. "
+    "recall: true objects matched within the gate / true objects; precision: the same matches / estimates."
+)
+
+
+def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation", note: bool = True) -> None:
+    """Metric table, one column per configuration (millimetres and percent), and the definitions under it."""
     table = Table(title=title)
     table.add_column("metric")
     for name in rows:
-        table.add_column(name, justify="right")
+        table.add_column(plain(name), justify="right")
 
     def fmt(v: float | None, scale: float = 1.0, digits: int = 2) -> str:
         return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v * scale:.{digits}f}"
@@ -68,6 +82,8 @@ def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation") -> None:
     table.add_row("truth / estimates", *(f"{m.n_truth} / {m.n_estimates}" for m in rows.values()))
     table.add_row("misses / false pos.", *(f"{m.misses} / {m.false_positives}" for m in rows.values()))
     console.print(table)
+    if note:
+        console.print(f"[dim]{METRIC_NOTE}[/]", highlight=False)
 
 
 @app.command()
@@ -79,16 +95,24 @@ def localize(
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the result JSON here.")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table or progress bar.")] = False,
     view: Annotated[Path | None, typer.Option("--view", help="Also write an interactive 3D view (HTML, offline) here.")] = None,
+    strict: Annotated[
+        bool,
+        typer.Option(
+            "--strict",
+            help="Exit 1 (after writing the outputs) when two or more views have boxes and the result is empty "
+            "or leaves boxes associated to no object.",
+        ),
+    ] = False,
     *,
     method_options: dict[str, Any],
 ) -> None:
     """Localise the objects of a session and print/write them.
 
-    Every option after --quiet is a field of a method's config; its help says which method it applies to.
+    Warnings follow the table, one line each on stderr (also with --quiet), and are kept in the
+    result's "warnings". Every option after --strict is a field of a method's config; its help says
+    which method it applies to.
     """
-    from rich.progress import Progress
-
-    from ..api import localize as localize_fn
+    from ..completeness import incomplete_reasons
     from ..session import geometry_warnings, load_session
 
     # validate the options, the files and the outputs before the progress bar, so an error prints alone
@@ -101,16 +125,7 @@ def localize(
         if message.startswith("views: a single view"):  # load_session warned about the others
             warnings.warn(InputWarning(f"{loaded.source}: {message}"), stacklevel=1)
     try:
-        if quiet:
-            result = localize_fn(loaded, config=config)
-        else:
-            with Progress(console=console, transient=True) as bar:
-                task = bar.add_task("filtering views", total=None)
-
-                def progress(done: int, total: int) -> None:
-                    bar.update(task, completed=done, total=total)
-
-                result = localize_fn(loaded, config=config, progress=progress)
+        result = _run_localize(loaded, config, quiet)
     except InputError as exc:
         raise translate_error(exc, session) from None
     text = json_text(result.to_dict())
@@ -122,12 +137,48 @@ def localize(
         write_scene_html(loaded, result, path=view)
     if not quiet:
         print_objects(result)
-        console.print(f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {output}" if output else ""))
+        console.print(f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {plain(output)}" if output else ""))
     elif output is None:
         print(text)
+    reasons = incomplete_reasons(loaded, result)  # empty, or boxes left unexplained: one line each, with the reason
+    for line in reasons + [w for w in result.warnings if not any(w in r for r in reasons)]:
+        print_warning(line)
+    if strict and reasons:
+        raise typer.Exit(1)
 
 
-@app.command()
+def _run_localize(session: Session, config: Any, quiet: bool) -> Result:
+    """Run the method (with a transient progress bar unless ``quiet``); its warnings are kept for after the table."""
+    from rich.progress import Progress
+
+    from ..api import localize as localize_fn
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", InputWarning)
+        if quiet:
+            result = localize_fn(session, config=config)
+        else:
+            with Progress(console=console, transient=True) as bar:
+                task = bar.add_task("filtering views", total=None)
+
+                def progress(done: int, total: int) -> None:
+                    bar.update(task, completed=done, total=total)
+
+                result = localize_fn(session, config=config, progress=progress)
+    for w in caught:  # the result's own warnings print after the table; others (e.g. from numba) now
+        if str(w.message) not in result.warnings:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    return result
+
+
+EVALUATE_HELP = (
+    "Compare estimates with ground truth: Euclidean error, MAE, MSE, RMSE, MAPE, recall, precision.\n\n"
+    + METRIC_NOTE
+    + " Estimates and truth are paired by minimum total distance (Hungarian). Formulas: docs/usage.md."
+)
+
+
+@app.command(help=EVALUATE_HELP)
 @handle_errors
 def evaluate(
     estimates: Annotated[Path, typer.Argument(help="Result JSON written by `localize --output`.")],
@@ -137,7 +188,7 @@ def evaluate(
     ] = None,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the metrics JSON here.")] = None,
 ) -> None:
-    """Compare estimates with ground truth: Euclidean error, MAE, MSE, RMSE, MAPE, recall, precision."""
+    """Compare estimates with ground truth (help: :data:`EVALUATE_HELP`)."""
     if gate is not None and not gate > 0:
         raise InputError(f"--gate: got {gate}, expected a positive distance in metres")
     if not math.isfinite(gate if gate is not None else 0.0):
