@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from ._app import console, handle_errors
+from ._app import console, handle_errors, plain
 from .bench import bench_app
 from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
@@ -39,7 +39,7 @@ def accuracy(
             quick=quick,
             methods=tuple(m.strip() for m in methods.split(",")),
             only=tuple(c.strip() for c in only.split(",")) if only else None,
-            progress=lambda msg: bar.update(task, description=msg),
+            progress=lambda msg: bar.update(task, description=plain(msg)),
             workers=workers,
             scheduler=scheduler,
         )
@@ -47,4 +47,4 @@ def accuracy(
     print(format_markdown(results))
     if output is not None:
         save(results, str(output))
-        console.print(f"wrote {output}")
+        console.print(f"wrote {plain(output)}", highlight=False)

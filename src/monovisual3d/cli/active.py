@@ -6,12 +6,13 @@ import json
 import shlex
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
+from rich.table import Table
 
 from ..errors import InputError
-from ._app import app, console, handle_errors
+from ._app import app, console, handle_errors, plain
 from .bench import bench_app
 from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
@@ -83,10 +84,25 @@ def next_view(
         sys.stdout.write(text + "\n")
     else:
         output.write_text(text + "\n")
-        console.print(
-            f"next view: candidate {out['index']} (gain {out['gain']:.2f}), done={str(out['done']).lower()}; wrote {output}",
-            highlight=False,
-        )
+        _print_plan(out, output)
+
+
+def _print_plan(out: dict[str, Any], output: Path) -> None:
+    """The chosen poses, one row each (candidate index, position, gain in mm), and whether the estimate is good enough."""
+    indices = out.get("indices", [out["index"]])
+    poses = out.get("poses", [out["pose"]])
+    gains = out.get("gains", [out["gain"]])
+    table = Table(
+        title=f"Next view{'s' if len(indices) > 1 else ''} (camera position, metres, base frame)",
+        caption="gain: expected drop of the objects' RMS position error, mm, summed over the objects (less the motion cost)",
+    )
+    for col in ("pick", "candidate", "x (m)", "y (m)", "z (m)", "gain (mm)"):
+        table.add_column(col, justify="right")
+    for pick, (index, pose, gain) in enumerate(zip(indices, poses, gains, strict=True), start=1):
+        x, y, z = pose["position"]
+        table.add_row(str(pick), str(index), f"{x:.3f}", f"{y:.3f}", f"{z:.3f}", f"{gain:.2f}")
+    console.print(table)
+    console.print(f"done={str(out['done']).lower()}; wrote {plain(output)}", highlight=False)
 
 
 @bench_app.command("active")
@@ -134,9 +150,9 @@ def bench_active(
             task = bar.add_task("active benchmark", total=None)
 
             def progress(msg: str) -> None:
-                bar.update(task, description=msg)
+                bar.update(task, description=plain(msg))
                 if not console.is_terminal:
-                    console.print(f"done {msg}", highlight=False)
+                    console.print(f"done {plain(msg)}", highlight=False)
 
             res = run_active_bench(
                 conditions=conds, seeds=seed_t, max_views=views, n_candidates=candidates, progress=progress,
@@ -149,10 +165,10 @@ def bench_active(
         markdown.write_text(text)
     if output is not None:
         save(res, str(output))
-        console.print(f"wrote {output}", highlight=False)
+        console.print(f"wrote {plain(output)}", highlight=False)
     if plot is not None:
         plot_results(res, str(plot))
-        console.print(f"wrote {plot}", highlight=False)
+        console.print(f"wrote {plain(plot)}", highlight=False)
 
 
 def _box_noise(text: str) -> float | str:

@@ -10,7 +10,7 @@ from typing import Annotated, Any
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors
+from ._app import app, console, handle_errors, plain
 from .bench import bench_app
 from .options import spread_flags
 
@@ -87,12 +87,16 @@ def batch(
 
 
 def _run_with_bar(inputs: list[str], output: Path, kwargs: dict[str, Any], options: dict[str, Any]) -> Any:
-    """:func:`monovisual3d.batch.run` with a rich progress bar, after a line saying where the sessions run."""
+    """:func:`monovisual3d.batch.run` with a rich progress bar, after a line saying where the sessions run.
+
+    The bar starts at the first progress report, which comes after the inputs were checked and found:
+    a bad input (an empty folder) prints its error alone, with no ``0/?`` bar before it.
+    """
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from ..batch import BatchProgress, run
 
-    announce = _announcer()
+    announce = _announcer(kwargs.get("scheduler"))
     columns = (
         TextColumn("[progress.description]{task.description}"),
         BarColumn(),
@@ -103,28 +107,38 @@ def _run_with_bar(inputs: list[str], output: Path, kwargs: dict[str, Any], optio
         TextColumn("ETA"),
         TimeRemainingColumn(),
     )
-    with Progress(*columns, console=console, transient=False) as bar:
-        task = bar.add_task("batch", total=None, rate=0.0, failed=0)
+    bar = Progress(*columns, console=console, transient=False)
+    task = bar.add_task("batch", total=None, rate=0.0, failed=0)
 
-        def progress(p: BatchProgress) -> None:
-            announce(p)
-            rate = p.done / p.elapsed_s if p.elapsed_s > 0 else 0.0
-            bar.update(task, completed=p.done, total=p.total, rate=rate, failed=p.failed)
+    def progress(p: BatchProgress) -> None:
+        announce(p)
+        if not bar.live.is_started:
+            bar.start()
+        rate = p.done / p.elapsed_s if p.elapsed_s > 0 else 0.0
+        bar.update(task, completed=p.done, total=p.total, rate=rate, failed=p.failed)
 
+    try:
         return run(inputs, output, **kwargs, progress=progress, **options)
+    finally:
+        bar.stop()
 
 
-def _announcer() -> Callable[[Any], None]:
+def _announcer(scheduler: str | None) -> Callable[[Any], None]:
     """A progress callback that prints, once, how many sessions run where and the Dask dashboard's address."""
     shown: dict[str, bool] = {"dashboard": False}
 
     def announce(p: Any) -> None:
         if not shown["dashboard"]:
             shown["dashboard"] = True
-            where = "in this process" if p.workers == 0 else f"on {p.workers} worker thread(s)"
+            if p.workers == 0:
+                where = "in this process"
+            elif scheduler is None:
+                where = f"on {p.workers} worker process(es)"
+            else:  # a running cluster's workers may have several threads each: count what runs at once
+                where = f"on the Dask cluster at {plain(scheduler)} ({p.workers} worker threads)"
             console.print(f"running {p.total} session(s) {where}" + (f"; {p.skipped} already done" if p.skipped else ""))
             if p.dashboard:
-                console.print(f"Dask dashboard: {p.dashboard}", highlight=False)
+                console.print(f"Dask dashboard: {plain(p.dashboard)}", highlight=False)
 
     return announce
 
@@ -132,7 +146,7 @@ def _announcer() -> Callable[[Any], None]:
 def _report(tables: Any, output: Path) -> None:
     """Print the batch summary, the evaluation against truth and the first failures; exit 1 when any session failed."""
     s = tables.summary
-    line = f"{s['n_ok']} ok, {s['n_error']} failed, {s['n_fruit']} fruit; wrote {output}/fruit.parquet, sessions.parquet (+ .csv), summary.json"
+    line = f"{s['n_ok']} ok, {s['n_error']} failed, {s['n_fruit']} fruit; wrote {plain(output)}/fruit.parquet, sessions.parquet (+ .csv), summary.json"
     console.print(line, highlight=False)
     if "evaluation" in s:
         e = s["evaluation"]
@@ -144,7 +158,7 @@ def _report(tables: Any, output: Path) -> None:
     if s["n_error"]:
         failed = tables.sessions[tables.sessions["status"] != "ok"]
         for _, row in failed.head(5).iterrows():
-            console.print(f"[red]failed:[/] {row['session_id']}: {row['error']}", highlight=False, soft_wrap=True)
+            console.print(f"[red]failed:[/] {plain(row['session_id'])}: {plain(row['error'])}", highlight=False)
         if len(failed) > 5:
             console.print(f"... and {len(failed) - 5} more (sessions.csv, column error)")
         raise typer.Exit(1)
@@ -179,10 +193,10 @@ def bench_batch(
     options = parse_options(option) if option else ({"backend": "numba"} if method == "paper" else {})
     result = run_bench_batch(
         n_sessions=sessions, worker_counts=counts, method=method, options=options, data=data, repeats=repeats,
-        progress=lambda msg: console.print(f"[dim]{msg}[/]", highlight=False),
+        progress=lambda msg: console.print(f"[dim]{plain(msg)}[/]", highlight=False),
     )  # fmt: skip
     for line in format_rows(result):
         console.print(line, highlight=False)
     if output is not None:
         output.write_text(json.dumps(result, indent=2) + "\n")
-        console.print(f"wrote {output}")
+        console.print(f"wrote {plain(output)}", highlight=False)

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from ._app import app, console, handle_errors
+from ._app import app, console, handle_errors, plain
 
 bench_app = typer.Typer(
     help="Benchmarks: accuracy of the methods on simulated scenes, speed, start-up, next-best-view and batch.",
@@ -48,12 +48,12 @@ def speed(
     edge_t, chosen, kernels = _speed_choices(edges, methods, kernel)
     result = run_speed(
         quick=quick, edges=edge_t, kernels=kernels, repeats=repeats, torch_device=device, sparse_refine_to=refine_to,
-        scaling=not no_scaling, threads=threads, methods=chosen, progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
+        scaling=not no_scaling, threads=threads, methods=chosen, progress=lambda msg: console.print(f"[dim]running {plain(msg)}[/]", highlight=False),
     )  # fmt: skip
     meta = result["meta"]
     table = Table(
         title="Per-view update, mean of the paper's 3 views, paper scene "
-        f"({meta['cpu']}, {meta['cores']} cores, numba {meta.get('numba')}, load {meta.get('load_average_1m', float('nan')):.1f})"
+        f"({plain(meta['cpu'])}, {meta['cores']} cores, numba {meta.get('numba')}, load {meta.get('load_average_1m', float('nan')):.1f})"
     )
     for col in ("method", "kernel", "cells", "ms/view median [min-max]", "CPU ms", "cells/s", "vs naive", "B/cell", "notes"):
         table.add_column(col, justify="left" if col in ("method", "kernel", "notes") else "right", no_wrap=col != "notes")
@@ -63,7 +63,7 @@ def speed(
     _print_speed_lines(result)
     if output is not None:
         write_json(result, str(output))
-        console.print(f"wrote {output}", highlight=False)
+        console.print(f"wrote {plain(output)}", highlight=False)
 
 
 def _speed_choices(
@@ -93,7 +93,7 @@ def _print_speed_lines(result: dict[str, Any]) -> None:
     """Print the lines of ``bench speed`` below its table: skipped methods, sparse, scaling, end to end."""
     meta = result["meta"]
     for note in meta.get("skipped", []):
-        console.print(f"[yellow]skipped:[/] {note}", highlight=False)
+        console.print(f"[yellow]skipped:[/] {plain(note)}", highlight=False)
     for r in result["sparse_fine"]:
         console.print(
             f"sparse {r['kernel']}: {r['refine_to_mm']:g} mm over {r['virtual_cells'] / 1e9:.2f} G virtual cells, "

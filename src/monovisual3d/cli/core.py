@@ -137,7 +137,9 @@ def localize(
         write_scene_html(loaded, result, path=view)
     if not quiet:
         print_objects(result)
-        console.print(f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {plain(output)}" if output else ""))
+        console.print(
+            f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {plain(output)}" if output else "")
+        )
     elif output is None:
         print(text)
     reasons = incomplete_reasons(loaded, result)  # empty, or boxes left unexplained: one line each, with the reason

@@ -6,10 +6,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.markup import escape
 
 from ..methods import DEFAULT_METHOD, METHODS
-from ._app import app, console, handle_errors
+from ._app import app, console, handle_errors, plain
 from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
 
@@ -51,9 +50,9 @@ def demo(
     print_objects(d.result, title="Localised fruit")
     print_metrics({d.result.method: d.metrics}, title="Errors vs. truth")
     for w in d.result.warnings:
-        console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False, soft_wrap=True)
+        console.print(f"[yellow]warning:[/] {plain(w)}", highlight=False)
     for note in d.notes:
-        console.print(f"[yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
+        console.print(f"[yellow]note:[/] {plain(note)}", highlight=False)
     console.print(
         f"Found {d.metrics.true_positives} of {d.metrics.n_truth} fruit, mean error "
         f"{1e3 * d.metrics.euclidean_mean:.1f} mm, in {d.seconds['total']:.1f} s.",
@@ -117,12 +116,12 @@ def reproduce(
         task = bar.add_task("reproducing", total=None)
 
         def progress(done: int, total: int, what: str) -> None:
-            bar.update(task, completed=done, total=total, description=what)
+            bar.update(task, completed=done, total=total, description=plain(what))
 
         result = reproduce_fn(output, config, progress=progress, workers=workers, scheduler=scheduler)
-    console.print(f"reproduction finished in {result.seconds:.0f} s; report: {result.report}", highlight=False)
+    console.print(f"reproduction finished in {result.seconds:.0f} s; report: {plain(result.report)}", highlight=False)
     for note in result.notes:
-        console.print(f"[yellow]note:[/] {note}", highlight=False)
+        console.print(f"[yellow]note:[/] {plain(note)}", highlight=False)
     for name, path in result.files.items():
         if name != "report":
-            console.print(f"  {path}", highlight=False)
+            console.print(f"  {plain(path)}", highlight=False)

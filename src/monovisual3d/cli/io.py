@@ -6,10 +6,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.markup import escape
 
 from ..errors import InputError, one_line
-from ._app import app, check_output, console, handle_errors, write_output
+from ._app import app, check_output, console, handle_errors, plain, write_output
 
 if TYPE_CHECKING:
     from ..io.summary import ImportResult
@@ -49,7 +48,7 @@ def _workspace(text: str | None) -> dict[str, list[float]] | None:
 
 def _report(result: ImportResult, output: Path) -> None:
     write_output(output, result.session.to_json() + "\n")
-    console.print(f"wrote {escape(one_line(str(output)))}", highlight=False, soft_wrap=True)
+    console.print(f"wrote {plain(one_line(str(output)))}", highlight=False)
     for line in result.summary.lines():
         console.print(f"  {line}", highlight=False, markup=False, soft_wrap=True)
 

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors
+from ._app import app, console, handle_errors, plain
 
 
 @app.command()
@@ -80,13 +80,15 @@ def simulate(
             raise InputError(f"--active: got {active}, expected a positive number of views")
         paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
         console.print(
-            f"active loop: {active} views of {len(sc.fruits)} fruit ({sc.name}); wrote {', '.join(p.name for p in paths.values())} to {output}",
+            f"active loop: {active} views of {len(sc.fruits)} fruit ({plain(sc.name)}); "
+            f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
             highlight=False,
         )
         return
     poses = poses_by_name(views, scene_target(sc), distance=distance)
     paths = write_simulation(output, sc, camera, poses, noise=noise_model, rng=rng, supersample=supersample, images=images)
     console.print(
-        f"simulated {len(sc.fruits)} fruit ({sc.name}) from {len(poses)} views; wrote {', '.join(p.name for p in paths.values())} to {output}",
+        f"simulated {len(sc.fruits)} fruit ({plain(sc.name)}) from {len(poses)} views; "
+        f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
         highlight=False,
     )

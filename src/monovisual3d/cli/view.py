@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors
+from ._app import app, console, handle_errors, plain
 
 
 @app.command()
@@ -40,7 +40,7 @@ def view(
         path = write_scene_html(session, result, truth, path=output)
     except ImportError as exc:  # the extra is missing: say which, in one line
         raise InputError(str(exc)) from None
-    console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB, works offline)", highlight=False)
+    console.print(f"wrote {plain(path)} ({path.stat().st_size / 1e6:.1f} MB, works offline)", highlight=False)
     if rrd is not None:
         from ..rerun_log import write_rrd
 
@@ -48,6 +48,6 @@ def view(
             written = write_rrd(session, result, truth, path=rrd)
         except ImportError as exc:
             raise InputError(str(exc)) from None
-        console.print(f"wrote {written} (open with `rerun {written}`)", highlight=False)
+        console.print(f"wrote {plain(written)} (open with `rerun {plain(written)}`)", highlight=False)
     if open_:
         webbrowser.open(path.resolve().as_uri())
