@@ -99,7 +99,7 @@ def find_sessions(inputs: Sequence[str | Path]) -> list[SessionInput]:
     roots: list[Path] = []
     for item in inputs:
         text = str(item)
-        if _has_magic(text):
+        if _has_magic(text) and not Path(text).exists():  # an existing path is taken as written, "[" and all
             matches = [Path(m) for m in sorted(glob.glob(text, recursive=True))]
             if not matches:
                 raise InputError(f"{text}: matched no file or folder")

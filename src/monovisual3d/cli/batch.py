@@ -120,7 +120,8 @@ def _run_with_bar(inputs: list[str], output: Path, kwargs: dict[str, Any], optio
     try:
         return run(inputs, output, **kwargs, progress=progress, **options)
     finally:
-        bar.stop()
+        if bar.live.is_started:
+            bar.stop()
 
 
 def _announcer(scheduler: str | None) -> Callable[[Any], None]:

@@ -1,0 +1,277 @@
+"""What a newcomer sees on the console (issue 21): wrong kinds of file named, warnings after the table,
+--strict, shape columns, metric definitions, the next-view listing, batch wording, and user text
+with rich markup (``[/x]``, ``[bold]``) printed literally (issue 23)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from monovisual3d import DetectedObject, Result, load_session
+from monovisual3d.cli import app
+from monovisual3d.cli._app import console
+from monovisual3d.cli.core import METRIC_NOTE, print_objects
+from monovisual3d.completeness import incomplete_reasons
+from monovisual3d.examples import example_session_path, example_truth_path
+from monovisual3d.file_kinds import kind_of, wrong_kind
+
+FAST = ["--method", "paper", "--resolution", "0.02"]
+#: Folder names with rich markup in them: they must print as typed.
+MARKUP_DIRS = ("b[/x]", "[bold]")
+
+
+@pytest.fixture
+def runner() -> CliRunner:
+    return CliRunner()
+
+
+def _example() -> dict[str, Any]:
+    return json.loads(example_session_path().read_text())
+
+
+def _write(path: Path, data: Any) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _one_line_error(result: Any, *fragments: str) -> str:
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+    assert "Traceback" not in result.output
+    return lines[0]
+
+
+# ------------------------------------------------------------------ wrong kind of file
+@pytest.mark.parametrize(
+    ("data", "what"),
+    [
+        (
+            {"objects": [], "views": [], "noise": {}, "scene": "paper"},
+            "this is a truth file (written by simulate), not a session",
+        ),
+        ({"objects": [], "method": "bayes", "config": {}, "grid": {}}, "this is a result file (written by localize --output)"),
+        ({"name": "paper", "objects": [], "occluders": []}, "this is a scene file (written by simulate)"),
+        ({"index": 0, "ranking": [], "done": False, "pose": {}}, "this is a next-view plan"),
+        ({"n_sessions": 1, "n_ok": 1, "n_error": 0, "n_fruit": 3}, "this is a batch summary"),
+        ({"poses": [{"position": [0, 0, 0]}]}, "this is a list of poses"),
+        ({"euclidean_mean": 0.1, "recall": 1.0, "precision": 1.0, "n_truth": 1}, "this is a metrics file"),
+    ],
+)
+def test_localize_names_the_kind_of_file_given_instead_of_a_session(
+    runner: CliRunner, tmp_path: Path, data: dict[str, Any], what: str
+) -> None:
+    path = _write(tmp_path / "file.json", data)
+    line = _one_line_error(runner.invoke(app, ["localize", str(path)]), f"{path}: {what}")
+    assert "unknown field" not in line
+
+
+def test_simulated_truth_and_result_files_are_recognised(runner: CliRunner, tmp_path: Path) -> None:
+    out = tmp_path / "result.json"
+    assert runner.invoke(app, ["localize", str(example_session_path()), *FAST, "-o", str(out), "-q"]).exit_code == 0
+    _one_line_error(runner.invoke(app, ["localize", str(out)]), "result file", "give it to evaluate")
+    truth = {**json.loads(example_truth_path().read_text()), "noise": {}, "scene": "paper"}  # as simulate writes it
+    _one_line_error(runner.invoke(app, ["localize", str(_write(tmp_path / "truth.json", truth))]), "truth file", "evaluate")
+
+
+def test_evaluate_given_a_session_says_so(runner: CliRunner) -> None:
+    result = runner.invoke(app, ["evaluate", str(example_session_path()), str(example_truth_path())])
+    _one_line_error(result, "this is a session file", "not a result or truth file", "monovisual3d localize")
+
+
+def test_kinds_are_recognised_only_for_wrong_files() -> None:
+    assert kind_of(_example()) == "session"
+    assert wrong_kind(_example(), "session") is None
+    assert wrong_kind({"objects": [{"position": [0, 0, 0]}]}, "objects") is None
+    assert wrong_kind({"something": 1}, "session") is None
+    assert kind_of([1, 2]) is None
+
+
+# ------------------------------------------------------------------ warnings after the table, --strict
+def _disagreeing_session(tmp_path: Path) -> Path:
+    """The example's three views with the second and third views' boxes moved to unrelated corners."""
+    data = _example()
+    data["views"][1]["detections"][0]["bbox_xyxy"] = [10, 10, 40, 40]
+    data["views"][2]["detections"][0]["bbox_xyxy"] = [590, 420, 630, 470]
+    return _write(tmp_path / "disagree.json", data)
+
+
+def test_empty_result_says_why_on_the_console_and_strict_exits_1(runner: CliRunner, tmp_path: Path) -> None:
+    session, out = _disagreeing_session(tmp_path), tmp_path / "r.json"
+    result = runner.invoke(app, ["localize", str(session), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    warning_lines = [line for line in result.stderr.splitlines() if line.startswith("warning: ")]
+    assert len(warning_lines) == 1, result.stderr
+    assert "no object found" in warning_lines[0] and "3 views have detections" in warning_lines[0]
+    assert json.loads(out.read_text())["warnings"], "the JSON keeps its warnings"
+    strict = runner.invoke(app, ["localize", str(session), "--strict", "-q"])
+    assert strict.exit_code == 1
+    assert json.loads(strict.stdout)["objects"] == []  # --quiet still prints the result, then exits 1
+    assert "warning: no object found" in strict.stderr
+
+
+def test_unassociated_box_is_reported_and_strict_exits_1(runner: CliRunner, tmp_path: Path) -> None:
+    data = _example()
+    data["views"][0]["detections"].append({"bbox_xyxy": [10.0, 10.0, 40.0, 40.0]})  # a false positive in one view
+    session = _write(tmp_path / "fp.json", data)
+    result = runner.invoke(app, ["localize", str(session)])
+    assert result.exit_code == 0, result.output
+    assert "│ 0 │" in result.stdout  # the sphere is still found
+    assert "warning: 1 of 4 boxes are associated to no object (view 0: 1)" in result.stderr
+    assert runner.invoke(app, ["localize", str(session), "--strict"]).exit_code == 1
+    assert runner.invoke(app, ["localize", str(example_session_path()), "--strict"]).exit_code == 0
+
+
+def test_incomplete_reasons_in_python() -> None:
+    session = load_session(example_session_path())
+    found = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0, 2: 0})], "bayes")
+    assert incomplete_reasons(session, found) == []
+    partial = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0})], "bayes")
+    assert "1 of 3 boxes are associated to no object (view 2: 0)" in incomplete_reasons(session, partial)[0]
+    no_associations = Result([DetectedObject(np.zeros(3), 1.0)], "paper")  # a method that does not associate
+    assert incomplete_reasons(session, no_associations) == []
+    (empty,) = incomplete_reasons(session, Result([], "paper"))
+    assert "no object found although 3 views have boxes" in empty and "try" in empty
+    (reason,) = incomplete_reasons(session, Result([], "bayes", warnings=["the method's reason"]))
+    assert reason == "no object found: the method's reason"
+
+
+# ------------------------------------------------------------------ tables
+def test_shape_columns_only_when_an_object_is_not_a_sphere() -> None:
+    sphere = DetectedObject(np.array([0.5, 0.0, 0.4]), 12.0, radius=0.03)
+    spheroid = DetectedObject.from_ellipsoid([0.6, 0.1, 0.4], [0.0405, 0.0405, 0.0473], [0, 0, 0, 1], 11.0, "spheroid")
+    with console.capture() as plain_table:
+        print_objects(Result([sphere], "bayes"))
+    assert "shape" not in plain_table.get()
+    with console.capture() as shaped:
+        print_objects(Result([sphere, spheroid], "bayes"))
+    text = shaped.get()
+    assert "shape" in text and "semi-axes (mm)" in text
+    assert "spheroid" in text and "40.5/40.5/47.3" in text
+
+
+def test_evaluate_defines_its_metrics_under_the_table_and_in_help(runner: CliRunner, tmp_path: Path) -> None:
+    out = tmp_path / "r.json"
+    runner.invoke(app, ["localize", str(example_session_path()), *FAST, "-o", str(out), "-q"])
+    result = runner.invoke(app, ["evaluate", str(out), str(example_truth_path())])
+    assert result.exit_code == 0, result.output
+    assert METRIC_NOTE in result.stdout
+    assert "over the x, y and z errors separately" in METRIC_NOTE and "3D distance" in METRIC_NOTE
+    help_text = " ".join(runner.invoke(app, ["evaluate", "--help"]).stdout.split())
+    assert "MAE, MSE, RMSE, MAPE: over the x, y and z errors separately" in help_text
+    assert "RMSE = sqrt(mean squared 3D distance / 3)" in help_text
+
+
+def test_next_view_lists_every_chosen_pose_with_the_gain_unit(runner: CliRunner, tmp_path: Path) -> None:
+    out = tmp_path / "plan.json"
+    args = ["next-view", str(example_session_path()), "--candidates", "cap:12", "--count", "3", "-o", str(out)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    plan = json.loads(out.read_text())
+    assert len(plan["indices"]) == 3
+    assert "gain (mm)" in result.stdout and "expected drop of the objects' RMS position error, mm" in result.stdout
+    for pick, (index, pose, gain) in enumerate(zip(plan["indices"], plan["poses"], plan["gains"], strict=True), start=1):
+        x = pose["position"][0]
+        row = next(line for line in result.stdout.splitlines() if line.startswith(f"│    {pick} │"))
+        assert f" {index} │" in row and f"{x:.3f}" in row and f"{gain:.2f}" in row
+
+
+# ------------------------------------------------------------------ batch
+def test_batch_on_an_empty_folder_prints_the_error_alone(runner: CliRunner, tmp_path: Path) -> None:
+    (tmp_path / "empty").mkdir()
+    result = runner.invoke(app, ["batch", str(tmp_path / "empty"), "-o", str(tmp_path / "out"), "--workers", "0"])
+    _one_line_error(result, "no session.json")
+    assert result.stdout == "", "no progress bar before the inputs are checked"
+
+
+def test_batch_piped_output_does_not_wrap_and_says_processes(runner: CliRunner, tmp_path: Path) -> None:
+    deep = tmp_path / ("a-long-folder-name-" * 4) / "s1"
+    _write(deep / "session.json", _example())
+    out = tmp_path / ("another-long-output-folder-" * 3)
+    result = runner.invoke(app, ["batch", str(deep.parent), "-o", str(out), "--workers", "0", *_batch_fast()])
+    assert result.exit_code == 0, result.output
+    summary = f"1 ok, 0 failed, 1 fruit; wrote {out}/fruit.parquet, sessions.parquet (+ .csv), summary.json"
+    assert summary in result.stdout.splitlines(), result.stdout
+    assert "thread" not in result.stdout
+
+
+def test_batch_help_and_announcement_use_one_word_for_workers() -> None:
+    from monovisual3d.cli.batch import _announcer
+
+    class P:
+        workers, total, skipped, dashboard = 2, 5, 0, None
+
+    with console.capture() as cap:
+        _announcer(None)(P())
+    assert cap.get().strip() == "running 5 session(s) on 2 worker process(es)"
+
+
+# ------------------------------------------------------------------ rich markup in user text
+@pytest.fixture
+def markup_dir(tmp_path: Path) -> Path:
+    d = tmp_path.joinpath(*MARKUP_DIRS)
+    d.mkdir(parents=True)
+    data = _example()
+    data["views"][0]["detections"][0]["label"] = "[bold]tomato[/x]"
+    _write(d / "session.json", data)
+    (d / "truth.json").write_text(example_truth_path().read_text())
+    return d
+
+
+def _literal(result: Any, *texts: str) -> None:
+    assert "MarkupError" not in repr(result.exception) and "Traceback" not in result.output, result.output
+    flat = result.output.replace("\n", "")
+    for text in texts:
+        assert text in flat, result.output
+
+
+def test_markup_in_paths_and_labels_prints_literally(runner: CliRunner, markup_dir: Path) -> None:
+    session, res = markup_dir / "session.json", markup_dir / "r.json"
+    r = runner.invoke(app, ["localize", str(session), *FAST, "-o", str(res)])
+    assert r.exit_code == 0
+    _literal(r, f"wrote {res}")
+    r = runner.invoke(app, ["evaluate", str(res), str(markup_dir / "truth.json")])
+    assert r.exit_code == 0
+    _literal(r, "r.json")
+    r = runner.invoke(app, ["next-view", str(session), "--candidates", "cap:8", "-o", str(markup_dir / "plan.json")])
+    assert r.exit_code == 0
+    _literal(r, f"wrote {markup_dir / 'plan.json'}")
+    r = runner.invoke(app, ["simulate", "-o", str(markup_dir / "sim"), "--no-images"])
+    assert r.exit_code == 0
+    _literal(r, f"to {markup_dir / 'sim'}")
+    r = runner.invoke(app, ["batch", str(markup_dir), "-o", str(markup_dir / "out"), "--workers", "0", *_batch_fast()])
+    assert r.exit_code == 0
+    _literal(r, f"wrote {markup_dir / 'out'}/fruit.parquet")
+
+
+def _batch_fast() -> list[str]:
+    return ["--method", "paper", "--option", "resolution=0.02"]
+
+
+def test_markup_in_view_output_path(runner: CliRunner, markup_dir: Path) -> None:
+    pytest.importorskip("plotly")
+    out = markup_dir / "scene.html"
+    r = runner.invoke(app, ["view", str(markup_dir / "session.json"), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    _literal(r, f"wrote {out}")
+
+
+def test_markup_in_errors_and_session_keys_prints_literally(runner: CliRunner, markup_dir: Path, tmp_path: Path) -> None:
+    missing = markup_dir / "nope[/x].json"
+    _literal(runner.invoke(app, ["localize", str(missing)]), f"error: {missing}: file not found")
+    data = _example()
+    data["[/x]"] = 1
+    bad = _write(markup_dir / "key.json", data)
+    _one_line_error(runner.invoke(app, ["localize", str(bad)]), "[/x]: unknown field")
+    data = _example()
+    data["views"][0]["detections"][0]["[bold]"] = 1
+    bad = _write(tmp_path / "detection-key.json", data)
+    _one_line_error(runner.invoke(app, ["localize", str(bad)]), "views[0].detections[0].[bold]: unknown field")
