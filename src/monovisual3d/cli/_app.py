@@ -62,8 +62,8 @@ def plain(value: object) -> str:
 
     Examples
     --------
-    >>> plain("runs/[bold]/session.json")
-    'runs/\\[bold]/session.json'
+    >>> print(plain("runs/[bold]/session.json"))
+    runs/\\[bold]/session.json
     """
     return escape(str(value))
 

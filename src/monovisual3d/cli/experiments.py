@@ -26,7 +26,7 @@ def demo(
     detector noise (5 % box noise, 2 % missed detections). The fruit are
     localised from the boxes alone and compared with the true positions.
     """
-    from ..experiments.demo import check_demo_options, run_demo
+    from ..experiments.demo import check_demo_options, compare_with_readme, run_demo
     from .core import print_metrics, print_objects
 
     check_demo_options(output, seed=seed, method=method)  # before the intro: a bad option prints only the error
@@ -54,10 +54,9 @@ def demo(
     for note in d.notes:
         console.print(f"[yellow]note:[/] {plain(note)}", highlight=False)
     console.print(
-        f"Found {d.metrics.true_positives} of {d.metrics.n_truth} fruit, mean error "
-        f"{1e3 * d.metrics.euclidean_mean:.1f} mm, in {d.seconds['total']:.1f} s.",
+        f"Found {d.metrics.true_positives} of {d.metrics.n_truth} fruit in {d.seconds['total']:.1f} s; "
+        f"{plain(compare_with_readme(d.metrics, seed, d.result.method))}.",
         highlight=False,
-        soft_wrap=True,
     )
     console.print(f"Saved to {output}/:", highlight=False, markup=False, soft_wrap=True)
     descriptions = {
