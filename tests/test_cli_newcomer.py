@@ -125,7 +125,7 @@ def test_unassociated_box_is_reported_and_strict_exits_1(runner: CliRunner, tmp_
     result = runner.invoke(app, ["localize", str(session)])
     assert result.exit_code == 0, result.output
     assert "│ 0 │" in result.stdout  # the sphere is still found
-    assert "warning: 1 of 4 boxes are associated to no object (view 0: 1)" in result.stderr
+    assert "warning: 1 of 4 boxes are associated to no object (view 0: box 1)" in result.stderr
     assert runner.invoke(app, ["localize", str(session), "--strict"]).exit_code == 1
     assert runner.invoke(app, ["localize", str(example_session_path()), "--strict"]).exit_code == 0
 
@@ -135,7 +135,7 @@ def test_incomplete_reasons_in_python() -> None:
     found = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0, 2: 0})], "bayes")
     assert incomplete_reasons(session, found) == []
     partial = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0})], "bayes")
-    assert "1 of 3 boxes are associated to no object (view 2: 0)" in incomplete_reasons(session, partial)[0]
+    assert "1 of 3 boxes are associated to no object (view 2: box 0)" in incomplete_reasons(session, partial)[0]
     no_associations = Result([DetectedObject(np.zeros(3), 1.0)], "paper")  # a method that does not associate
     assert incomplete_reasons(session, no_associations) == []
     (empty,) = incomplete_reasons(session, Result([], "paper"))

@@ -63,8 +63,11 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
         return []
     n_boxes = sum(len(session.views[i].detections) for i in with_boxes)
     n_dropped = sum(len(ds) for ds in dropped.values())
-    listed = ", ".join(f"view {i}: {', '.join(map(str, ds))}" for i, ds in list(dropped.items())[:MAX_VIEWS_LISTED])
-    more = ", ..." if len(dropped) > MAX_VIEWS_LISTED else ""
+    listed = "; ".join(
+        f"view {i}: box{'es' if len(ds) > 1 else ''} {', '.join(map(str, ds))}"
+        for i, ds in list(dropped.items())[:MAX_VIEWS_LISTED]
+    )
+    more = "; ..." if len(dropped) > MAX_VIEWS_LISTED else ""
     return [
         f"{n_dropped} of {n_boxes} boxes are associated to no object ({listed}{more}): false positives, "
         f"or objects seen in too few views or scoring below the acceptance threshold; "

@@ -39,7 +39,30 @@ DEFAULT_GATE_M = 0.05
 
 @dataclass
 class Metrics:
-    """Evaluation of one set of estimates against ground truth (metres, percent)."""
+    """Evaluation of one set of estimates against ground truth (metres, percent).
+
+    Errors are over the Hungarian-matched pairs (see the module docstring); ``d_i`` is the 3D
+    distance of pair ``i`` and ``e_ij`` its error along coordinate ``j`` (x, y, z).
+
+    Attributes
+    ----------
+    n_truth, n_estimates : int, true objects and estimates
+    n_matched : int, pairs formed by the matching (``min(n_truth, n_estimates)``)
+    true_positives : int, pairs closer than the gate
+    misses, false_positives : int, true objects and estimates not in a pair within the gate
+    recall : float, ``true_positives / n_truth`` (NaN without truth)
+    precision : float, ``true_positives / n_estimates`` (NaN without estimates)
+    euclidean_mean, euclidean_median, euclidean_max : float, metres, of the 3D distances ``d_i``
+    mae : float, metres, ``mean |e_ij|`` over all pairs **and coordinates** (the paper's Eq. 10)
+    mse : float, m^2, ``mean e_ij^2`` over pairs and coordinates (Eq. 11)
+    rmse : float, metres, ``sqrt(mse) = sqrt(mean d_i^2 / 3)``: per coordinate, hence usually below
+        ``euclidean_mean`` (Eq. 12)
+    mape : float, percent, ``100 mean |e_ij / mu_ij|`` over the non-zero true coordinates ``mu_ij`` (Eq. 13)
+    radius_error_mean : float or None, metres, mean ``|r_hat - r|`` of the pairs with both radii
+    semi_axis_error_mean, semi_axis_error_max : float or None, metres, ``|sort(a_hat) - sort(a)|`` per axis
+    volume_error_mean : float or None, m^3, mean ``|V_hat - V|``, ``V = 4/3 pi a b c``
+    volume_error_pct_mean : float or None, percent, mean ``100 |V_hat - V| / V``
+    """
 
     n_truth: int
     n_estimates: int
