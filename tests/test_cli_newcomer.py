@@ -128,6 +128,24 @@ def test_unassociated_box_is_reported_and_strict_exits_1(runner: CliRunner, tmp_
     assert "warning: 1 of 4 boxes are associated to no object (view 0: box 1)" in result.stderr
     assert runner.invoke(app, ["localize", str(session), "--strict"]).exit_code == 1
     assert runner.invoke(app, ["localize", str(example_session_path()), "--strict"]).exit_code == 0
+    out = tmp_path / "r.json"
+    runner.invoke(app, ["localize", str(session), "-o", str(out), "-q"])
+    assert any("associated to no object" in w for w in json.loads(out.read_text())["warnings"]), "the JSON holds it too"
+
+
+@pytest.mark.filterwarnings("ignore:3 views have detections but no object:monovisual3d.errors.InputWarning")
+def test_batch_reports_incomplete_sessions_and_strict_exits_1(runner: CliRunner, tmp_path: Path) -> None:
+    _write(tmp_path / "in" / "good" / "session.json", _example())
+    bad = json.loads(_disagreeing_session(tmp_path).read_text())
+    _write(tmp_path / "in" / "bad" / "session.json", bad)
+    args = ["batch", str(tmp_path / "in"), "--workers", "0", "-q"]
+    result = runner.invoke(app, [*args, "-o", str(tmp_path / "out1")])
+    assert result.exit_code == 0, result.output
+    (line,) = [x for x in result.stderr.splitlines() if x.startswith("warning: ")]
+    assert line.startswith("warning: 1 session(s) with an incomplete result (sessions.csv, column warnings), the first: bad")
+    assert "no object found" in line
+    strict = runner.invoke(app, [*args, "-o", str(tmp_path / "out2"), "--strict"])
+    assert strict.exit_code == 1
 
 
 def test_incomplete_reasons_in_python() -> None:

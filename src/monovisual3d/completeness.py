@@ -24,6 +24,10 @@ from .session import Session
 MIN_VIEWS_WITH_BOXES = 2
 #: Views listed by name in the unassociated-boxes line before "...".
 MAX_VIEWS_LISTED = 6
+#: Start of the line about an empty result, and the words of the line about unassociated boxes
+#: (:func:`is_incomplete_reason` finds them in a batch's ``warnings`` column).
+EMPTY_PREFIX = "no object found"
+UNASSOCIATED_WORDS = "associated to no object"
 #: What to try when nothing is found and the method said nothing more specific.
 EMPTY_ADVICE = (
     "check that positions are metres, quaternions are (x, y, z, w) and pose_frame is right; "
@@ -52,8 +56,8 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
         return []
     if not result.objects:
         if result.warnings:  # the method's own reason (it names the views with boxes)
-            return [f"no object found: {result.warnings[0]}"]
-        return [f"no object found although {len(with_boxes)} views have boxes: they agree on no object; {EMPTY_ADVICE}"]
+            return [f"{EMPTY_PREFIX}: {result.warnings[0]}"]
+        return [f"{EMPTY_PREFIX} although {len(with_boxes)} views have boxes: they agree on no object; {EMPTY_ADVICE}"]
     if not any(o.associations for o in result.objects):
         return []  # the method does not associate boxes: nothing to count
     used = {(int(v), int(d)) for o in result.objects for v, d in o.associations.items()}
@@ -69,7 +73,32 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
     )
     more = "; ..." if len(dropped) > MAX_VIEWS_LISTED else ""
     return [
-        f"{n_dropped} of {n_boxes} boxes are associated to no object ({listed}{more}): false positives, "
+        f"{n_dropped} of {n_boxes} boxes are {UNASSOCIATED_WORDS} ({listed}{more}): false positives, "
         f"or objects seen in too few views or scoring below the acceptance threshold; "
         "add views of them, or try a lower --accept or a wider --size-range"
     ]
+
+
+def merge_reasons(warnings: list[str], reasons: list[str]) -> list[str]:
+    """``warnings`` with each reason in place of the warnings it quotes, the other reasons appended: one line per fact.
+
+    Examples
+    --------
+    >>> merge_reasons(["a", "b"], ["no object found: a", "c"])
+    ['no object found: a', 'b', 'c']
+    """
+    out = list(warnings)
+    for reason in reasons:
+        quoted = [i for i, w in enumerate(out) if w in reason]
+        if not quoted:
+            out.append(reason)
+            continue
+        out[quoted[0]] = reason
+        for i in reversed(quoted[1:]):
+            del out[i]
+    return out
+
+
+def is_incomplete_reason(line: str) -> bool:
+    """Whether a warning line is one of :func:`incomplete_reasons` (e.g. read back from a batch's ``warnings`` column)."""
+    return line.startswith(EMPTY_PREFIX) or UNASSOCIATED_WORDS in line

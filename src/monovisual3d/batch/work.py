@@ -179,6 +179,7 @@ def run_job(job: Job, localizer: Callable[..., Result] | None = None) -> tuple[d
     session_row : dict, status ``ok`` or ``error`` with the one-line error
     fruit_rows : list of dict, empty when the session failed
     """
+    from ..completeness import incomplete_reasons, merge_reasons
     from ..session import parse_structured_text, session_from_dict
     from ..truth import objects_from_dict
 
@@ -191,7 +192,7 @@ def run_job(job: Job, localizer: Callable[..., Result] | None = None) -> tuple[d
         counts = {"n_views": len(session.views), "n_detections": sum(len(v.detections) for v in session.views)}
         result = localizer(session, method=job.method, **job.options)
         fruit = fruit_rows(job.session_id, result)
-        warnings = list(result.warnings)
+        warnings = merge_reasons(list(result.warnings), incomplete_reasons(session, result))  # empty, boxes left over
         evaluation: dict[str, Any] = {}
         if job.truth_text is not None:
             try:

@@ -10,7 +10,7 @@ from typing import Annotated, Any
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors, plain
+from ._app import app, console, handle_errors, plain, print_warning
 from .bench import bench_app
 from .options import spread_flags
 
@@ -68,11 +68,20 @@ def batch(
         ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    strict: Annotated[
+        bool,
+        typer.Option(
+            "--strict",
+            help="Exit 1 also when a session's result is incomplete: empty although two or more views have boxes, "
+            "or boxes associated to no object (as localize --strict; listed in sessions.csv, column warnings).",
+        ),
+    ] = False,
 ) -> None:
     """Localise many sessions in parallel; write one table of fruit and one of sessions.
 
     Bad sessions are recorded with their error and the batch goes on; the exit
-    code is 1 when any session failed, 2 on a usage error.
+    code is 1 when any session failed (with --strict, also when any result is
+    incomplete), 2 on a usage error.
     """
     from ..batch import run
 
@@ -83,7 +92,7 @@ def batch(
                   part_size=part_size, max_worker_deaths=max_worker_deaths, chunk_size=chunk_size)  # fmt: skip
     with spread_flags(workers, scheduler):
         tables = run(inputs, output, **kwargs, **options) if quiet else _run_with_bar(inputs, output, kwargs, options)
-    _report(tables, output)
+    _report(tables, output, strict)
 
 
 def _run_with_bar(inputs: list[str], output: Path, kwargs: dict[str, Any], options: dict[str, Any]) -> Any:
@@ -144,7 +153,7 @@ def _announcer(scheduler: str | None) -> Callable[[Any], None]:
     return announce
 
 
-def _report(tables: Any, output: Path) -> None:
+def _report(tables: Any, output: Path, strict: bool = False) -> None:
     """Print the batch summary, the evaluation against truth and the first failures; exit 1 when any session failed."""
     s = tables.summary
     line = f"{s['n_ok']} ok, {s['n_error']} failed, {s['n_fruit']} fruit; wrote {plain(output)}/fruit.parquet, sessions.parquet (+ .csv), summary.json"
@@ -162,7 +171,28 @@ def _report(tables: Any, output: Path) -> None:
             console.print(f"[red]failed:[/] {plain(row['session_id'])}: {plain(row['error'])}", highlight=False)
         if len(failed) > 5:
             console.print(f"... and {len(failed) - 5} more (sessions.csv, column error)")
+    incomplete = _incomplete(tables.sessions)
+    if incomplete:
+        session_id, reason = incomplete[0]
+        print_warning(
+            f"{len(incomplete)} session(s) with an incomplete result (sessions.csv, column warnings), "
+            f"the first: {session_id}: {reason}"
+        )
+    if s["n_error"] or (strict and incomplete):
         raise typer.Exit(1)
+
+
+def _incomplete(sessions: Any) -> list[tuple[str, str]]:
+    """(session id, first reason) of each ok session whose result is incomplete (:mod:`monovisual3d.completeness`)."""
+    from ..completeness import is_incomplete_reason
+
+    out = []
+    for _, row in sessions[sessions["status"] == "ok"].iterrows():
+        warnings = json.loads(row["warnings"]) if isinstance(row["warnings"], str) and row["warnings"] else []
+        reasons = [w for w in warnings if is_incomplete_reason(w)]
+        if reasons:
+            out.append((str(row["session_id"]), reasons[0]))
+    return out
 
 
 @bench_app.command("batch")

@@ -112,7 +112,7 @@ def localize(
     result's "warnings". Every option after --strict is a field of a method's config; its help says
     which method it applies to.
     """
-    from ..completeness import incomplete_reasons
+    from ..completeness import incomplete_reasons, merge_reasons
     from ..session import geometry_warnings, load_session
 
     # validate the options, the files and the outputs before the progress bar, so an error prints alone
@@ -128,6 +128,9 @@ def localize(
         result = _run_localize(loaded, config, quiet)
     except InputError as exc:
         raise translate_error(exc, session) from None
+    reasons = incomplete_reasons(loaded, result)  # empty, or boxes left unexplained: one line each, with the reason
+    shown = merge_reasons(result.warnings, reasons)
+    result.warnings.extend(r for r in reasons if not any(w in r for w in result.warnings))  # the JSON keeps its own
     text = json_text(result.to_dict())
     if output is not None:
         write_output(output, text + "\n")
@@ -142,8 +145,7 @@ def localize(
         )
     elif output is None:
         print(text)
-    reasons = incomplete_reasons(loaded, result)  # empty, or boxes left unexplained: one line each, with the reason
-    for line in reasons + [w for w in result.warnings if not any(w in r for r in reasons)]:
+    for line in shown:
         print_warning(line)
     if strict and reasons:
         raise typer.Exit(1)
