@@ -282,6 +282,15 @@ def test_markup_in_view_output_path(runner: CliRunner, markup_dir: Path) -> None
     _literal(r, f"wrote {out}")
 
 
+def test_markup_in_a_failed_batch_session_prints_literally(runner: CliRunner, markup_dir: Path) -> None:
+    broken = markup_dir / "[red]broken[/x]" / "session.json"
+    broken.parent.mkdir(parents=True)
+    broken.write_text('{"camera": {}, "views": [], "[/x]": 1}')
+    r = runner.invoke(app, ["batch", str(markup_dir), "-o", str(markup_dir / "out"), "--workers", "0", *_batch_fast()])
+    assert r.exit_code == 1, r.output
+    _literal(r, "failed: [red]broken[/x]", "[/x]: unknown field")
+
+
 def test_markup_in_errors_and_session_keys_prints_literally(runner: CliRunner, markup_dir: Path, tmp_path: Path) -> None:
     missing = markup_dir / "nope[/x].json"
     _literal(runner.invoke(app, ["localize", str(missing)]), f"error: {missing}: file not found")
