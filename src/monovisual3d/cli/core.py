@@ -46,7 +46,7 @@ METRIC_NOTE = (
 )
 
 
-def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation", note: bool = True) -> None:
+def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation") -> None:
     """Metric table, one column per configuration (millimetres and percent), and the definitions under it."""
     table = Table(title=title)
     table.add_column("metric")
@@ -82,8 +82,7 @@ def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation", note: boo
     table.add_row("truth / estimates", *(f"{m.n_truth} / {m.n_estimates}" for m in rows.values()))
     table.add_row("misses / false pos.", *(f"{m.misses} / {m.false_positives}" for m in rows.values()))
     console.print(table)
-    if note:
-        console.print(f"[dim]{METRIC_NOTE}[/]", highlight=False)
+    console.print(f"[dim]{METRIC_NOTE}[/]", highlight=False)
 
 
 @app.command()
