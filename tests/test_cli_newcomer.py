@@ -63,11 +63,12 @@ def _one_line_error(result: Any, *fragments: str) -> str:
         ({"index": 0, "ranking": [], "done": False, "pose": {}}, "this is a next-view plan"),
         ({"n_sessions": 1, "n_ok": 1, "n_error": 0, "n_fruit": 3}, "this is a batch summary"),
         ({"poses": [{"position": [0, 0, 0]}]}, "this is a list of poses"),
+        ([{"position": [0, 0, 0], "target": [1, 0, 0]}], "this is a list of poses"),
         ({"euclidean_mean": 0.1, "recall": 1.0, "precision": 1.0, "n_truth": 1}, "this is a metrics file"),
     ],
 )
 def test_localize_names_the_kind_of_file_given_instead_of_a_session(
-    runner: CliRunner, tmp_path: Path, data: dict[str, Any], what: str
+    runner: CliRunner, tmp_path: Path, data: Any, what: str
 ) -> None:
     path = _write(tmp_path / "file.json", data)
     line = _one_line_error(runner.invoke(app, ["localize", str(path)]), f"{path}: {what}")

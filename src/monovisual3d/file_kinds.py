@@ -84,6 +84,8 @@ EXPECTED = {"session": "a session", "objects": "a result or truth file"}
 
 def kind_of(data: Any) -> str | None:
     """The kind of a parsed project file from its top-level keys (``"truth"``, ``"result"``, ...), or None."""
+    if isinstance(data, list) and data and all(isinstance(d, dict) and {"matrix", "position"} & set(d) for d in data):
+        return "poses"  # a bare list of poses (simulate --views, or 4x4 matrices)
     if not isinstance(data, dict):
         return None
     keys = {k for k in data if isinstance(k, str)}
