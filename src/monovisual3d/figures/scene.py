@@ -212,9 +212,9 @@ def _scene_legend_handles(*, with_r: bool, cameras: bool, occluders: Sequence[An
             color=ESTIMATE_COLOUR,
             marker="x",
             linestyle="--" if with_r else "none",
-            label="estimate k (centre x, size dashed; k = row of the localize table)"
+            label="estimate k (centre x, size dashed; k = table row)"
             if with_r
-            else "estimate k (centre; k = row of the table)",
+            else "estimate k (centre; k = table row)",
         ),
     ]
     if cameras:
