@@ -50,41 +50,47 @@ def plot_error_boxes(
     """
     if not errors_mm:
         raise InputError("errors_mm: expected at least one configuration")
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
-
     first = next(iter(errors_mm.values()))
     panels: dict[str, Mapping[str, ArrayLike]] = (
         dict(errors_mm) if isinstance(first, Mapping) else {"": errors_mm}  # type: ignore[dict-item]
     )
-
     n = len(panels)
     fig = new_figure(figsize or (max(5.0, 4.5 * n), 4.2))
     axes = fig.subplots(1, n, squeeze=False)[0]
     for ax, (panel, groups) in zip(axes, panels.items()):
-        names = list(groups)
-        data = [np.asarray(groups[k], dtype=float).reshape(-1) for k in names]
-        data = [d[np.isfinite(d)] for d in data]
-        parts = ax.boxplot(data, showmeans=True)
-        ax.set_xticks(range(1, len(names) + 1), names, rotation=20, ha="right", fontsize=8)
-        if log:
-            ax.set_yscale("log")
-        handles: list[Any] = [Patch(facecolor="none", edgecolor="black", label="quartiles, whiskers 1.5 IQR")]
-        for key, label in (("medians", "median"), ("means", "mean"), ("fliers", "outlier")):
-            if parts[key]:
-                handles.append(Line2D([], [], **_marker_style(parts[key][0]), label=label))
-        if reference_mm is not None:
-            handles.append(ax.axhline(reference_mm, color="grey", linestyle=":", label=reference_label or "reference"))
-        ax.legend(handles=handles, fontsize=7, loc="best")
+        _error_panel(ax, groups, log=log, reference_mm=reference_mm, reference_label=reference_label)
         if xlabel:
             ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
-        ax.grid(True, axis="y", alpha=0.3)
         if panel:
             ax.set_title(panel)
     if title:
         fig.suptitle(title)
     return fig
+
+
+def _error_panel(
+    ax: Any, groups: Mapping[str, ArrayLike], *, log: bool, reference_mm: float | None, reference_label: str
+) -> None:
+    """One panel of :func:`plot_error_boxes`: a box per configuration in ``groups`` and a legend of every mark."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    names = list(groups)
+    data = [np.asarray(groups[k], dtype=float).reshape(-1) for k in names]
+    data = [d[np.isfinite(d)] for d in data]
+    parts = ax.boxplot(data, showmeans=True)
+    ax.set_xticks(range(1, len(names) + 1), names, rotation=20, ha="right", fontsize=8)
+    if log:
+        ax.set_yscale("log")
+    handles: list[Any] = [Patch(facecolor="none", edgecolor="black", label="quartiles, whiskers 1.5 IQR")]
+    for key, label in (("medians", "median"), ("means", "mean"), ("fliers", "outlier")):
+        if parts[key]:
+            handles.append(Line2D([], [], **_marker_style(parts[key][0]), label=label))
+    if reference_mm is not None:
+        handles.append(ax.axhline(reference_mm, color="grey", linestyle=":", label=reference_label or "reference"))
+    ax.legend(handles=handles, fontsize=7, loc="best")
+    ax.grid(True, axis="y", alpha=0.3)
 
 
 def _marker_style(line: Any) -> dict[str, Any]:

@@ -19,6 +19,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..camera import Camera
     from ..grid import VoxelGrid
 
+#: Depth of the camera frusta drawn in the snapshots, metres.
+SNAPSHOT_FRUSTUM_DEPTH_M = 0.06
+
 
 def _posterior_legend(fig: Figure, threshold: float, *, truth: bool, cameras: bool) -> None:
     """Legend of :func:`plot_posterior_snapshots`: the cells (their colour range), the true fruit and the cameras."""
@@ -108,25 +111,37 @@ def plot_posterior_snapshots(
         pts, scatter, n_above = _posterior_cells(ax, grid, s, threshold, max_points, rng)
         keep_all.append(pts)
         last = scatter if scatter is not None else last
-        if len(tc):
-            draw_spheres(ax, tc, tr, color=TRUTH_COLOUR, linewidth=0.5)
-        if camera is not None and len(P):
-            draw_cameras(ax, camera, P[: i + 1], 0.06, first=1)
+        _draw_context(ax, tc, tr, camera, P[: i + 1])
         label = titles[i] if titles is not None and i < len(titles) else f"after view {i + 1}"
         ax.set_title(f"{label}\n{n_above:,} cells >= {threshold:g} max", fontsize=9)
-        ax.view_init(elev=20, azim=-150)
-    extent = [p for p in keep_all if len(p)] + ([tc] if len(tc) else [])
-    if camera is not None and len(P):
-        extent.append(P[:, :3, 3])
-    ref = np.concatenate(extent) if extent else grid.centres_base(np.array([0, grid.n_cells - 1]))
-    for ax in axes:
-        set_equal_3d(ax, ref)
+    _share_extent(axes, keep_all, tc, P if camera is not None else np.zeros((0, 4, 4)), grid)
     if last is not None:
         fig.colorbar(last, ax=axes, shrink=0.6, label="p / max(p)")
     _posterior_legend(fig, threshold, truth=len(tc) > 0, cameras=camera is not None and len(P) > 0)
     if suptitle:
         fig.suptitle(suptitle)
     return fig
+
+
+def _share_extent(
+    axes: list[Any], cells: list[NDArray[np.float64]], tc: NDArray[np.float64], P: NDArray[np.float64], grid: VoxelGrid
+) -> None:
+    """One equal-scale extent for every snapshot: the drawn cells, the true fruit and the cameras (else the grid)."""
+    extent = [p for p in cells if len(p)] + ([tc] if len(tc) else []) + ([P[:, :3, 3]] if len(P) else [])
+    ref = np.concatenate(extent) if extent else grid.centres_base(np.array([0, grid.n_cells - 1]))
+    for ax in axes:
+        set_equal_3d(ax, ref)
+
+
+def _draw_context(
+    ax: Any, tc: NDArray[np.float64], tr: NDArray[np.float64], camera: Camera | None, P: NDArray[np.float64]
+) -> None:
+    """The true fruit (centres ``tc`` (M, 3), radii ``tr`` (M,)) and the cameras of the views so far ``P`` (K, 4, 4)."""
+    if len(tc):
+        draw_spheres(ax, tc, tr, color=TRUTH_COLOUR, linewidth=0.5)
+    if camera is not None and len(P):
+        draw_cameras(ax, camera, P, SNAPSHOT_FRUSTUM_DEPTH_M, first=1)
+    ax.view_init(elev=20, azim=-150)
 
 
 def _posterior_snapshots(grid: VoxelGrid, history: Sequence[ArrayLike], threshold: float) -> list[NDArray[np.float64]]:

@@ -212,9 +212,7 @@ def _scene_legend_handles(*, with_r: bool, cameras: bool, occluders: Sequence[An
             color=ESTIMATE_COLOUR,
             marker="x",
             linestyle="--" if with_r else "none",
-            label="estimate k (centre x, size dashed; k = table row)"
-            if with_r
-            else "estimate k (centre; k = table row)",
+            label="estimate k (centre x, size dashed; k = table row)" if with_r else "estimate k (centre; k = table row)",
         ),
     ]
     if cameras:

@@ -24,6 +24,11 @@ from ._mpl import new_figure, save_figure
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
+#: How much more a label's overlap with another label costs than its overlap with another box.
+LABEL_OVERLAP_WEIGHT = 1000.0
+#: Fraction of the figure's width the picture's axes take (the legend takes the rest): converts points to pixels.
+AXES_WIDTH_FRACTION = 0.8
+
 
 def label_positions(boxes_xyxy: ArrayLike, label_sizes: ArrayLike, image_size: tuple[int, int]) -> NDArray[np.float64]:
     """Top-left corners for one label per box, chosen so that labels do not overlap each other.
@@ -52,50 +57,63 @@ def label_positions(boxes_xyxy: ArrayLike, label_sizes: ArrayLike, image_size: t
     sizes = np.asarray(label_sizes, dtype=float).reshape(-1, 2)
     if len(sizes) != len(boxes):
         raise InputError(f"label_sizes: expected {len(boxes)} sizes, got {len(sizes)}")
-    W, H = image_size
-
-    def overlap(r: NDArray[np.float64], others: NDArray[np.float64]) -> float:
-        if not len(others):
-            return 0.0
-        dx = np.minimum(r[2], others[:, 2]) - np.maximum(r[0], others[:, 0])
-        dy = np.minimum(r[3], others[:, 3]) - np.maximum(r[1], others[:, 1])
-        return float(np.sum(np.clip(dx, 0, None) * np.clip(dy, 0, None)))
-
     placed = np.zeros((0, 4))
     out = np.zeros((len(boxes), 2))
-    for n, ((x1, y1, x2, y2), (w, h)) in enumerate(zip(boxes, sizes)):
-        candidates = [
-            (x1, y1 - h),  # above, left-aligned
-            (x1, y1),  # inside the top-left corner
-            (x2 - w, y1 - h),  # above, right-aligned
-            (x1, y2),  # below, left-aligned
-            (x2 - w, y2),  # below, right-aligned
-            (x1 - w, y1),  # left of the box
-            (x2, y1),  # right of the box
-            (x1, y2 - h),  # inside the bottom-left corner
-        ]
-        others = np.delete(boxes, n, axis=0)
-        best, best_cost = None, np.inf
-        for x, y in candidates:
-            x = float(np.clip(x, 0, max(W - w, 0)))
-            y = float(np.clip(y, 0, max(H - h, 0)))
-            r = np.array([x, y, x + w, y + h])
-            cost = 1000.0 * overlap(r, placed) + overlap(r, others)
-            if cost < best_cost - 1e-9:
-                best, best_cost = (x, y), cost
-            if overlap(r, placed) == 0.0 and cost == 0.0:
-                break
-        if best_cost > 0:  # fall back on the first place clear of the other labels, ignoring boxes
-            for x, y in candidates:
-                x = float(np.clip(x, 0, max(W - w, 0)))
-                y = float(np.clip(y, 0, max(H - h, 0)))
-                if overlap(np.array([x, y, x + w, y + h]), placed) == 0.0:
-                    best = (x, y)
-                    break
-        assert best is not None
-        out[n] = best
-        placed = np.vstack([placed, [best[0], best[1], best[0] + w, best[1] + h]])
+    for n, (box, (w, h)) in enumerate(zip(boxes, sizes)):
+        out[n] = _place_label(_candidate_places(box, w, h), (w, h), image_size, placed, np.delete(boxes, n, axis=0))
+        placed = np.vstack([placed, [out[n, 0], out[n, 1], out[n, 0] + w, out[n, 1] + h]])
     return out
+
+
+def _overlap_area(r: NDArray[np.float64], others: NDArray[np.float64]) -> float:
+    """Total area, pixels^2, that rectangle ``r`` (x0, y0, x1, y1) shares with ``others`` (K, 4)."""
+    if not len(others):
+        return 0.0
+    dx = np.minimum(r[2], others[:, 2]) - np.maximum(r[0], others[:, 0])
+    dy = np.minimum(r[3], others[:, 3]) - np.maximum(r[1], others[:, 1])
+    return float(np.sum(np.clip(dx, 0, None) * np.clip(dy, 0, None)))
+
+
+def _candidate_places(box: NDArray[np.float64], w: float, h: float) -> list[tuple[float, float]]:
+    """The eight top-left corners tried for a ``w`` x ``h`` label of ``box`` (x1, y1, x2, y2), in order of preference."""
+    x1, y1, x2, y2 = box
+    return [
+        (x1, y1 - h),  # above, left-aligned
+        (x1, y1),  # inside the top-left corner
+        (x2 - w, y1 - h),  # above, right-aligned
+        (x1, y2),  # below, left-aligned
+        (x2 - w, y2),  # below, right-aligned
+        (x1 - w, y1),  # left of the box
+        (x2, y1),  # right of the box
+        (x1, y2 - h),  # inside the bottom-left corner
+    ]
+
+
+def _place_label(
+    candidates: list[tuple[float, float]],
+    size: tuple[float, float],
+    image_size: tuple[int, int],
+    placed: NDArray[np.float64],
+    others: NDArray[np.float64],
+) -> tuple[float, float]:
+    """The first candidate (kept inside the image) clear of the ``placed`` labels and the ``others`` boxes, else the one
+    that overlaps least (labels weigh 1000 times boxes), else the first clear of the labels alone."""
+    (w, h), (W, H) = size, image_size
+    inside = [(float(np.clip(x, 0, max(W - w, 0))), float(np.clip(y, 0, max(H - h, 0)))) for x, y in candidates]
+    best, best_cost = inside[0], np.inf
+    for x, y in inside:
+        r = np.array([x, y, x + w, y + h])
+        on_labels = _overlap_area(r, placed)
+        cost = LABEL_OVERLAP_WEIGHT * on_labels + _overlap_area(r, others)
+        if cost < best_cost - 1e-9:
+            best, best_cost = (x, y), cost
+        if on_labels == 0.0 and cost == 0.0:
+            break
+    if best_cost > 0:  # fall back on the first place clear of the other labels, ignoring boxes
+        for x, y in inside:
+            if _overlap_area(np.array([x, y, x + w, y + h]), placed) == 0.0:
+                return (x, y)
+    return best
 
 
 def plot_view(
@@ -141,38 +159,52 @@ def plot_view(
     fp = np.zeros(len(boxes), bool) if false_positive is None else np.asarray(false_positive, dtype=bool).reshape(-1)
     if len(fp) != len(boxes):
         raise InputError(f"false_positive: expected {len(boxes)} flags, got {len(fp)}")
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch, Rectangle
-
     W, H = image_size if image_size is not None else (img.shape[1], img.shape[0])
     fig = new_figure(figsize)
     ax = fig.add_subplot(1, 1, 1)
     ax.imshow(img, extent=(0, W, H, 0), interpolation="nearest")
-    # label size in pixels of the image: the axes show W pixels over about 0.8 of the figure's width
-    px_per_pt = W / (0.8 * figsize[0] * 72.0)
-    fontsize = 9.0
-    sizes = np.array([[(0.62 * fontsize * len(str(j)) + 4) * px_per_pt, (fontsize + 5) * px_per_pt] for j in range(len(boxes))])
-    xy = label_positions(boxes, sizes, (W, H)) if len(boxes) else np.zeros((0, 2))
-    for j, ((x1, y1, x2, y2), f) in enumerate(zip(boxes, fp)):
-        colour = false_positive_colour if f else box_colour
-        ax.add_patch(Rectangle((x1, y1), x2 - x1, y2 - y1, fill=False, edgecolor=colour, linewidth=1.5))
-        lx, ly = xy[j]
-        w, h = sizes[j]
-        ax.add_patch(Rectangle((lx, ly), w, h, facecolor=colour, edgecolor="none", alpha=0.9))
-        ax.text(lx + w / 2, ly + h / 2, str(j), color="white", fontsize=fontsize, fontweight="bold", ha="center", va="center")
+    colours = [false_positive_colour if f else box_colour for f in fp]
+    _draw_numbered_boxes(ax, boxes, colours, (W, H), px_per_pt=W / (AXES_WIDTH_FRACTION * figsize[0] * 72.0))
     ax.set_xlim(0, W)
     ax.set_ylim(H, 0)
     ax.set_xlabel("u (px)")
     ax.set_ylabel("v (px)")
-    handles: list[Any] = [
-        Patch(facecolor=np.array(c) / 255.0, edgecolor="black", linewidth=0.3, label=name) for name, c in (regions or {}).items()
-    ]
-    handles.append(Line2D([], [], color=box_colour, linewidth=1.5, label="detection box\n(number = index in\nsession.json)"))
-    if fp.any():
-        handles.append(Line2D([], [], color=false_positive_colour, linewidth=1.5, label="false positive box"))
+    handles = _view_legend_handles(regions or {}, box_colour, false_positive_colour if fp.any() else None)
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
     ax.set_title(title or f"{len(boxes)} detection boxes", fontsize=10)
     return fig
+
+
+def _draw_numbered_boxes(
+    ax: Any, boxes: NDArray[np.float64], colours: list[str], image_size: tuple[int, int], px_per_pt: float
+) -> None:
+    """Each box (K, 4) in its colour, with its index on a tag of that colour placed by :func:`label_positions`."""
+    from matplotlib.patches import Rectangle
+
+    fontsize = 9.0
+    sizes = np.array([[(0.62 * fontsize * len(str(j)) + 4) * px_per_pt, (fontsize + 5) * px_per_pt] for j in range(len(boxes))])
+    xy = label_positions(boxes, sizes, image_size) if len(boxes) else np.zeros((0, 2))
+    for j, ((x1, y1, x2, y2), colour) in enumerate(zip(boxes, colours)):
+        ax.add_patch(Rectangle((x1, y1), x2 - x1, y2 - y1, fill=False, edgecolor=colour, linewidth=1.5))
+        (lx, ly), (w, h) = xy[j], sizes[j]
+        ax.add_patch(Rectangle((lx, ly), w, h, facecolor=colour, edgecolor="none", alpha=0.9))
+        ax.text(lx + w / 2, ly + h / 2, str(j), color="white", fontsize=fontsize, fontweight="bold", ha="center", va="center")
+
+
+def _view_legend_handles(
+    regions: Mapping[str, tuple[int, int, int]], box_colour: str, false_positive_colour: str | None
+) -> list[Any]:
+    """Legend entries of :func:`plot_view`: the picture's regions, the boxes and (when drawn) the false positives."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles: list[Any] = [
+        Patch(facecolor=np.array(c) / 255.0, edgecolor="black", linewidth=0.3, label=name) for name, c in regions.items()
+    ]
+    handles.append(Line2D([], [], color=box_colour, linewidth=1.5, label="detection box\n(number = index in\nsession.json)"))
+    if false_positive_colour is not None:
+        handles.append(Line2D([], [], color=false_positive_colour, linewidth=1.5, label="false positive box"))
+    return handles
 
 
 def write_view_picture(path: str | Path, view: SimulatedView, name: str = "view") -> None:
