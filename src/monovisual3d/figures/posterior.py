@@ -100,20 +100,10 @@ def plot_posterior_snapshots(
     tc = as_points(truth_centres, "truth_centres")
     tr = np.zeros(len(tc)) if truth_radii is None else np.asarray(truth_radii, dtype=float).reshape(-1)
     P = np.zeros((0, 4, 4)) if poses is None else np.asarray(poses, dtype=float).reshape(-1, 4, 4)
-    n = len(snaps)
-    fig = new_figure(figsize or (4.2 * n + 0.8, 4.4))
-    last = None
-    keep_all = []
-    axes = []
-    for i, s in enumerate(snaps):
-        ax = fig.add_subplot(1, n, i + 1, projection="3d")
-        axes.append(ax)
-        pts, scatter, n_above = _posterior_cells(ax, grid, s, threshold, max_points, rng)
-        keep_all.append(pts)
-        last = scatter if scatter is not None else last
+    fig = new_figure(figsize or (4.2 * len(snaps) + 0.8, 4.4))
+    axes, keep_all, last = _draw_snapshots(fig, grid, snaps, threshold, max_points, rng, titles)
+    for i, ax in enumerate(axes):
         _draw_context(ax, tc, tr, camera, P[: i + 1])
-        label = titles[i] if titles is not None and i < len(titles) else f"after view {i + 1}"
-        ax.set_title(f"{label}\n{n_above:,} cells >= {threshold:g} max", fontsize=9)
     _share_extent(axes, keep_all, tc, P if camera is not None else np.zeros((0, 4, 4)), grid)
     if last is not None:
         fig.colorbar(last, ax=axes, shrink=0.6, label="p / max(p)")
@@ -121,6 +111,28 @@ def plot_posterior_snapshots(
     if suptitle:
         fig.suptitle(suptitle)
     return fig
+
+
+def _draw_snapshots(
+    fig: Figure,
+    grid: VoxelGrid,
+    snaps: list[NDArray[np.float64]],
+    threshold: float,
+    max_points: int,
+    rng: np.random.Generator,
+    titles: Sequence[str] | None,
+) -> tuple[list[Any], list[NDArray[np.float64]], Any]:
+    """One titled 3D panel per snapshot with its cells; returns the axes, the drawn cells of each and the last scatter."""
+    axes, cells, last = [], [], None
+    for i, s in enumerate(snaps):
+        ax = fig.add_subplot(1, len(snaps), i + 1, projection="3d")
+        axes.append(ax)
+        pts, scatter, n_above = _posterior_cells(ax, grid, s, threshold, max_points, rng)
+        cells.append(pts)
+        last = scatter if scatter is not None else last
+        label = titles[i] if titles is not None and i < len(titles) else f"after view {i + 1}"
+        ax.set_title(f"{label}\n{n_above:,} cells >= {threshold:g} max", fontsize=9)
+    return axes, cells, last
 
 
 def _share_extent(
