@@ -63,7 +63,8 @@ def default_title(session: Session, fruits: list[Fruit] | None, tru: ObjectSet |
     """The counts of views, boxes, fruit found (``fruits`` None: no result given) and true fruit, after the
     session's file name (shown as text)."""
     n_det = sum(len(v.detections) for v in session.views)
-    title = f"{len(session.views)} views, {n_det} boxes"
+    n_views = len(session.views)
+    title = f"{n_views} view{'' if n_views == 1 else 's'}, {n_det:,} box{'' if n_det == 1 else 'es'}"
     if fruits is not None:
         title += f", {len(fruits)} fruit found"
     if tru is not None:
