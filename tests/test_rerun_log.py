@@ -9,11 +9,11 @@ import pytest
 from numpy.testing import assert_allclose
 
 pytest.importorskip("rerun", reason="rerun-sdk not installed (extra [rerun])")
-pytest.importorskip("plotly")  # rerun_log reuses viz3d's readers of results
+pytest.importorskip("plotly")  # rerun_log reuses the 3D view's readers of results
 from rerun.chunk import RrdReader  # noqa: E402
 
+from figures.html3d_cases import result_dict, truth_dict, two_fruit_session  # noqa: E402
 from monovisual3d.rerun_log import write_rrd  # noqa: E402
-from test_viz3d import result_dict, truth_dict, two_fruit_session  # noqa: E402
 
 
 def columns(path: Path) -> dict[str, dict[str, list]]:

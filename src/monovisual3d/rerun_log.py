@@ -23,10 +23,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ._extras import require
+from .figures.html3d.fruits import Fruit, load_fruits
+from .figures.html3d.geometry import error_ellipsoid_axes
 from .result import Result
 from .session import Session, View, load_session
 from .truth import ObjectSet, load_objects
-from .viz3d import Fruit, error_ellipsoid_axes, load_fruits
 
 if TYPE_CHECKING:  # pragma: no cover
     import rerun as rr

@@ -333,7 +333,7 @@ def write_active_simulation(
     active = {"candidates": [pose_to_dict(T) for T in cands], "steps": steps}
     paths["active"].write_text(json.dumps(active, indent=2) + "\n")
     if figure:
-        from .figure import poses_figure
+        from ..figures.active import poses_figure
 
         paths["figure"] = out_dir / "active.png"
         poses_figure(scene, cands, [st.T_base_optical for st in run.steps], [st.objects for st in run.steps][-1]).savefig(

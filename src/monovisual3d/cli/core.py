@@ -134,7 +134,7 @@ def localize(
     if output is not None:
         write_output(output, text + "\n")
     if view is not None:
-        from ..viz3d import write_scene_html
+        from ..figures.html3d import write_scene_html
 
         write_scene_html(loaded, result, path=view)
     if not quiet:

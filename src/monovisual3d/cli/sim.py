@@ -45,6 +45,7 @@ def simulate(
     import numpy as np
 
     from ..camera import Camera
+    from ..figures.views import write_view_picture
     from ..sim.noise import NoiseModel
     from ..sim.scene import Scene
     from ..sim.scenes import SHAPE_SCENES, scene_by_name, scene_target
@@ -86,7 +87,9 @@ def simulate(
         )
         return
     poses = poses_by_name(views, scene_target(sc), distance=distance)
-    paths = write_simulation(output, sc, camera, poses, noise=noise_model, rng=rng, supersample=supersample, images=images)
+    paths = write_simulation(
+        output, sc, camera, poses, noise=noise_model, rng=rng, supersample=supersample, images=images, picture=write_view_picture
+    )
     console.print(
         f"simulated {len(sc.fruits)} fruit ({plain(sc.name)}) from {len(poses)} views; "
         f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",

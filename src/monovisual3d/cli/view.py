@@ -34,7 +34,7 @@ def view(
         raise InputError(f"--output: got {str(output)!r}, expected a file name ending in .html")
     if rrd is not None and rrd.suffix.lower() != ".rrd":
         raise InputError(f"--rrd: got {str(rrd)!r}, expected a file name ending in .rrd")
-    from ..viz3d import write_scene_html
+    from ..figures.html3d import write_scene_html
 
     try:
         path = write_scene_html(session, result, truth, path=output)

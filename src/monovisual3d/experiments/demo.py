@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from ..api import DEFAULT_METHOD, METHODS, localize
 from ..camera import Camera
 from ..errors import InputError, InputWarning
+from ..figures.views import write_view_picture
 from ..metrics import Metrics, evaluate
 from ..result import Result
 from ..session import Session, load_session
@@ -150,7 +151,7 @@ def run_demo(
     camera = default_camera()
     scene = greenhouse_scene(rng, camera=camera)
     poses = paper_poses(scene_target(scene))
-    paths = write_simulation(out, scene, camera, poses, noise=noise, rng=rng, images=True)
+    paths = write_simulation(out, scene, camera, poses, noise=noise, rng=rng, images=True, picture=write_view_picture)
     t1 = time.perf_counter()
     seconds["simulate"] = t1 - t0
     session = load_session(paths["session"])
@@ -174,7 +175,7 @@ def run_demo(
         except ImportError as exc:
             notes.append(f"figure skipped: {exc}")
         try:
-            from ..viz3d import write_scene_html
+            from ..figures.html3d import write_scene_html
 
             files["scene_html"] = write_scene_html(session, result, scene.truth_dict(), path=out / "scene.html")
         except ImportError as exc:
@@ -189,9 +190,9 @@ def _scene_figure(path: Path, seed: int, scene: Scene, result: Result, camera: C
 
     Raises ImportError without matplotlib (extra ``[viz]``).
     """
-    from .. import viz
+    from ..figures import plot_scene, save_figure
 
-    fig = viz.plot_scene(
+    fig = plot_scene(
         scene.centres,
         scene.radii,
         estimates=result.positions,
@@ -202,4 +203,4 @@ def _scene_figure(path: Path, seed: int, scene: Scene, result: Result, camera: C
         title=f"greenhouse truss (seed {seed}): {len(scene.fruits)} true fruit (green), "
         f"{len(result.objects)} found by '{result.method}' (red)",
     )
-    return viz.save_figure(fig, path)
+    return save_figure(fig, path)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import struct
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -175,15 +176,17 @@ def write_simulation(
     min_pixels: float = 1.0,
     workspace: Workspace | None = None,
     images: bool = True,
+    picture: Callable[[Path, SimulatedView, str], None] | None = None,
 ) -> dict[str, Path]:
     """:func:`simulate` and write the results to ``directory`` (created if needed).
 
     Files: ``session.json`` (load with :func:`monovisual3d.load_session`),
     ``truth.json`` (see :func:`simulate`; usable with ``monovisual3d evaluate``),
     ``scene.json`` (:meth:`Scene.load`), and with ``images`` one ``view_NN.png``
-    per view (:func:`write_view_picture`): the label image (background grey, occluders
-    green, fruit in shades of red) with the reported boxes, numbered by their
-    index in the view's detections, titled and with a legend when matplotlib is installed.
+    per view: the label image (background grey, occluders green, fruit in shades of red)
+    with the reported boxes (:func:`view_image`), or what ``picture(path, view, name)`` draws
+    (e.g. :func:`monovisual3d.figures.views.write_view_picture`: boxes numbered by their index
+    in the view's detections, titled, with a legend; the simulator does not draw figures itself).
 
     Returns
     -------
@@ -205,38 +208,12 @@ def write_simulation(
     if names is not None:
         for i, (name, v) in enumerate(zip(names, views)):
             path = out_dir / name
-            write_view_picture(path, v, f"view {i}")
+            if picture is None:
+                write_png(path, view_image(v))
+            else:
+                picture(path, v, f"view {i}")
             paths[name.removesuffix(".png")] = path
     return paths
-
-
-def write_view_picture(path: str | Path, view: SimulatedView, name: str = "view") -> None:
-    """Write the picture of a view: a titled figure with a legend when matplotlib is installed
-    (:func:`monovisual3d.viz.plot_view`), else the bare :func:`view_image` at the camera's resolution."""
-    from ..viz import plot_view, save_figure
-
-    n_fp = int(np.sum(view.source < 0))
-    s = view.rendering.supersample
-    labels = view.rendering.labels
-    present = {"fruit (one shade each)": (labels >= 0).any(), "leaves and stems": (labels == OCCLUDER).any()}
-    colours = {"fruit (one shade each)": (220, 30, 30), "leaves and stems": (40, 140, 40), "background": (200, 200, 200)}
-    regions = {k: c for k, c in colours.items() if present.get(k, True)}  # the legend lists what the picture shows
-    try:
-        fig = plot_view(
-            view_image(view, boxes=False),
-            view.boxes_xyxy,
-            false_positive=view.source < 0,
-            image_size=(labels.shape[1] // s, labels.shape[0] // s),
-            regions=regions,
-            box_colour="#{:02x}{:02x}{:02x}".format(*BOX_COLOUR),
-            false_positive_colour="#{:02x}{:02x}{:02x}".format(*FALSE_POSITIVE_COLOUR),
-            title=f"{name}: what the camera saw, {len(view.boxes_xyxy)} detection boxes"
-            + (f" ({n_fp} false positive)" if n_fp else ""),
-        )
-    except ImportError:  # no matplotlib (extra [viz]): the bare picture
-        write_png(path, view_image(view))
-        return
-    save_figure(fig, path, dpi=100)
 
 
 def view_image(view: SimulatedView, *, boxes: bool = True) -> NDArray[np.uint8]:

@@ -1,4 +1,4 @@
-"""The reproduction's figures (matplotlib, extra ``[viz]``), drawn with :mod:`monovisual3d.viz`.
+"""The reproduction's figures (matplotlib, extra ``[viz]``), drawn with :mod:`monovisual3d.figures`.
 
 Every figure has a title, axis labels with units and a legend of what it draws.
 """
@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ... import viz
+from ... import figures as viz
 from ...camera import Camera
 from ...grid import VoxelGrid
 from ...sim.scene import Scene

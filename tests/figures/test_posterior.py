@@ -1,4 +1,4 @@
-"""Figures keep their axis labels inside the canvas and explain what they draw in a legend."""
+"""The posterior snapshots keep their axis labels inside the canvas and explain what they draw in a legend."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("matplotlib")
 
-from monovisual3d import viz  # noqa: E402
+from monovisual3d.figures.posterior import plot_posterior_snapshots  # noqa: E402
 from monovisual3d.grid import VoxelGrid  # noqa: E402
 from monovisual3d.sim.scenes import default_camera, paper_scene, scene_target  # noqa: E402
 from monovisual3d.sim.viewpoints import paper_poses  # noqa: E402
@@ -19,7 +19,7 @@ def posterior_figure():
     grid = VoxelGrid.from_bounds([0.2, -0.6, 0.0], [1.4, 0.6, 1.2], 0.1)
     rng = np.random.default_rng(0)
     history = [rng.random(grid.n_cells) for _ in range(3)]
-    return viz.plot_posterior_snapshots(
+    return plot_posterior_snapshots(
         grid,
         history,
         truth_centres=scene.centres,
@@ -58,13 +58,3 @@ def test_posterior_snapshots_have_a_legend_of_cells_fruit_and_cameras(posterior_
     (legend,) = posterior_figure.legends
     texts = [t.get_text() for t in legend.get_texts()]
     assert texts == ["cells with p >= 0.1 max(p), coloured by p / max(p)", "true fruit", "camera views (frusta)"]
-
-
-def test_error_boxes_legend_names_every_mark() -> None:
-    fig = viz.plot_error_boxes(
-        {"a": [1.0, 2.0, 3.0, 50.0], "b": [2.0, 3.0]}, reference_mm=10, reference_label="paper", xlabel="configuration"
-    )
-    (ax,) = fig.axes
-    texts = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert texts == ["quartiles, whiskers 1.5 IQR", "median", "mean", "outlier", "paper"]
-    assert ax.get_xlabel() == "configuration" and ax.get_ylabel() == "Euclidean error (mm)"

@@ -1,4 +1,4 @@
-"""The interactive 3D scene (viz3d): what each trace shows, the HTML file, the `view` command, bad inputs."""
+"""The interactive 3D scene (figures.html3d): what each trace shows, the HTML file, the `view` command, bad inputs."""
 
 from __future__ import annotations
 
@@ -14,14 +14,15 @@ from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 from typer.testing import CliRunner
 
-from monovisual3d import Camera, load_session
+from monovisual3d import load_session
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError
-from monovisual3d.frames import look_at
-from monovisual3d.geometry.sphere import sphere_bbox
 
 pytest.importorskip("plotly")
-from monovisual3d.viz3d import (  # noqa: E402
+from html3d_cases import CAM, CENTRES, by_kind, result_dict, truth_dict, two_fruit_session  # noqa: E402
+
+from monovisual3d.figures._style import ESTIMATE_COLOUR  # noqa: E402
+from monovisual3d.figures.html3d import (  # noqa: E402
     CHI2_3DOF_95,
     ellipsoid_mesh,
     error_ellipsoid_axes,
@@ -30,56 +31,6 @@ from monovisual3d.viz3d import (  # noqa: E402
     scene_figure,
     write_scene_html,
 )
-
-CAM = Camera.from_hfov(640, 480, 69.0)
-CENTRES = np.array([[0.6, 0.03, 0.45], [0.62, -0.05, 0.40]])
-RADII = np.array([0.03, 0.025])
-
-
-def two_fruit_session() -> dict[str, Any]:
-    """Three views of two spheres (exact boxes), with a workspace."""
-    target = CENTRES.mean(axis=0)
-    views = []
-    for d in ([-1.0, 0.0, 0.0], [-0.5, 0.85, 0.0], [-0.5, -0.45, 0.75]):
-        d = np.array(d) / np.linalg.norm(d)
-        T = look_at(target + 0.45 * d, target)
-        dets = [{"bbox_xyxy": sphere_bbox(CAM, T, c, r).tolist(), "score": 0.9} for c, r in zip(CENTRES, RADII)]
-        views.append({"pose": {"matrix": T.tolist()}, "detections": dets})
-    return {
-        "camera": {"width": 640, "height": 480, "hfov_deg": 69.0},
-        "views": views,
-        "workspace": {"min": [0.4, -0.2, 0.2], "max": [0.8, 0.2, 0.7]},
-    }
-
-
-def result_dict() -> dict[str, Any]:
-    q = Rotation.from_euler("z", 30, degrees=True).as_quat().tolist()
-    return {
-        "method": "bayes",
-        "objects": [
-            {
-                "position": (CENTRES[0] + [0.004, 0, 0]).tolist(),
-                "score": 20.0,
-                "radius": 0.031,
-                "covariance": np.diag([4e-6, 1e-6, 1e-6]).tolist(),
-            },
-            {
-                "position": (CENTRES[1] - [0, 0.003, 0]).tolist(),
-                "score": 10.0,
-                "semi_axes": [0.03, 0.02, 0.02],
-                "quaternion_xyzw": q,
-            },
-            {"position": [0.7, 0.1, 0.6], "score": 2.0},  # no size: a marker; no truth to match
-        ],
-    }
-
-
-def truth_dict() -> dict[str, Any]:
-    return {"objects": [{"position": c.tolist(), "radius": float(r)} for c, r in zip(CENTRES, RADII)]}
-
-
-def by_kind(fig: Any, kind: str) -> list[Any]:
-    return [t for t in fig.data if t.meta["kind"] == kind]
 
 
 def test_one_frustum_per_view_one_mesh_per_fruit_and_truth() -> None:
@@ -109,34 +60,44 @@ def test_boxes_lie_on_the_image_plane_where_the_camera_sees_them() -> None:
 
 def test_hover_of_a_frustum_names_the_view_and_its_detections() -> None:
     fig = scene_figure(two_fruit_session())
-    text = by_kind(fig, "frustum")[1].hovertext[0]
+    text = by_kind(fig, "frustum")[1].hovertext  # one text for the whole frustum
     assert "view 1" in text and "2 detection(s)" in text and "#1: [" in text
 
 
-def test_every_cone_is_hidden_and_the_menu_shows_one_at_a_time() -> None:
+def test_cones_are_hidden_and_the_menu_shows_one_at_a_time() -> None:
     fig = scene_figure(two_fruit_session())
-    cones = by_kind(fig, "cone")
-    assert len(cones) == 6 and all(t.visible == "legendonly" for t in cones)
+    (every,) = by_kind(fig, "cones")
+    (chosen,) = by_kind(fig, "cone")
+    assert every.visible == "legendonly" and every.meta["count"] == 6 and len(chosen.x) == 0
     buttons = fig.layout.updatemenus[0].buttons
-    assert len(buttons) == 1 + len(cones)
-    assert all(v == "legendonly" for v in buttons[0].args[0]["visible"])
-    for b in buttons[1:]:
-        assert sum(v is True for v in b.args[0]["visible"]) == 1
-    cone_ids = [i for i, t in enumerate(fig.data) if t.meta["kind"] == "cone"]
-    assert list(buttons[1].args[1]) == cone_ids
+    assert len(buttons) == 1 + 6
+    chosen_index = next(i for i, t in enumerate(fig.data) if t.meta["kind"] == "cone")
+    assert all(list(b.args[1]) == [chosen_index] for b in buttons)  # every entry restyles the one chosen-cone trace
+    assert buttons[0].args[0]["x"] == [[]]  # "no viewing cone" empties it
+    assert [b.label for b in buttons[1:3]] == ["view 0 box #0", "view 0 box #1"]
+    for b in buttons[1:]:  # one cone each: its far rectangle (5 points) and 4 edges, None between lines
+        assert sum(v is None for v in b.args[0]["x"][0]) == 5 and len(b.args[0]["x"][0]) == 18
+
+
+def cone_of(fig: Any, view: int, detection: int) -> np.ndarray:
+    """The points of the cone of box ``detection`` of view ``view``, from its menu entry, shape (18, 3) with NaN gaps."""
+    (b,) = [b for b in fig.layout.updatemenus[0].buttons if b.label == f"view {view} box #{detection}"]
+    return np.array([[np.nan if v is None else v for v in b.args[0][k][0]] for k in "xyz"]).T
 
 
 def test_cone_passes_through_the_fruit_it_boxes() -> None:
     session = load_session(two_fruit_session())
     fig = scene_figure(session)
-    cone = next(t for t in by_kind(fig, "cone") if t.meta["view"] == 0 and t.meta["detection"] == 1)
-    far = np.array([[x, y, z] for x, y, z in zip(cone.x[:4], cone.y[:4], cone.z[:4])])  # the far rectangle
+    far = cone_of(fig, 0, 1)[:4]  # the far rectangle
     T = session.views[0].T_base_optical
     axis = far.mean(axis=0) - T[:3, 3]
     to_fruit = CENTRES[1] - T[:3, 3]
     cos = axis @ to_fruit / np.linalg.norm(axis) / np.linalg.norm(to_fruit)
     assert cos > np.cos(np.radians(1.0))  # the fruit's centre is on the cone's axis within a degree
     assert np.linalg.norm(axis) > np.linalg.norm(to_fruit)  # and the cone reaches past it
+    every = by_kind(fig, "cones")[0]
+    points = np.array([[np.nan if v is None else v for v in c] for c in (every.x, every.y, every.z)]).T
+    assert np.isclose(points, far[0], atol=1e-12).all(axis=1).any()  # the all-cones trace holds the same cone
 
 
 def test_fruit_shapes_follow_radius_semi_axes_and_quaternion() -> None:
@@ -149,8 +110,20 @@ def test_fruit_shapes_follow_radius_semi_axes_and_quaternion() -> None:
         a = np.array(o.get("semi_axes") or [o.get("radius", 0.005)] * 3)
         local = (v - o["position"]) @ R / a
         assert_allclose(np.sum(local**2, axis=1), 1.0, atol=1e-9)
-        assert set(np.asarray(t.intensity)) == {o["score"]}  # coloured by score
-    assert (fig.layout.coloraxis.cmin, fig.layout.coloraxis.cmax) == (2.0, 20.0)
+        assert t.color == ESTIMATE_COLOUR and t.intensity is None  # one colour, whatever the score
+        assert f"score {o['score']:.3g}" in t.hovertemplate and t.meta["score"] == o["score"]
+    assert not fig.layout.coloraxis.showscale  # no colour bar to cover the axes
+
+
+def test_estimates_are_red_numbered_as_in_the_table_and_truth_is_translucent_green() -> None:
+    fig = scene_figure(two_fruit_session(), result_dict(), truth_dict())
+    (numbers,) = by_kind(fig, "fruit_numbers")
+    assert list(numbers.text) == ["<b>0</b>", "<b>1</b>", "<b>2</b>"]  # result.objects[k] is row k of the table
+    for k, (x, y) in enumerate(zip(numbers.x, numbers.y)):
+        assert_allclose([x, y], result_dict()["objects"][k]["position"][:2], atol=0.03)
+    truth = by_kind(fig, "truth")
+    assert all(t.color != ESTIMATE_COLOUR and t.opacity < 0.5 for t in truth)
+    assert {t.color for t in by_kind(fig, "fruit")} == {ESTIMATE_COLOUR}
 
 
 def test_error_ellipsoid_is_the_95_percent_contour_of_the_covariance() -> None:
@@ -185,7 +158,7 @@ def test_html_is_self_contained_and_holds_the_figure(tmp_path: Path) -> None:
     assert "plotly.js v" in text[:5000]
     fig = figure_json_from_html(text)
     kinds = [t["meta"]["kind"] for t in fig["data"]]
-    assert kinds.count("frustum") == 3 and kinds.count("fruit") == 3
+    assert kinds.count("frustum") == 3 and kinds.count("fruit") == 3 and kinds.count("cones") == 1
     assert fig["layout"]["scene"]["xaxis"]["title"]["text"] == "x (m)"
 
 
