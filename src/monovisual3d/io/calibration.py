@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..camera import Camera
+from ..camera import Camera, camera_from_dict
 from ..errors import InputError, InputWarning, excerpt
 from ._parse import as_array, as_int, expect_mapping, load_json, load_yaml, read_text
 
@@ -466,8 +466,6 @@ def camera_from_depthai(data: Any, socket: str | int | None = None) -> Camera:
 
 # ---------------------------------------------------------------------- this project's format
 def _camera_from_monovisual3d(data: Any) -> Camera:
-    from ..session import camera_from_dict
-
     data = expect_mapping(data, "(top level)")
     if isinstance(data.get("camera"), dict):
         return camera_from_dict(data["camera"])
