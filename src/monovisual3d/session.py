@@ -416,6 +416,16 @@ def _check_mask(mask: Any, where: str, camera: Camera) -> None:
 # ---------------------------------------------------------------------- geometry
 #: Views whose camera positions span less than this angle, seen from the scene, cannot triangulate depth well.
 MIN_BASELINE_DEG = 3.0
+#: Views closer than this (metres) and turned less than :data:`SAME_POSE_DEG` count as the same pose: a
+#: millimetre and a tenth of a degree are below what arm kinematics repeat.
+SAME_POSE_M = 1e-3
+SAME_POSE_DEG = 0.1
+#: Above this condition number the optical axes are taken as parallel (no point closest to all of them).
+PARALLEL_AXES_CONDITION = 1e6
+#: With parallel optical axes the scene point is taken this far in front of the cameras, metres.
+PARALLEL_AXES_DEPTH_M = 1.0
+#: A camera closer than this to the scene point (metres, rounding level) gives no direction to measure angles from.
+AT_SCENE_POINT_M = 1e-9
 
 
 def geometry_warnings(session: Session, *, single_view: bool = False) -> list[str]:
@@ -446,21 +456,21 @@ def geometry_warnings(session: Session, *, single_view: bool = False) -> list[st
     P, Z = T[:, :3, 3], T[:, :3, 2]
     R0 = T[0, :3, :3]
     cos_rot = np.clip((np.einsum("nij,ij->n", T[:, :3, :3], R0) - 1) / 2, -1.0, 1.0)
-    if np.all(np.linalg.norm(P - P[0], axis=1) < 1e-3) and np.all(np.degrees(np.arccos(cos_rot)) < 0.1):
+    if np.all(np.linalg.norm(P - P[0], axis=1) < SAME_POSE_M) and np.all(np.degrees(np.arccos(cos_rot)) < SAME_POSE_DEG):
         return [f"views: all {n} views have the same pose; depth cannot be triangulated from one viewpoint"]
     if session.workspace is not None:
         target = 0.5 * (session.workspace.min + session.workspace.max)
     else:
         A = n * np.eye(3) - Z.T @ Z
         b = (P - Z * np.sum(Z * P, axis=1, keepdims=True)).sum(0)
-        target = P.mean(0) + Z.mean(0)  # parallel axes: 1 m in front of the cameras
-        if np.linalg.cond(A) < 1e6:
+        target = P.mean(0) + PARALLEL_AXES_DEPTH_M * Z.mean(0)
+        if np.linalg.cond(A) < PARALLEL_AXES_CONDITION:
             candidate = np.linalg.solve(A, b)
             if np.all(np.sum((candidate - P) * Z, axis=1) > 0):
                 target = candidate
     d = P - target
     norm = np.linalg.norm(d, axis=1)
-    if np.any(norm < 1e-9):
+    if np.any(norm < AT_SCENE_POINT_M):  # a camera at the scene point: no angle to measure
         return []
     u = d / norm[:, None]
     far = int(np.argmin(u @ u[0]))  # two passes of farthest direction: the largest pairwise angle, to a factor < 2

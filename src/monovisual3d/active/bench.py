@@ -102,7 +102,7 @@ def run_active_bench(
     always timed here, in this process.
     """
     from ..batch.spread import check_spread, spread_map
-    from ..bench.speed import machine_metadata
+    from ..bench.timing import machine_metadata
 
     check_spread(workers, scheduler)
     known = active_conditions()

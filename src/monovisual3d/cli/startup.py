@@ -20,7 +20,7 @@ def startup(
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the rows as JSON here.")] = None,
 ) -> None:
     """Start-up time: `import monovisual3d` and `monovisual3d --help`, idle and with a busy core."""
-    from ..bench.speed import machine_metadata
+    from ..bench.timing import machine_metadata
     from ..bench.startup import rows_to_dicts, run_startup
 
     rows = run_startup(runs)
