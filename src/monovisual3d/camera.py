@@ -270,11 +270,7 @@ class Camera:
         with np.errstate(divide="ignore", invalid="ignore"):
             xy = p[..., :2] / z[..., None]
         xy = np.where((z > 0)[..., None], xy, np.nan)
-        xy = self.distort(xy)
-        uv = np.empty_like(xy)
-        uv[..., 0] = self.fx * xy[..., 0] + self.cx
-        uv[..., 1] = self.fy * xy[..., 1] + self.cy
-        return uv
+        return self.pixels_from_normalised(self.distort(xy))
 
     def rays(self, uv: ArrayLike) -> NDArray[np.float64]:
         """Unit viewing rays, in the optical frame, through pixel coordinates.
@@ -287,13 +283,29 @@ class Camera:
         -------
         d_optical : ndarray, shape (..., 3), unit vectors with z > 0
         """
+        xy = self.undistort(self.normalised_from_pixels(uv))
+        d = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    def undistort_pixels(self, uv: ArrayLike) -> NDArray[np.float64]:
+        """Where pixels ``uv`` (shape (..., 2)) of this camera's image lie in the undistorted (pinhole) image, pixels."""
+        return self.pixels_from_normalised(self.undistort(self.normalised_from_pixels(uv)))
+
+    def normalised_from_pixels(self, uv: ArrayLike) -> NDArray[np.float64]:
+        """Normalised (still distorted) coordinates ``((u - cx) / fx, (v - cy) / fy)`` of pixels, shape (..., 2)."""
         uv = np.asarray(uv, dtype=float)
         xy = np.empty_like(uv)
         xy[..., 0] = (uv[..., 0] - self.cx) / self.fx
         xy[..., 1] = (uv[..., 1] - self.cy) / self.fy
-        xy = self.undistort(xy)
-        d = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
-        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+        return xy
+
+    def pixels_from_normalised(self, xy: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Pixels ``(fx x + cx, fy y + cy)`` of normalised (distorted) coordinates, shape (..., 2): the inverse of
+        :meth:`normalised_from_pixels`."""
+        uv = np.empty_like(xy)
+        uv[..., 0] = self.fx * xy[..., 0] + self.cx
+        uv[..., 1] = self.fy * xy[..., 1] + self.cy
+        return uv
 
     def in_image(self, uv: NDArray[np.floating]) -> NDArray[np.bool_]:
         """True where ``uv`` (shape (..., 2)) lies inside ``[0, width] x [0, height]``."""
