@@ -184,12 +184,7 @@ def refine(
         point = np.empty(n)
         upper = np.empty(n)
         with kernel_threads(int(NS_PER_CELL_BOX * n * len(packed.box_params))):
-            nk.octree_eval(
-                cells, 2**level, grid.resolution, shape, 0, packed.n_views,
-                packed.T_optical_grid, packed.intrinsics, packed.distortion_id, packed.distortion, packed.kernel_id,
-                packed.inv_n, packed.box_offsets, packed.box_params, packed.box_reach, packed.q_cut,
-                best + log_thr - 1.0, point, upper,
-            )  # fmt: skip
+            nk.octree_eval(cells, 2**level, grid.resolution, shape, 0, packed.n_views, packed, best + log_thr - 1.0, point, upper)
         if n:
             best = max(best, float(point.max()))
         # without a positive point value yet (best = -inf) only cells whose bound is zero can go
