@@ -283,3 +283,17 @@ def test_auto_box_noise_needs_enough_edges(camera: Camera) -> None:
     assert estimate_box_noise(one, PlannerConfig()) is None  # 8 edges, 8 parameters
     with pytest.raises(InputError, match="box_noise: got 'often', expected a fraction >= 0 or 'auto'"):
         PlannerConfig(box_noise="often")
+
+
+def test_coverage_visibility_honours_lens_distortion() -> None:
+    """A point the pinhole model puts outside the image is seen through a barrel lens (Camera's projection)."""
+    from monovisual3d.active.information import sees
+
+    p_base = np.array([[0.7, 0.0, 1.0]])  # pinhole: u = 320 + 500 * 0.7 = 670 > 640
+    barrel = Camera(640, 480, 500.0, 500.0, 320.0, 240.0, "plumb_bob", (-0.2, 0.0, 0.0, 0.0))
+    pinhole = Camera(640, 480, 500.0, 500.0, 320.0, 240.0)
+    T_optical_base = np.eye(4)[None]
+    assert barrel.project(p_base)[0, 0] < 640 < pinhole.project(p_base)[0, 0]
+    assert_array_equal(sees(barrel, T_optical_base, p_base), [[True]])
+    assert_array_equal(sees(pinhole, T_optical_base, p_base), [[False]])
+    assert_array_equal(sees(pinhole, T_optical_base, np.array([[0.0, 0.0, 0.01]])), [[False]])  # too close to the lens
