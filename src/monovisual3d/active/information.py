@@ -16,6 +16,8 @@ from numpy.typing import ArrayLike, NDArray
 from ..camera import Camera
 from ..geometry.sphere import predict_sphere_boxes as predict_boxes
 
+#: Confidence of the error ellipsoids (the stopping rule's 95 %).
+CONFIDENCE = 0.95
 #: chi-square quantile, 3 degrees of freedom, 95 %: the 95 % ellipsoid's semi-axes are sqrt(CHI2_3_95 * eigenvalues).
 CHI2_3_95 = 7.814727903251178
 #: Finite-difference step of the box Jacobian, metres (0.01 mm: far below a fruit's size, far above rounding).

@@ -61,7 +61,17 @@ from ..result import DetectedObject, Result
 from ..session import Session, Workspace, load_session, read_structured_file, workspace_from_dict
 from .candidates import check_candidates
 from .config import PlannerConfig
-from .information import CHI2_3_95, border_weights, boxes_and_jacobians, ellipsoid95_mm, fisher, occlusion_by_known, rms_mm, sees
+from .information import (
+    CHI2_3_95,
+    CONFIDENCE,
+    border_weights,
+    boxes_and_jacobians,
+    ellipsoid95_mm,
+    fisher,
+    occlusion_by_known,
+    rms_mm,
+    sees,
+)
 from .targets import PlannerState, Targets, build_targets, default_workspace, estimate_box_noise
 
 
@@ -219,7 +229,7 @@ def stop_scale(n_objects: int, cfg: PlannerConfig) -> float:
         return 1.0
     from scipy.stats import chi2
 
-    return math.sqrt(float(chi2.ppf(0.95 ** (1.0 / n_objects), 3)) / CHI2_3_95)
+    return math.sqrt(float(chi2.ppf(CONFIDENCE ** (1.0 / n_objects), 3)) / CHI2_3_95)
 
 
 #: Views a point needs to be triangulated: the coverage term and the stopping rule count to this.

@@ -197,16 +197,7 @@ def paper_update_fused(
     """
     nk = numba_kernels()
     views = [views] if isinstance(views, View) else list(views)
-    src = np.ascontiguousarray(prior).reshape(-1)
-    if src.dtype not in (np.float32, np.float64):
-        src = src.astype(np.float64)
-    if src.size != grid.n_cells:
-        raise InputError(f"prior: has {src.size} cells, the grid has {grid.n_cells}")
-    dtype = np.dtype(dtype)
-    if dtype not in (np.float32, np.float64):
-        raise InputError(f"dtype: got {dtype}, expected float32 or float64")
-    if src.dtype != dtype:  # one compiled specialisation per dtype, not per (in, out) pair
-        src = src.astype(dtype)
+    src, dtype = _flat_prior(prior, grid, dtype)
     packed = pack_views(grid, camera, views, kernel, sigma_fraction, gauss_eps)
     dst = np.empty(grid.n_cells, dtype=dtype)
     tile_sum, _, _ = _call_dense(
@@ -229,6 +220,21 @@ def paper_update_fused(
     with kernel_threads(int(NS_PER_CELL_PASS * dst.size)):
         nk.scale_inplace(dst, 1.0 / total)
     return dst
+
+
+def _flat_prior(prior: NDArray[np.floating], grid: VoxelGrid, dtype: Any) -> tuple[NDArray[Any], np.dtype[Any]]:
+    """The prior as a flat contiguous array of ``dtype`` (float32 or float64), checked against the grid."""
+    src = np.ascontiguousarray(prior).reshape(-1)
+    if src.dtype not in (np.float32, np.float64):
+        src = src.astype(np.float64)
+    if src.size != grid.n_cells:
+        raise InputError(f"prior: has {src.size} cells, the grid has {grid.n_cells}")
+    dtype = np.dtype(dtype)
+    if dtype not in (np.float32, np.float64):
+        raise InputError(f"dtype: got {dtype}, expected float32 or float64")
+    if src.dtype != dtype:  # one compiled specialisation per dtype, not per (in, out) pair
+        src = src.astype(dtype)
+    return src, dtype
 
 
 class DenseHistogramBatch:

@@ -142,6 +142,10 @@ def _children(ijk: NDArray[np.int32], level: int, shape: tuple[int, int, int]) -
     return ch[inside]
 
 
+#: Children of an octree cell (2 per axis).
+_CHILDREN_PER_CELL = 8
+
+
 def refine(
     grid: VoxelGrid,
     packed: PackedViews,
@@ -163,6 +167,12 @@ def refine(
     Returns
     -------
     SparsePosterior
+
+    Notes
+    -----
+    One loop over levels, kept whole (one unit of thought): the running lower bound ``best``, the
+    candidates and the counters it updates are the branch-and-bound's state, and splitting the loop
+    would pass them all back and forth.
     """
     if not (0.0 < threshold < 1.0):
         raise InputError(f"threshold: got {threshold}, expected a value in (0, 1)")
@@ -195,7 +205,7 @@ def refine(
         cells, point = cells[keep], point[keep]
         if level == 0 or kept == 0:
             break
-        if kept * 8 > max_cells:
+        if kept * _CHILDREN_PER_CELL > max_cells:
             complete = False
             break
         cells = _children(cells, level, grid.shape)
