@@ -100,7 +100,7 @@ class Camera:
     >>> cam = Camera.from_hfov(640, 480, 69.0)
     >>> round(cam.fx, 1)
     465.6
-    >>> cam.project(np.array([0.0, 0.0, 1.0]))[0]
+    >>> cam.project(np.array([0.0, 0.0, 1.0]))
     array([320., 240.])
     """
 
