@@ -18,15 +18,15 @@ from ._project import project_cells, project_cells32
 
 # ---------------------------------------------------------------------- dense update
 @njit(inline="always", **_O)
-def _cells_likelihood(vp, q_cut, v0, nv, sel, nsel, cconst, precise, gx, gy, gz, res, m, F, F32, buf, buf32):  # pragma: no cover
+def _cells_likelihood(packed, v0, nv, sel, nsel, cconst, precise, gx, gy, gz, res, m, F, F32, buf, buf32):  # pragma: no cover
     """``lk = buf[3, :m] = prod_v L_v`` at the cells ``(gx, gy, gz) + res * F[:, e]`` (boxes pre-selected per view).
 
-    ``vp`` is the tuple of view arrays of :func:`dense_update`; ``F``/``F32`` (3, m) hold the cell
-    offsets in float64/float32; ``buf`` (4, m) and ``buf32`` (3, m) are scratch (u, v, acc[, lk]).
-    Arguments are packed so that the call can be inlined (numba does not inline calls with more
-    than 30 arguments) and costs nothing per tile.
+    ``packed`` is the :class:`~monovisual3d.engine.params.PackedViews` of :func:`dense_update`;
+    ``F``/``F32`` (3, m) hold the cell offsets in float64/float32; ``buf`` (4, m) and ``buf32`` (3, m)
+    are scratch (u, v, acc[, lk]). Arguments are packed (the views, ``flags``, ``geo``) so that the call
+    can be inlined (numba does not inline calls with more than 30 arguments) and costs nothing per tile.
     """
-    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach = vp
+    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach, q_cut = packed
     lk = buf[3]
     for e in range(m):
         lk[e] = 1.0
@@ -80,17 +80,17 @@ def _tile_offsets(ni, nj, nk, F, F32):  # pragma: no cover - compiled
 
 
 @njit(inline="always", **_O)
-def _tile_update(src, dst, flags, geo, res, in_scale, vp, q_cut, sel, nsel, cconst, F, F32, buf, buf32):  # pragma: no cover
+def _tile_update(src, dst, flags, geo, res, in_scale, packed, sel, nsel, cconst, F, F32, buf, buf32):  # pragma: no cover
     """Update one tile; returns (sum, max) as described in :func:`dense_update`.
 
     ``flags = (inplace, prior_one, log_space, live, precise)``,
-    ``geo = (base0, nj, nk, i0, i1, j0, j1, k0, k1, tile_j, tile_k, v0, nv)``, ``vp`` the view arrays.
+    ``geo = (base0, nj, nk, i0, i1, j0, j1, k0, k1, tile_j, tile_k, v0, nv)``, ``packed`` the views.
     The full tile is evaluated (cells past the grid's edge are computed and not written) so that
     the offsets ``F`` are the same for every tile.
     """
     inplace, prior_one, log_space, live, precise = flags
     base0, nj, nk, i0, i1, j0, j1, k0, k1, tile_j, tile_k, v0, nv = geo
-    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach = vp
+    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach, q_cut = packed
     floor = -np.inf if log_space else 0.0
     nrow = k1 - k0
     live_in = live
@@ -162,8 +162,7 @@ def _tile_update(src, dst, flags, geo, res, in_scale, vp, q_cut, sel, nsel, ccon
             lk[e] = cprod
     else:
         _cells_likelihood(
-            vp,
-            q_cut,
+            packed,
             v0,
             nv,
             sel,
@@ -242,8 +241,7 @@ def _tile_range(
     resolutions,
     in_scale,
     view_offsets,
-    vp,
-    q_cut,
+    packed,
     tile,
     tile_offsets,
     tile_live,
@@ -296,8 +294,7 @@ def _tile_range(
             geo,
             resolutions[s],
             in_scale[s],
-            vp,
-            q_cut,
+            packed,
             sel,
             nsel,
             cconst,
@@ -358,7 +355,7 @@ def dense_update(
     precise : bool, evaluate the Gaussian in float64 (else float32, 8 SIMD lanes, relative error
         about 1e-5 per cell and view; use with float32 storage)
     """
-    box_off, q_cut = packed.box_offsets, packed.q_cut
+    box_off = packed.box_offsets
     n_tiles = tile_sum.shape[0]
     max_views = 1
     for s in range(view_offsets.shape[0] - 1):
@@ -375,17 +372,6 @@ def dense_update(
     F = np.empty((3, m))
     F32 = np.empty((3, m), dtype=np.float32)
     _tile_offsets(tile[0], tile[1], tile[2], F, F32)
-    vp = (
-        packed.T_optical_grid,
-        packed.intrinsics,
-        packed.distortion_id,
-        packed.distortion,
-        packed.kernel_id,
-        packed.inv_n,
-        box_off,
-        packed.box_params,
-        packed.box_reach,
-    )
     flags = (inplace, prior_one, log_space, precise)
     n_tasks = (n_tiles + TILES_PER_TASK - 1) // TILES_PER_TASK
     for c in prange(n_tasks):
@@ -401,8 +387,7 @@ def dense_update(
             resolutions,
             in_scale,
             view_offsets,
-            vp,
-            q_cut,
+            packed,
             tile,
             tile_offsets,
             tile_live,
