@@ -1,12 +1,16 @@
 """Next-best-view planning: rank candidate camera poses by the expected gain of a view there.
 
+Its parts: :mod:`.config` (the options), :mod:`.information` (box Jacobians, Fisher information,
+occlusion by known fruit, what a camera sees), :mod:`.targets` (the state, objects and tentative
+objects with their information so far); this module scores candidates and picks them.
+
 The planner predicts, from the current estimate only (no new posterior per candidate):
 
 **information**
     Every estimated object ``i`` (centre ``c``, radius ``r``) has an information matrix
     ``L_i`` (4 x 4 over ``(c, r)``) rebuilt from the views it was associated in: the Fisher
     information ``J^T W J`` of its four predicted box edges under the ``bayes`` sensor model
-    (edge noise ``sigma = alpha * size + sigma0_px``, :class:`~monovisual3d.methods.bayes.likelihood.SensorModel`),
+    (edge noise ``sigma = alpha * size + sigma0_px``, :mod:`monovisual3d.methods.bayes.sensor`),
     leaving out the edges the observed box shows occluded (inside the prediction by more than
     ``occluded_edge_sigma``) or cut by the image border. A candidate adds ``J^T W J`` of its
     own predicted box, each edge weighted by its visibility. The gain of object ``i`` is the
