@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import argparse
 
-from monovisual3d.bench.speed import format_markdown, run_speed, write_json
+from monovisual3d.bench.speed import format_markdown, run_speed
+from monovisual3d.bench.timing import write_json
 
 
 def main() -> None:

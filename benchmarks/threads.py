@@ -22,7 +22,8 @@ import time
 import numba
 import numpy as np
 
-from monovisual3d.bench.speed import bench_scene, busy_core, machine_metadata, paper_grid
+from monovisual3d.bench.timing import busy_core, machine_metadata
+from monovisual3d.bench.update_cases import bench_scene, paper_grid
 from monovisual3d.engine import threads
 from monovisual3d.engine.dense import NS_PER_CELL_VIEW, paper_update_fused
 from monovisual3d.engine.threads import thread_limit, threads_for

@@ -189,9 +189,9 @@ def test_to_dict_from_dict_round_trip() -> None:
         ({"width": 0}, r"camera\.width: expected a positive integer"),
         ({"height": 480.0}, r"camera\.height: expected a positive integer"),
         ({"width": True}, r"camera\.width"),
-        ({"fx": float("nan")}, r"camera\.fx: expected a finite number"),
-        ({"cy": float("inf")}, r"camera\.cy: expected a finite number"),
-        ({"fy": -1.0}, r"camera\.fx/fy: expected positive focal lengths"),
+        ({"fx": float("nan")}, r"camera\.fx: got nan, expected a finite number"),
+        ({"cy": float("inf")}, r"camera\.cy: got inf, expected a finite number"),
+        ({"fy": -1.0}, r"camera\.fy: got -1\.0, expected a positive focal length in pixels"),
         ({"distortion_model": "kannala"}, r"camera\.distortion\.model: unknown model 'kannala'"),
         ({"distortion_model": "plumb_bob", "distortion_coefficients": (0.1, 0.0, 0.0)}, r"takes 4 or 5 coefficients, got 3"),
         ({"distortion_model": "equidistant", "distortion_coefficients": (0.1,) * 5}, r"takes 4 coefficients, got 5"),
@@ -203,3 +203,51 @@ def test_camera_rejects_bad_input(kwargs: dict[str, object], match: str) -> None
     args.update(kwargs)
     with pytest.raises(InputError, match=match):
         Camera(**args)  # type: ignore[arg-type]
+
+
+# ---------------------------------------------------------------------- one home: pixels, sizes, camera objects
+@pytest.mark.parametrize("model", sorted(MODELS))
+def test_undistort_pixels_inverts_projection(model: str, rng: np.random.Generator) -> None:
+    """A point's distorted pixel, undistorted, is its pinhole projection."""
+    cam = make_camera(model)
+    p = points_in_view(rng)
+    pinhole = Camera(cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy)
+    assert_allclose(cam.undistort_pixels(cam.project(p)), pinhole.project(p), atol=1e-6)
+
+
+def test_normalised_and_pixels_round_trip(rng: np.random.Generator) -> None:
+    cam = make_camera("plumb_bob5")
+    uv = rng.uniform(0, 640, (50, 2))
+    assert_allclose(cam.pixels_from_normalised(cam.normalised_from_pixels(uv)), uv, atol=1e-9)
+    assert_allclose(cam.normalised_from_pixels([[cam.cx + cam.fx, cam.cy]]), [[1.0, 0.0]])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"width": 40000}, r"^camera\.width: got 40000, more than the 32768 pixels accepted"),
+        ({"width": 20000, "height": 20000}, r"^camera: a 20000x20000 image, more than the 67,108,864 pixels accepted"),
+        ({"fx": 2e7}, r"^camera\.fx: got 2e\+07, beyond the 1e\+07 pixels accepted"),
+        ({"fy": 0.0}, r"^camera\.fy: got 0\.0, expected a positive focal length in pixels"),
+    ],
+)
+def test_camera_size_and_focal_checks_match_the_session_loader(kwargs: dict[str, object], match: str) -> None:
+    """One check for width, height and focal lengths: a Camera refuses what a session file may not hold."""
+    from monovisual3d.camera import camera_from_dict
+
+    args: dict[str, object] = {"width": 640, "height": 480, "fx": 500.0, "fy": 500.0, "cx": 320.0, "cy": 240.0}
+    args.update(kwargs)
+    with pytest.raises(InputError, match=match):
+        Camera(**args)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=match):
+        camera_from_dict(args)
+
+
+def test_camera_from_dict_names_its_path() -> None:
+    from monovisual3d.camera import camera_from_dict
+
+    with pytest.raises(InputError, match=r"^views\[2\]\.camera\.fx: got 0\.0, expected a positive focal length"):
+        camera_from_dict({"width": 640, "height": 480, "fx": 0, "fy": 500, "cx": 320, "cy": 240}, "views[2].camera")
+    cam = camera_from_dict({"width": 640, "height": 480, "hfov_deg": 69.0, "distortion": {"coefficients": [0.1, 0, 0, 0]}})
+    assert (cam.fx, cam.cx, cam.cy) == (Camera.from_hfov(640, 480, 69.0).fx, 320.0, 240.0)
+    assert (cam.distortion_model, cam.distortion_coefficients) == ("plumb_bob", (0.1, 0.0, 0.0, 0.0))

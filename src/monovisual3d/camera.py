@@ -24,12 +24,15 @@ Distortion models (OpenCV's formulas on normalised coordinates):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import limits
+from .checks import expect_object, finite_number, reject_unknown
 from .errors import InputError, excerpt
 
 DISTORTION_ALIASES = {
@@ -97,7 +100,7 @@ class Camera:
     >>> cam = Camera.from_hfov(640, 480, 69.0)
     >>> round(cam.fx, 1)
     465.6
-    >>> cam.project(np.array([0.0, 0.0, 1.0]))[0]
+    >>> cam.project(np.array([0.0, 0.0, 1.0]))
     array([320., 240.])
     """
 
@@ -111,16 +114,8 @@ class Camera:
     distortion_coefficients: tuple[float, ...] = field(default_factory=tuple)
 
     def __post_init__(self) -> None:
-        for name in ("width", "height"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value <= 0:
-                raise InputError(f"camera.{name}: expected a positive integer, got {value!r}")
-        for name in ("fx", "fy", "cx", "cy"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(value):
-                raise InputError(f"camera.{name}: expected a finite number, got {value!r}")
-        if self.fx <= 0 or self.fy <= 0:
-            raise InputError(f"camera.fx/fy: expected positive focal lengths, got {self.fx}, {self.fy}")
+        check_image_size(self.width, self.height)
+        check_intrinsics(self.fx, self.fy, self.cx, self.cy)
         model = DISTORTION_ALIASES.get(str(self.distortion_model).lower())
         if model is None:
             raise InputError(
@@ -149,11 +144,11 @@ class Camera:
 
         ``f = 0.5 * width / tan(0.5 * hfov)``, square pixels, principal point at the image centre.
         """
-        if not (isinstance(hfov_deg, (int, float)) and 0.0 < hfov_deg < 180.0):
-            raise InputError(f"camera.hfov_deg: expected a number in (0, 180), got {hfov_deg!r}")
-        if not isinstance(width, (int, np.integer)) or width <= 0:
-            raise InputError(f"camera.width: expected a positive integer, got {width!r}")
-        f = 0.5 * width / math.tan(0.5 * math.radians(hfov_deg))
+        hfov = finite_number(hfov_deg, "camera.hfov_deg")
+        if not 0.0 < hfov < 180.0:
+            raise InputError(f"camera.hfov_deg: got {hfov}, expected a value in (0, 180) degrees")
+        check_image_size(width, height)
+        f = 0.5 * width / math.tan(0.5 * math.radians(hfov))
         return cls(width, height, f, f, 0.5 * width, 0.5 * height)
 
     @classmethod
@@ -175,9 +170,7 @@ class Camera:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Camera:
-        """Camera from the session file's ``camera`` object (see the README)."""
-        from .session import camera_from_dict
-
+        """Camera from the session file's ``camera`` object (see the README and :func:`camera_from_dict`)."""
         return camera_from_dict(data)
 
     # ------------------------------------------------------------------ exporters
@@ -277,11 +270,7 @@ class Camera:
         with np.errstate(divide="ignore", invalid="ignore"):
             xy = p[..., :2] / z[..., None]
         xy = np.where((z > 0)[..., None], xy, np.nan)
-        xy = self.distort(xy)
-        uv = np.empty_like(xy)
-        uv[..., 0] = self.fx * xy[..., 0] + self.cx
-        uv[..., 1] = self.fy * xy[..., 1] + self.cy
-        return uv
+        return self.pixels_from_normalised(self.distort(xy))
 
     def rays(self, uv: ArrayLike) -> NDArray[np.float64]:
         """Unit viewing rays, in the optical frame, through pixel coordinates.
@@ -294,13 +283,29 @@ class Camera:
         -------
         d_optical : ndarray, shape (..., 3), unit vectors with z > 0
         """
+        xy = self.undistort(self.normalised_from_pixels(uv))
+        d = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    def undistort_pixels(self, uv: ArrayLike) -> NDArray[np.float64]:
+        """Where pixels ``uv`` (shape (..., 2)) of this camera's image lie in the undistorted (pinhole) image, pixels."""
+        return self.pixels_from_normalised(self.undistort(self.normalised_from_pixels(uv)))
+
+    def normalised_from_pixels(self, uv: ArrayLike) -> NDArray[np.float64]:
+        """Normalised (still distorted) coordinates ``((u - cx) / fx, (v - cy) / fy)`` of pixels, shape (..., 2)."""
         uv = np.asarray(uv, dtype=float)
         xy = np.empty_like(uv)
         xy[..., 0] = (uv[..., 0] - self.cx) / self.fx
         xy[..., 1] = (uv[..., 1] - self.cy) / self.fy
-        xy = self.undistort(xy)
-        d = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
-        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+        return xy
+
+    def pixels_from_normalised(self, xy: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Pixels ``(fx x + cx, fy y + cy)`` of normalised (distorted) coordinates, shape (..., 2): the inverse of
+        :meth:`normalised_from_pixels`."""
+        uv = np.empty_like(xy)
+        uv[..., 0] = self.fx * xy[..., 0] + self.cx
+        uv[..., 1] = self.fy * xy[..., 1] + self.cy
+        return uv
 
     def in_image(self, uv: NDArray[np.floating]) -> NDArray[np.bool_]:
         """True where ``uv`` (shape (..., 2)) lies inside ``[0, width] x [0, height]``."""
@@ -308,31 +313,152 @@ class Camera:
         return (u >= 0) & (u <= self.width) & (v >= 0) & (v <= self.height)
 
 
+# ---------------------------------------------------------------------- checks
+def check_image_size(width: Any, height: Any, where: str = "camera") -> None:
+    """Refuse an image size that is not two positive integers within :mod:`~monovisual3d.limits` (the one size check).
+
+    Parameters
+    ----------
+    width, height : int, pixels
+    where : str, the path named in the message (``camera``, ``views[2].camera``)
+    """
+    for name, value in (("width", width), ("height", height)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value <= 0:
+            raise InputError(f"{where}.{name}: expected a positive integer (pixels), got {excerpt(value)}")
+        if value > limits.MAX_IMAGE_SIDE:
+            raise InputError(f"{where}.{name}: got {excerpt(value)}, more than the {limits.MAX_IMAGE_SIDE} pixels accepted")
+    if int(width) * int(height) > limits.MAX_IMAGE_PIXELS:
+        raise InputError(f"{where}: a {width}x{height} image, more than the {limits.MAX_IMAGE_PIXELS:,} pixels accepted")
+
+
+def check_intrinsics(fx: Any, fy: Any, cx: Any, cy: Any, where: str = "camera") -> None:
+    """Refuse intrinsics that are not finite numbers within :data:`~monovisual3d.limits.MAX_ABS_INTRINSIC_PX`
+    pixels, or focal lengths that are not positive (the one focal check)."""
+    values = {"fx": fx, "fy": fy, "cx": cx, "cy": cy}
+    for name, value in values.items():
+        finite_number(value, f"{where}.{name}", limits.MAX_ABS_INTRINSIC_PX, "pixels")
+    for name in ("fx", "fy"):
+        if values[name] <= 0:
+            raise InputError(f"{where}.{name}: got {float(values[name])}, expected a positive focal length in pixels")
+
+
+#: Most distortion coefficients a file may list (OpenCV's longest model has 14).
+MAX_DISTORTION_COEFFICIENTS = 14
+
+
+def camera_from_dict(data: Any, where: str = "camera") -> Camera:
+    """Camera from ``{"width", "height", "fx", "fy", "cx", "cy" | "hfov_deg", "distortion"}``.
+
+    Parameters
+    ----------
+    data : dict, the session file's ``camera`` object (see the README)
+    where : str, the path named in error messages
+
+    Raises
+    ------
+    InputError
+        One line naming ``where`` and the field, e.g. ``camera.fx: got 0.0, expected a positive focal length in pixels``.
+    """
+    expect_object(data, where)
+    reject_unknown(data, {"width", "height", "fx", "fy", "cx", "cy", "hfov_deg", "distortion"}, where)
+    for name in ("width", "height"):
+        if name not in data:
+            raise InputError(f"{where}.{name}: missing field, expected a positive integer (pixels)")
+    check_image_size(data["width"], data["height"], where)
+    has_k = [k for k in ("fx", "fy", "cx", "cy") if k in data]
+    if "hfov_deg" in data and has_k:
+        raise InputError(f"{where}: give either hfov_deg or fx/fy/cx/cy, not both")
+    missing = [k for k in ("fx", "fy", "cx", "cy") if k not in data]
+    if "hfov_deg" not in data and missing:
+        raise InputError(f"{where}.{missing[0]}: missing field, expected fx, fy, cx, cy (pixels) or hfov_deg")
+    if "hfov_deg" in data:
+        cam = _named(where, lambda: Camera.from_hfov(data["width"], data["height"], data["hfov_deg"]))
+    else:
+        cam = _named(where, lambda: Camera(data["width"], data["height"], data["fx"], data["fy"], data["cx"], data["cy"]))
+    model, coeffs = _distortion_from_dict(data.get("distortion"), f"{where}.distortion")
+    return _named(where, lambda: replace(cam, distortion_model=model, distortion_coefficients=coeffs))
+
+
+def _named(where: str, build: Callable[[], Camera]) -> Camera:
+    """``build()``, with the ``camera.`` path of its error message renamed to ``where``."""
+    try:
+        return build()
+    except InputError as exc:
+        msg = str(exc)
+        if msg.startswith("camera.") and where != "camera":
+            msg = where + msg[len("camera") :]
+        raise InputError(msg) from None
+
+
+def _distortion_from_dict(dist: Any, where: str) -> tuple[str, tuple[float, ...]]:
+    """``(model, coefficients)`` from the optional ``camera.distortion`` object (``none`` when absent)."""
+    if dist is None:
+        return "none", ()
+    expect_object(dist, where)
+    reject_unknown(dist, {"model", "coefficients"}, where)
+    model = dist.get("model", "plumb_bob")
+    if model is not None and not isinstance(model, str):
+        raise InputError(f"{where}.model: expected a model name (text), got {excerpt(model)}")
+    raw = dist.get("coefficients")
+    if isinstance(raw, np.ndarray) and raw.ndim == 1:
+        raw = raw.tolist()
+    if not isinstance(raw, list):
+        raise InputError(f"{where}.coefficients: expected a list of numbers, got {excerpt(raw)}")
+    if len(raw) > MAX_DISTORTION_COEFFICIENTS:
+        raise InputError(f"{where}.coefficients: {len(raw)} numbers, expected at most {MAX_DISTORTION_COEFFICIENTS} (OpenCV)")
+    coeffs = tuple(finite_number(c, f"{where}.coefficients[{i}]", limits.MAX_ABS_DISTORTION) for i, c in enumerate(raw))
+    return str(model), coeffs
+
+
+# ---------------------------------------------------------------------- distortion
+#: Below this radius (normalised units) the equidistant model's ``theta_d / r`` is taken as its limit, 1.
+_EQUIDISTANT_MIN_RADIUS = 1e-12
+
+
+def _equidistant_theta_d(theta: NDArray[np.floating], coeffs: tuple[float, ...]) -> NDArray[np.floating]:
+    """OpenCV fisheye: distorted angle ``theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8)``."""
+    k1, k2, k3, k4 = coeffs
+    t2 = theta * theta
+    return theta * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+
+
+def _equidistant_dtheta_d(theta: NDArray[np.floating], coeffs: tuple[float, ...]) -> NDArray[np.floating]:
+    """Derivative of :func:`_equidistant_theta_d` with respect to ``theta``."""
+    k1, k2, k3, k4 = coeffs
+    t2 = theta * theta
+    return 1 + t2 * (3 * k1 + t2 * (5 * k2 + t2 * (7 * k3 + t2 * 9 * k4)))
+
+
+def _radial_tangential(
+    x: NDArray[np.floating], y: NDArray[np.floating], model: str, coeffs: tuple[float, ...]
+) -> tuple[NDArray[np.floating], NDArray[np.floating], NDArray[np.floating]]:
+    """OpenCV's radial factor and tangential shift at undistorted ``(x, y)`` (plumb_bob, rational_polynomial).
+
+    Returns ``(radial, dx, dy)`` with ``x_distorted = x * radial + dx`` and ``y_distorted = y * radial + dy``.
+    A plumb_bob model is the rational one with ``k4 = k5 = k6 = 0``.
+    """
+    k = np.zeros(8)
+    k[: len(coeffs)] = coeffs
+    k1, k2, p1, p2, k3, k4, k5, k6 = k
+    r2 = x * x + y * y
+    radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+    dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    return radial, dx, dy
+
+
 def distort_normalised(xy: NDArray[np.floating], model: str, coeffs: tuple[float, ...]) -> NDArray[np.floating]:
     """OpenCV distortion of normalised coordinates, shape (..., 2) -> (..., 2)."""
     if model == "none" or not coeffs:
         return xy
-    x, y = xy[..., 0], xy[..., 1]
-    r2 = x * x + y * y
     if model == "equidistant":
-        k1, k2, k3, k4 = coeffs
-        r = np.sqrt(r2)
-        theta = np.arctan(r)
-        t2 = theta * theta
-        theta_d = theta * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+        r = np.sqrt(xy[..., 0] ** 2 + xy[..., 1] ** 2)
         with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(r > 1e-12, theta_d / r, 1.0)
+            scale = np.where(r > _EQUIDISTANT_MIN_RADIUS, _equidistant_theta_d(np.arctan(r), coeffs) / r, 1.0)
         return xy * scale[..., None]
-    if model == "plumb_bob":
-        k1, k2, p1, p2 = coeffs[:4]
-        k3 = coeffs[4] if len(coeffs) > 4 else 0.0
-        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    else:  # rational_polynomial
-        k1, k2, p1, p2, k3, k4, k5, k6 = coeffs
-        radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
-    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-    return np.stack([xd, yd], axis=-1)
+    x, y = xy[..., 0], xy[..., 1]
+    radial, dx, dy = _radial_tangential(x, y, model, coeffs)
+    return np.stack([x * radial + dx, y * radial + dy], axis=-1)
 
 
 def undistort_normalised(
@@ -342,29 +468,15 @@ def undistort_normalised(
     if model == "none" or not coeffs:
         return xy_d
     if model == "equidistant":
-        k1, k2, k3, k4 = coeffs
         rd = np.linalg.norm(xy_d, axis=-1)
         theta = rd.copy()
         for _ in range(iterations):
-            t2 = theta * theta
-            f = theta * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)))) - rd
-            df = 1 + t2 * (3 * k1 + t2 * (5 * k2 + t2 * (7 * k3 + t2 * 9 * k4)))
-            theta = theta - f / df
+            theta = theta - (_equidistant_theta_d(theta, coeffs) - rd) / _equidistant_dtheta_d(theta, coeffs)
         with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(rd > 1e-12, np.tan(theta) / rd, 1.0)
+            scale = np.where(rd > _EQUIDISTANT_MIN_RADIUS, np.tan(theta) / rd, 1.0)
         return xy_d * scale[..., None]
     xy = xy_d.copy()
     for _ in range(iterations):
-        x, y = xy[..., 0], xy[..., 1]
-        r2 = x * x + y * y
-        if model == "plumb_bob":
-            k1, k2, p1, p2 = coeffs[:4]
-            k3 = coeffs[4] if len(coeffs) > 4 else 0.0
-            radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        else:
-            k1, k2, p1, p2, k3, k4, k5, k6 = coeffs
-            radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
-        dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-        dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+        radial, dx, dy = _radial_tangential(xy[..., 0], xy[..., 1], model, coeffs)
         xy = np.stack([(xy_d[..., 0] - dx) / radial, (xy_d[..., 1] - dy) / radial], axis=-1)
     return xy

@@ -11,7 +11,6 @@ See the README ("Session format") for the full description.
 from __future__ import annotations
 
 import json
-import math
 import warnings
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -22,7 +21,10 @@ from numpy.typing import NDArray
 
 from . import limits
 from ._structured import load_structured
-from .camera import Camera
+from .camera import Camera, camera_from_dict
+from .checks import expect_object as _expect_object
+from .checks import finite_number as _number
+from .checks import reject_unknown as _reject_unknown
 from .errors import InputError, InputWarning, excerpt, one_line
 from .file_kinds import wrong_kind
 from .frames import (
@@ -264,65 +266,6 @@ def _session_from_dict(data: Any, source: str | None) -> Session:
     return session
 
 
-def camera_from_dict(data: Any, where: str = "camera") -> Camera:
-    """Camera from ``{"width", "height", "fx", "fy", "cx", "cy" | "hfov_deg", "distortion"}``."""
-    _expect_object(data, where)
-    _reject_unknown(data, {"width", "height", "fx", "fy", "cx", "cy", "hfov_deg", "distortion"}, where)
-    for name in ("width", "height"):
-        if name not in data:
-            raise InputError(f"{where}.{name}: missing field, expected a positive integer (pixels)")
-        value = data[name]
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value <= 0:
-            raise InputError(f"{where}.{name}: expected a positive integer (pixels), got {excerpt(value)}")
-        if value > limits.MAX_IMAGE_SIDE:
-            raise InputError(f"{where}.{name}: got {excerpt(value)}, more than the {limits.MAX_IMAGE_SIDE} pixels accepted")
-    if int(data["width"]) * int(data["height"]) > limits.MAX_IMAGE_PIXELS:
-        raise InputError(
-            f"{where}: a {data['width']}x{data['height']} image, more than the {limits.MAX_IMAGE_PIXELS:,} pixels accepted"
-        )
-    has_k = [k for k in ("fx", "fy", "cx", "cy") if k in data]
-    if "hfov_deg" in data:
-        if has_k:
-            raise InputError(f"{where}: give either hfov_deg or fx/fy/cx/cy, not both")
-        hfov = _number(data["hfov_deg"], f"{where}.hfov_deg")
-        if not 0 < hfov < 180:
-            raise InputError(f"{where}.hfov_deg: got {hfov}, expected a value in (0, 180) degrees")
-        cam = Camera.from_hfov(data["width"], data["height"], hfov)
-        model, coeffs = "none", ()
-    else:
-        missing = [k for k in ("fx", "fy", "cx", "cy") if k not in data]
-        if missing:
-            raise InputError(f"{where}.{missing[0]}: missing field, expected fx, fy, cx, cy (pixels) or hfov_deg")
-        vals = {k: _number(data[k], f"{where}.{k}", limits.MAX_ABS_INTRINSIC_PX, "pixels") for k in ("fx", "fy", "cx", "cy")}
-        for k in ("fx", "fy"):
-            if vals[k] <= 0:
-                raise InputError(f"{where}.{k}: got {vals[k]}, expected a positive focal length in pixels")
-        cam = Camera(data["width"], data["height"], **vals)
-        model, coeffs = "none", ()
-    dist = data.get("distortion")
-    if dist is not None:
-        _expect_object(dist, f"{where}.distortion")
-        _reject_unknown(dist, {"model", "coefficients"}, f"{where}.distortion")
-        model = dist.get("model", "plumb_bob")
-        if model is not None and not isinstance(model, str):
-            raise InputError(f"{where}.distortion.model: expected a model name (text), got {excerpt(model)}")
-        raw = dist.get("coefficients")
-        if isinstance(raw, np.ndarray) and raw.ndim == 1:
-            raw = raw.tolist()
-        if not isinstance(raw, list):
-            raise InputError(f"{where}.distortion.coefficients: expected a list of numbers, got {excerpt(raw)}")
-        if len(raw) > 14:
-            raise InputError(f"{where}.distortion.coefficients: {len(raw)} numbers, expected at most 14 (OpenCV)")
-        coeffs = tuple(_number(c, f"{where}.distortion.coefficients[{i}]", limits.MAX_ABS_DISTORTION) for i, c in enumerate(raw))
-    try:
-        return Camera(cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy, model, coeffs)
-    except InputError as exc:
-        msg = str(exc)
-        if msg.startswith("camera.") and where != "camera":
-            msg = where + msg[len("camera") :]
-        raise InputError(msg) from None
-
-
 def pose_from_dict(data: Any, where: str) -> NDArray[np.float64]:
     """4x4 transform from ``{"position", "quaternion_xyzw"}`` or ``{"matrix"}``."""
     _expect_object(data, where)
@@ -477,6 +420,16 @@ def _check_mask(mask: Any, where: str, camera: Camera) -> None:
 # ---------------------------------------------------------------------- geometry
 #: Views whose camera positions span less than this angle, seen from the scene, cannot triangulate depth well.
 MIN_BASELINE_DEG = 3.0
+#: Views closer than this (metres) and turned less than :data:`SAME_POSE_DEG` count as the same pose: a
+#: millimetre and a tenth of a degree are below what arm kinematics repeat.
+SAME_POSE_M = 1e-3
+SAME_POSE_DEG = 0.1
+#: Above this condition number the optical axes are taken as parallel (no point closest to all of them).
+PARALLEL_AXES_CONDITION = 1e6
+#: With parallel optical axes the scene point is taken this far in front of the cameras, metres.
+PARALLEL_AXES_DEPTH_M = 1.0
+#: A camera closer than this to the scene point (metres, rounding level) gives no direction to measure angles from.
+AT_SCENE_POINT_M = 1e-9
 
 
 def geometry_warnings(session: Session, *, single_view: bool = False) -> list[str]:
@@ -507,21 +460,21 @@ def geometry_warnings(session: Session, *, single_view: bool = False) -> list[st
     P, Z = T[:, :3, 3], T[:, :3, 2]
     R0 = T[0, :3, :3]
     cos_rot = np.clip((np.einsum("nij,ij->n", T[:, :3, :3], R0) - 1) / 2, -1.0, 1.0)
-    if np.all(np.linalg.norm(P - P[0], axis=1) < 1e-3) and np.all(np.degrees(np.arccos(cos_rot)) < 0.1):
+    if np.all(np.linalg.norm(P - P[0], axis=1) < SAME_POSE_M) and np.all(np.degrees(np.arccos(cos_rot)) < SAME_POSE_DEG):
         return [f"views: all {n} views have the same pose; depth cannot be triangulated from one viewpoint"]
     if session.workspace is not None:
         target = 0.5 * (session.workspace.min + session.workspace.max)
     else:
         A = n * np.eye(3) - Z.T @ Z
         b = (P - Z * np.sum(Z * P, axis=1, keepdims=True)).sum(0)
-        target = P.mean(0) + Z.mean(0)  # parallel axes: 1 m in front of the cameras
-        if np.linalg.cond(A) < 1e6:
+        target = P.mean(0) + PARALLEL_AXES_DEPTH_M * Z.mean(0)
+        if np.linalg.cond(A) < PARALLEL_AXES_CONDITION:
             candidate = np.linalg.solve(A, b)
             if np.all(np.sum((candidate - P) * Z, axis=1) > 0):
                 target = candidate
     d = P - target
     norm = np.linalg.norm(d, axis=1)
-    if np.any(norm < 1e-9):
+    if np.any(norm < AT_SCENE_POINT_M):  # a camera at the scene point: no angle to measure
         return []
     u = d / norm[:, None]
     far = int(np.argmin(u @ u[0]))  # two passes of farthest direction: the largest pairwise angle, to a factor < 2
@@ -536,35 +489,6 @@ def geometry_warnings(session: Session, *, single_view: bool = False) -> list[st
 
 
 # ---------------------------------------------------------------------- helpers
-def _expect_object(data: Any, where: str) -> None:
-    if not isinstance(data, dict):
-        raise InputError(f"{where}: expected an object, got {type(data).__name__}")
-
-
-def _reject_unknown(data: dict[str, Any], allowed: set[str], where: str) -> None:
-    unknown = sorted(set(data) - allowed, key=excerpt)  # YAML keys may be numbers or None, not only text
-    if unknown:
-        key = unknown[0]
-        name = one_line(key, limits.EXCERPT_CHARS) if isinstance(key, str) else excerpt(key)  # keep the message one line
-        path = f"{where}.{name}" if where else name
-        raise InputError(f"{path}: unknown field, expected one of {sorted(allowed)}")
-
-
-def _number(value: Any, where: str, bound: float | None = None, unit: str = "") -> float:
-    """A finite float (not a bool); with ``bound``, ``|value| <= bound`` (``unit`` names it in the message)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InputError(f"{where}: expected a number, got {excerpt(value)}")
-    try:
-        out = float(value)
-    except OverflowError:
-        raise InputError(f"{where}: got {excerpt(value)}, too large for a number") from None
-    if not math.isfinite(out):
-        raise InputError(f"{where}: got {out}, expected a finite number")
-    if bound is not None and not abs(out) <= bound:
-        raise InputError(f"{where}: got {out:.6g}, beyond the {bound:g}{' ' + unit if unit else ''} accepted")
-    return out
-
-
 def _check_position(p: NDArray[np.float64], where: str) -> None:
     """Refuse a position with a coordinate beyond :data:`~monovisual3d.limits.MAX_ABS_POSITION_M` metres."""
     big = float(np.max(np.abs(p)))

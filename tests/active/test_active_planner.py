@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from monovisual3d import Camera
 from monovisual3d.active import CapSpec, PlannerConfig, PlannerState, cap_poses, ellipsoid95_mm, plan_from_state, plan_next_view
-from monovisual3d.active.planner import boxes_and_jacobians, occlusion_by_known
+from monovisual3d.active.information import boxes_and_jacobians, occlusion_by_known
 from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.sphere import predict_sphere_boxes as predict_boxes
@@ -266,14 +266,14 @@ def _simulated_state(box_sigma: float, n_views: int) -> PlannerState:
 @pytest.mark.parametrize(("box_sigma", "low", "high"), [(0.0, 0.01, 0.01), (0.03, 0.022, 0.045)])
 def test_auto_box_noise_follows_the_boxes(box_sigma: float, low: float, high: float) -> None:
     """Edge noise of the simulator: sqrt(1.25) * box_sigma of the size; exact boxes give the 1 % floor."""
-    from monovisual3d.active.planner import estimate_box_noise
+    from monovisual3d.active.targets import estimate_box_noise
 
     alpha = estimate_box_noise(_simulated_state(box_sigma, 5), PlannerConfig())
     assert alpha is not None and low <= alpha <= high
 
 
 def test_auto_box_noise_needs_enough_edges(camera: Camera) -> None:
-    from monovisual3d.active.planner import estimate_box_noise
+    from monovisual3d.active.targets import estimate_box_noise
 
     state, _ = hidden_setup(camera)  # 2 objects x 2 views: 16 edges, 8 parameters: 8 left, enough
     assert estimate_box_noise(state, PlannerConfig()) == pytest.approx(0.01)  # exact boxes: the floor
@@ -283,3 +283,17 @@ def test_auto_box_noise_needs_enough_edges(camera: Camera) -> None:
     assert estimate_box_noise(one, PlannerConfig()) is None  # 8 edges, 8 parameters
     with pytest.raises(InputError, match="box_noise: got 'often', expected a fraction >= 0 or 'auto'"):
         PlannerConfig(box_noise="often")
+
+
+def test_coverage_visibility_honours_lens_distortion() -> None:
+    """A point the pinhole model puts outside the image is seen through a barrel lens (Camera's projection)."""
+    from monovisual3d.active.information import sees
+
+    p_base = np.array([[0.7, 0.0, 1.0]])  # pinhole: u = 320 + 500 * 0.7 = 670 > 640
+    barrel = Camera(640, 480, 500.0, 500.0, 320.0, 240.0, "plumb_bob", (-0.2, 0.0, 0.0, 0.0))
+    pinhole = Camera(640, 480, 500.0, 500.0, 320.0, 240.0)
+    T_optical_base = np.eye(4)[None]
+    assert barrel.project(p_base)[0, 0] < 640 < pinhole.project(p_base)[0, 0]
+    assert_array_equal(sees(barrel, T_optical_base, p_base), [[True]])
+    assert_array_equal(sees(pinhole, T_optical_base, p_base), [[False]])
+    assert_array_equal(sees(pinhole, T_optical_base, np.array([[0.0, 0.0, 0.01]])), [[False]])  # too close to the lens

@@ -7,7 +7,8 @@ import json
 import numpy as np
 from typer.testing import CliRunner
 
-from monovisual3d.bench.speed import bench_scene, format_markdown, naive_update, paper_grid, run_speed
+from monovisual3d.bench.speed import format_markdown, run_speed
+from monovisual3d.bench.update_cases import bench_scene, naive_update, paper_grid
 from monovisual3d.cli import app
 from monovisual3d.cli.bench import bench_app
 from monovisual3d.engine.dense import paper_update_fused

@@ -21,7 +21,8 @@ from monovisual3d.io import (
     read_calibration,
 )
 from monovisual3d.io._parse import load_yaml
-from monovisual3d.io.calibration import opencv_distortion, parse_image_size
+from monovisual3d.io.calibration_opencv import opencv_distortion
+from monovisual3d.io.image_size import parse_image_size
 
 
 def points_in_view(rng: np.random.Generator, n: int = 200, spread: float = 0.7) -> np.ndarray:

@@ -23,7 +23,9 @@ from ..errors import InputError
 from ..result import DetectedObject
 from ..session import Session, Workspace
 from .candidates import CapSpec, cap_poses, load_candidates, pose_to_dict
-from .planner import PlannerConfig, PlannerState, default_workspace, load_planning_session, plan_from_state
+from .config import PlannerConfig
+from .planner import load_planning_session, plan_from_state
+from .targets import PlannerState, default_workspace
 
 #: A point given as ``"X,Y,Z"`` (metres) or as three numbers.
 Point = str | Sequence[float]

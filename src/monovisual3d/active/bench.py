@@ -36,8 +36,10 @@ from ..sim.noise import NoiseModel
 from ..sim.scene import Scene
 from ..sim.scenes import default_camera, greenhouse_scene, paper_scene, scene_target
 from .candidates import CapSpec, cap_poses
+from .config import PlannerConfig
 from .loop import STRATEGIES, LoopRun, evaluate_step, run_loop
-from .planner import PlannerConfig, PlannerState, plan_from_state
+from .planner import plan_from_state
+from .targets import PlannerState
 
 #: Budgets whose errors the target averages, the reduction required, the stopping rule's view limit and success rate.
 TARGET_BUDGETS = (3, 5)
@@ -100,7 +102,7 @@ def run_active_bench(
     always timed here, in this process.
     """
     from ..batch.spread import check_spread, spread_map
-    from ..bench.speed import machine_metadata
+    from ..bench.timing import machine_metadata
 
     check_spread(workers, scheduler)
     known = active_conditions()

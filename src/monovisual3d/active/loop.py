@@ -38,7 +38,9 @@ from ..sim.noise import NoiseModel
 from ..sim.scene import Scene
 from ..sim.simulate import DETECTION_LABEL, simulate_views
 from ..sim.viewpoints import PAPER_OFFSET_M, paper_poses
-from .planner import Plan, PlannerConfig, PlannerState, plan_from_state
+from .config import PlannerConfig
+from .planner import Plan, plan_from_state
+from .targets import PlannerState
 
 STRATEGIES = ("nbv", "fixed", "random", "sphere")
 #: Half side of the planner's workspace cube around the scene's target in simulation, metres.
@@ -249,7 +251,7 @@ def _plan_step(
 def evaluate_step(objects: list[DetectedObject], scene: Scene) -> dict[str, Any]:
     """Errors of one estimate against the truth: matched errors (m), true positives, truth and estimate counts, ellipsoids (mm)."""
     from ..metrics import evaluate, match
-    from .planner import ellipsoid95_mm
+    from .information import ellipsoid95_mm
 
     est = np.array([o.position for o in objects]).reshape(-1, 3)
     met = evaluate(est, scene.centres, truth_radii=scene.radii)

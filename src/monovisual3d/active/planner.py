@@ -1,12 +1,16 @@
 """Next-best-view planning: rank candidate camera poses by the expected gain of a view there.
 
+Its parts: :mod:`.config` (the options), :mod:`.information` (box Jacobians, Fisher information,
+occlusion by known fruit, what a camera sees), :mod:`.targets` (the state, objects and tentative
+objects with their information so far); this module scores candidates and picks them.
+
 The planner predicts, from the current estimate only (no new posterior per candidate):
 
 **information**
     Every estimated object ``i`` (centre ``c``, radius ``r``) has an information matrix
     ``L_i`` (4 x 4 over ``(c, r)``) rebuilt from the views it was associated in: the Fisher
     information ``J^T W J`` of its four predicted box edges under the ``bayes`` sensor model
-    (edge noise ``sigma = alpha * size + sigma0_px``, :class:`~monovisual3d.methods.bayes.likelihood.SensorModel`),
+    (edge noise ``sigma = alpha * size + sigma0_px``, :mod:`monovisual3d.methods.bayes.sensor`),
     leaving out the edges the observed box shows occluded (inside the prediction by more than
     ``occluded_edge_sigma``) or cut by the image border. A candidate adds ``J^T W J`` of its
     own predicted box, each edge weighted by its visibility. The gain of object ``i`` is the
@@ -46,158 +50,33 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+import warnings
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..camera import Camera
+from ..camera import camera_from_dict
 from ..errors import InputError
-from ..geometry.sphere import predict_sphere_boxes as predict_boxes
-from ..methods.bayes.likelihood import SensorModel
+from ..methods.bayes.sensor import box_edge_sigma_px
 from ..result import DetectedObject, Result
-from ..session import Session, View, Workspace
+from ..session import Session, Workspace, load_session, read_structured_file, workspace_from_dict
 from .candidates import check_candidates
-
-#: chi-square quantile, 3 degrees of freedom, 95 %: the 95 % ellipsoid's semi-axes are sqrt(CHI2_3_95 * eigenvalues).
-CHI2_3_95 = 7.814727903251178
-#: Finite-difference step of the box Jacobian, metres.
-_H = 1e-5
-#: Sample points of a predicted disc (unit disc coordinates): 3 per edge (left, top, right, bottom), then interior.
-_EDGE_ANGLES = np.radians([180.0, 160.0, 200.0, 270.0, 250.0, 290.0, 0.0, 20.0, -20.0, 90.0, 70.0, 110.0])
-_EDGE_OF_POINT = np.repeat(np.arange(4), 3)  # image y is down: angle 270 deg (v = -1) is the top edge
-_DISC_POINTS = np.concatenate(
-    [
-        0.85 * np.stack([np.cos(_EDGE_ANGLES), np.sin(_EDGE_ANGLES)], -1),
-        0.5 * np.stack([np.cos(np.radians(np.arange(0, 360, 60))), np.sin(np.radians(np.arange(0, 360, 60)))], -1),
-        np.zeros((1, 2)),
-    ]
+from .config import PlannerConfig
+from .information import (
+    CHI2_3_95,
+    CONFIDENCE,
+    border_weights,
+    boxes_and_jacobians,
+    ellipsoid95_mm,
+    fisher,
+    occlusion_by_known,
+    rms_mm,
+    sees,
 )
-
-
-@dataclass(frozen=True)
-class PlannerConfig:
-    """Options of :func:`plan_next_view` (see the module docstring for the model).
-
-    Attributes
-    ----------
-    target_mm : float, stopping rule: largest semi-axis of every object's 95 % position ellipsoid, millimetres
-    motion_weight : float, gain (mm) lost per metre of camera travel (0: motion is free)
-    rotation_scale_m : float, metres of travel one radian of camera rotation counts as
-    p_occluder : float, prior probability that an unknown occluder hides an object in a view
-    p_occluder_seen : float, the same towards directions in which the object was seen occluded or missed
-    occluder_angle_deg : float, angular width (1 sigma) of that raised prior, degrees
-    min_visible_fraction : float, visible part of the predicted disc below which no detection is expected
-    occluded_edge_sigma : float, an observed edge this many sigmas inside the prediction counts as occluded
-    discovery_weight : float, weight of the gain on tentative objects (unexplained boxes)
-    coverage_mm : float, gain of newly covering the whole workspace volume seen by fewer than two views
-    cap_mm : float, RMS position error beyond which an object counts as not localised, millimetres
-    prior_radius_m : float, radius assumed for a tentative object, metres
-    prior_radius_std_m : float, prior std of that radius, metres
-    border_px : float, a predicted edge within this distance of the image border is cut
-    coverage_points : int, workspace sample points per axis for the coverage term
-    reach_m : float, arm-reach sphere radius around ``base_centre``: candidates outside are never picked
-    base_centre : tuple, metres, base frame, centre of the reach sphere
-    box_noise : float, ``"auto"`` or None, the detector's edge noise as a fraction of the box size.
-        ``"auto"`` (default): estimated from how well the current estimate predicts the boxes seen so far
-        (:func:`estimate_box_noise`, at least ``min_box_noise``); None: the sensor model's ``alpha``. The information and the stopping rule use it: the method's covariance
-        is scaled by the ratio of the position variances under the stated and the model's edge noise
-    min_box_noise : float, floor of the ``"auto"`` box noise (a few views cannot show less)
-    joint_confidence : bool, stopping rule: the 95 % holds for all fruit together (each fruit's
-        ellipsoid at the ``0.95 ** (1 / n)`` quantile, see :func:`stop_scale`); False: for each fruit alone
-    sensor : SensorModel, the ``bayes`` method's sensor model (edge noise ``alpha * size + sigma0_px``)
-    """
-
-    target_mm: float = 5.0
-    motion_weight: float = 0.0
-    rotation_scale_m: float = 0.1
-    p_occluder: float = 0.15
-    p_occluder_seen: float = 0.7
-    occluder_angle_deg: float = 15.0
-    min_visible_fraction: float = 0.3
-    occluded_edge_sigma: float = 2.5
-    discovery_weight: float = 1.0
-    coverage_mm: float = 10.0
-    cap_mm: float = 30.0
-    prior_radius_m: float = 0.03
-    prior_radius_std_m: float = 0.015
-    border_px: float = 1.0
-    coverage_points: int = 8
-    reach_m: float = math.inf
-    base_centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    box_noise: float | str | None = "auto"
-    joint_confidence: bool = True
-    min_box_noise: float = 0.01
-    sensor: SensorModel = field(default_factory=SensorModel)
-
-    def __post_init__(self) -> None:
-        for name in ("target_mm", "rotation_scale_m", "cap_mm", "prior_radius_m", "prior_radius_std_m", "occluder_angle_deg"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
-                raise InputError(f"{name}: got {v!r}, expected a positive number")
-        for name in ("motion_weight", "discovery_weight", "coverage_mm", "border_px", "occluded_edge_sigma"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0):
-                raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
-        for name in ("p_occluder", "p_occluder_seen", "min_visible_fraction"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and 0 <= v < 1):
-                raise InputError(f"{name}: got {v!r}, expected a probability in [0, 1)")
-        if (
-            self.box_noise is not None
-            and self.box_noise != "auto"
-            and not (
-                isinstance(self.box_noise, (int, float))
-                and not isinstance(self.box_noise, bool)
-                and math.isfinite(self.box_noise)
-                and self.box_noise >= 0
-            )
-        ):
-            raise InputError(f"box_noise: got {self.box_noise!r}, expected a fraction >= 0 or 'auto'")
-        if not (isinstance(self.min_box_noise, (int, float)) and 0 <= self.min_box_noise < 1):
-            raise InputError(f"min_box_noise: got {self.min_box_noise!r}, expected a fraction in [0, 1)")
-        if not (isinstance(self.reach_m, (int, float)) and self.reach_m > 0):
-            raise InputError(f"reach_m: got {self.reach_m!r}, expected a positive number of metres")
-        if not isinstance(self.joint_confidence, bool):
-            raise InputError(f"joint_confidence: got {self.joint_confidence!r}, expected true or false")
-        if isinstance(self.coverage_points, bool) or not isinstance(self.coverage_points, int) or self.coverage_points < 2:
-            raise InputError(f"coverage_points: got {self.coverage_points!r}, expected an integer >= 2")
-        b = np.asarray(self.base_centre, dtype=float)
-        if b.shape != (3,) or not np.all(np.isfinite(b)):
-            raise InputError(f"base_centre: got {self.base_centre!r}, expected [x, y, z] metres")
-
-    @property
-    def stated_sensor(self) -> SensorModel:
-        """The sensor model with the stated box noise as its ``alpha``."""
-        if self.box_noise is None or self.box_noise == "auto":  # "auto" is resolved per plan (plan_from_state)
-            return self.sensor
-        return replace(self.sensor, alpha=float(self.box_noise))
-
-
-@dataclass(frozen=True)
-class PlannerState:
-    """What the planner knows: camera, views so far, estimated objects, workspace.
-
-    Attributes
-    ----------
-    camera : Camera
-    views : tuple of View
-    objects : tuple of DetectedObject, the current estimate (position, radius, covariance, associations)
-    workspace : Workspace or None
-    """
-
-    camera: Camera
-    views: tuple[View, ...]
-    objects: tuple[DetectedObject, ...]
-    workspace: Workspace | None = None
-
-    @property
-    def unexplained(self) -> list[tuple[int, int]]:
-        """(view index, detection index) of every box no object is associated with."""
-        used = {(v, d) for o in self.objects for v, d in o.associations.items()}
-        return [(v, d) for v, view in enumerate(self.views) for d in range(len(view.detections)) if (v, d) not in used]
+from .targets import PlannerState, Targets, build_targets, default_workspace, estimate_box_noise
 
 
 @dataclass(frozen=True)
@@ -269,255 +148,11 @@ class Plan:
         return out
 
 
-# ----------------------------------------------------------------------------- geometry
-def boxes_and_jacobians(
-    camera: Camera, T_optical_base: NDArray[np.floating], centres: NDArray[np.floating], radii: NDArray[np.floating]
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
-    """Predicted boxes of spheres in several views and their Jacobians w.r.t. ``(centre, radius)``.
-
-    Parameters
-    ----------
-    camera : Camera
-    T_optical_base : ndarray, shape (V, 4, 4)
-    centres : ndarray, shape (M, 3), metres, base frame
-    radii : ndarray, shape (M,), metres
-
-    Returns
-    -------
-    boxes : ndarray, shape (V, M, 4), pixels (x1, y1, x2, y2), NaN where not in front
-    J : ndarray, shape (V, M, 4, 4), d edges / d (x, y, z, r), pixels per metre, base frame
-    visible : ndarray, shape (V, M), bool, in front and overlapping the image
-    depth : ndarray, shape (V, M), metres, optical z of the centre
-    """
-    R = T_optical_base[:, :3, :3]
-    t = T_optical_base[:, :3, 3]
-    p = np.einsum("vij,mj->vmi", R, centres) + t[:, None, :]  # (V, M, 3)
-    V, M = p.shape[:2]
-    r = np.broadcast_to(radii, (V, M))
-    steps = np.zeros((9, 4))
-    steps[1:7, :3] = np.repeat(np.eye(3), 2, axis=0) * np.tile([_H, -_H], 3)[:, None]
-    steps[7:, 3] = [_H, -_H]
-    P = p[None] + steps[:, None, None, :3]  # (9, V, M, 3)
-    Rr = r[None] + steps[:, None, None, 3]
-    b, vis = predict_boxes(camera, P.reshape(-1, 3), Rr.reshape(-1, 1))
-    b = b.reshape(9, V, M, 4)
-    d_opt = np.stack([(b[1 + 2 * k] - b[2 + 2 * k]) / (2 * _H) for k in range(3)], axis=-1)  # (V, M, 4, 3)
-    d_r = (b[7] - b[8]) / (2 * _H)  # (V, M, 4)
-    J = np.concatenate([np.einsum("vmek,vkj->vmej", d_opt, R), d_r[..., None]], axis=-1)
-    return b[0], J, vis.reshape(9, V, M)[0], p[..., 2]
-
-
-def estimate_box_noise(state: PlannerState, cfg: PlannerConfig) -> float | None:
-    """The detector's edge noise as a fraction of the box size, from the boxes seen so far.
-
-    Each associated box is compared with the box its object's current estimate predicts; edges
-    on the image border and edges far inside the prediction (occluded: more than
-    ``occluded_edge_sigma`` sensor-model sigmas) are left out. The estimate is the robust
-    spread ``1.4826 * median(|residual| / size)``, corrected for the 4 parameters fitted per
-    object, and at least ``min_box_noise``. None when fewer than 8 edges are left beyond the
-    fitted parameters (then the sensor model's ``alpha`` is used).
-
-    Returns
-    -------
-    float or None
-    """
-    objs = [o for o in state.objects if o.associations]
-    if not objs or not state.views:
-        return None
-    cam = state.camera
-    T_ob = np.stack([np.linalg.inv(v.T_base_optical) for v in state.views])
-    C = np.array([o.position for o in objs], dtype=float)
-    R = np.array([o.radius if o.radius is not None else cfg.prior_radius_m for o in objs], dtype=float)
-    boxes, _, _, _ = boxes_and_jacobians(cam, T_ob, C, R)
-    sig = edge_sigma_px(boxes, cfg.sensor)
-    ratios: list[float] = []
-    n_edges = 0
-    for m, o in enumerate(objs):
-        for v, j in o.associations.items():
-            if not 0 <= v < len(state.views) or not 0 <= j < len(state.views[v].detections):
-                continue
-            pred, obs = boxes[v, m], np.asarray(state.views[v].detections[j].bbox_xyxy, dtype=float)
-            if not np.all(np.isfinite(pred)):
-                continue
-            d = np.array([obs[0] - pred[0], obs[1] - pred[1], pred[2] - obs[2], pred[3] - obs[3]])
-            keep = (d <= cfg.occluded_edge_sigma * sig[v, m]) & (border_weights(obs, cam, cfg.border_px) > 0)
-            size = np.array([pred[2] - pred[0], pred[3] - pred[1]] * 2)
-            ratios += (np.abs(d[keep]) / np.maximum(size[keep], 1.0)).tolist()
-            n_edges += int(keep.sum())
-    dof = n_edges - 4 * len(objs)
-    if dof < 8:
-        return None
-    alpha = 1.4826 * float(np.median(ratios)) * math.sqrt(n_edges / dof)
-    return max(alpha, cfg.min_box_noise)
-
-
-def edge_sigma_px(boxes: NDArray[np.floating], sensor: SensorModel) -> NDArray[np.float64]:
-    """Edge noise of predicted boxes (..., 4): ``alpha * size + sigma0_px``, pixels."""
-    w = boxes[..., 2] - boxes[..., 0]
-    h = boxes[..., 3] - boxes[..., 1]
-    sx = sensor.alpha * w + sensor.sigma0_px
-    sy = sensor.alpha * h + sensor.sigma0_px
-    return np.stack([sx, sy, sx, sy], axis=-1)
-
-
-def fisher(J: NDArray[np.floating], sigma: NDArray[np.floating], weight: NDArray[np.floating]) -> NDArray[np.float64]:
-    """``J^T diag(weight / sigma^2) J`` over the last two axes: J (..., 4, 4), sigma and weight (..., 4)."""
-    w = np.nan_to_num(weight / sigma**2)
-    Jn = np.nan_to_num(J)
-    return np.einsum("...ei,...e,...ej->...ij", Jn, w, Jn)
-
-
-def border_weights(boxes: NDArray[np.floating], camera: Camera, border_px: float) -> NDArray[np.float64]:
-    """1 for an edge inside the image, 0 for an edge cut by (or within ``border_px`` of) the border, shape (..., 4)."""
-    x1, y1, x2, y2 = (boxes[..., k] for k in range(4))
-    ok = np.stack([x1 > border_px, y1 > border_px, x2 < camera.width - border_px, y2 < camera.height - border_px], axis=-1)
-    return ok.astype(float)
-
-
-def occlusion_by_known(
-    boxes: NDArray[np.floating], depth: NDArray[np.floating]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Visibility of each predicted disc behind the nearer ones, per edge and overall.
-
-    Parameters
-    ----------
-    boxes : ndarray, shape (..., M, 4), predicted boxes (one view per leading index)
-    depth : ndarray, shape (..., M), optical depth of the centres, metres
-
-    Returns
-    -------
-    edge_visible : ndarray, shape (..., M, 4), fraction of each edge's sample points not covered by a nearer disc
-    visible : ndarray, shape (..., M), fraction of all sample points not covered
-    """
-    centre = 0.5 * (boxes[..., :2] + boxes[..., 2:])  # (..., M, 2)
-    half = 0.25 * ((boxes[..., 2] - boxes[..., 0]) + (boxes[..., 3] - boxes[..., 1]))  # (..., M)
-    pts = centre[..., :, None, :] + half[..., :, None, None] * _DISC_POINTS  # (..., M, P, 2)
-    # covered[..., i, p] = any j nearer than i whose disc contains point p of i
-    d = pts[..., :, None, :, :] - centre[..., None, :, None, :]  # (..., Mi, Mj, P, 2)
-    inside = (d**2).sum(-1) < (half[..., None, :, None] ** 2)
-    nearer = depth[..., None, :] < depth[..., :, None]  # (..., Mi, Mj)
-    covered = (inside & nearer[..., None]).any(axis=-2)  # (..., Mi, P)
-    covered = np.where(np.isnan(centre[..., :1]), True, covered)
-    free = ~covered
-    n_edge = 12
-    edge_visible = free[..., :n_edge].reshape(free.shape[:-1] + (4, 3)).mean(-1)
-    return edge_visible, free.mean(-1)
-
-
-# ----------------------------------------------------------------------------- state
-@dataclass
-class _Targets:
-    """Objects and tentative objects the planner reasons about (M of them)."""
-
-    centres: NDArray[np.float64]  # (M, 3)
-    radii: NDArray[np.float64]  # (M,)
-    info: NDArray[np.float64]  # (M, 4, 4), under the stated box noise
-    variance_ratio: NDArray[np.float64]  # (n_objects,), position variance stated / under the model's alpha
-    weight: NDArray[np.float64]  # (M,) 1 for objects, discovery_weight for tentative ones
-    occluded_dirs: list[NDArray[np.float64]]  # per target, (K, 3) unit vectors target -> camera of views where it was hidden
-    n_objects: int
-
-
-def _ray_workspace_depth(origin: NDArray, direction: NDArray, ws_min: NDArray, ws_max: NDArray) -> tuple[float, float] | None:
-    """Entry and exit distance of a ray in an axis-aligned box, or None."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = (ws_min - origin) / direction
-        t2 = (ws_max - origin) / direction
-    lo = np.nanmax(np.minimum(t1, t2))
-    hi = np.nanmin(np.maximum(t1, t2))
-    if not hi > max(lo, 0.0):
-        return None
-    return max(lo, 0.0), hi
-
-
-def _targets(state: PlannerState, cfg: PlannerConfig, workspace: Workspace) -> _Targets:
-    cam, sensor = state.camera, cfg.sensor
-    views = state.views
-    T_ob = np.stack([np.linalg.inv(v.T_base_optical) for v in views]) if views else np.zeros((0, 4, 4))
-    centres, radii, weights = [], [], []
-    for o in state.objects:
-        centres.append(np.asarray(o.position, dtype=float))
-        radii.append(float(o.radius) if o.radius is not None else cfg.prior_radius_m)
-        weights.append(1.0)
-    n_obj = len(centres)
-    # tentative objects: unexplained boxes, on their ray at the depth a fruit of prior radius would have
-    unexplained = state.unexplained
-    for v, d in unexplained:
-        box = views[v].detections[d].bbox_xyxy
-        uv = np.array([[0.5 * (box[0] + box[2]), 0.5 * (box[1] + box[3])]])
-        ray_opt = cam.rays(uv)[0]
-        ray_opt = ray_opt / np.linalg.norm(ray_opt)
-        size = max(0.5 * ((box[2] - box[0]) / cam.fx + (box[3] - box[1]) / cam.fy), 1e-4)
-        dist = cfg.prior_radius_m / math.sin(min(0.5 * size, 1.0))
-        Tb = views[v].T_base_optical
-        origin, direction = Tb[:3, 3], Tb[:3, :3] @ ray_opt
-        span = _ray_workspace_depth(origin, direction, workspace.min, workspace.max)
-        if span is not None:
-            dist = float(np.clip(dist, *span))
-        centres.append(origin + dist * direction)
-        radii.append(cfg.prior_radius_m)
-        weights.append(cfg.discovery_weight)
-    M = len(centres)
-    C = np.array(centres).reshape(M, 3)
-    Rd = np.array(radii, dtype=float)
-    info = np.zeros((M, 4, 4))
-    info[:, 3, 3] = 1.0 / cfg.prior_radius_std_m**2
-    info[:, :3, :3] = np.eye(3) / 1.0**2  # 1 m position prior: keeps the matrix invertible
-    info_model = info.copy()
-    occluded: list[list[NDArray[np.float64]]] = [[] for _ in range(M)]
-    if views and M:
-        boxes, J, vis, depth = boxes_and_jacobians(cam, T_ob, C, Rd)
-        sig = edge_sigma_px(boxes, cfg.stated_sensor)
-        sig_model = edge_sigma_px(boxes, sensor)
-        edge_free, frac = occlusion_by_known(boxes, depth)
-        assoc = [dict(o.associations) for o in state.objects] + [{v: d} for v, d in unexplained]
-        for m in range(M):
-            for v, view in enumerate(views):
-                j = assoc[m].get(v)
-                cam_dir = views[v].T_base_optical[:3, 3] - C[m]
-                cam_dir = cam_dir / max(np.linalg.norm(cam_dir), 1e-9)
-                if j is None:
-                    if m < n_obj and vis[v, m] and frac[v, m] >= 0.5:
-                        occluded[m].append(cam_dir)  # predicted visible, not seen: hidden by something unknown
-                    continue
-                obs = view.detections[j].bbox_xyxy
-                pred = boxes[v, m]
-                if not np.all(np.isfinite(pred)):
-                    continue
-                inward = np.array([obs[0] - pred[0], obs[1] - pred[1], pred[2] - obs[2], pred[3] - obs[3]]) / sig[v, m]
-                w = (inward <= cfg.occluded_edge_sigma).astype(float)
-                w *= border_weights(obs, cam, cfg.border_px)
-                if w.sum() < 4:
-                    occluded[m].append(cam_dir)
-                info[m] += fisher(J[v, m], sig[v, m], w)
-                info_model[m] += fisher(J[v, m], sig_model[v, m], w)
-    ratio = _rms_mm(info[:n_obj]) ** 2 / np.maximum(_rms_mm(info_model[:n_obj]) ** 2, 1e-300)
-    return _Targets(C, Rd, info, ratio, np.array(weights), [np.array(d).reshape(-1, 3) for d in occluded], n_obj)
-
-
-def _rms_mm(info: NDArray[np.floating]) -> NDArray[np.float64]:
-    """RMS position error (mm) from information matrices (..., 4, 4)."""
-    cov = np.linalg.inv(info)
-    return 1e3 * np.sqrt(np.clip(np.trace(cov[..., :3, :3], axis1=-2, axis2=-1), 0.0, None))
-
-
-def ellipsoid95_mm(covariance: ArrayLike) -> float:
-    """Largest semi-axis of the 95 % error ellipsoid of a (3, 3) position covariance (m^2), millimetres.
-
-    Examples
-    --------
-    >>> round(ellipsoid95_mm(np.eye(3) * 1e-6), 3)  # 1 mm std per axis
-    2.795
-    """
-    S = np.asarray(covariance, dtype=float)
-    return float(1e3 * math.sqrt(CHI2_3_95 * max(float(np.linalg.eigvalsh(S)[-1]), 0.0)))
-
-
 # ----------------------------------------------------------------------------- scoring
 def _candidate_terms(
     state: PlannerState,
     cfg: PlannerConfig,
-    tg: _Targets,
+    tg: Targets,
     T_ob: NDArray[np.float64],
     cand_dirs_pos: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -527,7 +162,7 @@ def _candidate_terms(
     if M == 0:
         return np.zeros((N, 0, 4, 4)), np.zeros((N, 0))
     boxes, J, vis, depth = boxes_and_jacobians(cam, T_ob, tg.centres, tg.radii)
-    sig = edge_sigma_px(boxes, cfg.stated_sensor)
+    sig = box_edge_sigma_px(cfg.stated_sensor, boxes)
     edge_free, frac = occlusion_by_known(boxes, np.where(np.isnan(depth), np.inf, depth))
     w_edge = border_weights(boxes, cam, cfg.border_px) * edge_free
     seen = vis & (frac >= cfg.min_visible_fraction)
@@ -554,18 +189,8 @@ def _coverage_setup(state: PlannerState, cfg: PlannerConfig, workspace: Workspac
     pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     count = np.zeros(len(pts))
     for v in state.views:
-        count += _sees(state.camera, np.linalg.inv(v.T_base_optical)[None], pts)[0]
+        count += sees(state.camera, np.linalg.inv(v.T_base_optical)[None], pts)[0]
     return pts, count
-
-
-def _sees(camera: Camera, T_ob: NDArray[np.float64], pts: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """(N, P): point in front of camera n and projected inside its image."""
-    p = np.einsum("nij,pj->npi", T_ob[:, :3, :3], pts) + T_ob[:, None, :3, 3]
-    z = p[..., 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        u = camera.fx * p[..., 0] / z + camera.cx
-        v = camera.fy * p[..., 1] / z + camera.cy
-    return (z > 0.05) & (u >= 0) & (u <= camera.width) & (v >= 0) & (v <= camera.height)
 
 
 def _motion(T_from: NDArray[np.float64] | None, T_cand: NDArray[np.float64], cfg: PlannerConfig) -> NDArray[np.float64]:
@@ -578,7 +203,7 @@ def _motion(T_from: NDArray[np.float64] | None, T_cand: NDArray[np.float64], cfg
     return cfg.motion_weight * (dist + cfg.rotation_scale_m * ang)
 
 
-def _ellipsoids(state: PlannerState, tg: _Targets) -> NDArray[np.float64]:
+def _ellipsoids(state: PlannerState, tg: Targets) -> NDArray[np.float64]:
     """Largest 95 % semi-axis per object, mm: the method's covariance (scaled to the stated box noise) or, when
     larger, the one of the planner's own information, which counts nothing from edges seen occluded (a box a
     leaf cuts says little, however exact the detector)."""
@@ -608,25 +233,13 @@ def stop_scale(n_objects: int, cfg: PlannerConfig) -> float:
         return 1.0
     from scipy.stats import chi2
 
-    return math.sqrt(float(chi2.ppf(0.95 ** (1.0 / n_objects), 3)) / CHI2_3_95)
+    return math.sqrt(float(chi2.ppf(CONFIDENCE ** (1.0 / n_objects), 3)) / CHI2_3_95)
 
 
-def default_workspace(state: PlannerState, half_extent: float = 0.2) -> Workspace:
-    """The planner's workspace when none is given: a cube of side ``2 * half_extent`` around the estimates.
-
-    Centre: the mean of the estimated positions; without any, the point 0.5 m along the first view's
-    optical axis. Raises InputError for an empty session without a workspace.
-    """
-    if state.workspace is not None:
-        return state.workspace
-    if state.objects:
-        c = np.mean([o.position for o in state.objects], axis=0)
-    elif state.views:
-        T = state.views[0].T_base_optical
-        c = T[:3, 3] + 0.5 * T[:3, 2]
-    else:
-        raise InputError("workspace: a session without views needs a workspace (or a target) to plan the first view")
-    return Workspace(c - half_extent, c + half_extent)
+#: Views a point needs to be triangulated: the coverage term and the stopping rule count to this.
+MIN_VIEWS_TO_TRIANGULATE = 2
+#: Sort key of an unreachable candidate in the ranking: below every finite gain.
+_UNREACHABLE_KEY = -1e300
 
 
 def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 1, config: PlannerConfig | None = None) -> Plan:
@@ -644,60 +257,83 @@ def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 
     if cfg.box_noise == "auto":
         estimated = estimate_box_noise(state, cfg)
         cfg = replace(cfg, box_noise=estimated)  # None (too few boxes yet): the sensor model's alpha
-    tg = _targets(state, cfg, workspace)
-    T_ob = np.linalg.inv(T_cand)
-    F, p_det = _candidate_terms(state, cfg, tg, T_ob, T_cand[:, :3, 3])
-    pts, cov_count = _coverage_setup(state, cfg, workspace)
-    sees = _sees(state.camera, T_ob, pts)  # (N, P)
-    cap = cfg.cap_mm
-    info = tg.info.copy()
-    current = state.views[-1].T_base_optical if state.views else None
-    picked: list[int] = []
-    gains: list[float] = []
-    components: dict[str, NDArray[np.float64]] = {}
-    first_scores = np.full(N, -np.inf)
-    target_gains = np.zeros((N, len(tg.centres)))
-    for step in range(int(count)):
-        s_now = np.minimum(_rms_mm(info), cap)  # (M,)
-        s_new = np.minimum(_rms_mm(info[None] + F), cap)  # (N, M)
-        per = p_det * (s_now[None] - s_new) * tg.weight[None]  # (N, M)
-        obj_gain = per[:, : tg.n_objects].sum(axis=1)
-        disc_gain = per[:, tg.n_objects :].sum(axis=1)
-        need = np.clip(2 - cov_count, 0, None)
-        cov_gain = cfg.coverage_mm * (sees * need[None]).sum(axis=1) / max(2.0 * len(pts), 1.0)
-        motion = _motion(current, T_cand, cfg)
-        total = obj_gain + disc_gain + cov_gain - motion
-        total = np.where(reachable, total, -np.inf)
-        if picked:
-            total[picked] = -np.inf
-        if step == 0:
-            first_scores = total.copy()
-            components = {"information": obj_gain, "discovery": disc_gain, "coverage": cov_gain, "motion": motion}
-            target_gains = per
-        best = int(np.argmax(total))  # first maximum: ties go to the lower index
-        picked.append(best)
-        gains.append(float(total[best]))
-        info = info + p_det[best][:, None, None] * F[best]
-        cov_count = cov_count + sees[best]
-        current = T_cand[best]
-    ranking = np.lexsort((np.arange(N), -np.where(np.isfinite(first_scores), first_scores, -1e300)))
+    tg = build_targets(state, cfg, workspace)
+    picks = _greedy_picks(state, cfg, tg, T_cand, reachable, workspace, int(count))
+    ranking = np.lexsort((np.arange(N), -np.where(np.isfinite(picks.first_scores), picks.first_scores, _UNREACHABLE_KEY)))
     ell = _ellipsoids(state, tg)
     unexplained = state.unexplained
-    done = len(state.views) >= 2 and not unexplained and bool(np.all(ell * stop_scale(len(ell), cfg) <= cfg.target_mm))
+    done = (
+        len(state.views) >= MIN_VIEWS_TO_TRIANGULATE
+        and not unexplained
+        and bool(np.all(ell * stop_scale(len(ell), cfg) <= cfg.target_mm))
+    )
     return Plan(
-        indices=tuple(picked),
-        poses=T_cand[picked],
-        gains=tuple(gains),
+        indices=tuple(picks.picked),
+        poses=T_cand[picks.picked],
+        gains=tuple(picks.gains),
         ranking=ranking,
-        scores=first_scores,
-        components=components,
+        scores=picks.first_scores,
+        components=picks.components,
         done=done,
         ellipsoid_mm=ell,
         unexplained=unexplained,
-        target_gains=target_gains,
+        target_gains=picks.target_gains,
         timing_s=time.perf_counter() - t0,
         box_noise=cfg.stated_sensor.alpha,
     )
+
+
+@dataclass
+class _Picks:
+    """The greedy batch: picked indices and gains, and the first pick's full scoring."""
+
+    picked: list[int]
+    gains: list[float]
+    first_scores: NDArray[np.float64]  # (N,)
+    components: dict[str, NDArray[np.float64]]  # each (N,)
+    target_gains: NDArray[np.float64]  # (N, M)
+
+
+def _greedy_picks(
+    state: PlannerState,
+    cfg: PlannerConfig,
+    tg: Targets,
+    T_cand: NDArray[np.float64],
+    reachable: NDArray[np.bool_],
+    workspace: Workspace,
+    count: int,
+) -> _Picks:
+    """Pick ``count`` candidates one by one, adding each pick's expected information before ranking again."""
+    T_ob = np.linalg.inv(T_cand)
+    F, p_det = _candidate_terms(state, cfg, tg, T_ob, T_cand[:, :3, 3])
+    pts, cov_count = _coverage_setup(state, cfg, workspace)
+    seen = sees(state.camera, T_ob, pts)  # (N, P)
+    info = tg.info.copy()
+    current = state.views[-1].T_base_optical if state.views else None
+    out = _Picks([], [], np.full(len(T_cand), -np.inf), {}, np.zeros((len(T_cand), len(tg.centres))))
+    for step in range(count):
+        s_now = np.minimum(rms_mm(info), cfg.cap_mm)  # (M,)
+        s_new = np.minimum(rms_mm(info[None] + F), cfg.cap_mm)  # (N, M)
+        per = p_det * (s_now[None] - s_new) * tg.weight[None]  # (N, M)
+        obj_gain = per[:, : tg.n_objects].sum(axis=1)
+        disc_gain = per[:, tg.n_objects :].sum(axis=1)
+        need = np.clip(MIN_VIEWS_TO_TRIANGULATE - cov_count, 0, None)
+        cov_gain = cfg.coverage_mm * (seen * need[None]).sum(axis=1) / max(MIN_VIEWS_TO_TRIANGULATE * len(pts), 1.0)
+        motion = _motion(current, T_cand, cfg)
+        total = np.where(reachable, obj_gain + disc_gain + cov_gain - motion, -np.inf)
+        if out.picked:
+            total[out.picked] = -np.inf
+        if step == 0:
+            out.first_scores = total.copy()
+            out.components = {"information": obj_gain, "discovery": disc_gain, "coverage": cov_gain, "motion": motion}
+            out.target_gains = per
+        best = int(np.argmax(total))  # first maximum: ties go to the lower index
+        out.picked.append(best)
+        out.gains.append(float(total[best]))
+        info = info + p_det[best][:, None, None] * F[best]
+        cov_count = cov_count + seen[best]
+        current = T_cand[best]
+    return out
 
 
 def load_planning_session(source: str | Path | dict[str, Any] | Session) -> Session:
@@ -705,8 +341,6 @@ def load_planning_session(source: str | Path | dict[str, Any] | Session) -> Sess
 
     The planner needs only the camera and the workspace before the first view.
     """
-    from ..session import camera_from_dict, load_session, read_structured_file, workspace_from_dict
-
     if isinstance(source, Session):
         return source
     data = read_structured_file(source) if isinstance(source, (str, Path)) else source
@@ -766,10 +400,19 @@ def plan_next_view(
         cfg = config or PlannerConfig(**options)
     except TypeError as exc:
         raise InputError(f"plan_next_view: {exc}") from None
-    try:
-        from ..methods.bayes import BayesLocalizer
-    except ImportError:  # pragma: no cover
-        BayesLocalizer = ()  # type: ignore[assignment,misc]
+    camera, views, ws, objects = _views_and_estimate(session_or_localizer, objects, localize_options)
+    objs = objects.objects if isinstance(objects, Result) else list(objects)
+    state = PlannerState(camera, tuple(views), tuple(objs), workspace or ws)
+    return plan_from_state(state, candidates, count=count, config=cfg)
+
+
+def _views_and_estimate(
+    session_or_localizer: Any, objects: Result | list[DetectedObject] | None, localize_options: dict[str, Any] | None
+) -> tuple[Any, tuple[Any, ...], Workspace | None, Result | list[DetectedObject]]:
+    """Camera, views, workspace and current estimate from a session (localised with ``bayes`` unless
+    ``objects`` is given, and only with two views with boxes) or a ``BayesLocalizer``."""
+    from ..methods.bayes import BayesLocalizer  # here, not at the top: the planner's import stays light
+
     if isinstance(session_or_localizer, BayesLocalizer):
         loc = session_or_localizer
         camera, views, ws = loc.camera, tuple(loc.views), loc.workspace
@@ -785,9 +428,7 @@ def plan_next_view(
         camera, views, ws = session.camera, session.views, session.workspace
         if objects is None:
             n_with = sum(1 for v in views if v.detections)
-            if n_with >= 2:
-                import warnings
-
+            if n_with >= MIN_VIEWS_TO_TRIANGULATE:
                 from ..api import localize
 
                 with warnings.catch_warnings():
@@ -795,6 +436,4 @@ def plan_next_view(
                     objects = localize(session, method="bayes", **(localize_options or {}))
             else:
                 objects = []
-    objs = objects.objects if isinstance(objects, Result) else list(objects)
-    state = PlannerState(camera, tuple(views), tuple(objs), workspace or ws)
-    return plan_from_state(state, candidates, count=count, config=cfg)
+    return camera, tuple(views), ws, objects

@@ -54,7 +54,7 @@ from ..sim.noise import NoiseModel
 from ..sim.scene import Scene
 from ..sim.scenes import default_camera, greenhouse_scene, paper_scene, random_scene, shapes_scene
 from ..sim.simulate import simulate_views
-from .speed import machine_metadata
+from .timing import machine_metadata
 
 #: Options of each benchmarked method (passed to :func:`monovisual3d.localize`).
 METHOD_OPTIONS: dict[str, dict[str, Any]] = {

@@ -94,7 +94,7 @@ def run_bench_batch(
     """
     import dask
 
-    from .speed import machine_metadata
+    from .timing import machine_metadata
 
     options = dict(options or {})
     say = progress or (lambda msg: None)

@@ -43,7 +43,8 @@ def speed(
     ] = "naive-python,numpy,numba,numba-filter,sparse,torch",
 ) -> None:
     """Time the per-view update: naive Python loop, numpy, fused numba, sparse, torch."""
-    from ..bench.speed import format_table, run_speed, write_json
+    from ..bench.speed import format_table, run_speed
+    from ..bench.timing import write_json
 
     edge_t, chosen, kernels = _speed_choices(edges, methods, kernel)
     result = run_speed(

@@ -17,7 +17,7 @@ if TYPE_CHECKING:
 def _size(text: str | None) -> tuple[int, int] | None:
     if text is None:
         return None
-    from ..io.calibration import parse_image_size
+    from ..io.image_size import parse_image_size
 
     return parse_image_size(text)
 

@@ -20,8 +20,8 @@ def startup(
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the rows as JSON here.")] = None,
 ) -> None:
     """Start-up time: `import monovisual3d` and `monovisual3d --help`, idle and with a busy core."""
-    from ..bench.speed import machine_metadata
     from ..bench.startup import rows_to_dicts, run_startup
+    from ..bench.timing import machine_metadata
 
     rows = run_startup(runs)
     table = Table(title="Start-up (fresh process, wall seconds)")

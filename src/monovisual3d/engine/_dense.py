@@ -18,15 +18,15 @@ from ._project import project_cells, project_cells32
 
 # ---------------------------------------------------------------------- dense update
 @njit(inline="always", **_O)
-def _cells_likelihood(vp, q_cut, v0, nv, sel, nsel, cconst, precise, gx, gy, gz, res, m, F, F32, buf, buf32):  # pragma: no cover
+def _cells_likelihood(packed, v0, nv, sel, nsel, cconst, precise, gx, gy, gz, res, m, F, F32, buf, buf32):  # pragma: no cover
     """``lk = buf[3, :m] = prod_v L_v`` at the cells ``(gx, gy, gz) + res * F[:, e]`` (boxes pre-selected per view).
 
-    ``vp`` is the tuple of view arrays of :func:`dense_update`; ``F``/``F32`` (3, m) hold the cell
-    offsets in float64/float32; ``buf`` (4, m) and ``buf32`` (3, m) are scratch (u, v, acc[, lk]).
-    Arguments are packed so that the call can be inlined (numba does not inline calls with more
-    than 30 arguments) and costs nothing per tile.
+    ``packed`` is the :class:`~monovisual3d.engine.params.PackedViews` of :func:`dense_update`;
+    ``F``/``F32`` (3, m) hold the cell offsets in float64/float32; ``buf`` (4, m) and ``buf32`` (3, m)
+    are scratch (u, v, acc[, lk]). Arguments are packed (the views, ``flags``, ``geo``) so that the call
+    can be inlined (numba does not inline calls with more than 30 arguments) and costs nothing per tile.
     """
-    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach = vp
+    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach, q_cut = packed
     lk = buf[3]
     for e in range(m):
         lk[e] = 1.0
@@ -80,17 +80,17 @@ def _tile_offsets(ni, nj, nk, F, F32):  # pragma: no cover - compiled
 
 
 @njit(inline="always", **_O)
-def _tile_update(src, dst, flags, geo, res, in_scale, vp, q_cut, sel, nsel, cconst, F, F32, buf, buf32):  # pragma: no cover
+def _tile_update(src, dst, flags, geo, res, in_scale, packed, sel, nsel, cconst, F, F32, buf, buf32):  # pragma: no cover
     """Update one tile; returns (sum, max) as described in :func:`dense_update`.
 
     ``flags = (inplace, prior_one, log_space, live, precise)``,
-    ``geo = (base0, nj, nk, i0, i1, j0, j1, k0, k1, tile_j, tile_k, v0, nv)``, ``vp`` the view arrays.
+    ``geo = (base0, nj, nk, i0, i1, j0, j1, k0, k1, tile_j, tile_k, v0, nv)``, ``packed`` the views.
     The full tile is evaluated (cells past the grid's edge are computed and not written) so that
     the offsets ``F`` are the same for every tile.
     """
     inplace, prior_one, log_space, live, precise = flags
     base0, nj, nk, i0, i1, j0, j1, k0, k1, tile_j, tile_k, v0, nv = geo
-    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach = vp
+    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach, q_cut = packed
     floor = -np.inf if log_space else 0.0
     nrow = k1 - k0
     live_in = live
@@ -117,9 +117,18 @@ def _tile_update(src, dst, flags, geo, res, in_scale, vp, q_cut, sel, nsel, ccon
             break
         v = v0 + vv
         ok, ul, uh, vl, vh = pixel_bounds(
-            T, intr, dist, v, dist_id[v],
-            (i0 + 0.5) * res, (i1 - 0.5) * res, (j0 + 0.5) * res, (j1 - 0.5) * res, (k0 + 0.5) * res, (k1 - 0.5) * res,
-        )  # fmt: skip
+            T,
+            intr,
+            dist,
+            v,
+            dist_id[v],
+            (i0 + 0.5) * res,
+            (i1 - 0.5) * res,
+            (j0 + 0.5) * res,
+            (j1 - 0.5) * res,
+            (k0 + 0.5) * res,
+            (k1 - 0.5) * res,
+        )
         cnt = 0
         cst = 0.0
         for b in range(box_off[v], box_off[v + 1]):
@@ -153,9 +162,23 @@ def _tile_update(src, dst, flags, geo, res, in_scale, vp, q_cut, sel, nsel, ccon
             lk[e] = cprod
     else:
         _cells_likelihood(
-            vp, q_cut, v0, nv, sel, nsel, cconst, precise,
-            (i0 + 0.5) * res, (j0 + 0.5) * res, (k0 + 0.5) * res, res, F.shape[1], F, F32, buf, buf32,
-        )  # fmt: skip
+            packed,
+            v0,
+            nv,
+            sel,
+            nsel,
+            cconst,
+            precise,
+            (i0 + 0.5) * res,
+            (j0 + 0.5) * res,
+            (k0 + 0.5) * res,
+            res,
+            F.shape[1],
+            F,
+            F32,
+            buf,
+            buf32,
+        )
     tsum = 0.0
     tmax = floor
     for i in range(i0, i1):
@@ -207,8 +230,31 @@ TILES_PER_TASK = 16
 
 
 @njit(**_O)
-def _tile_range(g0, g1, src, dst, flags, value_offsets, shapes, resolutions, in_scale, view_offsets, vp, q_cut, tile, tile_offsets,
-                tile_live, tile_sum, tile_max, sel, nsel, cconst, F, F32, buf, buf32):  # pragma: no cover - compiled  # fmt: skip
+def _tile_range(
+    g0,
+    g1,
+    src,
+    dst,
+    flags,
+    value_offsets,
+    shapes,
+    resolutions,
+    in_scale,
+    view_offsets,
+    packed,
+    tile,
+    tile_offsets,
+    tile_live,
+    tile_sum,
+    tile_max,
+    sel,
+    nsel,
+    cconst,
+    F,
+    F32,
+    buf,
+    buf32,
+):  # pragma: no cover - compiled
     """Tiles ``g0:g1`` of :func:`dense_update` (one task: one thread, its scratch arrays)."""
     inplace, prior_one, log_space, precise = flags
     for g in range(g0, g1):
@@ -227,13 +273,36 @@ def _tile_range(g0, g1, src, dst, flags, value_offsets, shapes, resolutions, in_
         j0 = tj * tile[1]
         k0 = tk * tile[2]
         geo = (
-            value_offsets[s], nj, nk, i0, min(i0 + tile[0], ni), j0, min(j0 + tile[1], nj), k0, min(k0 + tile[2], nk),
-            tile[1], tile[2], view_offsets[s], view_offsets[s + 1] - view_offsets[s],
-        )  # fmt: skip
+            value_offsets[s],
+            nj,
+            nk,
+            i0,
+            min(i0 + tile[0], ni),
+            j0,
+            min(j0 + tile[1], nj),
+            k0,
+            min(k0 + tile[2], nk),
+            tile[1],
+            tile[2],
+            view_offsets[s],
+            view_offsets[s + 1] - view_offsets[s],
+        )
         ts, tm = _tile_update(
-            src, dst, (inplace, prior_one, log_space, tile_live[g], precise), geo, resolutions[s], in_scale[s], vp, q_cut,
-            sel, nsel, cconst, F, F32, buf, buf32,
-        )  # fmt: skip
+            src,
+            dst,
+            (inplace, prior_one, log_space, tile_live[g], precise),
+            geo,
+            resolutions[s],
+            in_scale[s],
+            packed,
+            sel,
+            nsel,
+            cconst,
+            F,
+            F32,
+            buf,
+            buf32,
+        )
         tile_sum[g] = ts
         tile_max[g] = tm
 
@@ -250,16 +319,7 @@ def dense_update(
     in_scale,
     log_space,
     view_offsets,
-    T,
-    intr,
-    dist_id,
-    dist,
-    kern_id,
-    inv_n,
-    box_off,
-    box_par,
-    box_reach,
-    q_cut,
+    packed,
     tile,
     tile_offsets,
     tile_live,
@@ -282,7 +342,7 @@ def dense_update(
     in_scale : ndarray, shape (S,), float64; linear: factor applied to the prior; log: offset subtracted
     log_space : bool, values hold log posteriors (``-inf`` for zero)
     view_offsets : ndarray, shape (S + 1,), int64, views of grid s in the packed arrays
-    T .. box_reach, q_cut : the fields of :class:`monovisual3d.engine.params.PackedViews`
+    packed : :class:`monovisual3d.engine.params.PackedViews`, the views (a named tuple of arrays)
     tile : ndarray, shape (3,), int64, tile size
     tile_offsets : ndarray, shape (S + 1,), int64, tiles of grid s
     tile_live : ndarray, shape (n_tiles,), bool, False where the tile's prior is known to be zero
@@ -295,6 +355,7 @@ def dense_update(
     precise : bool, evaluate the Gaussian in float64 (else float32, 8 SIMD lanes, relative error
         about 1e-5 per cell and view; use with float32 storage)
     """
+    box_off = packed.box_offsets
     n_tiles = tile_sum.shape[0]
     max_views = 1
     for s in range(view_offsets.shape[0] - 1):
@@ -311,16 +372,35 @@ def dense_update(
     F = np.empty((3, m))
     F32 = np.empty((3, m), dtype=np.float32)
     _tile_offsets(tile[0], tile[1], tile[2], F, F32)
-    vp = (T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach)
     flags = (inplace, prior_one, log_space, precise)
     n_tasks = (n_tiles + TILES_PER_TASK - 1) // TILES_PER_TASK
     for c in prange(n_tasks):
         tid = numba.get_thread_id()
         _tile_range(
-            c * TILES_PER_TASK, min((c + 1) * TILES_PER_TASK, n_tiles), src, dst, flags, value_offsets, shapes,
-            resolutions, in_scale, view_offsets, vp, q_cut, tile, tile_offsets, tile_live, tile_sum, tile_max,
-            sel[tid], nsel[tid], cconst[tid], F, F32, buf[tid], buf32[tid],
-        )  # fmt: skip
+            c * TILES_PER_TASK,
+            min((c + 1) * TILES_PER_TASK, n_tiles),
+            src,
+            dst,
+            flags,
+            value_offsets,
+            shapes,
+            resolutions,
+            in_scale,
+            view_offsets,
+            packed,
+            tile,
+            tile_offsets,
+            tile_live,
+            tile_sum,
+            tile_max,
+            sel[tid],
+            nsel[tid],
+            cconst[tid],
+            F,
+            F32,
+            buf[tid],
+            buf32[tid],
+        )
 
 
 @njit(parallel=True, **_O)

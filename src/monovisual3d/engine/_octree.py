@@ -28,16 +28,7 @@ def octree_eval(
     shape,
     view_lo,
     view_hi,
-    T,
-    intr,
-    dist_id,
-    dist,
-    kern_id,
-    inv_n,
-    box_off,
-    box_par,
-    box_reach,
-    q_cut,
+    packed,
     log_cut,
     out_log_point,
     out_log_upper,
@@ -57,7 +48,7 @@ def octree_eval(
     res : float, fine resolution, metres
     shape : ndarray, shape (3,), int64, fine grid shape
     view_lo, view_hi : int, the views of the packed arrays to use
-    T .. box_reach, q_cut : the fields of :class:`monovisual3d.engine.params.PackedViews`
+    packed : :class:`monovisual3d.engine.params.PackedViews`, the views (a named tuple of arrays)
     log_cut : float, the bound stops being accumulated (left below ``log_cut``) once it falls
         under it: such cells are discarded by the caller anyway
     out_log_point : ndarray, shape (M,), float64, ``sum_v log L_v`` at the fine cell
@@ -66,6 +57,7 @@ def octree_eval(
     out_log_upper : ndarray, shape (M,), float64, ``sum_v log max L_v`` over the fine cell
         centres of the cell (interval bound; see :func:`pixel_bounds`)
     """
+    T, intr, dist_id, dist, kern_id, inv_n, box_off, box_par, box_reach, q_cut = packed
     m = ijk.shape[0]
     n_chunks = (m + OCTREE_CHUNK - 1) // OCTREE_CHUNK
     for ch in prange(n_chunks):
@@ -156,10 +148,18 @@ def octree_eval(
                     if bound < log_cut:
                         break
                     ok, ul, uh, vl, vh = pixel_bounds(
-                        T, intr, dist, v, dist_id[v],
-                        (lo0 + 0.5) * res, (hi0 + 0.5) * res, (lo1 + 0.5) * res, (hi1 + 0.5) * res,
-                        (lo2 + 0.5) * res, (hi2 + 0.5) * res,
-                    )  # fmt: skip
+                        T,
+                        intr,
+                        dist,
+                        v,
+                        dist_id[v],
+                        (lo0 + 0.5) * res,
+                        (hi0 + 0.5) * res,
+                        (lo1 + 0.5) * res,
+                        (hi1 + 0.5) * res,
+                        (lo2 + 0.5) * res,
+                        (hi2 + 0.5) * res,
+                    )
                     up = 0.0
                     for b in range(box_off[v], box_off[v + 1]):
                         ub_, _ = box_upper(kern_id[v], box_par, box_reach, b, q_cut, ok, ul, uh, vl, vh)

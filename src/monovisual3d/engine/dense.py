@@ -92,14 +92,25 @@ def _call_dense(
     work_ns = NS_PER_CELL_VIEW * int(np.count_nonzero(tile_live)) * int(np.prod(tile)) * packed.n_views
     with kernel_threads(int(work_ns)):
         nk.dense_update(
-            src, dst, inplace, prior_one,
-            np.ascontiguousarray(starts, dtype=np.int64), np.ascontiguousarray(shapes, dtype=np.int64),
-            np.ascontiguousarray(resolutions, dtype=np.float64), np.ascontiguousarray(in_scale, dtype=np.float64),
-            log_space, view_offsets,
-            packed.T_optical_grid, packed.intrinsics, packed.distortion_id, packed.distortion, packed.kernel_id,
-            packed.inv_n, packed.box_offsets, packed.box_params, packed.box_reach, packed.q_cut,
-            np.asarray(tile, dtype=np.int64), tile_offsets, tile_live, tile_sum, tile_max, _n_threads(), precise,
-        )  # fmt: skip
+            src,
+            dst,
+            inplace,
+            prior_one,
+            np.ascontiguousarray(starts, dtype=np.int64),
+            np.ascontiguousarray(shapes, dtype=np.int64),
+            np.ascontiguousarray(resolutions, dtype=np.float64),
+            np.ascontiguousarray(in_scale, dtype=np.float64),
+            log_space,
+            view_offsets,
+            packed,
+            np.asarray(tile, dtype=np.int64),
+            tile_offsets,
+            tile_live,
+            tile_sum,
+            tile_max,
+            _n_threads(),
+            precise,
+        )
     return tile_sum, tile_max, tile_offsets
 
 
@@ -139,9 +150,18 @@ def paper_likelihood_fused(
     packed = pack_views(grid, camera, [view], kernel, sigma_fraction, gauss_eps)
     out = np.empty(grid.n_cells)
     _call_dense(
-        nk, out, out, inplace=False, prior_one=True, **_single(grid), in_scale=np.ones(1), log_space=False,
-        view_offsets=np.array([0, 1], dtype=np.int64), packed=packed, tile=tile,
-    )  # fmt: skip
+        nk,
+        out,
+        out,
+        inplace=False,
+        prior_one=True,
+        **_single(grid),
+        in_scale=np.ones(1),
+        log_space=False,
+        view_offsets=np.array([0, 1], dtype=np.int64),
+        packed=packed,
+        tile=tile,
+    )
     return out
 
 
@@ -177,6 +197,33 @@ def paper_update_fused(
     """
     nk = numba_kernels()
     views = [views] if isinstance(views, View) else list(views)
+    src, dtype = _flat_prior(prior, grid, dtype)
+    packed = pack_views(grid, camera, views, kernel, sigma_fraction, gauss_eps)
+    dst = np.empty(grid.n_cells, dtype=dtype)
+    tile_sum, _, _ = _call_dense(
+        nk,
+        src,
+        dst,
+        inplace=False,
+        prior_one=False,
+        **_single(grid),
+        in_scale=np.ones(1),
+        log_space=False,
+        view_offsets=np.array([0, len(views)], dtype=np.int64),
+        packed=packed,
+        tile=tile,
+        precise=dtype == np.float64,
+    )
+    total = float(tile_sum.sum())
+    if not total > 0.0:
+        return None
+    with kernel_threads(int(NS_PER_CELL_PASS * dst.size)):
+        nk.scale_inplace(dst, 1.0 / total)
+    return dst
+
+
+def _flat_prior(prior: NDArray[np.floating], grid: VoxelGrid, dtype: Any) -> tuple[NDArray[Any], np.dtype[Any]]:
+    """The prior as a flat contiguous array of ``dtype`` (float32 or float64), checked against the grid."""
     src = np.ascontiguousarray(prior).reshape(-1)
     if src.dtype not in (np.float32, np.float64):
         src = src.astype(np.float64)
@@ -187,18 +234,7 @@ def paper_update_fused(
         raise InputError(f"dtype: got {dtype}, expected float32 or float64")
     if src.dtype != dtype:  # one compiled specialisation per dtype, not per (in, out) pair
         src = src.astype(dtype)
-    packed = pack_views(grid, camera, views, kernel, sigma_fraction, gauss_eps)
-    dst = np.empty(grid.n_cells, dtype=dtype)
-    tile_sum, _, _ = _call_dense(
-        nk, src, dst, inplace=False, prior_one=False, **_single(grid), in_scale=np.ones(1), log_space=False,
-        view_offsets=np.array([0, len(views)], dtype=np.int64), packed=packed, tile=tile, precise=dtype == np.float64,
-    )  # fmt: skip
-    total = float(tile_sum.sum())
-    if not total > 0.0:
-        return None
-    with kernel_threads(int(NS_PER_CELL_PASS * dst.size)):
-        nk.scale_inplace(dst, 1.0 / total)
-    return dst
+    return src, dtype
 
 
 class DenseHistogramBatch:
@@ -323,11 +359,22 @@ class DenseHistogramBatch:
         floor = -np.inf if self.log_space else 0.0
         in_scale = self._scale[grid_ids]
         tile_sum, tile_max, toff = _call_dense(
-            self.nk, self.values, self.values, inplace=True, prior_one=False, starts=starts,
-            shapes=self.shapes[grid_ids], resolutions=self.resolutions[grid_ids], in_scale=in_scale,
-            log_space=self.log_space, view_offsets=view_offsets, packed=packed, tile=self.tile,  # type: ignore[arg-type]
-            tile_live=tile_live, precise=self.dtype == np.float64,
-        )  # fmt: skip
+            self.nk,
+            self.values,
+            self.values,
+            inplace=True,
+            prior_one=False,
+            starts=starts,
+            shapes=self.shapes[grid_ids],
+            resolutions=self.resolutions[grid_ids],
+            in_scale=in_scale,
+            log_space=self.log_space,
+            view_offsets=view_offsets,
+            packed=packed,
+            tile=self.tile,  # type: ignore[arg-type]
+            tile_live=tile_live,
+            precise=self.dtype == np.float64,
+        )
         ok = []
         for n, s in enumerate(grid_ids):
             ts, tm = tile_sum[toff[n] : toff[n + 1]], tile_max[toff[n] : toff[n + 1]]

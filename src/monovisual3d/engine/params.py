@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,8 +62,7 @@ def gauss_q_cut(gauss_eps: float) -> float:
     return -math.log(gauss_eps)
 
 
-@dataclass(frozen=True)
-class PackedViews:
+class PackedViews(NamedTuple):
     """Views of one or more grids as flat arrays (V views, B boxes in all).
 
     Attributes
@@ -78,6 +77,9 @@ class PackedViews:
     box_params : ndarray, shape (B, 4), float64, per-kernel parameters (module docstring)
     box_reach : ndarray, shape (B, 4), float64, pixels, ``x1, y1, x2, y2`` of the kernel's support
     q_cut : float, Gaussian cut-off on the squared normalised distance
+
+    A named tuple, so that the compiled kernels take it whole (numba types a named tuple of arrays
+    and reads its fields by name) rather than field by field.
     """
 
     T_optical_grid: NDArray[np.float64]

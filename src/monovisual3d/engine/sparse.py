@@ -142,6 +142,10 @@ def _children(ijk: NDArray[np.int32], level: int, shape: tuple[int, int, int]) -
     return ch[inside]
 
 
+#: Children of an octree cell (2 per axis).
+_CHILDREN_PER_CELL = 8
+
+
 def refine(
     grid: VoxelGrid,
     packed: PackedViews,
@@ -163,6 +167,12 @@ def refine(
     Returns
     -------
     SparsePosterior
+
+    Notes
+    -----
+    One loop over levels, kept whole (one unit of thought): the running lower bound ``best``, the
+    candidates and the counters it updates are the branch-and-bound's state, and splitting the loop
+    would pass them all back and forth.
     """
     if not (0.0 < threshold < 1.0):
         raise InputError(f"threshold: got {threshold}, expected a value in (0, 1)")
@@ -184,12 +194,7 @@ def refine(
         point = np.empty(n)
         upper = np.empty(n)
         with kernel_threads(int(NS_PER_CELL_BOX * n * len(packed.box_params))):
-            nk.octree_eval(
-                cells, 2**level, grid.resolution, shape, 0, packed.n_views,
-                packed.T_optical_grid, packed.intrinsics, packed.distortion_id, packed.distortion, packed.kernel_id,
-                packed.inv_n, packed.box_offsets, packed.box_params, packed.box_reach, packed.q_cut,
-                best + log_thr - 1.0, point, upper,
-            )  # fmt: skip
+            nk.octree_eval(cells, 2**level, grid.resolution, shape, 0, packed.n_views, packed, best + log_thr - 1.0, point, upper)
         if n:
             best = max(best, float(point.max()))
         # without a positive point value yet (best = -inf) only cells whose bound is zero can go
@@ -200,7 +205,7 @@ def refine(
         cells, point = cells[keep], point[keep]
         if level == 0 or kept == 0:
             break
-        if kept * 8 > max_cells:
+        if kept * _CHILDREN_PER_CELL > max_cells:
             complete = False
             break
         cells = _children(cells, level, grid.shape)

@@ -1,8 +1,9 @@
 """The one home of projection geometry: where objects (spheres, ellipsoids) appear in images.
 
 - :mod:`.sphere`: the sphere's exact box, the ``bayes`` likelihood's box model and the algebraic pinhole box;
-- :mod:`.ellipsoid`: the :class:`Ellipsoid`, its dual quadric, the projected conic, closed-form and
-  contour-sampled boxes, volume;
+- :mod:`.ellipsoid`: the :class:`Ellipsoid`, closed-form and contour-sampled boxes, silhouette, volume;
+- :mod:`.quadric`: the dual quadric, the projected dual conic and the box of a conic;
+- :mod:`.orientation`: the "upright" rotation and quaternions;
 - :mod:`.bounds`: the Cramer-Rao bound of the box-edge model for ellipsoids;
 - :mod:`.fit`: a least-squares fit of a sphere, spheroid or ellipsoid to associated boxes.
 
@@ -20,18 +21,18 @@ _LAZY = {
     "ellipsoid_crlb": "bounds",
     "SHAPES": "ellipsoid",
     "Ellipsoid": "ellipsoid",
-    "bbox_from_dual_conic": "ellipsoid",
-    "dual_quadric": "ellipsoid",
+    "bbox_from_dual_conic": "quadric",
+    "dual_quadric": "quadric",
     "ellipsoid_bbox": "ellipsoid",
     "ellipsoid_bbox_optical": "ellipsoid",
     "ellipsoid_contour_optical": "ellipsoid",
     "ellipsoid_contour_uv": "ellipsoid",
     "ellipsoid_volume": "ellipsoid",
     "equivalent_radius": "ellipsoid",
-    "projected_dual_conic": "ellipsoid",
-    "quaternion_xyzw_from_rotation": "ellipsoid",
-    "rotation_from_quaternion_xyzw": "ellipsoid",
-    "rotation_upright": "ellipsoid",
+    "projected_dual_conic": "quadric",
+    "quaternion_xyzw_from_rotation": "orientation",
+    "rotation_from_quaternion_xyzw": "orientation",
+    "rotation_upright": "orientation",
     "shape_of": "ellipsoid",
     "silhouette_distance_px": "ellipsoid",
     "EllipsoidFit": "fit",

@@ -33,7 +33,8 @@ from scipy.spatial.transform import Rotation
 
 from ..camera import Camera
 from ..errors import InputError
-from .ellipsoid import DEFAULT_UP, SHAPES, Ellipsoid, check_up, ellipsoid_bbox
+from .ellipsoid import SHAPES, Ellipsoid, ellipsoid_bbox
+from .orientation import DEFAULT_UP, check_up
 
 #: Finite-difference steps: metres for centre and sizes, radians for angles.
 STEP_M = 1e-6

@@ -5,19 +5,10 @@ An ellipsoid is its centre, its three semi-axes ``(a, b, c)`` and the rotation
 the first column, ``c`` along the third). Its points are
 ``x = centre + R diag(a, b, c) s`` for unit vectors ``s``.
 
-Under a pinhole camera ``P = K [R_optical_base | t_optical_base]`` the dual
-quadric ``Q* = T diag(a^2, b^2, c^2, -1) T^T`` (``T`` the 4x4 transform
-``[[R, centre], [0, 1]]``) projects to the dual conic ``C* = P Q* P^T``: the
-image lines ``l`` tangent to the silhouette are those with ``l^T C* l = 0``.
-The vertical tangent lines ``u = x`` (``l = (1, 0, -x)``) solve
-``C*_11 - 2 x C*_13 + x^2 C*_33 = 0``, which gives the box in closed form
-(:func:`bbox_from_dual_conic`). With lens distortion the box is that of the
-distorted silhouette, found by projecting points of the rim (the contour
-generator, :func:`ellipsoid_contour_optical`).
-
-"Upright" orientation (:func:`rotation_upright`): the third axis along the
-base frame's vertical ``up`` and a yaw about it, measured from the projection
-of base x onto the horizontal plane (base y when ``up`` is along x).
+The dual quadric, its projected dual conic and the closed-form box of a conic live in
+:mod:`.quadric`; the "upright" rotation and quaternions in :mod:`.orientation`. This module
+gives the boxes (closed form without distortion, from the rim's points with it), the silhouette
+contour and the :class:`Ellipsoid` object.
 
 All functions broadcast over leading batch dimensions; metres and radians,
 pixels for image quantities (the convention of :mod:`monovisual3d.camera`).
@@ -31,93 +22,18 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from ..camera import Camera
 from ..errors import InputError
 from ..frames import check_quaternion_xyzw
+from .orientation import DEFAULT_UP, quaternion_xyzw_from_rotation, rotation_from_quaternion_xyzw, rotation_upright
+from .quadric import bbox_from_dual_conic, centre_and_shape_matrix, dual_quadric, projected_dual_conic, to_optical
 from .sphere import clip_boxes
 
 #: Shape names, from most to least constrained.
 SHAPES = ("sphere", "spheroid", "ellipsoid")
-#: Default vertical of the base frame (z up).
-DEFAULT_UP = (0.0, 0.0, 1.0)
 #: Rim points sampled for the box under lens distortion (as :func:`monovisual3d.sphere.sphere_bbox_optical`).
 CONTOUR_POINTS = 720
-
-
-# ---------------------------------------------------------------------- rotations
-def check_up(up: ArrayLike, *, where: str = "up") -> NDArray[np.float64]:
-    """Validate a vertical direction and return it as a unit vector, shape (3,).
-
-    Examples
-    --------
-    >>> check_up([0, 0, 2])
-    array([0., 0., 1.])
-    """
-    try:
-        u = np.asarray(up, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: expected three numbers, got {up!r}") from None
-    if u.shape != (3,) or not np.all(np.isfinite(u)):
-        raise InputError(f"{where}: expected three finite numbers, got {up!r}")
-    n = float(np.linalg.norm(u))
-    if not n > 1e-12:
-        raise InputError(f"{where}: zero length, expected a direction such as 0,0,1")
-    return u / n
-
-
-def rotation_upright(yaw: ArrayLike = 0.0, up: ArrayLike = DEFAULT_UP) -> NDArray[np.float64]:
-    """``R_base_ellipsoid`` of upright ellipsoids: third axis along ``up``, first axis at ``yaw``.
-
-    Parameters
-    ----------
-    yaw : array_like, shape (...), radians
-        Rotation about ``up`` of the first axis, from the horizontal projection of
-        base x (of base y when ``up`` is along x), counter-clockwise seen from above.
-    up : array_like, shape (3,), base frame, the vertical (any length > 0)
-
-    Returns
-    -------
-    R_base_ellipsoid : ndarray, shape (..., 3, 3), columns the axes in the base frame
-
-    Examples
-    --------
-    >>> np.round(rotation_upright(np.pi / 2), 6)[:, 0]  # first axis along base y
-    array([0., 1., 0.])
-    """
-    u = check_up(up)
-    ref = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    h0 = ref - (ref @ u) * u
-    h0 /= np.linalg.norm(h0)
-    h1 = np.cross(u, h0)
-    y = np.asarray(yaw, dtype=float)[..., None]
-    e1 = np.cos(y) * h0 + np.sin(y) * h1
-    e2 = np.cross(u, e1)
-    e3 = np.broadcast_to(u, e1.shape)
-    return np.stack([e1, e2, e3], axis=-1)
-
-
-def rotation_from_quaternion_xyzw(quaternion_xyzw: ArrayLike) -> NDArray[np.float64]:
-    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in (x, y, z, w) order (normalised here)."""
-    q = np.asarray(quaternion_xyzw, dtype=float)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
-        ],
-        axis=-2,
-    )
-
-
-def quaternion_xyzw_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
-    """Unit quaternions (..., 4), (x, y, z, w) with w >= 0, of rotation matrices (..., 3, 3)."""
-    R = np.asarray(R, dtype=float)
-    q = Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat().reshape(R.shape[:-2] + (4,))
-    return np.where(q[..., 3:] < 0, -q, q)
 
 
 # ---------------------------------------------------------------------- size
@@ -146,83 +62,6 @@ def shape_of(semi_axes: ArrayLike, rtol: float = 1e-6) -> str:
     if eq01 and eq12:
         return "sphere"
     return "spheroid" if eq01 or eq12 else "ellipsoid"
-
-
-# ---------------------------------------------------------------------- quadrics and conics
-def dual_quadric(centre: ArrayLike, semi_axes: ArrayLike, R_frame_ellipsoid: ArrayLike) -> NDArray[np.float64]:
-    """Dual quadric ``Q* = T diag(a^2, b^2, c^2, -1) T^T`` of ellipsoids, in the frame of ``centre``.
-
-    Parameters
-    ----------
-    centre : array_like, shape (..., 3), metres
-    semi_axes : array_like, shape (..., 3), metres
-    R_frame_ellipsoid : array_like, shape (..., 3, 3), the axes (columns) in the same frame
-
-    Returns
-    -------
-    Q_star : ndarray, shape (..., 4, 4); planes ``pi`` tangent to the ellipsoid satisfy ``pi^T Q* pi = 0``
-
-    Examples
-    --------
-    >>> Q = dual_quadric([0, 0, 1.0], [0.1, 0.1, 0.1], np.eye(3))
-    >>> plane = np.array([0, 0, 1.0, -0.9])  # z = 0.9 touches the sphere
-    >>> round(float(plane @ Q @ plane), 12)
-    0.0
-    """
-    c, M = _centre_and_shape_matrix(centre, semi_axes, R_frame_ellipsoid)
-    out = np.empty(c.shape[:-1] + (4, 4))
-    out[..., :3, :3] = M - c[..., :, None] * c[..., None, :]
-    out[..., :3, 3] = -c
-    out[..., 3, :3] = -c
-    out[..., 3, 3] = -1.0
-    return out
-
-
-def projected_dual_conic(
-    camera: Camera, T_base_optical: ArrayLike, centre_base: ArrayLike, semi_axes: ArrayLike, R_base_ellipsoid: ArrayLike
-) -> NDArray[np.float64]:
-    """Dual conic ``C* = P Q* P^T`` (pixels) of ellipsoids under the pinhole part of ``camera``.
-
-    Lens distortion is ignored (use :func:`ellipsoid_contour_uv` for distorted cameras).
-
-    Parameters
-    ----------
-    camera : Camera
-    T_base_optical : array_like, shape (..., 4, 4), the view's pose
-    centre_base : array_like, shape (..., 3), metres, base frame
-    semi_axes : array_like, shape (..., 3), metres
-    R_base_ellipsoid : array_like, shape (..., 3, 3)
-
-    Returns
-    -------
-    C_star : ndarray, shape (..., 3, 3), homogeneous pixel coordinates: image lines ``l``
-        tangent to the silhouette satisfy ``l^T C* l = 0``
-    """
-    c_opt, R_opt = _to_optical(T_base_optical, centre_base, R_base_ellipsoid)
-    N = _normalised_dual_conic(c_opt, semi_axes, R_opt)
-    K = np.array([[camera.fx, 0.0, camera.cx], [0.0, camera.fy, camera.cy], [0.0, 0.0, 1.0]])
-    return K @ N @ K.T
-
-
-def bbox_from_dual_conic(C_star: ArrayLike) -> NDArray[np.float64]:
-    """Box ``(x1, y1, x2, y2)`` of the ellipses with dual conics (..., 3, 3) (any scale).
-
-    Returns NaN where the conic is not a bounded ellipse seen from the front
-    (``C*_33 >= 0``, which is the case when the ellipsoid is not entirely in front of the camera).
-
-    Examples
-    --------
-    >>> C = np.diag([4.0, 1.0, -1.0])  # the ellipse x^2 / 4 + y^2 = 1
-    >>> bbox_from_dual_conic(C)
-    array([-2., -1.,  2.,  1.])
-    """
-    C = np.asarray(C_star, dtype=float)
-    C = C / np.where(C[..., 2, 2] < 0, -C[..., 2, 2], np.nan)[..., None, None]  # C33 = -1
-    with np.errstate(invalid="ignore"):
-        hx = np.sqrt(C[..., 0, 2] ** 2 + C[..., 0, 0])
-        hy = np.sqrt(C[..., 1, 2] ** 2 + C[..., 1, 1])
-    x0, y0 = -C[..., 0, 2], -C[..., 1, 2]
-    return np.stack([x0 - hx, y0 - hy, x0 + hx, y0 + hy], axis=-1)
 
 
 # ---------------------------------------------------------------------- boxes
@@ -261,7 +100,7 @@ def ellipsoid_bbox_optical(
     >>> ellipsoid_bbox_optical(cam, [0.0, 0.0, 1.0], [0.1, 0.1, 0.1], np.eye(3)).round(2)
     array([269.75, 189.75, 370.25, 290.25])
     """
-    c, M = _centre_and_shape_matrix(centre_optical, semi_axes, R_optical_ellipsoid)
+    c, M = centre_and_shape_matrix(centre_optical, semi_axes, R_optical_ellipsoid)
     ok = (c[..., 2] > 0) & (c[..., 2] ** 2 > M[..., 2, 2])  # min z over the ellipsoid is > 0
     if camera.distortion_model == "none":
         N = M - c[..., :, None] * c[..., None, :]
@@ -317,7 +156,7 @@ def ellipsoid_bbox(
     >>> ellipsoid_bbox(cam, T, [1.0, 0, 0], [0.1, 0.1, 0.2], np.eye(3)).round(1)  # taller than wide
     array([269.7, 139.5, 370.3, 340.5])
     """
-    c_opt, R_opt = _to_optical(T_base_optical, centre_base, R_base_ellipsoid)
+    c_opt, R_opt = to_optical(T_base_optical, centre_base, R_base_ellipsoid)
     return ellipsoid_bbox_optical(camera, c_opt, semi_axes, R_opt, clip=clip, n_contour=n_contour)
 
 
@@ -345,7 +184,7 @@ def ellipsoid_contour_optical(
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 4:
         raise InputError(f"n: got {n!r}, expected an integer >= 4 (rim points)")
-    c, _ = _centre_and_shape_matrix(centre_optical, semi_axes, R_optical_ellipsoid)
+    c, _ = centre_and_shape_matrix(centre_optical, semi_axes, R_optical_ellipsoid)
     s = np.broadcast_to(np.asarray(semi_axes, dtype=float), c.shape)
     R = np.broadcast_to(np.asarray(R_optical_ellipsoid, dtype=float), c.shape[:-1] + (3, 3))
     A = R * s[..., None, :]  # R diag(s)
@@ -389,8 +228,8 @@ def ellipsoid_contour_uv(
     -------
     uv : ndarray, shape (..., n, 2), pixels; NaN where the ellipsoid is not entirely in front of the camera
     """
-    c_opt, R_opt = _to_optical(T_base_optical, centre_base, R_base_ellipsoid)
-    c, M = _centre_and_shape_matrix(c_opt, semi_axes, R_opt)
+    c_opt, R_opt = to_optical(T_base_optical, centre_base, R_base_ellipsoid)
+    c, M = centre_and_shape_matrix(c_opt, semi_axes, R_opt)
     ok = (c[..., 2] > 0) & (c[..., 2] ** 2 > M[..., 2, 2])
     uv = camera.project(ellipsoid_contour_optical(c_opt, semi_axes, R_opt, n))
     return np.where(ok[..., None, None], uv, np.nan)
@@ -433,21 +272,17 @@ def silhouette_distance_px(
     >>> silhouette_distance_px(cam, np.eye(4), [0, 0, 1.0], [0.1, 0.1, 0.1], np.eye(3), uv).round(2)
     array([-50.25,   9.75])
     """
-    c_opt, R_opt = _to_optical(T_base_optical, centre_base, R_base_ellipsoid)
-    c, M = _centre_and_shape_matrix(c_opt, semi_axes, R_opt)
+    c_opt, R_opt = to_optical(T_base_optical, centre_base, R_base_ellipsoid)
+    c, M = centre_and_shape_matrix(c_opt, semi_axes, R_opt)
     ok = (c[..., 2] > 0) & (c[..., 2] ** 2 > M[..., 2, 2])
-    K = np.array([[camera.fx, 0.0, camera.cx], [0.0, camera.fy, camera.cy], [0.0, 0.0, 1.0]])
+    K = camera.K
     C_star = K @ np.where(ok[..., None, None], M - c[..., :, None] * c[..., None, :], -np.eye(3)) @ K.T
     x0 = C_star[..., :2, 2] / C_star[..., 2:3, 2]  # the ellipse's centre, pixels
     C = np.linalg.inv(C_star)  # point conic, pixels
     A = C[..., :2, :2]
     x0h = np.concatenate([x0, np.ones(x0.shape[:-1] + (1,))], axis=-1)
     k = np.abs(np.einsum("...i,...ij,...j->...", x0h, C, x0h))[..., None]  # (p - x0)^T A (p - x0) = -f(x0) on the outline
-    uv = np.asarray(uv, dtype=float)
-    xy = np.stack([(uv[..., 0] - camera.cx) / camera.fx, (uv[..., 1] - camera.cy) / camera.fy], axis=-1)
-    xy = camera.undistort(xy)
-    p = np.stack([camera.fx * xy[..., 0] + camera.cx, camera.fy * xy[..., 1] + camera.cy], axis=-1)
-    r = p - x0[..., None, :]
+    r = camera.undistort_pixels(uv) - x0[..., None, :]
     Ar = np.einsum("...ij,...mj->...mi", A, r)
     q = np.abs(np.sum(r * Ar, axis=-1)) / k  # 1 on the outline
     sq = np.sqrt(q)
@@ -563,42 +398,6 @@ class Ellipsoid:
 
 
 # ---------------------------------------------------------------------- helpers
-def _centre_and_shape_matrix(
-    centre: ArrayLike, semi_axes: ArrayLike, R: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Broadcast centres (..., 3) and ``M = R diag(s^2) R^T`` (..., 3, 3)."""
-    c = np.asarray(centre, dtype=float)
-    s = np.asarray(semi_axes, dtype=float)
-    R = np.asarray(R, dtype=float)
-    if c.shape[-1:] != (3,) or s.shape[-1:] != (3,) or R.shape[-2:] != (3, 3):
-        raise InputError(
-            f"ellipsoid: expected centre (..., 3), semi_axes (..., 3), rotation (..., 3, 3); got {c.shape}, {s.shape}, {R.shape}"
-        )
-    shape = np.broadcast_shapes(c.shape[:-1], s.shape[:-1], R.shape[:-2])
-    c = np.broadcast_to(c, shape + (3,))
-    M = np.einsum("...ik,...k,...jk->...ij", R, s * s, R)
-    return c, np.broadcast_to(M, shape + (3, 3))
-
-
-def _normalised_dual_conic(c_opt: ArrayLike, semi_axes: ArrayLike, R_opt: ArrayLike) -> NDArray[np.float64]:
-    c, M = _centre_and_shape_matrix(c_opt, semi_axes, R_opt)
-    return M - c[..., :, None] * c[..., None, :]
-
-
-def _to_optical(
-    T_base_optical: ArrayLike, centre_base: ArrayLike, R_base_ellipsoid: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Centres (..., 3) and rotations (..., 3, 3) in the optical frame of pose(s) (..., 4, 4)."""
-    T = np.asarray(T_base_optical, dtype=float)
-    if T.shape[-2:] != (4, 4):
-        raise InputError(f"T_base_optical: expected shape (..., 4, 4), got {T.shape}")
-    R_bo, t_bo = T[..., :3, :3], T[..., :3, 3]
-    c = np.asarray(centre_base, dtype=float)
-    c_opt = np.einsum("...ji,...j->...i", R_bo, c - t_bo)
-    R_opt = np.einsum("...ji,...jk->...ik", R_bo, np.asarray(R_base_ellipsoid, dtype=float))
-    return c_opt, R_opt
-
-
 def _vector3(value: Any, where: str) -> NDArray[np.float64]:
     try:
         a = np.asarray(value, dtype=float)

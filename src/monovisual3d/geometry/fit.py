@@ -32,7 +32,8 @@ from scipy.optimize import least_squares
 
 from ..camera import Camera
 from ..errors import InputError
-from .ellipsoid import DEFAULT_UP, SHAPES, Ellipsoid, check_up, ellipsoid_bbox, rotation_upright
+from .ellipsoid import SHAPES, Ellipsoid, ellipsoid_bbox
+from .orientation import DEFAULT_UP, check_up, rotation_upright
 
 if TYPE_CHECKING:
     from ..session import View

@@ -21,17 +21,11 @@ Example::
 from __future__ import annotations
 
 from .build import DEFAULT_MAX_GAP, MATCH_MODES, assemble_session, build_session, import_session
-from .calibration import (
-    CALIBRATION_FORMATS,
-    calibration_format,
-    camera_for_image_size,
-    camera_from_camera_info,
-    camera_from_depthai,
-    camera_from_kalibr,
-    camera_from_opencv_storage,
-    crop_camera,
-    read_calibration,
-)
+from .calibration import CALIBRATION_FORMATS, calibration_format, read_calibration
+from .calibration_depthai import camera_from_depthai
+from .calibration_kalibr import camera_from_kalibr
+from .calibration_opencv import camera_from_opencv_storage
+from .calibration_ros import camera_from_camera_info
 from .detections import (
     DETECTION_FORMATS,
     ImageDetections,
@@ -42,6 +36,7 @@ from .detections import (
     read_detections_csv,
     read_yolo_labels,
 )
+from .image_size import camera_for_image_size, crop_camera
 from .poses import (
     POSE_FORMATS,
     PoseTrajectory,

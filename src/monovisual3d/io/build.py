@@ -352,7 +352,7 @@ def _import_camera(
     if isinstance(camera, Camera):
         cam = camera
         if image_size is not None:
-            from .calibration import camera_for_image_size
+            from .image_size import camera_for_image_size
 
             cam = camera_for_image_size(cam, image_size, resize)
     else:

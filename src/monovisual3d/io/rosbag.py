@@ -35,8 +35,10 @@ from ..frames import T_base_optical_from_T_base_cameralink, transform_from_posit
 from ..session import POSE_FRAMES, Detection, Workspace
 from ._parse import MAX_ABS_POSITION_M
 from .build import DEFAULT_MAX_GAP, assemble_session
-from .calibration import camera_for_image_size, camera_from_camera_info, read_calibration
+from .calibration import read_calibration
+from .calibration_ros import camera_from_camera_info
 from .detections import ImageDetections, filter_detections, load_class_names
+from .image_size import camera_for_image_size
 from .summary import ImportResult, ImportSummary
 from .tf import TransformTree, TransformUnavailable, normalise_frame
 

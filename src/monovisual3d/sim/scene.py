@@ -16,7 +16,8 @@ from numpy.typing import NDArray
 
 from ..errors import InputError
 from ..frames import check_quaternion_xyzw
-from ..geometry.ellipsoid import Ellipsoid, equivalent_radius, rotation_from_quaternion_xyzw
+from ..geometry.ellipsoid import Ellipsoid, equivalent_radius
+from ..geometry.orientation import rotation_from_quaternion_xyzw
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
 from ..errors import InputError
-from ..geometry.ellipsoid import Ellipsoid, ellipsoid_bbox, projected_dual_conic, rotation_upright
+from ..geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
+from ..geometry.orientation import rotation_upright
+from ..geometry.quadric import projected_dual_conic
 from ..geometry.sphere import sphere_bbox
 from .raycast import render
 from .scene import EllipsoidFruit, Leaf, Scene, Sphere, Stem

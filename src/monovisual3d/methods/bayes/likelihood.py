@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
-from .sensor import SensorModel
+from .sensor import SensorModel, box_edge_sigma_px, censored_edges, inward_edge_offsets
 
 __all__ = ["SensorModel", "box_scores", "edge_loglik", "edge_residuals", "pose_sigma_px", "view_scores"]
 
@@ -88,31 +88,12 @@ def edge_residuals(
         Extra edge noise added in quadrature, e.g. the projected size of a grid
         cell when the hypothesis stands for a whole cell rather than a point.
     """
-    wx = pred[..., 2] - pred[..., 0]
-    wy = pred[..., 3] - pred[..., 1]
-    sx = model.alpha * wx + model.sigma0_px
-    sy = model.alpha * wy + model.sigma0_px
-    if np.any(extra_sigma_px):
-        sx = np.sqrt(sx * sx + extra_sigma_px * extra_sigma_px)
-        sy = np.sqrt(sy * sy + extra_sigma_px * extra_sigma_px)
     obs = np.asarray(obs, dtype=float)
-    d = np.stack(
-        [obs[..., 0] - pred[..., 0], obs[..., 1] - pred[..., 1], pred[..., 2] - obs[..., 2], pred[..., 3] - obs[..., 3]],
-        axis=-1,
-    )
-    # censored edges (observed box touches the image border): only outward residuals count
-    censored = np.stack(
-        [
-            obs[..., 0] <= model.border_px,
-            obs[..., 1] <= model.border_px,
-            obs[..., 2] >= width - model.border_px,
-            obs[..., 3] >= height - model.border_px,
-        ],
-        axis=-1,
-    )
+    d = inward_edge_offsets(pred, obs)
+    censored = censored_edges(obs, width, height, model.border_px)  # on the image border: only outward residuals count
     if censored.any():
         d = np.where(censored, np.minimum(d, 0.0), d)
-    return d / np.stack([sx, sy, sx, sy], axis=-1)
+    return d / box_edge_sigma_px(model, pred, extra_sigma_px)
 
 
 def edge_loglik(e: NDArray[np.floating], model: SensorModel) -> NDArray[np.float64]:

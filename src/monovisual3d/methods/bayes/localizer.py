@@ -15,16 +15,21 @@ from .config import BayesConfig
 from .pipeline import Estimate, estimate
 from .problem import build_problem
 
+#: ``max_bytes`` of the region grid, which is only a description (nothing is allocated): 10**40 bytes, beyond any
+#: memory, so no limit here; the search bounds its own memory (``max_memory``) when it allocates levels.
+_DESCRIPTION_ONLY_BYTES = 10**40
+
 
 def region_grid(config: BayesConfig, workspace: Workspace | None, first_view: View) -> VoxelGrid:
     """The region searched: the workspace, else the paper's cube in front of ``first_view``, at ``search_start``.
 
     Only a description (nothing is allocated): the search picks a coarser first level if it is too large.
     """
-    huge = 10**40  # a description only: no limit here (the search bounds its own memory)
     if workspace is not None:
-        return VoxelGrid.from_bounds(workspace.min, workspace.max, config.search_start, max_bytes=huge)
-    return VoxelGrid.in_front_of_camera(first_view.T_base_optical, config.search_start, config.reach, max_bytes=huge)
+        return VoxelGrid.from_bounds(workspace.min, workspace.max, config.search_start, max_bytes=_DESCRIPTION_ONLY_BYTES)
+    return VoxelGrid.in_front_of_camera(
+        first_view.T_base_optical, config.search_start, config.reach, max_bytes=_DESCRIPTION_ONLY_BYTES
+    )
 
 
 class BayesLocalizer:

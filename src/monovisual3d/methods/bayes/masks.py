@@ -65,7 +65,7 @@ def mask_residuals_rays(
     ang = np.arccos(np.clip(c @ rays_optical.T, -1.0, 1.0))
     ang_s = np.arcsin(np.where(valid, radii / dist_safe, 0.0))
     f = 0.5 * (camera.fx + camera.fy)
-    sigma = model.alpha * 2 * f * np.tan(ang_s) + model.sigma0_px
+    sigma = model.edge_sigma_px(2 * f * np.tan(ang_s))  # the silhouette's diameter, pixels
     if extra_sigma_px:
         sigma = np.hypot(sigma, extra_sigma_px)
     out = (ang - ang_s[:, None]) * f / sigma[:, None]

@@ -30,6 +30,11 @@ from .refine import Observation
 from .search import search
 from .shapes import shape_stage
 
+#: A joint (pose-corrected) radius outside ``[radius_min / f, f * radius_max]`` with this ``f`` means the bundle
+#: adjustment diverged, and the object keeps its per-object solution. A chosen margin, not a fitted one: the
+#: per-object radii already lie in ``[radius_min, radius_max]``; twice beyond that range is taken as divergence.
+DIVERGED_RADIUS_FACTOR = 2.0
+
 
 @dataclass(frozen=True)
 class Estimate:
@@ -99,7 +104,8 @@ def bundle(problem: Problem, objects: list[DetectedObject]) -> tuple[list[Detect
     )  # fmt: skip
     out = []
     for i, o in enumerate(objects):
-        if not (np.all(np.isfinite(b.centres[i])) and cfg.radius_min * 0.5 <= b.radii[i] <= cfg.radius_max * 2):
+        lo, hi = cfg.radius_min / DIVERGED_RADIUS_FACTOR, cfg.radius_max * DIVERGED_RADIUS_FACTOR
+        if not (np.all(np.isfinite(b.centres[i])) and lo <= b.radii[i] <= hi):
             out.append(o)  # keep the per-object solution rather than a diverged joint one
             continue
         extra = {**o.extra, "radius_std": float(b.radius_std[i]), "pose_corrected": True}

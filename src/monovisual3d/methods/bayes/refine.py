@@ -22,6 +22,7 @@ from ...geometry.sphere import pinhole_sphere_boxes, predict_sphere_boxes
 from ._kernels import HAVE_NUMBA, box_residuals_fused
 from .likelihood import SensorModel, edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
+from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
 
 
 @dataclass
@@ -119,11 +120,9 @@ class _BoxResiduals:
         self.R, self.t = T[:, :, :3], T[:, :, 3]
         obs = np.stack([np.asarray(ob.bbox_xyxy, dtype=float) for ob in observations])
         self.obs = obs
-        self.extra2 = np.array([float(np.asarray(ob.extra_sigma_px)) for ob in observations]) ** 2
-        b = model.border_px
-        self.censored = np.stack(
-            [obs[:, 0] <= b, obs[:, 1] <= b, obs[:, 2] >= camera.width - b, obs[:, 3] >= camera.height - b], axis=1
-        )
+        self.extra = np.array([float(np.asarray(ob.extra_sigma_px)) for ob in observations])
+        self.extra2 = self.extra**2
+        self.censored = censored_edges(obs, camera.width, camera.height, model.border_px)
 
     def batch(self, centres_base: NDArray[np.floating], radii: NDArray[np.floating]) -> NDArray[np.float64]:
         """Residuals for centres (P, 3), metres, base frame, and radii (P,), metres: shape (P, 4 M)."""
@@ -141,17 +140,9 @@ class _BoxResiduals:
             pred = pinhole_sphere_boxes(cam, p_opt, radii[:, None])
         else:
             pred = np.stack([predict_sphere_boxes(cam, p, np.array([r]))[0][:, 0, :] for p, r in zip(p_opt, radii)])
-        sx = model.alpha * (pred[..., 2] - pred[..., 0]) + model.sigma0_px
-        sy = model.alpha * (pred[..., 3] - pred[..., 1]) + model.sigma0_px
-        if np.any(self.extra2):
-            sx = np.sqrt(sx * sx + self.extra2)
-            sy = np.sqrt(sy * sy + self.extra2)
-        obs = self.obs
-        d = np.stack(
-            [obs[:, 0] - pred[..., 0], obs[:, 1] - pred[..., 1], pred[..., 2] - obs[:, 2], pred[..., 3] - obs[:, 3]], axis=-1
-        )
+        d = inward_edge_offsets(pred, self.obs)
         d = np.where(self.censored, np.minimum(d, 0.0), d)
-        e = d / np.stack([sx, sy, sx, sy], axis=-1)
+        e = d / box_edge_sigma_px(model, pred, self.extra)
         return np.nan_to_num(e, nan=1e3).reshape(len(e), -1)
 
 

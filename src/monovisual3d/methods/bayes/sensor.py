@@ -1,11 +1,22 @@
-"""The parameters of the ``bayes`` box likelihood (:class:`SensorModel`); no numpy, so options load fast."""
+"""The ``bayes`` sensor model: box-edge noise and edge residuals, the one home of both.
+
+:class:`SensorModel` holds the parameters; :func:`box_edge_sigma_px` (edge noise ``alpha * size + sigma0_px``),
+:func:`inward_edge_offsets` (signed edge residual, positive inward) and :func:`censored_edges` (edges on the
+image border) are used by the likelihood, the refinement, the mask residuals and the next-view planner.
+The module imports no numpy at load time (the functions import it when called), so options load fast.
+"""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 from ...errors import InputError
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 
 @dataclass(frozen=True)
@@ -40,3 +51,72 @@ class SensorModel:
     @property
     def miss_term(self) -> float:
         return math.log(self.p_miss)
+
+    def edge_sigma_px(self, size_px: Any) -> Any:
+        """Edge noise of a box edge, pixels: ``alpha * size_px + sigma0_px``.
+
+        ``size_px`` (float or ndarray, pixels) is the predicted box's extent along the edge's
+        axis: its width for the left and right edges, its height for the top and bottom ones.
+
+        Examples
+        --------
+        >>> SensorModel(alpha=0.05, sigma0_px=1.0).edge_sigma_px(100.0)
+        6.0
+        """
+        return self.alpha * size_px + self.sigma0_px
+
+
+def box_edge_sigma_px(model: SensorModel, boxes: NDArray[np.floating], extra_sigma_px: Any = 0.0) -> NDArray[np.float64]:
+    """Edge noise of predicted boxes, per edge, pixels (the one place the box-edge noise is written).
+
+    Parameters
+    ----------
+    model : SensorModel
+    boxes : ndarray, shape (..., 4), predicted ``bbox_xyxy``, pixels
+    extra_sigma_px : float or ndarray broadcastable to ``boxes.shape[:-1]``, pixels
+        Extra noise added in quadrature (pose uncertainty, the size of a grid cell); 0: none.
+
+    Returns
+    -------
+    sigma_px : ndarray, shape (..., 4), ``(sx, sy, sx, sy)`` with ``sx = alpha * width + sigma0_px``
+    """
+    import numpy as np
+
+    sx = model.edge_sigma_px(boxes[..., 2] - boxes[..., 0])
+    sy = model.edge_sigma_px(boxes[..., 3] - boxes[..., 1])
+    if np.any(extra_sigma_px):
+        sx = np.sqrt(sx * sx + extra_sigma_px * extra_sigma_px)
+        sy = np.sqrt(sy * sy + extra_sigma_px * extra_sigma_px)
+    return np.stack([sx, sy, sx, sy], axis=-1)
+
+
+def inward_edge_offsets(pred: NDArray[np.floating], obs: NDArray[np.floating]) -> NDArray[np.float64]:
+    """How far each observed edge lies inside the predicted box, pixels, shape (..., 4).
+
+    Positive where the observed edge is inside the prediction (what occlusion does), negative where it is
+    outside: ``(x1_obs - x1_pred, y1_obs - y1_pred, x2_pred - x2_obs, y2_pred - y2_obs)``.
+
+    Parameters
+    ----------
+    pred : ndarray, shape (..., 4), predicted ``bbox_xyxy``, pixels
+    obs : ndarray, shape (..., 4), observed ``bbox_xyxy`` broadcastable to ``pred``, pixels
+    """
+    import numpy as np
+
+    return np.stack(
+        [obs[..., 0] - pred[..., 0], obs[..., 1] - pred[..., 1], pred[..., 2] - obs[..., 2], pred[..., 3] - obs[..., 3]],
+        axis=-1,
+    )
+
+
+def censored_edges(obs: NDArray[np.floating], width: int, height: int, border_px: float) -> NDArray[np.bool_]:
+    """True for each observed edge on the image border (within ``border_px``), shape (..., 4).
+
+    Such an edge only says that the object reaches at least that far: only outward residuals count there.
+    """
+    import numpy as np
+
+    return np.stack(
+        [obs[..., 0] <= border_px, obs[..., 1] <= border_px, obs[..., 2] >= width - border_px, obs[..., 3] >= height - border_px],
+        axis=-1,
+    )
