@@ -40,7 +40,7 @@ import numpy as np
 from .. import __version__
 from ..camera import Camera
 from ..grid import VoxelGrid
-from ..kernels import paper_cell_likelihood
+from ..methods.paper.kernels import paper_cell_likelihood
 from ..session import Detection, View
 
 #: Grid edges (cells per axis) of the full benchmark: 63**3 = 0.25 M, 126**3 = 2 M, 252**3 = 16 M.
@@ -223,7 +223,7 @@ def _run_naive(grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, 
 
 
 def _run_numpy(grid: VoxelGrid, camera: Camera, views: list[View], kernel: str) -> None:
-    from ..filter import paper_update, paper_view_likelihood_grid
+    from ..methods.paper.filter import paper_update, paper_view_likelihood_grid
 
     p: Any = np.full(grid.n_cells, 1.0 / grid.n_cells)
     for v in views:
@@ -297,7 +297,7 @@ def _numpy_row(
     rows: list[dict[str, Any]], grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, repeats: int, big: bool
 ) -> None:
     """The numpy reference; its temporaries are measured with tracemalloc in a separate run."""
-    from ..filter import paper_update, paper_view_likelihood_grid
+    from ..methods.paper.filter import paper_update, paper_view_likelihood_grid
 
     n = grid.n_cells
     t = time_call(partial(_run_numpy, grid, camera, views, kernel), 1 if big else repeats, warmup=0 if big else 1)

@@ -76,8 +76,8 @@ METHODS: dict[str, Method] = {
     "paper": Method(
         "paper",
         "MonoVisual3DFilter as published: histogram filter over a voxel grid, square/Gaussian kernel, k-means",
-        "monovisual3d.methods.paper_config:PaperConfig",
-        "monovisual3d.methods.paper:run",
+        "monovisual3d.methods.paper.config:PaperConfig",
+        "monovisual3d.methods.paper.run:run",
     ),
 }
 

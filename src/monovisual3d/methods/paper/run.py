@@ -1,7 +1,7 @@
 """The paper's method (MonoVisual3DFilter): the dense and sparse drivers and their :class:`Result`.
 
-- dense (default): :class:`monovisual3d.filter.HistogramFilter` over the paper's grid, view by
-  view, then k-means (:mod:`monovisual3d.estimation`); the per-view update runs on
+- dense (default): :class:`~monovisual3d.methods.paper.filter.HistogramFilter` over the paper's grid, view by
+  view, then k-means (:mod:`~monovisual3d.methods.paper.kmeans`); the per-view update runs on
   ``PaperConfig.backend`` (compiled numba by default, the numpy reference, or torch);
 - sparse (``refine_to``): the coarse-to-fine active set of :mod:`monovisual3d.engine.sparse`.
 """
@@ -14,12 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from ..engine.sparse import DEFAULT_MAX_CELLS, SparseHistogramFilter
-from ..estimation import choose_k, kmeans_objects
-from ..filter import HistogramFilter, PaperConfig
-from ..grid import VoxelGrid
-from ..result import Result
-from ..session import Session, View
+from ...engine.sparse import DEFAULT_MAX_CELLS, SparseHistogramFilter
+from ...grid import VoxelGrid
+from ...result import Result
+from ...session import Session, View
+from .config import PaperConfig
+from .filter import HistogramFilter
+from .kmeans import choose_k, kmeans_objects
 
 #: Working bytes per active cell of the sparse path (indices, values, children during a split, k-means).
 SPARSE_BYTES_PER_CELL = 256

@@ -5,12 +5,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..errors import InputError
-from ..limits import DEFAULT_KEEP_THRESHOLD, DEFAULT_MAX_BYTES, DEFAULT_REACH_M
+from ...errors import InputError
+from ...limits import DEFAULT_KEEP_THRESHOLD, DEFAULT_MAX_BYTES, DEFAULT_REACH_M
 
 
 def _default_backend() -> str:
-    from ..engine import default_backend
+    from ...engine import default_backend
 
     return default_backend()
 
@@ -56,13 +56,12 @@ class PaperConfig:
     threads: int | None = None
 
     def __post_init__(self) -> None:
-        from ..estimation import CENTRES, choose_k
-        from ..grid import _check_resolution
-        from ..kernels import check_kernel
-        from .options import check_threads, parse_bytes
+        from ...engine.params import check_kernel
+        from ...grid import _check_resolution
+        from ..options import check_shared_options
+        from .kmeans import CENTRES, choose_k
 
-        object.__setattr__(self, "max_memory", parse_bytes(self.max_memory))
-        object.__setattr__(self, "threads", check_threads(self.threads))
+        check_shared_options(self)
         check_kernel(self.kernel)
         if not (self.sigma_fraction > 0):
             raise InputError(f"sigma_fraction: got {self.sigma_fraction}, expected a positive fraction of the box size")
@@ -76,6 +75,6 @@ class PaperConfig:
         if not (isinstance(self.keep_threshold, (int, float)) and 0.0 < self.keep_threshold <= 1.0):
             raise InputError(f"keep_threshold: got {self.keep_threshold!r}, expected a value in (0, 1]")
         choose_k([1], self.k)
-        from ..engine import check_backend
+        from ...engine import check_backend
 
         check_backend(self.backend, self.device, self.refine_to, self.resolution)
