@@ -90,8 +90,13 @@ def get_method(name: str | None) -> Method:
     return METHODS[name]
 
 
-def run_method(session: Session, name: str | None = None, config: Any = None, progress: Callable[[int, int], None] | None = None,
-               **options: Any) -> Result:  # fmt: skip
+def run_method(
+    session: Session,
+    name: str | None = None,
+    config: Any = None,
+    progress: Callable[[int, int], None] | None = None,
+    **options: Any,
+) -> Result:
     """Run a method on a loaded session, with a ready config or keyword options (not both)."""
     method = get_method(name)
     if config is not None:
