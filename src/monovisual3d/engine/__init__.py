@@ -27,21 +27,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..session import View
 
 
-def default_backend() -> str:
-    """The fastest CPU backend installed: ``"numba"`` (a core dependency), else the numpy reference.
-
-    Looks numba up without importing it (importing compiles nothing, but takes a while).
-
-    Examples
-    --------
-    >>> default_backend()
-    'numba'
-    """
-    import importlib.util
-
-    return "numba" if importlib.util.find_spec("numba") is not None else "numpy"
-
-
 def check_backend(backend: str, device: str | None = None, refine_to: float | None = None, resolution: float = 1.0) -> None:
     """Validate the engine options of :class:`~monovisual3d.methods.paper.filter.PaperConfig` (no heavy import).
 

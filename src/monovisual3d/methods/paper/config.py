@@ -3,16 +3,10 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from ...errors import InputError
 from ...limits import DEFAULT_KEEP_THRESHOLD, DEFAULT_MAX_BYTES, DEFAULT_REACH_M
-
-
-def _default_backend() -> str:
-    from ...engine import default_backend
-
-    return default_backend()
 
 
 @dataclass(frozen=True)
@@ -33,8 +27,7 @@ class PaperConfig:
         with a resolution that fits
     backend : {"numpy", "numba", "torch"}, engine of the dense update: the numpy reference, the fused
         numba kernel (float32 posterior, see :mod:`monovisual3d.engine.dense`) or torch (``device``).
-        Default: the fastest CPU engine installed (:func:`monovisual3d.engine.default_backend`, numba);
-        ``"numpy"`` is the readable reference the others are tested against.
+        Default ``"numba"`` (a core dependency); ``"numpy"`` is the readable reference the others are tested against.
     device : str or None, torch device ("cpu", "cuda"; None: cuda when available); backend "torch" only
     refine_to : float or None, metres: run the sparse coarse-to-fine path down to this resolution,
         with ``resolution`` as the root level (see :mod:`monovisual3d.engine.sparse`)
@@ -50,7 +43,7 @@ class PaperConfig:
     keep_threshold: float = DEFAULT_KEEP_THRESHOLD
     weighted_kmeans: bool = False
     max_memory: int | str = DEFAULT_MAX_BYTES
-    backend: str = field(default_factory=_default_backend)
+    backend: str = "numba"
     device: str | None = None
     refine_to: float | None = None
     threads: int | None = None
