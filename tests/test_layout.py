@@ -235,7 +235,7 @@ def test_no_import_points_up_a_layer() -> None:
         for n in imported
         if _layer(n) > _layer(m)
     )
-    assert up == []
+    assert up == [], "imports up a layer:\n" + "\n".join(up)
 
 
 def test_the_core_imports_no_upper_package() -> None:
@@ -244,12 +244,13 @@ def test_the_core_imports_no_upper_package() -> None:
     bad = sorted(
         f"{m} imports {n}" for m, imported in GRAPH.items() if _layer(m) == 0 for n in imported if n.split(".")[1] in upper
     )
-    assert bad == []
+    assert bad == [], "the core imports an upper package:\n" + "\n".join(bad)
 
 
 def test_no_import_cycles() -> None:
     cycles = _cycles()
-    assert sorted(cycles - ALLOWED_CYCLES) == [], "import cycles (lazy and TYPE_CHECKING imports included)"
+    new = sorted(cycles - ALLOWED_CYCLES)
+    assert new == [], "import cycles (lazy and TYPE_CHECKING imports included):\n" + "\n".join(" <-> ".join(c) for c in new)
     assert sorted(ALLOWED_CYCLES - cycles) == [], "these cycles are gone: remove them from ALLOWED_CYCLES"
 
 
