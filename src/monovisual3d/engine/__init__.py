@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 def check_backend(backend: str, device: str | None = None, refine_to: float | None = None, resolution: float = 1.0) -> None:
-    """Validate the engine options of :class:`~monovisual3d.methods.paper.filter.PaperConfig` (no heavy import).
+    """Validate the engine options of :class:`~monovisual3d.methods.paper.config.PaperConfig` (no heavy import).
 
     Examples
     --------
