@@ -133,19 +133,40 @@ def _sources() -> list[Path]:
 MODULES = {_module_name(p): p for p in _sources()}
 
 
+def _lazy_names() -> dict[str, str]:
+    """The package's public names and the modules that define them (``_LAZY`` of ``monovisual3d/__init__.py``)."""
+    for node in ast.parse((PACKAGE / "__init__.py").read_text()).body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "_LAZY" for t in node.targets):
+            return {k: f"{PACKAGE_NAME}.{v}" for k, v in ast.literal_eval(node.value).items()}
+    return {}
+
+
+LAZY_NAMES = _lazy_names()
+
+
 def _imported_names(path: Path) -> set[str]:
     """Every ``monovisual3d`` module or ``module.name`` this file imports, wherever the import sits."""
-    name = _module_name(path)
-    package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+    return _names_in(path.read_text(), _module_name(path), is_package=path.name == "__init__.py")
+
+
+def _names_in(source: str, name: str, *, is_package: bool) -> set[str]:
+    """:func:`_imported_names` of the source of module ``name``.
+
+    A public name taken from the package itself (``from monovisual3d import localize``) counts as an
+    import of the module that defines it.
+    """
+    package = name if is_package else name.rsplit(".", 1)[0]
     out: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")
                 mod = ".".join(base[: len(base) - node.level + 1] + ([node.module] if node.module else []))
             else:
                 mod = node.module or ""
-            if mod.split(".")[0] == PACKAGE_NAME:
+            if mod == PACKAGE_NAME:
+                out.update(LAZY_NAMES.get(a.name, f"{mod}.{a.name}") for a in node.names)
+            elif mod.split(".")[0] == PACKAGE_NAME:
                 if node.module:  # ``from .x import y`` needs x; ``from . import x`` needs only the submodule x
                     out.add(mod)
                 out.update(f"{mod}.{a.name}" for a in node.names)
@@ -166,7 +187,7 @@ def _imports(module: str) -> set[str]:
     out: set[str] = set()
     for name in _imported_names(MODULES[module]):
         parts = name.split(".")
-        for i in range(2, len(parts) + 1):
+        for i in range(1 if name == PACKAGE_NAME else 2, len(parts) + 1):  # ``import monovisual3d``: its public names
             mod = ".".join(parts[:i])
             if mod in MODULES and mod not in own and mod != module:
                 out.add(mod)
@@ -259,6 +280,12 @@ def test_the_import_graph_sees_lazy_imports() -> None:
     assert "monovisual3d.engine.dense" in GRAPH["monovisual3d.engine"]  # imported inside a function
     assert "monovisual3d.methods.paper.run" in GRAPH["monovisual3d.methods"]  # a "module:function" registry string
     assert "monovisual3d.methods.paper.filter" in GRAPH["monovisual3d"]  # under TYPE_CHECKING
+
+
+def test_a_public_name_counts_as_its_module() -> None:
+    """``from monovisual3d import localize`` (or ``from . import localize``) imports ``monovisual3d.api``."""
+    source = "def f():\n    from . import localize\n    from monovisual3d import Camera\n"
+    assert _names_in(source, "monovisual3d.grid", is_package=False) == {"monovisual3d.api", "monovisual3d.camera"}
 
 
 def test_source_files_stay_under_the_line_limit() -> None:
