@@ -1,8 +1,15 @@
-"""The package's layout rules: layers point one way, files and functions stay readable, start-up stays light."""
+"""The package's layout rules: layers point one way, no cycles, files and functions stay readable, start-up stays light.
+
+:data:`LAYERS` is the one written-down layer order; ``docs/architecture.md`` shows the same table
+(:func:`test_architecture_doc_shows_the_layers` checks they agree). Imports are read with the AST, all of
+them: at module level, inside functions (lazy imports), under ``TYPE_CHECKING``, and the ``"module:name"``
+strings of the method registry. A lazy import hides a cycle, it does not remove it.
+"""
 
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -10,73 +17,264 @@ from pathlib import Path
 import monovisual3d
 
 PACKAGE = Path(monovisual3d.__file__).parent
-MAX_FILE_LINES = 800
-MAX_FUNCTION_LINES = 80
+ROOT = PACKAGE.parent.parent
+PACKAGE_NAME = "monovisual3d"
+
+#: The layers, bottom first. A module may import modules of its own layer and of the layers below, never above.
+#: Each entry names modules relative to the package; a name covers a module and, for a package, everything
+#: in it. ``""`` is the package itself (``import monovisual3d``: the public names, loaded on first use).
+LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    (
+        "core",
+        (
+            "_extras",
+            "_structured",
+            "camera",
+            "checks",
+            "completeness",
+            "errors",
+            "examples",
+            "file_kinds",
+            "frames",
+            "grid",
+            "limits",
+            "masks",
+            "metrics",
+            "result",
+            "session",
+            "truth",
+        ),
+    ),
+    ("geometry", ("geometry",)),
+    ("engine", ("engine",)),
+    ("methods", ("methods", "api", "")),
+    ("sim/io/figures", ("sim", "io", "vision", "figures", "rerun_log")),
+    ("apps", ("active", "batch", "bench", "experiments")),
+    ("cli", ("cli",)),
+)
+
+#: Largest source file, lines.
+MAX_FILE_LINES = 600
+#: Largest function outside compiled kernels, lines, unless its docstring says why it is one unit of thought.
+MAX_FUNCTION_LINES = 60
+#: The phrase that starts that reason in the docstring, e.g. ``One unit of thought: the steps share ...``.
+WHOLE_MARKER = "One unit of thought:"
+
+# TEMPORARY (issue 19): files and functions still over the limits on this branch that other helpers are
+# splitting right now (viz/viz3d -> figures/, active/planner, bench/speed, io/calibration, geometry/ellipsoid),
+# and the long functions outside the files this branch owns. Empty these lists as the splits land; the
+# tests below also fail when an entry is no longer needed, so the lists can only shrink.
+ALLOWED_LONG_FILES: set[str] = set()
+ALLOWED_LONG_FUNCTIONS = {
+    "active/api.py:plan_session",
+    "active/loop.py:run_loop",
+    "active/loop.py:write_active_simulation",
+    "batch/inputs.py:find_sessions",
+    "batch/run.py:run",
+    "bench/accuracy.py:conditions",
+    "cli/active.py:bench_active",
+    "cli/io.py:import_cmd",
+    "cli/sim.py:simulate",
+    "engine/sparse.py:refine",
+    "experiments/demo.py:run_demo",
+    "geometry/bounds.py:ellipsoid_crlb",
+    "geometry/fit.py:fit_ellipsoid_to_boxes",
+    "io/build.py:build_session",
+    "io/build.py:import_session",
+    "io/calibration.py:read_calibration",
+    "io/detections.py:read_coco",
+    "io/poses.py:interpolate_poses",
+    "io/rosbag.py:read_bag",
+    "io/yolo.py:image_detections_from_result",
+    "metrics.py:evaluate",
+    "sim/mujoco_render.py:mjcf_from_scene",
+    "sim/photoreal.py:render_views",
+    "sim/scenes.py:greenhouse_scene",
+    "sim/scenes.py:random_scene",
+    "sim/scenes.py:shapes_scene",
+}
+#: TEMPORARY (issue 19): import cycles being removed on other branches (camera <-> session; sim.simulate <-> viz),
+#: each as the sorted tuple of the modules on the cycle. Empty it once those branches are merged.
+ALLOWED_CYCLES: set[tuple[str, ...]] = set()
+
+#: A registry string such as ``"monovisual3d.methods.bayes.config:BayesConfig"`` imports that module on first use.
+_MODULE_STRING = re.compile(rf"{PACKAGE_NAME}(\.\w+)+(:\w+)?")
 
 
 def _module_name(path: Path) -> str:
-    rel = path.relative_to(PACKAGE.parent).with_suffix("")
-    parts = list(rel.parts)
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts = parts[:-1]
     return ".".join(parts)
-
-
-def _top_level_imports(path: Path) -> set[str]:
-    """monovisual3d modules imported at module level (not inside functions, not under TYPE_CHECKING)."""
-    tree = ast.parse(path.read_text())
-    name = _module_name(path)
-    package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
-    out: set[str] = set()
-    for node in tree.body:
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            continue
-        if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")
-                base = base[: len(base) - node.level + 1]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module or ""
-            if mod.startswith("monovisual3d"):
-                if node.module:  # ``from .x import y`` needs x; ``from . import x`` needs only the submodule x
-                    out.add(mod)
-                out.update(f"{mod}.{a.name}" for a in node.names)
-        elif isinstance(node, ast.Import):
-            out.update(a.name for a in node.names if a.name.startswith("monovisual3d"))
-    return out
 
 
 def _sources() -> list[Path]:
     return sorted(PACKAGE.rglob("*.py"))
 
 
+MODULES = {_module_name(p): p for p in _sources()}
+
+
+def _lazy_names() -> dict[str, str]:
+    """The package's public names and the modules that define them (``_LAZY`` of ``monovisual3d/__init__.py``)."""
+    for node in ast.parse((PACKAGE / "__init__.py").read_text()).body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "_LAZY" for t in node.targets):
+            return {k: f"{PACKAGE_NAME}.{v}" for k, v in ast.literal_eval(node.value).items()}
+    return {}
+
+
+LAZY_NAMES = _lazy_names()
+
+
+def _imported_names(path: Path) -> set[str]:
+    """Every ``monovisual3d`` module or ``module.name`` this file imports, wherever the import sits."""
+    return _names_in(path.read_text(), _module_name(path), is_package=path.name == "__init__.py")
+
+
+def _names_in(source: str, name: str, *, is_package: bool) -> set[str]:
+    """:func:`_imported_names` of the source of module ``name``.
+
+    A public name taken from the package itself (``from monovisual3d import localize``) counts as an
+    import of the module that defines it.
+    """
+    package = name if is_package else name.rsplit(".", 1)[0]
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                mod = ".".join(base[: len(base) - node.level + 1] + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            if mod == PACKAGE_NAME:
+                out.update(LAZY_NAMES.get(a.name, f"{mod}.{a.name}") for a in node.names)
+            elif mod.split(".")[0] == PACKAGE_NAME:
+                if node.module:  # ``from .x import y`` needs x; ``from . import x`` needs only the submodule x
+                    out.add(mod)
+                out.update(f"{mod}.{a.name}" for a in node.names)
+        elif isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.split(".")[0] == PACKAGE_NAME)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and _MODULE_STRING.fullmatch(node.value):
+            out.add(node.value.split(":")[0])
+    return out
+
+
+def _imports(module: str) -> set[str]:
+    """The package's modules that importing ``module`` runs: each imported module and its parent packages.
+
+    The package root and ``module``'s own parent packages are left out: they are already being imported
+    when ``module`` runs (that a package's ``__init__`` imports its submodules is how packages work).
+    """
+    own = {".".join(module.split(".")[:i]) for i in range(1, module.count(".") + 1)}
+    out: set[str] = set()
+    for name in _imported_names(MODULES[module]):
+        parts = name.split(".")
+        for i in range(1 if name == PACKAGE_NAME else 2, len(parts) + 1):  # ``import monovisual3d``: its public names
+            mod = ".".join(parts[:i])
+            if mod in MODULES and mod not in own and mod != module:
+                out.add(mod)
+    return out
+
+
+GRAPH = {m: _imports(m) for m in MODULES}
+
+
+def _layer(module: str) -> int:
+    """Index in :data:`LAYERS` of a module (its longest matching name)."""
+    rel = module[len(PACKAGE_NAME) + 1 :] if module != PACKAGE_NAME else ""
+    best, best_len = -1, -1
+    for i, (_, names) in enumerate(LAYERS):
+        for n in names:
+            if (n == "" and rel == "") or (n and (rel == n or rel.startswith(n + "."))):
+                if len(n) > best_len:
+                    best, best_len = i, len(n)
+    return best
+
+
+def _cycles() -> set[tuple[str, ...]]:
+    """The strongly connected components (Tarjan) with more than one module, each as a sorted tuple."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out: set[tuple[str, ...]] = set()
+
+    def visit(m: str) -> None:
+        index[m] = low[m] = len(index)
+        stack.append(m)
+        on_stack.add(m)
+        for n in sorted(GRAPH[m]):
+            if n not in index:
+                visit(n)
+                low[m] = min(low[m], low[n])
+            elif n in on_stack:
+                low[m] = min(low[m], index[n])
+        if low[m] == index[m]:
+            component = []
+            while True:
+                n = stack.pop()
+                on_stack.discard(n)
+                component.append(n)
+                if n == m:
+                    break
+            if len(component) > 1:
+                out.add(tuple(sorted(component)))
+
+    for m in sorted(GRAPH):
+        if m not in index:
+            visit(m)
+    return out
+
+
+def test_every_module_has_a_layer() -> None:
+    missing = sorted(m for m in MODULES if _layer(m) < 0)
+    assert missing == [], f"add these modules to LAYERS in tests/test_layout.py (and docs/architecture.md): {missing}"
+
+
+def test_no_import_points_up_a_layer() -> None:
+    up = sorted(
+        f"{m} ({LAYERS[_layer(m)][0]}) imports {n} ({LAYERS[_layer(n)][0]})"
+        for m, imported in GRAPH.items()
+        for n in imported
+        if _layer(n) > _layer(m)
+    )
+    assert up == [], "imports up a layer:\n" + "\n".join(up)
+
+
+def test_the_core_imports_no_upper_package() -> None:
+    """Spelled out for the core: nothing of methods, engine, sim, io, the figures or the applications."""
+    upper = ("methods", "engine", "sim", "io", "cli", "batch", "active", "bench", "experiments", "figures")
+    bad = sorted(
+        f"{m} imports {n}" for m, imported in GRAPH.items() if _layer(m) == 0 for n in imported if n.split(".")[1] in upper
+    )
+    assert bad == [], "the core imports an upper package:\n" + "\n".join(bad)
+
+
 def test_no_import_cycles() -> None:
-    modules = {_module_name(p): p for p in _sources()}
-    graph = {m: {i for i in _top_level_imports(p) if i in modules and i != m} for m, p in modules.items()}
-    # a package's __init__ importing its own submodules is how packages work; a submodule importing its
-    # package's __init__ back (which imports the submodule) is a cycle
-    state: dict[str, int] = {}
-    cycles: list[list[str]] = []
-
-    def visit(m: str, stack: list[str]) -> None:
-        state[m] = 1
-        for n in graph[m]:
-            if state.get(n) == 1:
-                cycles.append(stack[stack.index(n) :] + [n])
-            elif n not in state:
-                visit(n, stack + [n])
-        state[m] = 2
-
-    for m in sorted(graph):
-        if m not in state:
-            visit(m, [m])
-    assert cycles == [], f"import cycles: {cycles}"
+    cycles = _cycles()
+    new = sorted(cycles - ALLOWED_CYCLES)
+    assert new == [], "import cycles (lazy and TYPE_CHECKING imports included):\n" + "\n".join(" <-> ".join(c) for c in new)
+    assert sorted(ALLOWED_CYCLES - cycles) == [], "these cycles are gone: remove them from ALLOWED_CYCLES"
 
 
-def test_source_files_stay_under_800_lines() -> None:
-    long = {str(p.relative_to(PACKAGE)): n for p in _sources() if (n := len(p.read_text().splitlines())) > MAX_FILE_LINES}
-    assert long == {}
+def test_the_import_graph_sees_lazy_imports() -> None:
+    """The checks above read imports inside functions and the registry's strings (a module-level-only scan would not)."""
+    assert "monovisual3d.engine.dense" in GRAPH["monovisual3d.engine"]  # imported inside a function
+    assert "monovisual3d.methods.paper.run" in GRAPH["monovisual3d.methods"]  # a "module:function" registry string
+    assert "monovisual3d.methods.paper.filter" in GRAPH["monovisual3d"]  # under TYPE_CHECKING
+
+
+def test_a_public_name_counts_as_its_module() -> None:
+    """``from monovisual3d import localize`` (or ``from . import localize``) imports ``monovisual3d.api``."""
+    source = "def f():\n    from . import localize\n    from monovisual3d import Camera\n"
+    assert _names_in(source, "monovisual3d.grid", is_package=False) == {"monovisual3d.api", "monovisual3d.camera"}
+
+
+def test_source_files_stay_under_the_line_limit() -> None:
+    lines = {str(p.relative_to(PACKAGE)): len(p.read_text().splitlines()) for p in _sources()}
+    long = {f: n for f, n in lines.items() if n > MAX_FILE_LINES}
+    assert sorted(set(long) - ALLOWED_LONG_FILES) == [], f"files over {MAX_FILE_LINES} lines: {long}"
+    assert sorted(ALLOWED_LONG_FILES - set(long)) == [], "these files are short now: remove them from ALLOWED_LONG_FILES"
 
 
 def _compiled(node: ast.FunctionDef, lines: list[str]) -> bool:
@@ -87,16 +285,38 @@ def _compiled(node: ast.FunctionDef, lines: list[str]) -> bool:
     return "no cover - jitted" in header or "no cover - compiled" in header
 
 
-def test_functions_stay_under_80_lines_outside_compiled_kernels() -> None:
+def _says_why(node: ast.FunctionDef) -> bool:
+    """The docstring gives a reason after :data:`WHOLE_MARKER` (a few words at least)."""
+    doc = ast.get_docstring(node) or ""
+    return WHOLE_MARKER in doc and len(doc.split(WHOLE_MARKER, 1)[1].split()) >= 5
+
+
+def _long_functions() -> dict[str, int]:
     long = {}
     for path in _sources():
         text = path.read_text()
         for node in ast.walk(ast.parse(text)):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and not _compiled(node, text.splitlines()):  # type: ignore[arg-type]
                 n = node.end_lineno - node.lineno + 1  # type: ignore[operator]
-                if n > MAX_FUNCTION_LINES:
+                if n > MAX_FUNCTION_LINES and not _says_why(node):  # type: ignore[arg-type]
                     long[f"{path.relative_to(PACKAGE)}:{node.name}"] = n
-    assert long == {}
+    return long
+
+
+def test_long_functions_say_why_they_are_one_unit() -> None:
+    long = _long_functions()
+    assert sorted(set(long) - ALLOWED_LONG_FUNCTIONS) == [], (
+        f"functions over {MAX_FUNCTION_LINES} lines: split them by concept, or say why in the docstring "
+        f"({WHOLE_MARKER!r} and the reason): { {k: v for k, v in long.items() if k not in ALLOWED_LONG_FUNCTIONS} }"
+    )
+    assert sorted(ALLOWED_LONG_FUNCTIONS - set(long)) == [], "these are short now: remove them from ALLOWED_LONG_FUNCTIONS"
+
+
+def test_architecture_doc_shows_the_layers() -> None:
+    """``docs/architecture.md`` lists the layers of :data:`LAYERS`, in the same order, top first."""
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    rows = re.findall(r"^\| (\d) \| ([^|]+) \|", text, flags=re.M)
+    assert [name.strip() for _, name in sorted(rows, key=lambda r: -int(r[0]))] == [n for n, _ in reversed(LAYERS)]
 
 
 def _modules_after(code: str) -> set[str]:
@@ -113,7 +333,7 @@ def test_import_is_light() -> None:
 
 def test_cli_help_does_not_load_the_heavy_libraries() -> None:
     loaded = _modules_after("from monovisual3d.cli import app\nimport typer\ntyper.main.get_command(app)")
-    assert not {"scipy", "numba", "sklearn", "matplotlib", "torch", "mujoco", "cv2"} & {m.split(".")[0] for m in loaded}
+    assert not {"numpy", "scipy", "numba", "sklearn", "matplotlib", "torch", "mujoco", "cv2"} & {m.split(".")[0] for m in loaded}
 
 
 def test_version_option() -> None:

@@ -24,11 +24,11 @@ _LAZY = {
     "Camera": "camera",
     "Detection": "session",
     "DetectedObject": "result",
-    "HistogramFilter": "filter",
+    "HistogramFilter": "methods.paper.filter",
     "InputError": "errors",
     "InputWarning": "errors",
     "METHODS": "methods",
-    "PaperConfig": "filter",
+    "PaperConfig": "methods.paper.config",
     "BayesConfig": "methods.bayes.config",
     "BayesLocalizer": "methods.bayes.localizer",
     "Result": "result",
@@ -47,11 +47,12 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .api import localize
     from .camera import Camera
     from .errors import InputError, InputWarning
-    from .filter import HistogramFilter, PaperConfig
     from .grid import VoxelGrid
     from .methods import METHODS
     from .methods.bayes.config import BayesConfig
     from .methods.bayes.localizer import BayesLocalizer
+    from .methods.paper.config import PaperConfig
+    from .methods.paper.filter import HistogramFilter
     from .metrics import evaluate
     from .result import DetectedObject, Result
     from .session import Detection, Session, View, Workspace, load_session

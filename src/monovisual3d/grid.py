@@ -17,18 +17,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import InputError
 from .frames import invert_transform, transform_points
+from .limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, format_bytes
 
 if TYPE_CHECKING:
     from .camera import Camera
     from .session import View
 
-from .limits import DEFAULT_REACH_M  # noqa: E402  (re-exported: the one definition is numpy-free)
-
 #: Working bytes per cell of the paper's dense filter: posterior and likelihood (float64), the compiled engine's
 #: float32 copy, and k-means coordinates and weights when every cell survives the threshold.
 BYTES_PER_CELL = 48
-#: Largest grid the dense filter accepts by default: the default ``max_memory`` (2 GiB).
-from .limits import DEFAULT_MAX_BYTES  # noqa: E402  (re-exported)
 
 
 @dataclass(frozen=True)
@@ -161,8 +158,6 @@ def check_grid_size(
     suggestion = float(f"{resolution * (need / max_bytes) ** (1 / 3):.3g}")
     while cells(suggestion) * bytes_per_cell > max_bytes:
         suggestion = float(f"{suggestion * 1.05:.3g}")
-    from .methods.options import format_bytes
-
     big = max(shape) >= 10**6
     dims = "x".join(f"{v:.3g}" if big else str(v) for v in shape)
     count = f"{n:,}" if n < 10**12 else f"{float(n):.3g}"

@@ -165,8 +165,6 @@ class Session:
             Path(path).write_text(text + "\n")
         return text
 
-    save = to_json
-
 
 # ---------------------------------------------------------------------- loading
 def read_structured_file(path: str | Path) -> Any:

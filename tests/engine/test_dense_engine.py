@@ -1,4 +1,4 @@
-"""The fused numba update against the numpy reference (kernels.py / filter.py).
+"""The fused numba update against the numpy reference (methods/paper/kernels.py and filter.py).
 
 Tolerances (see monovisual3d.engine.dense):
 - float64: the likelihood to 1e-12 absolute (the Gaussian cut-off drops terms below
@@ -25,8 +25,9 @@ from monovisual3d.engine.dense import (
     paper_update_fused,
 )
 from monovisual3d.errors import InputError
-from monovisual3d.filter import HistogramFilter, PaperConfig, paper_update, paper_view_likelihood_grid
 from monovisual3d.grid import VoxelGrid
+from monovisual3d.methods.paper.config import PaperConfig
+from monovisual3d.methods.paper.filter import HistogramFilter, paper_update, paper_view_likelihood_grid
 from monovisual3d.session import Detection, View
 
 KERNELS = ("square", "gaussian")

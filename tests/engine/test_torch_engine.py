@@ -7,7 +7,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from conftest import make_camera, paper_cube, scene_views
-from monovisual3d.filter import HistogramFilter, PaperConfig, paper_update, paper_view_likelihood_grid
+from monovisual3d.methods.paper.config import PaperConfig
+from monovisual3d.methods.paper.filter import HistogramFilter, paper_update, paper_view_likelihood_grid
 
 torch = pytest.importorskip("torch")
 from monovisual3d.engine.torch_backend import (  # noqa: E402

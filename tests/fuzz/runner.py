@@ -56,7 +56,7 @@ IMPORT_BASES = [
     ("depthai_oak1.json", "poses.csv", "yolo_labels"),
 ]
 #: Options that keep ``localize`` cheap (milliseconds to tenths of a second per case).
-PAPER_FAST = {"resolution": 0.05, "reach": 0.3, "max_bytes": 2**26}
+PAPER_FAST = {"resolution": 0.05, "reach": 0.3, "max_memory": 2**26}
 BAYES_FAST: dict[str, Any] = {}
 SMALL_WORKSPACE = {"min": [0.45, -0.15, 0.3], "max": [0.75, 0.15, 0.6]}
 

@@ -1,6 +1,6 @@
 """A small synthetic scene for the io tests: three spheres seen by a distorted camera from four poses.
 
-Boxes come from :func:`monovisual3d.sphere.sphere_bbox` (exact silhouettes), so a
+Boxes come from :func:`monovisual3d.geometry.sphere.sphere_bbox` (exact silhouettes), so a
 session built directly from these poses is the reference that every importer
 must reproduce.
 """

@@ -92,7 +92,7 @@ def _numpy_row(
     rows: list[dict[str, Any]], grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, repeats: int, big: bool
 ) -> None:
     """The numpy reference; its temporaries are measured with tracemalloc in a separate run."""
-    from ..filter import paper_update, paper_view_likelihood_grid
+    from ..methods.paper.filter import paper_update, paper_view_likelihood_grid
 
     n = grid.n_cells
     t = time_call(partial(run_numpy, grid, camera, views, kernel), 1 if big else repeats, warmup=0 if big else 1)

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..grid import VoxelGrid
-from ..kernels import paper_cell_likelihood
+from ..methods.paper.kernels import paper_cell_likelihood
 from ..session import Detection, View
 
 #: Side of the paper's cube, metres (2 x reach 0.6 m).
@@ -116,7 +116,7 @@ def run_naive(grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, c
 
 
 def run_numpy(grid: VoxelGrid, camera: Camera, views: list[View], kernel: str) -> None:
-    from ..filter import paper_update, paper_view_likelihood_grid
+    from ..methods.paper.filter import paper_update, paper_view_likelihood_grid
 
     p: Any = np.full(grid.n_cells, 1.0 / grid.n_cells)
     for v in views:

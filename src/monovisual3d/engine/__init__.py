@@ -9,7 +9,7 @@ Modules (each imports its heavy dependency only when used):
 - :mod:`.sparse`: coarse-to-fine updates on an active set of cells (``PaperConfig(refine_to=...)``).
 - :mod:`.torch_backend`: the dense update with torch tensors on CPU or CUDA (extra ``[gpu]``).
 
-The readable references stay in :mod:`monovisual3d.kernels` and :mod:`monovisual3d.filter`.
+The readable references stay in :mod:`monovisual3d.methods.paper.kernels` and :mod:`monovisual3d.methods.paper.filter`.
 """
 
 from __future__ import annotations
@@ -27,23 +27,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..session import View
 
 
-def default_backend() -> str:
-    """The fastest CPU backend installed: ``"numba"`` (a core dependency), else the numpy reference.
-
-    Looks numba up without importing it (importing compiles nothing, but takes a while).
-
-    Examples
-    --------
-    >>> default_backend()
-    'numba'
-    """
-    import importlib.util
-
-    return "numba" if importlib.util.find_spec("numba") is not None else "numpy"
-
-
 def check_backend(backend: str, device: str | None = None, refine_to: float | None = None, resolution: float = 1.0) -> None:
-    """Validate the engine options of :class:`~monovisual3d.filter.PaperConfig` (no heavy import).
+    """Validate the engine options of :class:`~monovisual3d.methods.paper.config.PaperConfig` (no heavy import).
 
     Examples
     --------
@@ -87,10 +72,10 @@ def likelihood_grid(
 
 
 def paper_update_backend(prior: NDArray[Any], grid: VoxelGrid, camera: Camera, view: View, config: Any) -> NDArray[Any] | None:
-    """One step of :class:`~monovisual3d.filter.HistogramFilter` with ``config.backend`` (numba or torch).
+    """One step of :class:`~monovisual3d.methods.paper.filter.HistogramFilter` with ``config.backend`` (numba or torch).
 
     Returns the normalised posterior as a new float32 array (flat), or None where the view
-    contradicts the prior, as :func:`~monovisual3d.filter.paper_update`.
+    contradicts the prior, as :func:`~monovisual3d.methods.paper.filter.paper_update`.
     """
     if config.backend == "numba":
         from .dense import paper_update_fused

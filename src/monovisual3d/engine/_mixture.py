@@ -1,7 +1,7 @@
 """The paper's box kernels (square, Gaussian) added over rows of pixels or at one point, and their upper bounds.
 
 Part of the kernels re-exported by :mod:`monovisual3d.engine.numba_kernels`; the numpy reference is
-:func:`monovisual3d.kernels.paper_view_likelihood`.
+:func:`monovisual3d.methods.paper.kernels.paper_view_likelihood`.
 """
 
 from __future__ import annotations

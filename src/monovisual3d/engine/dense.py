@@ -3,9 +3,9 @@
 Two ways in:
 
 - Functions that mirror the numpy reference one to one, used by
-  :class:`monovisual3d.filter.HistogramFilter` when ``PaperConfig.backend ==
+  :class:`monovisual3d.methods.paper.filter.HistogramFilter` when ``PaperConfig.backend ==
   "numba"``: :func:`paper_likelihood_fused` (twin of
-  :func:`~monovisual3d.filter.paper_view_likelihood_grid`) and
+  :func:`~monovisual3d.methods.paper.filter.paper_view_likelihood_grid`) and
   :func:`paper_update_fused` (twin of ``paper_update(prior,
   paper_view_likelihood_grid(...))``).
 - :class:`DenseHistogramBatch`: the engine's own state, one or many grids in
@@ -134,7 +134,7 @@ def paper_likelihood_fused(
 ) -> NDArray[np.float64]:
     """Per-view likelihood of every cell, flat (n_cells,), float64 (fused twin of the numpy reference).
 
-    Agrees with :func:`monovisual3d.filter.paper_view_likelihood_grid` to ~1e-12
+    Agrees with :func:`monovisual3d.methods.paper.filter.paper_view_likelihood_grid` to ~1e-12
     relative, except that Gaussian terms below ``gauss_eps`` are dropped.
 
     Examples
@@ -193,7 +193,7 @@ def paper_update_fused(
     Returns
     -------
     posterior : ndarray, shape (n_cells,), ``dtype``, sums to 1; None where the product is
-        zero everywhere (the view contradicts the prior), as :func:`~monovisual3d.filter.paper_update`.
+        zero everywhere (the view contradicts the prior), as :func:`~monovisual3d.methods.paper.filter.paper_update`.
     """
     nk = numba_kernels()
     views = [views] if isinstance(views, View) else list(views)

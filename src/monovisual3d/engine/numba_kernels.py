@@ -1,7 +1,7 @@
-"""Fused, parallel numba kernels of the histogram update (the fast twin of kernels.py/filter.py).
+"""Fused, parallel numba kernels of the histogram update (the fast twin of methods/paper/kernels.py and filter.py).
 
-The readable numpy reference is :func:`monovisual3d.filter.paper_view_likelihood_grid`
-with :func:`monovisual3d.filter.paper_update`; tests in ``tests/engine`` compare the
+The readable numpy reference is :func:`monovisual3d.methods.paper.filter.paper_view_likelihood_grid`
+with :func:`monovisual3d.methods.paper.filter.paper_update`; tests in ``tests/engine`` compare the
 two. Nothing here builds an N x 3 array of cell centres: centres come from the
 cell indices inside the loops.
 

@@ -34,19 +34,31 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import DISTORTION_IDS, Camera  # noqa: F401  (DISTORTION_IDS: re-exported, the one table lives in camera)
+from ..camera import Camera
 from ..errors import InputError
 from ..frames import invert_transform
 from ..grid import VoxelGrid
-from ..kernels import check_kernel
 from ..session import View
 
-#: Kernel ids understood by the fast kernels.
+#: Kernel ids understood by the fast kernels (the paper's Eq. 3 and Eq. 4).
 KERNEL_IDS = {"square": 0, "gaussian": 1}
+#: Kernel names, in id order.
+KERNELS = tuple(KERNEL_IDS)
 #: Default Gaussian cut-off: box terms below this value are skipped (see the module docstring).
 DEFAULT_GAUSS_EPS = 1e-12
 #: Default tile of the dense kernels, cells along grid (i, j, k); k is the contiguous axis.
 DEFAULT_TILE = (4, 4, 32)
+
+
+def check_kernel(kernel: str) -> None:
+    """Raise :class:`~monovisual3d.errors.InputError` unless ``kernel`` is one of :data:`KERNELS`.
+
+    Examples
+    --------
+    >>> check_kernel("gaussian")
+    """
+    if kernel not in KERNELS:
+        raise InputError(f"kernel: got {kernel!r}, expected one of {list(KERNELS)}")
 
 
 def gauss_q_cut(gauss_eps: float) -> float:

@@ -244,7 +244,7 @@ class SparseHistogramFilter:
     against all views so far when it is read after a change (the root level
     is cheap; deeper levels hold only cells that can matter). :meth:`update`
     adds a view and refines at once, so that a view that leaves no active cell
-    is skipped, as in :class:`~monovisual3d.filter.HistogramFilter`.
+    is skipped, as in :class:`~monovisual3d.methods.paper.filter.HistogramFilter`.
 
     Parameters
     ----------

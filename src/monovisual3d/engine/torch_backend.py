@@ -1,7 +1,7 @@
 """Dense histogram updates with PyTorch on CPU or CUDA (extra ``[gpu]``).
 
-The same maths as the numpy reference (:func:`monovisual3d.filter.paper_view_likelihood_grid`
-and :func:`~monovisual3d.filter.paper_update`) and the numba kernels, written
+The same maths as the numpy reference (:func:`monovisual3d.methods.paper.filter.paper_view_likelihood_grid`
+and :func:`~monovisual3d.methods.paper.filter.paper_update`) and the numba kernels, written
 as tensor operations: cell centres come from flat indices chunk by chunk (no
 N x 3 array for the whole grid), boxes are a broadcast dimension (no Python
 loop per box or cell), several views are folded per chunk in one pass.

@@ -75,7 +75,7 @@ def plot_posterior_snapshots(
     ----------
     grid : VoxelGrid
     history : sequence of ndarray, each shape (grid.n_cells,) or grid.shape, the posterior after each view
-        (:attr:`monovisual3d.filter.HistogramFilter.history`)
+        (:attr:`monovisual3d.methods.paper.filter.HistogramFilter.history`)
     truth_centres, truth_radii : array_like, shapes (M, 3) and (M,), metres, optional true fruit
     camera, poses : optional, the views (poses shape (N, 4, 4)); view ``i`` is drawn in snapshot ``i`` and later
     threshold : float in (0, 1], cells with ``p >= threshold * max(p)`` are drawn, coloured by ``p / max(p)``

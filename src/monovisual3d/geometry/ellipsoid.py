@@ -32,7 +32,7 @@ from .sphere import clip_boxes
 
 #: Shape names, from most to least constrained.
 SHAPES = ("sphere", "spheroid", "ellipsoid")
-#: Rim points sampled for the box under lens distortion (as :func:`monovisual3d.sphere.sphere_bbox_optical`).
+#: Rim points sampled for the box under lens distortion (as :func:`monovisual3d.geometry.sphere.sphere_bbox_optical`).
 CONTOUR_POINTS = 720
 
 

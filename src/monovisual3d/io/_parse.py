@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from .. import _structured
 from ..errors import InputError, excerpt
-from ..limits import MAX_ABS_ANGLE_RAD, MAX_ABS_POSITION_M, MAX_ABS_STAMP_S, MAX_FILE_BYTES  # noqa: F401 - re-exported
+from ..limits import MAX_ABS_ANGLE_RAD, MAX_ABS_POSITION_M, MAX_ABS_STAMP_S
 
 read_text = _structured.read_text
 load_json = _structured.load_json

@@ -11,6 +11,7 @@ listing the methods stays cheap.
 from __future__ import annotations
 
 import importlib
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -65,7 +66,7 @@ def _load(path: str) -> Any:
     return getattr(importlib.import_module(module), name)
 
 
-#: name -> :class:`Method`. Add a method by adding an entry here.
+#: name -> :class:`Method`. Add a method by adding an entry here (see ``CONTRIBUTING.md``).
 METHODS: dict[str, Method] = {
     "bayes": Method(
         "bayes",
@@ -76,10 +77,35 @@ METHODS: dict[str, Method] = {
     "paper": Method(
         "paper",
         "MonoVisual3DFilter as published: histogram filter over a voxel grid, square/Gaussian kernel, k-means",
-        "monovisual3d.methods.paper_config:PaperConfig",
-        "monovisual3d.methods.paper:run",
+        "monovisual3d.methods.paper.config:PaperConfig",
+        "monovisual3d.methods.paper.run:run",
     ),
 }
+
+
+def register_method(name: str, summary: str, config_path: str, run_path: str) -> Method:
+    """Add a method to :data:`METHODS`, as an entry in the dict does, for a method whose code lives outside this package.
+
+    Register before the CLI is built (before ``monovisual3d.cli`` is imported): ``localize``'s options are
+    generated from the registered configs. Paths are ``"module:name"``; nothing is imported until the method is used.
+
+    Examples
+    --------
+    >>> paper = METHODS["paper"]
+    >>> copy = register_method("paper-copy", "the paper's method again", paper.config_path, paper.run_path)
+    >>> copy.config_class is paper.config_class
+    True
+    >>> del METHODS["paper-copy"]
+    """
+    if not (isinstance(name, str) and re.fullmatch(r"[a-z][a-z0-9+_-]*", name)):
+        raise InputError(f"method name: got {name!r}, expected lower-case letters, digits, '-', '_' or '+'")
+    if name in METHODS:
+        raise InputError(f"method name: {name!r} is already registered")
+    for field, path in (("config_path", config_path), ("run_path", run_path)):
+        if not (isinstance(path, str) and re.fullmatch(r"[\w.]+:\w+", path)):
+            raise InputError(f"{field}: got {path!r}, expected 'module:name'")
+    METHODS[name] = Method(name, summary, config_path, run_path)
+    return METHODS[name]
 
 
 def get_method(name: str | None) -> Method:
@@ -90,8 +116,13 @@ def get_method(name: str | None) -> Method:
     return METHODS[name]
 
 
-def run_method(session: Session, name: str | None = None, config: Any = None, progress: Callable[[int, int], None] | None = None,
-               **options: Any) -> Result:  # fmt: skip
+def run_method(
+    session: Session,
+    name: str | None = None,
+    config: Any = None,
+    progress: Callable[[int, int], None] | None = None,
+    **options: Any,
+) -> Result:
     """Run a method on a loaded session, with a ready config or keyword options (not both)."""
     method = get_method(name)
     if config is not None:

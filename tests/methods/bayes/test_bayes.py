@@ -13,7 +13,7 @@ from monovisual3d.frames import invert_transform, look_at, transform_points
 from monovisual3d.geometry.sphere import predict_sphere_boxes, sphere_bbox, sphere_bbox_optical
 from monovisual3d.masks import contour_points, decode_rle, encode_rle
 from monovisual3d.methods.bayes import BayesConfig
-from monovisual3d.methods.bayes._kernels import HAVE_NUMBA, score_hypotheses
+from monovisual3d.methods.bayes._kernels import score_hypotheses
 from monovisual3d.methods.bayes.likelihood import SensorModel, view_scores
 from monovisual3d.session import Detection, Session, View, Workspace
 
@@ -67,7 +67,8 @@ def test_ghost_pair_gives_exactly_two_objects_while_paper_posterior_has_ghosts()
     d = np.linalg.norm(est[:, None] - np.array([A, B])[None], axis=2)
     assert d.min(axis=0).max() < 2e-3
     # the paper method's posterior is as high at the ghost intersections as at the fruit
-    from monovisual3d.filter import HistogramFilter, PaperConfig
+    from monovisual3d.methods.paper.config import PaperConfig
+    from monovisual3d.methods.paper.filter import HistogramFilter
 
     f = HistogramFilter(CAM, PaperConfig(kernel="square", resolution=0.01), workspace=WS)
     for v in s.views:
@@ -189,7 +190,6 @@ def test_predict_sphere_boxes_matches_sphere_bbox():
     assert_allclose(pred_d, ref_d, atol=0.5)  # edge-midpoint approximation vs sampled rim
 
 
-@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 @pytest.mark.parametrize(
     "distortion", [("none", ()), ("plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.003)), ("equidistant", (0.01, -0.02, 0.003, 0.0))]
 )
@@ -223,7 +223,6 @@ def test_numba_kernel_matches_numpy_reference(distortion):
     assert_allclose(n_assoc, ref_n)
 
 
-@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 def test_kernel_mask_scores_only_the_selected_hypotheses():
     rng = np.random.default_rng(3)
     poses = paper_like_poses()
@@ -244,7 +243,6 @@ def test_kernel_mask_scores_only_the_selected_hypotheses():
         score_hypotheses(CAM, T_ob, boxes, avail, centres, radii, model, 0.002, mask=mask[:, :4])
 
 
-@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 @pytest.mark.parametrize("distortion", [("none", ()), ("plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.003))])
 def test_fused_cone_counts_match_numpy_reference(distortion):
     from monovisual3d.grid import cone_counts
@@ -267,7 +265,6 @@ def test_fused_cone_counts_match_numpy_reference(distortion):
         assert 0 < np.count_nonzero(ref) < len(ref)
 
 
-@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 @pytest.mark.parametrize(
     "distortion", [("none", ()), ("plumb_bob", (-0.1, 0.02, 0.001, -0.001, 0.003)), ("equidistant", (0.01, -0.02, 0.003, 0.0))]
 )

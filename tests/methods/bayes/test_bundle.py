@@ -18,7 +18,7 @@ from monovisual3d.errors import InputError, InputWarning
 from monovisual3d.frames import invert_transform, look_at, transform_points
 from monovisual3d.geometry.sphere import predict_sphere_boxes, sphere_bbox
 from monovisual3d.methods.bayes import BayesConfig
-from monovisual3d.methods.bayes._kernels import HAVE_NUMBA, score_hypotheses
+from monovisual3d.methods.bayes._kernels import score_hypotheses
 from monovisual3d.methods.bayes.bundle import bundle_adjust, correction_transform, grouped_jacobian
 from monovisual3d.methods.bayes.likelihood import SensorModel, pose_sigma_px, view_scores
 from monovisual3d.methods.bayes.refine import Observation, refine_sphere
@@ -81,7 +81,6 @@ def test_pose_sigma_px_is_the_projected_uncertainty_in_quadrature():
     assert pose_sigma_px(CAM, np.zeros((2, 3)), 0.0, 0.0).shape == (2, 3)
 
 
-@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 def test_kernel_with_pose_noise_matches_the_numpy_reference():
     rng = np.random.default_rng(3)
     centres = TARGET + rng.uniform(-0.15, 0.15, (300, 3))

@@ -7,9 +7,8 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from ...errors import InputError
-from ...estimation import DEFAULT_KEEP_THRESHOLD
-from ...filter import PaperConfig
-from ...grid import DEFAULT_REACH_M
+from ...limits import DEFAULT_KEEP_THRESHOLD, DEFAULT_REACH_M
+from ...methods.paper.config import PaperConfig
 from ...sim.noise import PAPER_BOX_SIGMA, PAPER_DROP_PROBABILITY
 
 #: ``progress(done, total, description)``, called after each step.

@@ -22,11 +22,12 @@ from numpy.typing import NDArray
 
 from ...api import localize
 from ...camera import Camera
+from ...engine.params import KERNELS
 from ...errors import InputError, InputWarning
-from ...estimation import CENTRES
-from ...filter import HistogramFilter, PaperConfig
 from ...grid import VoxelGrid
-from ...kernels import KERNELS
+from ...methods.paper.config import PaperConfig
+from ...methods.paper.filter import HistogramFilter
+from ...methods.paper.kmeans import CENTRES
 from ...result import DetectedObject
 from ...session import Session
 from ...sim.noise import NoiseModel

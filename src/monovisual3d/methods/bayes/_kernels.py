@@ -14,29 +14,20 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
+from ...engine._project import distort_xy  # the one compiled distortion (ids and coefficients of Camera.packed)
 from ...engine.threads import kernel_threads
 from .likelihood import SensorModel
-
-try:  # numba is a core dependency, but keep the package importable without it
-    import numba
-
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover
-    HAVE_NUMBA = False
 
 #: Single-thread cost of one hypothesis against one box in ``_score_kernel``, nanoseconds (the
 #: thread count's work estimate, see :mod:`monovisual3d.engine.threads`).
 NS_PER_HYPOTHESIS_BOX = 20.0
 #: Single-thread cost of one point in one view in ``_cone_kernel``, nanoseconds.
 NS_PER_POINT_VIEW = 20.0
-
-if HAVE_NUMBA:
-    # the one compiled distortion of the package (model ids and coefficients of Camera.packed)
-    from monovisual3d.engine._project import distort_xy
 
 
 def _distort_xy(x: float, y: float, code: int, k: NDArray[np.float64]) -> tuple[float, float]:  # pragma: no cover - jitted
@@ -317,13 +308,12 @@ def cone_counts_fused(
     return counts
 
 
-if HAVE_NUMBA:
-    _distort_xy = numba.njit(cache=True, inline="always")(_distort_xy)
-    _edge_ll = numba.njit(cache=True, inline="always")(_edge_ll)
-    _sphere_box_px = numba.njit(cache=True, inline="always")(_sphere_box_px)
-    _box_residuals_kernel = numba.njit(cache=True)(_box_residuals_kernel)
-    _score_kernel = numba.njit(cache=True, parallel=True, fastmath=True)(_score_kernel)
-    _cone_kernel = numba.njit(cache=True, parallel=True)(_cone_kernel)
+_distort_xy = numba.njit(cache=True, inline="always")(_distort_xy)
+_edge_ll = numba.njit(cache=True, inline="always")(_edge_ll)
+_sphere_box_px = numba.njit(cache=True, inline="always")(_sphere_box_px)
+_box_residuals_kernel = numba.njit(cache=True)(_box_residuals_kernel)
+_score_kernel = numba.njit(cache=True, parallel=True, fastmath=True)(_score_kernel)
+_cone_kernel = numba.njit(cache=True, parallel=True)(_cone_kernel)
 
 
 def pack_views(

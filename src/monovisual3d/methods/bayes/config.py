@@ -7,8 +7,8 @@ from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
 from ...errors import InputError
-from ...limits import DEFAULT_REACH_M
-from ..options import DEFAULT_MAX_MEMORY, check_threads, is_real, parse_bytes
+from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, is_real
+from ..options import check_shared_options
 from .sensor import SensorModel
 
 if TYPE_CHECKING:
@@ -120,7 +120,7 @@ class BayesConfig:
     free_orientation: bool = False
     backend: str = "numba"
     threads: int | None = None
-    max_memory: int | str = DEFAULT_MAX_MEMORY
+    max_memory: int | str = DEFAULT_MAX_BYTES
 
     def __post_init__(self) -> None:
         self._check_shape_fields()
@@ -152,8 +152,7 @@ class BayesConfig:
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
         if self.backend not in BACKENDS:
             raise InputError(f"backend: got {self.backend!r}, expected one of {list(BACKENDS)} for method 'bayes'")
-        object.__setattr__(self, "threads", check_threads(self.threads))
-        object.__setattr__(self, "max_memory", parse_bytes(self.max_memory))
+        check_shared_options(self)
         self.sensor  # validates the sensor fields  # noqa: B018
 
     def _check_shape_fields(self) -> None:

@@ -19,7 +19,7 @@ from scipy.optimize import least_squares
 from ...camera import Camera
 from ...frames import invert_transform
 from ...geometry.sphere import pinhole_sphere_boxes, predict_sphere_boxes
-from ._kernels import HAVE_NUMBA, box_residuals_fused
+from ._kernels import box_residuals_fused
 from .likelihood import SensorModel, edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
 from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
@@ -126,11 +126,9 @@ class _BoxResiduals:
 
     def batch(self, centres_base: NDArray[np.floating], radii: NDArray[np.floating]) -> NDArray[np.float64]:
         """Residuals for centres (P, 3), metres, base frame, and radii (P,), metres: shape (P, 4 M)."""
-        if HAVE_NUMBA:
-            return box_residuals_fused(
-                self.camera, self.R, self.t, self.obs, self.censored, self.extra2, centres_base, radii, self.model
-            )
-        return self.batch_numpy(centres_base, radii)
+        return box_residuals_fused(
+            self.camera, self.R, self.t, self.obs, self.censored, self.extra2, centres_base, radii, self.model
+        )
 
     def batch_numpy(self, centres_base: NDArray[np.floating], radii: NDArray[np.floating]) -> NDArray[np.float64]:
         """:meth:`batch` in numpy: the readable reference of the compiled loop."""

@@ -3,16 +3,10 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from ..errors import InputError
-from ..limits import DEFAULT_KEEP_THRESHOLD, DEFAULT_MAX_BYTES, DEFAULT_REACH_M
-
-
-def _default_backend() -> str:
-    from ..engine import default_backend
-
-    return default_backend()
+from ...errors import InputError
+from ...limits import DEFAULT_KEEP_THRESHOLD, DEFAULT_MAX_BYTES, DEFAULT_REACH_M
 
 
 @dataclass(frozen=True)
@@ -33,8 +27,7 @@ class PaperConfig:
         with a resolution that fits
     backend : {"numpy", "numba", "torch"}, engine of the dense update: the numpy reference, the fused
         numba kernel (float32 posterior, see :mod:`monovisual3d.engine.dense`) or torch (``device``).
-        Default: the fastest CPU engine installed (:func:`monovisual3d.engine.default_backend`, numba);
-        ``"numpy"`` is the readable reference the others are tested against.
+        Default ``"numba"`` (a core dependency); ``"numpy"`` is the readable reference the others are tested against.
     device : str or None, torch device ("cpu", "cuda"; None: cuda when available); backend "torch" only
     refine_to : float or None, metres: run the sparse coarse-to-fine path down to this resolution,
         with ``resolution`` as the root level (see :mod:`monovisual3d.engine.sparse`)
@@ -50,19 +43,18 @@ class PaperConfig:
     keep_threshold: float = DEFAULT_KEEP_THRESHOLD
     weighted_kmeans: bool = False
     max_memory: int | str = DEFAULT_MAX_BYTES
-    backend: str = field(default_factory=_default_backend)
+    backend: str = "numba"
     device: str | None = None
     refine_to: float | None = None
     threads: int | None = None
 
     def __post_init__(self) -> None:
-        from ..estimation import CENTRES, choose_k
-        from ..grid import _check_resolution
-        from ..kernels import check_kernel
-        from .options import check_threads, parse_bytes
+        from ...engine.params import check_kernel
+        from ...grid import _check_resolution
+        from ..options import check_shared_options
+        from .kmeans import CENTRES, choose_k
 
-        object.__setattr__(self, "max_memory", parse_bytes(self.max_memory))
-        object.__setattr__(self, "threads", check_threads(self.threads))
+        check_shared_options(self)
         check_kernel(self.kernel)
         if not (self.sigma_fraction > 0):
             raise InputError(f"sigma_fraction: got {self.sigma_fraction}, expected a positive fraction of the box size")
@@ -76,6 +68,6 @@ class PaperConfig:
         if not (isinstance(self.keep_threshold, (int, float)) and 0.0 < self.keep_threshold <= 1.0):
             raise InputError(f"keep_threshold: got {self.keep_threshold!r}, expected a value in (0, 1]")
         choose_k([1], self.k)
-        from ..engine import check_backend
+        from ...engine import check_backend
 
         check_backend(self.backend, self.device, self.refine_to, self.resolution)

@@ -12,9 +12,9 @@ import pytest
 from numpy.testing import assert_allclose
 
 from monovisual3d import Camera, HistogramFilter, InputError, InputWarning, PaperConfig, VoxelGrid, load_session, localize
-from monovisual3d.filter import paper_update, paper_view_likelihood_grid, project_grid
 from monovisual3d.frames import invert_transform, look_at, transform_points
-from monovisual3d.kernels import paper_view_likelihood_slow
+from monovisual3d.methods.paper.filter import paper_update, paper_view_likelihood_grid, project_grid
+from monovisual3d.methods.paper.kernels import paper_view_likelihood_slow
 from monovisual3d.session import Detection, View
 
 #: The accuracy the paper reports in simulation and the issue asks for (metres).

@@ -3,6 +3,9 @@
 All functions take projected cell centres ``uv`` of shape (N, 2) in pixels,
 with NaN for cells behind the camera, and boxes ``bbox_xyxy`` of shape (4,)
 or (M, 4). Cells behind the camera score zero, as in the paper.
+
+The kernel names and ids (:data:`monovisual3d.engine.params.KERNELS`) live in the engine,
+which compiles the fast twins of these functions.
 """
 
 from __future__ import annotations
@@ -10,9 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputError
-
-KERNELS = ("square", "gaussian")
+from ...engine.params import check_kernel
+from ...errors import InputError
 
 
 def square_kernel(uv: NDArray[np.floating], bbox_xyxy: NDArray[np.floating]) -> NDArray[np.float64]:
@@ -119,8 +121,3 @@ def paper_cell_likelihood(
             du, dv = u - 0.5 * (x1 + x2), v - 0.5 * (y1 + y2)
             acc += math.exp(-(du * du / (2 * sx * sx) + dv * dv / (2 * sy * sy)))
     return acc / len(boxes_xyxy)
-
-
-def check_kernel(kernel: str) -> None:
-    if kernel not in KERNELS:
-        raise InputError(f"kernel: got {kernel!r}, expected one of {list(KERNELS)}")

@@ -1,7 +1,7 @@
 """The paper's method (MonoVisual3DFilter): the dense and sparse drivers and their :class:`Result`.
 
-- dense (default): :class:`monovisual3d.filter.HistogramFilter` over the paper's grid, view by
-  view, then k-means (:mod:`monovisual3d.estimation`); the per-view update runs on
+- dense (default): :class:`~monovisual3d.methods.paper.filter.HistogramFilter` over the paper's grid, view by
+  view, then k-means (:mod:`~monovisual3d.methods.paper.kmeans`); the per-view update runs on
   ``PaperConfig.backend`` (compiled numba by default, the numpy reference, or torch);
 - sparse (``refine_to``): the coarse-to-fine active set of :mod:`monovisual3d.engine.sparse`.
 """
@@ -14,12 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from ..engine.sparse import DEFAULT_MAX_CELLS, SparseHistogramFilter
-from ..estimation import choose_k, kmeans_objects
-from ..filter import HistogramFilter, PaperConfig
-from ..grid import VoxelGrid
-from ..result import Result
-from ..session import Session, View
+from ...engine.sparse import DEFAULT_MAX_CELLS, SparseHistogramFilter
+from ...grid import VoxelGrid
+from ...result import Result
+from ...session import Session, View
+from .config import PaperConfig
+from .filter import HistogramFilter
+from .kmeans import choose_k, kmeans_objects
 
 #: Working bytes per active cell of the sparse path (indices, values, children during a split, k-means).
 SPARSE_BYTES_PER_CELL = 256
@@ -94,27 +95,16 @@ def run_sparse(
 
     def make_filter() -> SparseHistogramFilter:
         return SparseHistogramFilter(
-            session.camera, grid, kernel=config.kernel, sigma_fraction=config.sigma_fraction,  # type: ignore[arg-type]
-            coarse_resolution=coarse_resolution or config.resolution, threshold=threshold, max_cells=max_cells,
-        )  # fmt: skip
+            session.camera,
+            grid,  # type: ignore[arg-type]  # not None: only called with views that have boxes
+            kernel=config.kernel,
+            sigma_fraction=config.sigma_fraction,
+            coarse_resolution=coarse_resolution or config.resolution,
+            threshold=threshold,
+            max_cells=max_cells,
+        )
 
-    filt: SparseHistogramFilter | None = None
-    counts: list[int] = []
-    if grid is not None and with_boxes:
-        filt = make_filter()
-        for _, view in with_boxes:  # all views in one refinement: no view is refined for nothing
-            filt.add(view)
-        if filt.state is not None and filt.state.n_active > 0:
-            counts = [len(v.detections) for _, v in with_boxes]
-        else:  # some view contradicts the others: view by view, skipping it as the dense filter does
-            filt = make_filter()
-            for i, view in with_boxes:
-                if filt.update(view):
-                    counts.append(len(view.detections))
-                else:
-                    messages.append(
-                        f"views[{i}]: no grid cell is consistent with this view's boxes and the previous views; view skipped"
-                    )
+    filt, counts = _sparse_filter(make_filter, with_boxes, messages) if grid is not None and with_boxes else (None, [])
     if progress is not None:
         progress(len(session.views), len(session.views))
     t1 = time.perf_counter()
@@ -142,6 +132,31 @@ def _sparse_grid(session: Session, config: Any) -> tuple[VoxelGrid | None, list[
     return grid, with_boxes, messages
 
 
+def _sparse_filter(
+    make_filter: Callable[[], SparseHistogramFilter], with_boxes: list[tuple[int, View]], messages: list[str]
+) -> tuple[SparseHistogramFilter, list[int]]:
+    """Fold the views with boxes into a sparse filter (appends to ``messages``); returns it and the views' box counts.
+
+    All views go into one refinement, so that no view is refined for nothing. When
+    some view contradicts the others (nothing stays active), the views are folded in
+    again one by one, and a view that contradicts the previous ones is skipped, as
+    the dense filter does.
+    """
+    filt = make_filter()
+    for _, view in with_boxes:
+        filt.add(view)
+    if filt.state is not None and filt.state.n_active > 0:
+        return filt, [len(v.detections) for _, v in with_boxes]
+    filt = make_filter()
+    counts: list[int] = []
+    for i, view in with_boxes:
+        if filt.update(view):
+            counts.append(len(view.detections))
+        else:
+            messages.append(f"views[{i}]: no grid cell is consistent with this view's boxes and the previous views; view skipped")
+    return filt, counts
+
+
 def _sparse_objects(
     filt: SparseHistogramFilter | None, counts: list[int], config: Any, max_cells: int, messages: list[str]
 ) -> tuple[list[Any], dict[str, Any]]:
@@ -158,6 +173,10 @@ def _sparse_objects(
     k = choose_k(counts, config.k)
     objects = kmeans_objects(
         state,  # type: ignore[arg-type]  # duck-typed: kmeans_objects only calls centres_base(index)
-        state.posterior(), k, centre=config.centre, keep_threshold=config.keep_threshold, weighted_kmeans=config.weighted_kmeans,
-    )  # fmt: skip
+        state.posterior(),
+        k,
+        centre=config.centre,
+        keep_threshold=config.keep_threshold,
+        weighted_kmeans=config.weighted_kmeans,
+    )
     return objects, stats

@@ -8,14 +8,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputError
-from .grid import VoxelGrid
-from .result import DetectedObject
+from ...errors import InputError
+from ...grid import VoxelGrid
+from ...limits import DEFAULT_KEEP_THRESHOLD
+from ...result import DetectedObject
 
 CENTRES = ("weighted", "geometric")
 K_RULES = ("max", "mode", "min", "last")
-#: Default relative threshold: cells with p >= threshold * max(p) take part in clustering.
-from .limits import DEFAULT_KEEP_THRESHOLD  # noqa: E402  (re-exported)
 
 
 def choose_k(counts: Sequence[int], rule: str | int = "max") -> int:

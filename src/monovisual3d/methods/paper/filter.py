@@ -1,7 +1,5 @@
 """The paper's histogram filter (MonoVisual3DFilter), dense numpy reference.
 
-:class:`PaperConfig` (the options) lives in :mod:`monovisual3d.methods.paper_config` and is re-exported here.
-
 Pure functions do the maths (:func:`project_grid`, :func:`paper_update`); the
 :class:`HistogramFilter` class holds the state (grid and posterior) for
 incremental use on a robot: create it, call :meth:`HistogramFilter.update` as
@@ -18,15 +16,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .camera import Camera
-from .errors import InputError, InputWarning
-from .estimation import choose_k, kmeans_objects
-from .frames import invert_transform, transform_points
-from .grid import VoxelGrid, cone_counts
+from ...camera import Camera
+from ...errors import InputError, InputWarning
+from ...frames import invert_transform, transform_points
+from ...grid import VoxelGrid, cone_counts
+from ...result import DetectedObject
+from ...session import View, Workspace
+from .config import PaperConfig
 from .kernels import paper_view_likelihood
-from .methods.paper_config import PaperConfig
-from .result import DetectedObject
-from .session import View, Workspace
+from .kmeans import choose_k, kmeans_objects
 
 #: Cells processed per chunk by the numpy reference (bounds temporaries to ~100 MB).
 CHUNK_CELLS = 1 << 20
@@ -62,7 +60,7 @@ def paper_view_likelihood_grid(
     function's numpy code is the reference they are tested against.
     """
     if backend != "numpy":
-        from .engine import likelihood_grid
+        from ...engine import likelihood_grid
 
         return likelihood_grid(grid, camera, view, kernel, sigma_fraction, backend=backend)
     boxes = view.boxes_xyxy
@@ -187,7 +185,7 @@ class HistogramFilter:
             )
             return False
         if self.config.backend != "numpy":
-            from .engine import paper_update_backend
+            from ...engine import paper_update_backend
 
             post = paper_update_backend(self._posterior, self.grid, self.camera, view, self.config)
         else:

@@ -7,7 +7,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from monovisual3d import InputError, VoxelGrid
-from monovisual3d.estimation import choose_k, kmeans_objects
+from monovisual3d.methods.paper.kmeans import choose_k, kmeans_objects
 
 
 @pytest.mark.parametrize(
