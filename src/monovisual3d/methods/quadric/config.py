@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
 from ...errors import InputError
+from ...limits import DEFAULT_REACH_M
 from ..options import DEFAULT_MAX_MEMORY, check_threads, is_real, parse_bytes
 
 if TYPE_CHECKING:
@@ -31,6 +32,7 @@ class QuadricConfig:
     min_views : int, minimum number of views with an associated box (at least 3 for a dual quadric)
     size_range : tuple or str or None, metres, (min, max) semi-axis length, e.g. "0.01,0.12": passed to the
         bayes association step (see bayes)
+    reach : float, metres, manipulator reach R of the bayes association step when the session has no workspace
     backend : str, numba or numpy: backend of the bayes association step
     threads : int or None, CPU threads of the bayes association step (None: chosen by the amount of work)
     max_memory : int or str, bytes (or text such as 2GiB): memory budget of the bayes association step
@@ -39,6 +41,7 @@ class QuadricConfig:
     association: str = "auto"
     min_views: int = MIN_QUADRIC_VIEWS
     size_range: tuple[float, float] | str | None = None
+    reach: float = DEFAULT_REACH_M
     backend: str = "numba"
     threads: int | None = None
     max_memory: int | str = DEFAULT_MAX_MEMORY
@@ -54,13 +57,15 @@ class QuadricConfig:
             raise InputError(f"backend: got {self.backend!r}, expected one of {list(BACKENDS)} for method 'quadric'")
         object.__setattr__(self, "threads", check_threads(self.threads))
         object.__setattr__(self, "max_memory", parse_bytes(self.max_memory))
-        object.__setattr__(self, "size_range", self.bayes_config().size_range)  # validated (and parsed) there
+        object.__setattr__(self, "size_range", self.bayes_config().size_range)  # size_range and reach are checked there
 
     def bayes_config(self) -> BayesConfig:
         """The config of the ``bayes`` run that gives the association when there are no track ids."""
         from ..bayes.config import BayesConfig
 
-        return BayesConfig(size_range=self.size_range, backend=self.backend, threads=self.threads, max_memory=self.max_memory)
+        return BayesConfig(
+            size_range=self.size_range, reach=self.reach, backend=self.backend, threads=self.threads, max_memory=self.max_memory
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The options as plain JSON values."""
