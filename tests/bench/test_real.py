@@ -27,13 +27,14 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return lfd_scene.write(tmp_path_factory.mktemp("lfd") / "set", lfd_scene.arrays(objects, poses))
 
 
-def test_score_gates_the_hungarian_pairs() -> None:
-    truth = np.array([[0.0, 0, 0], [1.0, 0, 0]])
-    est = np.array([[1.003, 0, 0], [0.5, 0, 0], [3.0, 0, 0]])
-    errors, missed, extra = real.score(est, truth, np.array([0.05, 0.05]))
-    assert_allclose(errors, [0.003])  # (1.003 -> 1.0) within the gate; (0.5 -> 0.0) is 0.5 m off: a miss
-    assert (missed, extra) == (1, 2)
-    assert real.score(np.zeros((0, 3)), truth, np.array([0.05, 0.05])) == ([], 2, 0)
+def test_score_pairs_by_hungarian_and_gates_the_counts() -> None:
+    truth = np.array([[0.0, 0, 0], [1.0, 0, 0], [5.0, 0, 0]])
+    est = np.array([[1.003, 0, 0], [0.5, 0, 0]])
+    distances, missed, extra = real.score(est, truth, np.array([0.05, 0.05, 0.05]))
+    assert_allclose(distances, [0.5, 0.003, np.nan])  # the 0.5 m pair is an error and a miss; object 2 has no estimate
+    assert (missed, extra) == (2, 1)
+    d, missed, extra = real.score(np.zeros((0, 3)), truth, np.full(3, 0.05))
+    assert np.all(np.isnan(d)) and (missed, extra) == (3, 0)
 
 
 def test_view_sets_are_all_views_then_every_subset() -> None:

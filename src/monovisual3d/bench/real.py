@@ -11,10 +11,12 @@ The search region is the paper's cube of side ``2 reach`` in front of the first 
 1.0 m for every method: the Aldoma cameras are 1.0-1.4 m from the objects, beyond the default 0.6 m
 (a 1.2 m deep cube, which leaves the farthest object out of ``bayes``' and ``paper``'s search).
 
-Scoring: estimates are matched to the true centres by the Hungarian assignment on centre distance;
-a pair farther apart than the gate (the true object's volume-equivalent radius, at least 20 mm: the
-default gate of ``monovisual3d evaluate``) counts as a missed object (and an extra estimate). Errors
-(mm) are the centre distances of the pairs within the gate, pooled over objects (and subsets).
+Scoring (the conventions of :mod:`monovisual3d.metrics`): estimates are matched to the true centres by
+the Hungarian assignment on centre distance. Errors (mm) are the distances of every matched pair, however
+far apart, pooled over objects (and subsets); a true object without an estimate adds no error but counts
+as missed. Missed: true objects with no estimate within the gate (the true object's volume-equivalent
+radius, at least 20 mm: the default gate of ``monovisual3d evaluate``), so a far estimate counts both in
+the errors and as a miss (and as an extra estimate).
 """
 
 from __future__ import annotations
@@ -84,16 +86,22 @@ def view_sets(n_views: int, subset_size: int) -> list[tuple[int, ...]]:
     return [tuple(range(n_views))] + list(itertools.combinations(range(n_views), subset_size))
 
 
-def score(estimates: np.ndarray, truth: np.ndarray, gates: np.ndarray) -> tuple[list[float], int, int]:
-    """Gated Hungarian scoring: (errors in metres of the pairs within the gate, missed objects, extra estimates)."""
+def score(estimates: np.ndarray, truth: np.ndarray, gates: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """Hungarian scoring: per true object the distance (m) to its matched estimate (NaN: none), missed, extra.
+
+    Missed and extra count the pairs beyond the gate (m, per true object) as unmatched.
+    """
     ei, ti = match(estimates, truth)
-    d = np.linalg.norm(estimates[ei] - truth[ti], axis=1) if len(ei) else np.zeros(0)
-    ok = d <= gates[ti]
-    return d[ok].tolist(), len(truth) - int(ok.sum()), len(estimates) - int(ok.sum())
+    d = np.full(len(truth), np.nan)
+    if len(ei):
+        d[ti] = np.linalg.norm(estimates[ei] - truth[ti], axis=1)
+    within = int(np.sum(d <= gates))  # NaN compares False
+    return d, len(truth) - within, len(estimates) - within
 
 
 def measure(folder: str, label: str, views: tuple[int, ...], reach: float) -> dict[str, Any]:
-    """One run: method ``label`` of :data:`RUNS` on the given views; errors (m), missed, extra, runtime (s), warnings."""
+    """One run: method ``label`` of :data:`RUNS` on the given views: per true object the error (m, NaN: no estimate),
+    missed, extra, runtime (s), number of warnings."""
     method, options, tracks = RUNS[label]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the loader's note about a box clipped to the image, once per run
@@ -107,14 +115,14 @@ def measure(folder: str, label: str, views: tuple[int, ...], reach: float) -> di
         t0 = time.perf_counter()
         result = localize(sub, method=method, reach=reach, **options)
         runtime = time.perf_counter() - t0
-    errors, missed, extra = score(result.positions, centres, gates)
-    return {"errors": errors, "missed": missed, "extra": extra, "n_truth": len(centres), "runtime_s": runtime,
+    distances, missed, extra = score(result.positions, centres, gates)
+    return {"errors": [float(x) for x in distances], "missed": missed, "extra": extra, "n_truth": len(centres), "runtime_s": runtime,
             "warnings": len(result.warnings) or len(caught)}  # fmt: skip
 
 
 def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
     """Pooled statistics of runs: mean, median, p90, max (mm), missed and extra counts, median runtime (s)."""
-    e = np.array([x for r in runs for x in r["errors"]]) * 1e3
+    e = np.array([x for r in runs for x in r["errors"] if np.isfinite(x)]) * 1e3
     stat = (lambda f: float(f(e))) if len(e) else (lambda f: float("nan"))
     return {
         "runs": len(runs),
@@ -169,13 +177,16 @@ def run_real(
     results = {}
     for m in methods:
         runs = [r for item, r in zip(items, measured) if item[1] == m]
-        results[m] = {"all": summarise(runs[:1]), "subsets": summarise(runs[1:]),
-                      "per_object_all_mm": [1e3 * x for x in runs[0]["errors"]]}  # fmt: skip
+        results[m] = {
+            "all": summarise(runs[:1]),
+            "subsets": summarise(runs[1:]),
+            "per_object_all_mm": [1e3 * x for x in runs[0]["errors"]],
+        }  # fmt: skip  (NaN: no estimate)
     spread = None if not workers and scheduler is None else {"workers": workers, "scheduler": scheduler}
     return {
         "benchmark": "real", "data": str(path), "views": n, "subset_size": subset_size, "subsets": len(sets) - 1,
         "reach_m": reach, "size_range_m": list(SIZE_RANGE_M), "runs": {m: {"method": RUNS[m][0], **RUNS[m][1]} for m in methods},
-        "gate": "true volume-equivalent radius, at least 20 mm", "machine": machine_metadata(), "spread": spread,
+        "gate": "errors over all Hungarian pairs; missed: no estimate within the true volume-equivalent radius (>= 20 mm)", "machine": machine_metadata(), "spread": spread,
         "results": results, "lfd_published": LFD_PUBLISHED,
     }  # fmt: skip
 
@@ -185,7 +196,7 @@ def format_markdown(results: dict[str, Any]) -> str:
     m = results["machine"]
     k, n = results["subset_size"], results["views"]
     lines = [
-        f"Data: {results['data']} ({n} views); reach {results['reach_m']:g} m; gate: {results['gate']}. "
+        f"Data: {results['data']} ({n} views); reach {results['reach_m']:g} m; {results['gate']}. "
         f"Machine: {m['cpu']}, {m['cores']} cores; {m['date_utc'][:10]}, load average {m.get('load_average_1m', float('nan')):.1f}",
         "",
         f"| method | {n} views: mean mm | max mm | missed | {k}-view subsets ({results['subsets']}): mean mm | median mm | "

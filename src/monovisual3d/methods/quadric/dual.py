@@ -67,10 +67,10 @@ def inscribed_dual_conic(bbox_xyxy: ArrayLike) -> NDArray[np.float64]:
 
     Examples
     --------
-    >>> inscribed_dual_conic([-2.0, -1.0, 2.0, 1.0])
-    array([[ 4.,  0., -0.],
-           [ 0.,  1., -0.],
-           [-0., -0., -1.]])
+    >>> inscribed_dual_conic([8.0, 4.0, 12.0, 6.0])  # centre (10, 5), semi-axes (2, 1)
+    array([[-96., -50., -10.],
+           [-50., -24.,  -5.],
+           [-10.,  -5.,  -1.]])
     """
     b = np.asarray(bbox_xyxy, dtype=float)
     x0, y0 = 0.5 * (b[..., 0] + b[..., 2]), 0.5 * (b[..., 1] + b[..., 3])
