@@ -449,15 +449,11 @@ def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> 
 
 def _check_tracks(dets: tuple[Detection, ...], where: str) -> None:
     """One box per track and view: a repeated track id in a view is an error naming both detections."""
-    seen: dict[int, int] = {}
+    first: dict[int, int] = {}
     for j, d in enumerate(dets):
-        if d.track is None:
-            continue
-        if d.track in seen:
-            raise InputError(
-                f"{where}[{j}].track: {d.track} repeats the track of detections[{seen[d.track]}], expected one box per object and view"
-            )
-        seen[d.track] = j
+        if d.track is not None and first.setdefault(d.track, j) != j:
+            msg = f"{d.track} repeats the track of detections[{first[d.track]}], expected one box per object and view"
+            raise InputError(f"{where}[{j}].track: {msg}")
 
 
 def _check_mask(mask: Any, where: str, camera: Camera) -> None:
