@@ -172,7 +172,10 @@ def test_image_size_given_or_from_the_principal_point(written) -> None:
 # ---------------------------------------------------------------------- the session's track field
 def _session(track_values: list) -> dict:
     dets = [{"bbox_xyxy": [100 + 50 * i, 100, 140 + 50 * i, 150], "track": t} for i, t in enumerate(track_values)]
-    return {"camera": {"width": 640, "height": 480, "hfov_deg": 69}, "views": [{"pose": {"position": [0, 0, 0], "quaternion_xyzw": [0, 0, 0, 1]}, "detections": dets}]}  # fmt: skip
+    return {
+        "camera": {"width": 640, "height": 480, "hfov_deg": 69},
+        "views": [{"pose": {"position": [0, 0, 0], "quaternion_xyzw": [0, 0, 0, 1]}, "detections": dets}],
+    }
 
 
 def test_track_ids_load_and_save() -> None:

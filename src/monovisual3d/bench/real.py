@@ -126,8 +126,14 @@ def measure(folder: str, label: str, views: tuple[int, ...], reach: float) -> di
         result = localize(sub, method=method, reach=reach, **options)
         runtime = time.perf_counter() - t0
     distances, missed, extra = score(result.positions, centres, gates)
-    return {"errors": [float(x) for x in distances], "missed": missed, "extra": extra, "n_truth": len(centres), "runtime_s": runtime,
-            "warnings": len(result.warnings) or len(caught)}  # fmt: skip
+    return {
+        "errors": [float(x) for x in distances],
+        "missed": missed,
+        "extra": extra,
+        "n_truth": len(centres),
+        "runtime_s": runtime,
+        "warnings": len(result.warnings) or len(caught),
+    }
 
 
 def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
@@ -186,21 +192,28 @@ def run_real(
             progress(f"{items[i][1]} views {','.join(map(str, items[i][2]))}")
 
     measured = spread_map(measure, items, workers=workers, scheduler=scheduler, progress=tick)
-    results = {}
-    for m in methods:
-        runs = [r for item, r in zip(items, measured) if item[1] == m]
-        results[m] = {
-            "all": summarise(runs[:1]),
-            "subsets": summarise(runs[1:]),
-            "per_object_all_mm": [1e3 * x for x in runs[0]["errors"]],
-        }  # fmt: skip  (NaN: no estimate)
+    results = {m: _per_method([r for item, r in zip(items, measured) if item[1] == m]) for m in methods}
     spread = None if not workers and scheduler is None else {"workers": workers, "scheduler": scheduler}
     return {
-        "benchmark": "real", "data": str(path), "views": n, "subset_size": subset_size, "subsets": len(sets) - 1,
-        "reach_m": reach, "size_range_m": list(SIZE_RANGE_M), "runs": {m: {"method": RUNS[m][0], **RUNS[m][1]} for m in methods},
-        "gate": "errors over all Hungarian pairs; missed: no estimate within the true volume-equivalent radius (>= 20 mm)", "machine": machine_metadata(), "spread": spread,
-        "results": results, "lfd_published": LFD_PUBLISHED,
-    }  # fmt: skip
+        "benchmark": "real",
+        "data": str(path),
+        "views": n,
+        "subset_size": subset_size,
+        "subsets": len(sets) - 1,
+        "reach_m": reach,
+        "size_range_m": list(SIZE_RANGE_M),
+        "runs": {m: {"method": RUNS[m][0], **RUNS[m][1]} for m in methods},
+        "gate": "errors over all Hungarian pairs; missed: no estimate within the true volume-equivalent radius (>= 20 mm)",
+        "machine": machine_metadata(),
+        "spread": spread,
+        "results": results,
+        "lfd_published": LFD_PUBLISHED,
+    }
+
+
+def _per_method(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """One method's runs (all views first, then the subsets) summarised, with the all-view error per object (NaN: none)."""
+    return {"all": summarise(runs[:1]), "subsets": summarise(runs[1:]), "per_object_all_mm": [1e3 * x for x in runs[0]["errors"]]}
 
 
 def format_markdown(results: dict[str, Any]) -> str:
