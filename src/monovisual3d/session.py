@@ -39,6 +39,8 @@ from .masks import rle_counts
 POSE_FRAMES = ("optical", "camera_link")
 #: A camera farther than this from the base origin (metres) is flagged: probably millimetres.
 MAX_PLAUSIBLE_DISTANCE_M = 20.0
+#: Largest ``track`` id of a detection (a bound that keeps ids plain JSON integers).
+MAX_TRACK_ID = 2**31 - 1
 
 
 def _fields_equal(self: Any, other: object) -> bool:
@@ -67,12 +69,15 @@ class Detection:
     mask : dict or None
         Optional instance mask: ``{"polygon": [[u, v], ...]}`` or COCO RLE
         ``{"size": [height, width], "counts": ...}``.
+    track : int or None, >= 0: the object this box belongs to, when the association across
+        views is known (a tracker, an annotated data set); methods that associate may use it
     """
 
     bbox_xyxy: NDArray[np.float64]
     score: float | None = None
     label: str | None = None
     mask: dict[str, Any] | None = None
+    track: int | None = None
 
     __eq__ = _fields_equal  # ndarray fields: compare by value, not elementwise
 
@@ -84,6 +89,8 @@ class Detection:
             out["label"] = self.label
         if self.mask is not None:
             out["mask"] = self.mask
+        if self.track is not None:
+            out["track"] = int(self.track)
         return out
 
 
@@ -332,6 +339,7 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
             stacklevel=3,
         )
     dets = tuple(_detection_from_dict(d, f"{where}.detections[{j}]", camera, prefix) for j, d in enumerate(dets_data))
+    _check_tracks(dets, f"{where}.detections")
     stamp = data.get("stamp")
     if stamp is not None:
         stamp = _number(stamp, f"{where}.stamp", limits.MAX_ABS_STAMP_S, "seconds")
@@ -343,7 +351,7 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
 
 def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> Detection:
     _expect_object(data, where)
-    _reject_unknown(data, {"bbox_xyxy", "score", "label", "mask", "class_id"}, where)
+    _reject_unknown(data, {"bbox_xyxy", "score", "label", "mask", "class_id", "track"}, where)
     if "bbox_xyxy" not in data:
         raise InputError(f"{where}.bbox_xyxy: missing field, expected [x1, y1, x2, y2] in pixels")
     box = _vector(data["bbox_xyxy"], 4, f"{where}.bbox_xyxy")
@@ -376,7 +384,21 @@ def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> 
     mask = data.get("mask")
     if mask is not None:
         _check_mask(mask, f"{where}.mask", camera)
-    return Detection(bbox_xyxy=clipped, score=score, label=label, mask=mask)
+    track = data.get("track")
+    if track is not None:
+        if isinstance(track, (bool, np.bool_)) or not isinstance(track, (int, np.integer)) or not 0 <= track <= MAX_TRACK_ID:
+            raise InputError(f"{where}.track: expected an object number (integer 0 to {MAX_TRACK_ID:,}), got {excerpt(track)}")
+        track = int(track)
+    return Detection(bbox_xyxy=clipped, score=score, label=label, mask=mask, track=track)
+
+
+def _check_tracks(dets: tuple[Detection, ...], where: str) -> None:
+    """One box per track and view: a repeated track id in a view is an error naming both detections."""
+    first: dict[int, int] = {}
+    for j, d in enumerate(dets):
+        if d.track is not None and first.setdefault(d.track, j) != j:
+            msg = f"{d.track} repeats the track of detections[{first[d.track]}], expected one box per object and view"
+            raise InputError(f"{where}[{j}].track: {msg}")
 
 
 def _check_mask(mask: Any, where: str, camera: Camera) -> None:

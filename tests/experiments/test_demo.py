@@ -86,7 +86,7 @@ def test_demo_rejects_bad_input(tmp_path: Path) -> None:
         run_demo(tmp_path, method="nope", figure=False)
     result = CliRunner().invoke(app, ["demo", "--output", str(tmp_path / "x"), "--method", "nope"])
     assert result.exit_code == 2
-    assert result.stderr.startswith("error: --method (method): got 'nope', expected one of ['bayes', 'paper']")
+    assert result.stderr.startswith("error: --method (method): got 'nope', expected one of ['bayes', 'paper', 'quadric']")
     assert result.stdout == ""  # validated before the intro is printed
     assert not (tmp_path / "x").exists()
     (tmp_path / "file").write_text("")

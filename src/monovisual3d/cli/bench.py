@@ -9,6 +9,7 @@ import typer
 from rich.table import Table
 
 from ._app import app, console, handle_errors, plain
+from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
 bench_app = typer.Typer(
     help="Benchmarks: accuracy of the methods on simulated scenes, speed, start-up, next-best-view and batch.",
@@ -122,3 +123,46 @@ def _print_speed_lines(result: dict[str, Any]) -> None:
             f"[{1e3 * sec['min']:.0f}-{1e3 * sec['max']:.0f}]",
             highlight=False,
         )
+
+
+@bench_app.command("real")
+@handle_errors
+def real(
+    folder: Annotated[
+        Path | None, typer.Argument(help="Folder of LfD arrays (default: the shared Aldoma set, ../shared/data/aldoma).")
+    ] = None,
+    methods: Annotated[
+        str, typer.Option(help="Runs, comma separated: bayes, paper, quadric (tracks), quadric (bayes).")
+    ] = "bayes,paper,quadric (tracks),quadric (bayes)",
+    reach: Annotated[float, typer.Option(min=0.01, help="Search reach of every method, metres.")] = 1.0,
+    subset_size: Annotated[int, typer.Option("--subset-size", min=1, help="Views per subset.")] = 3,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the results (with machine metadata) as JSON.")] = False,
+    output: Annotated[
+        Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
+    ] = None,
+    workers: SpreadWorkers = None,
+    scheduler: SpreadScheduler = None,
+) -> None:
+    """Real multi-view scene (LfD layout): centre error per method on all views and on every 3-view subset."""
+    from rich.progress import Progress
+
+    from ..bench.real import format_markdown, run_real, to_json
+    from ._app import check_output, write_output
+
+    check_output(output, folder)
+    with spread_flags(workers, scheduler), Progress(console=console, transient=True) as bar:
+        task = bar.add_task("real-data benchmark", total=None)
+        results = run_real(
+            folder,
+            methods=tuple(m.strip() for m in methods.split(",")),
+            subset_size=subset_size,
+            reach=reach,
+            workers=workers,
+            scheduler=scheduler,
+            progress=lambda msg: bar.update(task, description=msg),
+        )
+    text = to_json(results)
+    print(text if as_json else format_markdown(results))  # plain Markdown, so the table can be pasted as it is
+    if output is not None:
+        write_output(output, text + "\n")
+        console.print(f"wrote {plain(str(output))}", highlight=False)

@@ -1,4 +1,4 @@
-"""``import`` and ``import-bag``: build a session file from real-world data."""
+"""``import``, ``import-bag`` and ``import-lfd``: build a session file from real-world data."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from ..errors import InputError, one_line
-from ._app import app, check_output, console, handle_errors, plain, write_output
+from ._app import app, check_output, console, handle_errors, json_text, plain, write_output
 
 if TYPE_CHECKING:
     from ..io.summary import ImportResult
@@ -183,3 +183,39 @@ def import_bag_cmd(
         workspace=_workspace(workspace),
     )
     _report(result, output)
+
+
+@app.command(name="import-lfd")
+@handle_errors
+def import_lfd_cmd(
+    folder: Annotated[
+        Path, typer.Argument(help="Folder of LfD arrays: intrinsics, camera_poses, bounding_boxes, visibility (.npy).")
+    ],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Session file to write (JSON).")],
+    truth: Annotated[
+        Path | None, typer.Option("--truth", help="Also write the truth (centres, semi-axes, orientation from gt.npy) here.")
+    ] = None,
+    keep_association: Annotated[
+        bool, typer.Option("--keep-association", help="Write each box's object index as its track id (default: pooled).")
+    ] = False,
+    image_size: Annotated[
+        str | None, typer.Option("--image-size", help="Image size WxH (default: twice the principal point).")
+    ] = None,
+) -> None:
+    """Build a session (and a truth file) from the LfD .npy layout; boxes pooled per view, sorted by x_min."""
+    from ..io.lfd import read_lfd
+
+    check_output(output, folder)
+    check_output(truth, folder, output)
+    if truth is not None and output.resolve() == truth.resolve():
+        raise InputError(f"{one_line(str(truth))}: also the --output file, choose another --truth")
+    session, truth_data = read_lfd(
+        folder, keep_association=keep_association, truth=truth is not None, image_size=_size(image_size)
+    )
+    write_output(output, session.to_json() + "\n")
+    n_boxes = sum(len(v.detections) for v in session.views)
+    how = "track ids from the columns" if keep_association else "pooled per view, sorted by x_min"
+    console.print(f"wrote {plain(str(output))}: {len(session.views)} views, {n_boxes} boxes ({how})", highlight=False)
+    if truth is not None and truth_data is not None:
+        write_output(truth, json_text(truth_data) + "\n")
+        console.print(f"wrote {plain(str(truth))}: {len(truth_data['objects'])} objects", highlight=False)

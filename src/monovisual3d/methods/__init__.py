@@ -80,6 +80,13 @@ METHODS: dict[str, Method] = {
         "monovisual3d.methods.paper.config:PaperConfig",
         "monovisual3d.methods.paper.run:run",
     ),
+    "quadric": Method(
+        "quadric",
+        "LfD's closed-form dual quadric (Rubino et al. 2017): ellipses in the boxes, >= 3 views, given association "
+        "(track ids) or that of bayes",
+        "monovisual3d.methods.quadric.config:QuadricConfig",
+        "monovisual3d.methods.quadric.localizer:run",
+    ),
 }
 
 
