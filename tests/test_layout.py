@@ -77,7 +77,6 @@ ALLOWED_LONG_FUNCTIONS = {
     "cli/sim.py:simulate",
     "engine/sparse.py:refine",
     "experiments/demo.py:run_demo",
-    "geometry/bounds.py:ellipsoid_crlb",
     "geometry/fit.py:fit_ellipsoid_to_boxes",
     "io/build.py:build_session",
     "io/build.py:import_session",

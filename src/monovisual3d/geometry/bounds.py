@@ -215,10 +215,48 @@ def ellipsoid_crlb(
     names = shape_parameters(model, free_orientation=free_orientation)
     boxes, J = ellipsoid_box_jacobian(camera, T_base_optical, ellipsoid, model, up=up, free_orientation=free_orientation)
     C = box_edge_covariance(boxes, box_sigma, edge_sigma_px)
+    usable = _usable_edges(camera, boxes, J)
+    F, n_views = _fisher_information(J, C, usable)
+    cov = _covariance_of_seen(F, J, usable) if n_views else np.full_like(F, np.nan)
+    return ShapeBound(names, F, cov, n_views)
+
+
+def _usable_edges(camera: Camera, boxes: NDArray[np.float64], J: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Box edges that carry information: finite, more than :data:`BORDER_PX` inside the image, finite Jacobian.
+
+    Parameters
+    ----------
+    camera : Camera
+    boxes : ndarray, shape (V, 4), unclipped boxes ``x1, y1, x2, y2``, pixels
+    J : ndarray, shape (V, 4, P), pixels per unit of each parameter
+
+    Returns
+    -------
+    ndarray of bool, shape (V, 4)
+    """
     size = np.array([camera.width, camera.height], dtype=float)
     unclipped = np.concatenate([boxes[:, :2] > BORDER_PX, boxes[:, 2:] < size - BORDER_PX], axis=1)
-    usable = np.isfinite(boxes) & unclipped & np.all(np.isfinite(J), axis=2)
-    F = np.zeros((len(names), len(names)))
+    return np.isfinite(boxes) & unclipped & np.all(np.isfinite(J), axis=2)
+
+
+def _fisher_information(
+    J: NDArray[np.float64], C: NDArray[np.float64], usable: NDArray[np.bool_]
+) -> tuple[NDArray[np.float64], int]:
+    """Fisher information of the parameters, summed over the views' usable edges.
+
+    Parameters
+    ----------
+    J : ndarray, shape (V, 4, P), pixels per unit of each parameter
+    C : ndarray, shape (V, 4, 4), covariance of the box edges, pixels^2
+    usable : ndarray of bool, shape (V, 4), :func:`_usable_edges`
+
+    Returns
+    -------
+    F : ndarray, shape (P, P)
+    n_views : int, views with at least one usable edge
+    """
+    P = J.shape[2]
+    F = np.zeros((P, P))
     n_views = 0
     for b_ok, Jv, Cv in zip(usable, J, C):
         if not b_ok.any():
@@ -227,16 +265,33 @@ def ellipsoid_crlb(
         idx = np.flatnonzero(b_ok)
         Ji = Jv[idx]
         F += Ji.T @ np.linalg.solve(Cv[np.ix_(idx, idx)], Ji)
-    # parameters the boxes cannot see at all (the yaw of a body of revolution about its axis) are
-    # left out: their bound is NaN and they do not spoil the others'
+    return F, n_views
+
+
+def _covariance_of_seen(F: NDArray[np.float64], J: NDArray[np.float64], usable: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """The bound ``F^-1`` over the parameters the boxes see; NaN rows and columns for the others, all NaN if singular.
+
+    Parameters the boxes cannot see at all (the yaw of a body of revolution about its axis) are
+    left out: their bound is NaN and they do not spoil the others'.
+
+    Parameters
+    ----------
+    F : ndarray, shape (P, P), :func:`_fisher_information`
+    J : ndarray, shape (V, 4, P), pixels per unit of each parameter
+    usable : ndarray of bool, shape (V, 4)
+
+    Returns
+    -------
+    ndarray, shape (P, P)
+    """
     J_used = np.where(usable[..., None], J, 0.0)
     seen = np.sqrt(np.sum(J_used**2, axis=(0, 1))) > BLIND_PX
     cov = np.full_like(F, np.nan)
     k = np.flatnonzero(seen)
     Fk = F[np.ix_(k, k)]
-    if n_views and len(k) and np.linalg.matrix_rank(Fk, tol=1e-12 * max(np.abs(Fk).max(), 1e-300)) == len(k):
+    if len(k) and np.linalg.matrix_rank(Fk, tol=1e-12 * max(np.abs(Fk).max(), 1e-300)) == len(k):
         cov[np.ix_(k, k)] = np.linalg.inv(Fk)
-    return ShapeBound(names, F, cov, n_views)
+    return cov
 
 
 def centre_crlb_rms_sq(
