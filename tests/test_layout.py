@@ -85,7 +85,6 @@ ALLOWED_LONG_FUNCTIONS = {
     "io/poses.py:interpolate_poses",
     "io/rosbag.py:read_bag",
     "io/yolo.py:image_detections_from_result",
-    "metrics.py:evaluate",
     "sim/mujoco_render.py:mjcf_from_scene",
     "sim/photoreal.py:render_views",
     "sim/scenes.py:greenhouse_scene",

@@ -179,22 +179,9 @@ def evaluate(
     t = np.asarray(truth, dtype=float).reshape(-1, 3)
     ei, ti = match(e, t)
     dist = np.linalg.norm(e[ei] - t[ti], axis=1) if len(ei) else np.zeros(0)
-    if gate is not None:
-        gates = np.full(len(ti), float(gate))
-    elif truth_radii is not None:
-        r = np.asarray(truth_radii, dtype=float)[ti]
-        # An unknown (NaN) radius gets the unknown-radius gate; np.maximum alone would propagate NaN into a miss.
-        gates = np.where(np.isfinite(r), np.maximum(r, MIN_GATE_M), DEFAULT_GATE_M)
-    else:
-        gates = np.full(len(ti), DEFAULT_GATE_M)
-    tp = int(np.sum(dist <= gates))
+    tp = int(np.sum(dist <= _gates(ti, truth_radii, gate)))
     errs = paper_errors(e[ei], t[ti])
-    radius_error = None
-    if truth_radii is not None and estimate_radii is not None and len(ei):
-        er = np.asarray(estimate_radii, dtype=float)[ei]
-        tr = np.asarray(truth_radii, dtype=float)[ti]
-        ok = np.isfinite(er) & np.isfinite(tr)
-        radius_error = float(np.mean(np.abs(er[ok] - tr[ok]))) if ok.any() else None
+    radius_error = _radius_error(truth_radii, estimate_radii, ei, ti)
     shape_errors = _shape_errors(truth_semi_axes, estimate_semi_axes, ei, ti)
     return Metrics(
         n_truth=len(t),
@@ -209,6 +196,40 @@ def evaluate(
         **shape_errors,
         **errs,
     )
+
+
+def _gates(ti: NDArray[np.intp], truth_radii: ArrayLike | None, gate: float | None) -> NDArray[np.float64]:
+    """The distance (metres) within which each matched truth counts as found (see the module docstring).
+
+    Parameters
+    ----------
+    ti : ndarray, shape (K,), indices of the matched truth
+    truth_radii : array_like, shape (T,), metres, or None
+    gate : float, metres, or None
+
+    Returns
+    -------
+    ndarray, shape (K,)
+    """
+    if gate is not None:
+        return np.full(len(ti), float(gate))
+    if truth_radii is None:
+        return np.full(len(ti), DEFAULT_GATE_M)
+    r = np.asarray(truth_radii, dtype=float)[ti]
+    # An unknown (NaN) radius gets the unknown-radius gate; np.maximum alone would propagate NaN into a miss.
+    return np.where(np.isfinite(r), np.maximum(r, MIN_GATE_M), DEFAULT_GATE_M)
+
+
+def _radius_error(
+    truth_radii: ArrayLike | None, estimate_radii: ArrayLike | None, ei: NDArray[np.intp], ti: NDArray[np.intp]
+) -> float | None:
+    """Mean absolute radius error (metres) of the matched pairs where both radii are known; None if there are none."""
+    if truth_radii is None or estimate_radii is None or not len(ei):
+        return None
+    er = np.asarray(estimate_radii, dtype=float)[ei]
+    tr = np.asarray(truth_radii, dtype=float)[ti]
+    ok = np.isfinite(er) & np.isfinite(tr)
+    return float(np.mean(np.abs(er[ok] - tr[ok]))) if ok.any() else None
 
 
 def _shape_errors(
