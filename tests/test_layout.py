@@ -72,7 +72,6 @@ ALLOWED_LONG_FUNCTIONS = {
     "batch/inputs.py:find_sessions",
     "batch/run.py:run",
     "bench/accuracy.py:conditions",
-    "cli/active.py:bench_active",
     "cli/io.py:import_cmd",
     "cli/sim.py:simulate",
     "engine/sparse.py:refine",

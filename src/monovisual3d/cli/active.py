@@ -127,37 +127,74 @@ def bench_active(
     scheduler: SpreadScheduler = None,
 ) -> None:
     """Next-best-view against fixed, random and view-sphere viewpoints: error, recall, 95 % ellipsoid vs. views."""
+    if report is not None:
+        res = _merge_reports(report)
+    else:
+        res = _run_with_progress(
+            _parse_seeds(seeds),
+            tuple(c.strip() for c in conditions.split(",") if c.strip()),
+            views=views,
+            candidates=candidates,
+            workers=workers,
+            scheduler=scheduler,
+        )
+    _write_results(res, markdown=markdown, output=output, plot=plot)
+
+
+def _merge_reports(report: str) -> dict[str, Any]:
+    """``--report``: the results files (comma separated, from ``--output``) joined into one result."""
+    from ..active.bench import merge_results
+
+    parts = []
+    for name in report.split(","):
+        try:
+            parts.append(json.loads(Path(name).read_text()))
+        except json.JSONDecodeError as exc:
+            raise InputError(f"{name}: not a results file ({exc.msg})") from None
+    return merge_results(parts)
+
+
+def _run_with_progress(
+    seeds: tuple[int, ...],
+    conditions: tuple[str, ...],
+    *,
+    views: int,
+    candidates: int,
+    workers: int | None,
+    scheduler: str | None,
+) -> dict[str, Any]:
+    """Run the benchmark with a progress bar on a terminal (a ``done ...`` line per run elsewhere)."""
     from rich.progress import Progress
 
-    from ..active.bench import format_markdown, merge_results, run_active_bench, save
+    from ..active.bench import run_active_bench
+
+    with (
+        spread_flags(workers, scheduler),
+        Progress(console=console, transient=True, disable=not console.is_terminal) as bar,
+    ):
+        task = bar.add_task("active benchmark", total=None)
+
+        def progress(msg: str) -> None:
+            bar.update(task, description=plain(msg))
+            if not console.is_terminal:
+                console.print(f"done {plain(msg)}", highlight=False)
+
+        return run_active_bench(
+            conditions=conditions,
+            seeds=seeds,
+            max_views=views,
+            n_candidates=candidates,
+            progress=progress,
+            workers=workers,
+            scheduler=scheduler,
+        )
+
+
+def _write_results(res: dict[str, Any], *, markdown: Path | None, output: Path | None, plot: Path | None) -> None:
+    """Print the Markdown tables (with the command that made them) and write the files asked for."""
+    from ..active.bench import format_markdown, save
     from ..active.bench import plot as plot_results
 
-    if report is not None:
-        parts = []
-        for name in report.split(","):
-            try:
-                parts.append(json.loads(Path(name).read_text()))
-            except json.JSONDecodeError as exc:
-                raise InputError(f"{name}: not a results file ({exc.msg})") from None
-        res = merge_results(parts)
-    else:
-        seed_t = _parse_seeds(seeds)
-        conds = tuple(c.strip() for c in conditions.split(",") if c.strip())
-        with (
-            spread_flags(workers, scheduler),
-            Progress(console=console, transient=True, disable=not console.is_terminal) as bar,
-        ):
-            task = bar.add_task("active benchmark", total=None)
-
-            def progress(msg: str) -> None:
-                bar.update(task, description=plain(msg))
-                if not console.is_terminal:
-                    console.print(f"done {plain(msg)}", highlight=False)
-
-            res = run_active_bench(
-                conditions=conds, seeds=seed_t, max_views=views, n_candidates=candidates, progress=progress,
-                workers=workers, scheduler=scheduler,
-            )  # fmt: skip
     command = "monovisual3d bench active " + " ".join(shlex.quote(a) for a in sys.argv[3:]) if len(sys.argv) > 3 else None
     text = format_markdown(res, command)
     print(text)
