@@ -75,7 +75,6 @@ ALLOWED_LONG_FUNCTIONS = {
     "cli/io.py:import_cmd",
     "cli/sim.py:simulate",
     "engine/sparse.py:refine",
-    "experiments/demo.py:run_demo",
     "geometry/fit.py:fit_ellipsoid_to_boxes",
     "io/build.py:build_session",
     "io/build.py:import_session",

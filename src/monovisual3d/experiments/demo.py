@@ -147,42 +147,75 @@ def run_demo(
     noise = NoiseModel.paper() if noise is None else noise
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
+    sim = _simulate(out, seed, noise)
+    t1 = time.perf_counter()
+    seconds["simulate"] = t1 - t0
+    session = load_session(sim.files["session"])
+    result = _localise(session, method, options)
+    t2 = time.perf_counter()
+    seconds["localise"] = t2 - t1
+    files: dict[str, Path] = dict(sim.files)
+    files["result"] = out / "result.json"
+    result.to_json(files["result"])
+    metrics = _evaluate(result, sim.scene)
+    notes = _write_figures(files, out, seed, sim, session, result) if figure else []
+    seconds["evaluate_and_figure"] = time.perf_counter() - t2
+    seconds["total"] = time.perf_counter() - t0
+    return DemoResult(sim.scene, session, result, metrics, files, noise, seconds, notes)
+
+
+@dataclass(frozen=True)
+class _Simulation:
+    """What the simulation stage made: the truss, the camera, its poses and the files written."""
+
+    scene: Scene
+    camera: Camera
+    #: shape (3, 4, 4), ``T_base_optical`` of the paper's three poses
+    poses: NDArray[np.float64]
+    files: dict[str, Path]
+
+
+def _simulate(out: Path, seed: int, noise: NoiseModel) -> _Simulation:
+    """Simulate the truss of ``seed`` from the paper's poses; write session, truth, images and view picture to ``out``."""
     rng = np.random.default_rng(seed)
     camera = default_camera()
     scene = greenhouse_scene(rng, camera=camera)
     poses = paper_poses(scene_target(scene))
     paths = write_simulation(out, scene, camera, poses, noise=noise, rng=rng, images=True, picture=write_view_picture)
-    t1 = time.perf_counter()
-    seconds["simulate"] = t1 - t0
-    session = load_session(paths["session"])
+    return _Simulation(scene, camera, poses, dict(paths))
+
+
+def _localise(session: Session, method: str, options: dict[str, Any]) -> Result:
+    """Localise with ``method``; input warnings raised on the way are kept in the result's warnings (once each)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", InputWarning)
         result = localize(session, method=method, **options)
     result.warnings.extend(str(w.message) for w in caught if str(w.message) not in result.warnings)
-    t2 = time.perf_counter()
-    seconds["localise"] = t2 - t1
-    files: dict[str, Path] = dict(paths)
-    files["result"] = out / "result.json"
-    result.to_json(files["result"])
+    return result
+
+
+def _evaluate(result: Result, scene: Scene) -> Metrics:
+    """The result against the scene's truth; radius errors only when the method estimated some radius."""
     radii = [np.nan if o.radius is None else o.radius for o in result.objects]
-    metrics = evaluate(
+    return evaluate(
         result.positions, scene.centres, truth_radii=scene.radii, estimate_radii=radii if any(np.isfinite(radii)) else None
     )
-    notes: list[str] = []
-    if figure:
-        try:
-            files["figure"] = _scene_figure(out / "scene.png", seed, scene, result, camera, poses)
-        except ImportError as exc:
-            notes.append(f"figure skipped: {exc}")
-        try:
-            from ..figures.html3d import write_scene_html
 
-            files["scene_html"] = write_scene_html(session, result, scene.truth_dict(), path=out / "scene.html")
-        except ImportError as exc:
-            notes.append(f"scene.html skipped: {exc}")
-    seconds["evaluate_and_figure"] = time.perf_counter() - t2
-    seconds["total"] = time.perf_counter() - t0
-    return DemoResult(scene, session, result, metrics, files, noise, seconds, notes)
+
+def _write_figures(files: dict[str, Path], out: Path, seed: int, sim: _Simulation, session: Session, result: Result) -> list[str]:
+    """Write ``scene.png`` and ``scene.html`` into ``out`` and add them to ``files``; returns a note per figure skipped."""
+    notes: list[str] = []
+    try:
+        files["figure"] = _scene_figure(out / "scene.png", seed, sim.scene, result, sim.camera, sim.poses)
+    except ImportError as exc:
+        notes.append(f"figure skipped: {exc}")
+    try:
+        from ..figures.html3d import write_scene_html
+
+        files["scene_html"] = write_scene_html(session, result, sim.scene.truth_dict(), path=out / "scene.html")
+    except ImportError as exc:
+        notes.append(f"scene.html skipped: {exc}")
+    return notes
 
 
 def _scene_figure(path: Path, seed: int, scene: Scene, result: Result, camera: Camera, poses: NDArray[np.float64]) -> Path:
