@@ -29,6 +29,8 @@ from .targets import PlannerState, default_workspace
 
 #: A point given as ``"X,Y,Z"`` (metres) or as three numbers.
 Point = str | Sequence[float]
+#: Half side of the workspace cube around ``target`` when the session has none, metres (a 0.4 m cube).
+TARGET_HALF_SIDE_M = 0.2
 
 
 def parse_point(value: Point, name: str) -> tuple[float, float, float]:
@@ -82,36 +84,66 @@ def plan_session(
     pose_frame = _pose_frame(session)
     sess = load_planning_session(session)
     base_c = parse_point(base, "base")
-    generated = candidates.strip().startswith("cap:")
     # validate the candidates (and count) before the localisation, which takes the time
-    spec = CapSpec.parse(candidates) if generated else None
-    cands = None if spec is not None else load_candidates(candidates, pose_frame)
-    n_max = spec.n if spec is not None else len(cands)  # type: ignore[arg-type]
-    if count > n_max:
-        raise InputError(f"count: got {count}, expected at most {n_max} (the number of candidates)")
+    spec, cands = _parse_candidates(candidates, pose_frame, count)
     # every planner option is checked here too, before the localisation
     cfg = PlannerConfig(target_mm=target_mm, motion_weight=motion_weight, base_centre=base_c, box_noise=box_noise)
     objects = _localise(sess)
     state = PlannerState(sess.camera, sess.views, tuple(objects), sess.workspace)
     if spec is not None:
         cands = _cap_candidates(spec, state, session, target, base_c)
-        if reach_m is None and math.isfinite(spec.reach_m):
-            reach_m = spec.reach_m
     assert cands is not None
-    if count > len(cands):
-        raise InputError(f"count: got {count}, expected at most {len(cands)} (the number of candidates)")
-    if reach_m is not None and not (reach_m > 0 and math.isfinite(reach_m)):
-        raise InputError(f"reach_m: got {reach_m}, expected a positive number of metres")
-    cfg = replace(cfg, reach_m=reach_m if reach_m is not None else math.inf)
-    if target is not None and sess.workspace is None:
-        c = np.array(parse_point(target, "target"))
-        state = PlannerState(sess.camera, sess.views, tuple(objects), Workspace(c - 0.2, c + 0.2))
+    _check_count(count, len(cands))
+    cfg = replace(cfg, reach_m=_reach_m(reach_m, spec))
+    state = _with_target_workspace(state, target)
     out = plan_from_state(state, cands, count=count, config=cfg).to_dict(pose_frame)
     out["n_objects"] = len(objects)
     out["views"] = len(sess.views)
-    if generated:
+    if spec is not None:
         out["candidates"] = [pose_to_dict(T, pose_frame) for T in cands]
     return out
+
+
+def _parse_candidates(candidates: str, pose_frame: str, count: int) -> tuple[CapSpec | None, NDArray[np.float64] | None]:
+    """The ``cap:`` spec (its poses come after the localisation) or the poses of the candidate file; checks ``count``.
+
+    Returns
+    -------
+    spec : CapSpec or None (a candidate file)
+    poses : ndarray, shape (N, 4, 4), ``T_base_optical`` of the file's candidates, or None (a ``cap:`` spec)
+    """
+    if candidates.strip().startswith("cap:"):
+        spec = CapSpec.parse(candidates)
+        _check_count(count, spec.n)
+        return spec, None
+    cands = load_candidates(candidates, pose_frame)
+    _check_count(count, len(cands))
+    return None, cands
+
+
+def _check_count(count: int, n_candidates: int) -> None:
+    """InputError ``count: ...`` when more views are asked for than there are candidates."""
+    if count > n_candidates:
+        raise InputError(f"count: got {count}, expected at most {n_candidates} (the number of candidates)")
+
+
+def _reach_m(reach_m: float | None, spec: CapSpec | None) -> float:
+    """The arm reach in metres: ``reach_m``, else the cap's ``reach``, else none (inf); InputError ``reach_m: ...``."""
+    if reach_m is None and spec is not None and math.isfinite(spec.reach_m):
+        reach_m = spec.reach_m
+    if reach_m is None:
+        return math.inf
+    if not (reach_m > 0 and math.isfinite(reach_m)):
+        raise InputError(f"reach_m: got {reach_m}, expected a positive number of metres")
+    return reach_m
+
+
+def _with_target_workspace(state: PlannerState, target: Point | None) -> PlannerState:
+    """``state`` with a cube of half side :data:`TARGET_HALF_SIDE_M` around ``target`` as workspace, if it has none."""
+    if target is None or state.workspace is not None:
+        return state
+    c = np.array(parse_point(target, "target"))
+    return replace(state, workspace=Workspace(c - TARGET_HALF_SIDE_M, c + TARGET_HALF_SIDE_M))
 
 
 def _pose_frame(session: str | Path) -> str:
