@@ -174,39 +174,83 @@ def run_loop(
     t = np.asarray(target, dtype=float)
     noise = noise or NoiseModel()
     rng = np.random.default_rng(rng)
-    choice_rng = np.random.default_rng(choice_rng)
-    cfg = planner or PlannerConfig()
-    workspace = Workspace(t - SIM_WORKSPACE_HALF_M, t + SIM_WORKSPACE_HALF_M)
-    fixed = fixed_sequence(t, n_views) if strategy == "fixed" else None
+    chooser = _Chooser(strategy, candidates, t, planner or PlannerConfig(), np.random.default_rng(choice_rng), n_views, stop)
     T_next = paper_poses(t)[0] if first_pose is None else np.asarray(first_pose, dtype=float)
     loc = BayesLocalizer(camera, bayes or BayesConfig())
     steps: list[LoopStep] = []
-    used: set[int] = set()
     cand_index = -1
-    reachable = np.linalg.norm(candidates[:, :3, 3] - np.asarray(cfg.base_centre), axis=1) <= cfg.reach_m
     for k in range(n_views):
-        step = _observe_step(loc, scene, camera, T_next, cand_index, noise, rng)
-        steps.append(step)
-        if strategy == "nbv":
-            plan, free_idx = _plan_step(step, loc, camera, workspace, candidates, used, cfg)
-            if k + 1 >= n_views or (stop and plan.done):
-                break
-            cand_index = int(free_idx[plan.index])
-        elif k + 1 >= n_views:
+        steps.append(_observe_step(loc, scene, camera, T_next, cand_index, noise, rng))
+        chosen = chooser.next_view(steps, loc, last=k + 1 >= n_views)
+        if chosen is None:
             break
-        elif strategy == "fixed":
-            assert fixed is not None
-            T_next, cand_index = fixed[k + 1], -1
-            continue
-        elif strategy == "random":
-            free = [i for i in range(len(candidates)) if i not in used and reachable[i]]
-            cand_index = int(choice_rng.choice(free))
-        else:
-            free_mask = set(used) | set(np.flatnonzero(~reachable).tolist())
-            cand_index = sphere_pick([s.T_base_optical for s in steps], candidates, t, free_mask)
-        used.add(cand_index)
-        T_next = candidates[cand_index]
+        T_next, cand_index = chosen
     return LoopRun(Session(camera, tuple(loc.views)), steps)
+
+
+@dataclass
+class _Chooser:
+    """One strategy's choice of the view after each step (see the module docstring).
+
+    Attributes
+    ----------
+    strategy : str, one of :data:`STRATEGIES`
+    candidates : ndarray, shape (N, 4, 4), true ``T_base_optical`` of each candidate
+    target : ndarray, shape (3,), the workspace centre, metres, base frame
+    planner : PlannerConfig, its reach also limits the ``random`` and ``sphere`` picks
+    choice_rng : Generator of the ``random`` strategy
+    n_views : int, views in all, the first included
+    stop : bool, ``nbv`` stops as soon as the plan says ``done``
+    used : set of int, the candidates taken so far
+    workspace : Workspace, the planner's: a cube of half side :data:`SIM_WORKSPACE_HALF_M` around ``target``
+    fixed : ndarray, shape (n_views, 4, 4), the ``fixed`` sequence, or None
+    """
+
+    strategy: str
+    candidates: NDArray[np.float64]
+    target: NDArray[np.float64]
+    planner: PlannerConfig
+    choice_rng: np.random.Generator
+    n_views: int
+    stop: bool
+    used: set[int] = field(default_factory=set)
+    workspace: Workspace = field(init=False)
+    fixed: NDArray[np.float64] | None = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.workspace = Workspace(self.target - SIM_WORKSPACE_HALF_M, self.target + SIM_WORKSPACE_HALF_M)
+        self.fixed = fixed_sequence(self.target, self.n_views) if self.strategy == "fixed" else None
+
+    @property
+    def reachable(self) -> NDArray[np.bool_]:
+        """Candidates within the arm's reach, shape (N,)."""
+        base = np.asarray(self.planner.base_centre)
+        return np.linalg.norm(self.candidates[:, :3, 3] - base, axis=1) <= self.planner.reach_m
+
+    def next_view(self, steps: list[LoopStep], loc: BayesLocalizer, *, last: bool) -> tuple[NDArray[np.float64], int] | None:
+        """The pose and candidate index (-1: not a candidate) of the view after ``steps``; None to stop.
+
+        ``nbv`` plans after every view, the last included, and keeps the plan in the step.
+        """
+        if self.strategy == "nbv":
+            plan, free_idx = _plan_step(steps[-1], loc, loc.camera, self.workspace, self.candidates, self.used, self.planner)
+            if last or (self.stop and plan.done):
+                return None
+            index = int(free_idx[plan.index])
+        elif last:
+            return None
+        elif self.strategy == "fixed":
+            assert self.fixed is not None
+            return self.fixed[len(steps)], -1
+        elif self.strategy == "random":
+            reachable = self.reachable
+            free = [i for i in range(len(self.candidates)) if i not in self.used and reachable[i]]
+            index = int(self.choice_rng.choice(free))
+        else:
+            blocked = set(self.used) | set(np.flatnonzero(~self.reachable).tolist())
+            index = sphere_pick([s.T_base_optical for s in steps], self.candidates, self.target, blocked)
+        self.used.add(index)
+        return self.candidates[index], index
 
 
 def _observe_step(
@@ -295,19 +339,13 @@ def write_active_simulation(
         scene's target, or a candidate file
     """
     from ..sim.scenes import scene_target
-    from .candidates import CapSpec, cap_poses, load_candidates, pose_to_dict
+    from .candidates import pose_to_dict
 
     out_dir = Path(directory)
     if out_dir.exists() and not out_dir.is_dir():
         raise InputError(f"{out_dir}: exists and is not a directory")
     target = scene_target(scene)
-    if candidates.strip().startswith("cap:"):
-        spec = CapSpec.parse(candidates)
-        cands = cap_poses(spec, target)
-        cfg = planner or PlannerConfig(reach_m=spec.reach_m)
-    else:
-        cands = load_candidates(candidates)
-        cfg = planner or PlannerConfig()
+    cands, cfg = _simulation_candidates(candidates, target, planner)
     if n_views - 1 > len(cands):
         raise InputError(f"--active: got {n_views} views, but there are only {len(cands)} candidates (+ the first view)")
     run = run_loop(scene, camera, cands, n_views, strategy="nbv", target=target, noise=noise, rng=rng, planner=cfg)
@@ -316,22 +354,7 @@ def write_active_simulation(
     run.session.to_json(paths["session"])
     paths["truth"].write_text(json.dumps(scene.truth_dict(), indent=2) + "\n")
     scene.save(paths["scene"])
-    steps = []
-    for k, st in enumerate(run.steps):
-        e = evaluate_step(st.objects, scene)
-        steps.append(
-            {
-                "view": k,
-                "candidate": st.candidate,
-                "pose": pose_to_dict(st.T_base_optical),
-                "done_after": bool(st.plan.done) if st.plan is not None else None,
-                "gain_of_next": float(st.plan.gain) if st.plan is not None and k + 1 < len(run.steps) else None,
-                "objects": len(st.objects),
-                "mean_error_mm": float(np.mean(e["errors"]) * 1e3) if e["errors"] else None,
-                "recall": e["true_positives"] / e["n_truth"] if e["n_truth"] else None,
-                "ellipsoid95_mm": [float(x) for x in st.plan.ellipsoid_mm] if st.plan is not None else [],
-            }
-        )
+    steps = [_step_record(k, st, len(run.steps), scene) for k, st in enumerate(run.steps)]
     active = {"candidates": [pose_to_dict(T) for T in cands], "steps": steps}
     paths["active"].write_text(json.dumps(active, indent=2) + "\n")
     if figure:
@@ -342,3 +365,37 @@ def write_active_simulation(
             paths["figure"], dpi=110
         )
     return paths
+
+
+def _simulation_candidates(
+    candidates: str, target: NDArray[np.float64], planner: PlannerConfig | None
+) -> tuple[NDArray[np.float64], PlannerConfig]:
+    """The candidate poses, shape (N, 4, 4), of a ``cap:`` spec around ``target`` or of a file, and the planner's config.
+
+    Without ``planner``, the default config with the cap's reach (a file: no reach limit).
+    """
+    from .candidates import CapSpec, cap_poses, load_candidates
+
+    if candidates.strip().startswith("cap:"):
+        spec = CapSpec.parse(candidates)
+        return cap_poses(spec, target), planner or PlannerConfig(reach_m=spec.reach_m)
+    return load_candidates(candidates), planner or PlannerConfig()
+
+
+def _step_record(k: int, step: LoopStep, n_steps: int, scene: Scene) -> dict[str, Any]:
+    """One view's entry of ``active.json``: the candidate, pose, plan (done, gain of the next view, ellipsoids), errors."""
+    from .candidates import pose_to_dict
+
+    e = evaluate_step(step.objects, scene)
+    plan = step.plan
+    return {
+        "view": k,
+        "candidate": step.candidate,
+        "pose": pose_to_dict(step.T_base_optical),
+        "done_after": bool(plan.done) if plan is not None else None,
+        "gain_of_next": float(plan.gain) if plan is not None and k + 1 < n_steps else None,
+        "objects": len(step.objects),
+        "mean_error_mm": float(np.mean(e["errors"]) * 1e3) if e["errors"] else None,
+        "recall": e["true_positives"] / e["n_truth"] if e["n_truth"] else None,
+        "ellipsoid95_mm": [float(x) for x in plan.ellipsoid_mm] if plan is not None else [],
+    }
