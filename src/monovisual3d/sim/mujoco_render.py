@@ -277,14 +277,26 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
     """
     cfg = config or RenderConfig()
     check_renderable_camera(camera)
-    w, h = camera.width, camera.height
     root = ET.Element("mujoco", model=f"monovisual3d_{scene.name}")
     ET.SubElement(root, "compiler", angle="radian")
     # extent 1 makes znear/zfar absolute distances; the centre anchors the directional light's shadow map
     centre = scene.centres.mean(axis=0) if scene.fruits else np.zeros(3)
     ET.SubElement(root, "statistic", extent="1", center=_fmt(centre))
+    _add_visual(root, camera, cfg)
+    _add_assets(root, cfg)
+    world = ET.SubElement(root, "worldbody")
+    _add_light_and_ground(world, scene, cfg)
+    _add_fruits(world, scene)
+    _add_occluders(world, scene, cfg)
+    _add_camera(world, camera)
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode")
+
+
+def _add_visual(root: ET.Element, camera: Camera, cfg: RenderConfig) -> None:
+    """Offscreen buffer of the camera's size, anti-aliasing, tessellation, clipping, shadow map and headlight."""
     visual = ET.SubElement(root, "visual")
-    ET.SubElement(visual, "global", offwidth=str(w), offheight=str(h))
+    ET.SubElement(visual, "global", offwidth=str(camera.width), offheight=str(camera.height))
     ET.SubElement(
         visual,
         "quality",
@@ -297,8 +309,9 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
     ET.SubElement(visual, "map", znear=f"{cfg.near_m:.9g}", zfar=f"{cfg.far_m:.9g}", shadowclip="3")
     ET.SubElement(visual, "headlight", ambient="0.35 0.35 0.35", diffuse="0.35 0.35 0.35", specular="0 0 0")
 
-    _add_assets(root, cfg)
-    world = ET.SubElement(root, "worldbody")
+
+def _add_light_and_ground(world: ET.Element, scene: Scene, cfg: RenderConfig) -> None:
+    """The sun (a directional light, shadows if ``cfg.shadows``) and the ground plane below the scene (``cfg.ground``)."""
     ET.SubElement(
         world,
         "light",
@@ -313,8 +326,11 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
     if cfg.ground:
         ground_z = cfg.ground_z if cfg.ground_z is not None else scene_lowest_z(scene) - cfg.ground_margin
         ET.SubElement(world, "geom", name="ground", type="plane", size="0 0 0.05", pos=f"0 0 {ground_z:.9g}", material="ground")
-    _add_fruits(world, scene)
-    _add_occluders(world, scene, cfg)
+
+
+def _add_camera(world: ET.Element, camera: Camera) -> None:
+    """The camera ``camera`` on the mocap body ``camera_mount``, with the pinhole's focal lengths and principal point."""
+    w, h = camera.width, camera.height
     mount = ET.SubElement(world, "body", name="camera_mount", mocap="true")
     ET.SubElement(
         mount,
@@ -325,8 +341,6 @@ def mjcf_from_scene(scene: Scene, camera: Camera, config: RenderConfig | None = 
         focalpixel=_fmt([camera.fx, camera.fy]),
         principalpixel=_fmt([0.5 * w - camera.cx, 0.5 * h - camera.cy]),
     )
-    ET.indent(root)
-    return ET.tostring(root, encoding="unicode")
 
 
 def _add_assets(root: ET.Element, cfg: RenderConfig) -> None:
