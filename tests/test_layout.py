@@ -80,7 +80,6 @@ ALLOWED_LONG_FUNCTIONS = {
     "io/poses.py:interpolate_poses",
     "io/rosbag.py:read_bag",
     "io/yolo.py:image_detections_from_result",
-    "sim/photoreal.py:render_views",
     "sim/scenes.py:greenhouse_scene",
     "sim/scenes.py:random_scene",
     "sim/scenes.py:shapes_scene",

@@ -89,10 +89,7 @@ def render_views(
     1
     """
     Ts = check_poses(poses)
-    cfg = render_config or RenderConfig()
-    if cfg.ground and cfg.ground_z is None:
-        lowest = min(scene_lowest_z(scene), min(float(T[2, 3]) for T in Ts))
-        cfg = replace(cfg, ground_z=lowest - cfg.ground_margin)
+    cfg = _ground_below_cameras(render_config or RenderConfig(), scene, Ts)
     det_cfg = detector_config or ColourDetectorConfig()
     out = Path(output_dir) if output_dir is not None else None
     if out is not None:
@@ -109,26 +106,44 @@ def render_views(
             images.append(image)
             views.append(View(T_base_optical=T, detections=dets, image=name if out is not None else None))
             if out is not None:
-                boxes, pixels = boxes_from_label_image(image.labels, len(scene.fruits))
-                truth_boxes.append(
-                    {
-                        "image": name,
-                        "fruit": [
-                            {"index": k, "bbox_xyxy": None if np.isnan(b[0]) else b.tolist(), "pixels": int(p)}
-                            for k, (b, p) in enumerate(zip(boxes, pixels))
-                        ],
-                    }
-                )
-                _save_view_images(out, i, image, dets, boxes)
+                truth_boxes.append(_save_view(out, i, name, image, dets, len(scene.fruits)))
         xml = renderer.xml
     session = Session(camera=camera, views=tuple(views))
     if out is not None:
-        session.to_json(out / "session.json")
-        (out / "truth.json").write_text(json.dumps(scene.truth_dict(), indent=2) + "\n")
-        scene.save(out / "scene.json")
-        (out / "model.xml").write_text(xml + "\n")
-        (out / "boxes_truth.json").write_text(json.dumps({"views": truth_boxes}, indent=2) + "\n")
+        _write_files(out, session, scene, xml, truth_boxes)
     return session, images
+
+
+def _ground_below_cameras(cfg: RenderConfig, scene: Scene, Ts: list[NDArray[np.float64]]) -> RenderConfig:
+    """With ``ground_z`` unset, the ground ``ground_margin`` below both the scene and the lowest camera."""
+    if not cfg.ground or cfg.ground_z is not None:
+        return cfg
+    lowest = min(scene_lowest_z(scene), min(float(T[2, 3]) for T in Ts))
+    return replace(cfg, ground_z=lowest - cfg.ground_margin)
+
+
+def _save_view(
+    out: Path, index: int, name: str, image: RenderedView, detections: tuple[Detection, ...], n_fruit: int
+) -> dict[str, Any]:
+    """Write the view's images; returns its ``boxes_truth.json`` entry (box of each fruit's visible pixels and their count)."""
+    boxes, pixels = boxes_from_label_image(image.labels, n_fruit)
+    _save_view_images(out, index, image, detections, boxes)
+    return {
+        "image": name,
+        "fruit": [
+            {"index": k, "bbox_xyxy": None if np.isnan(b[0]) else b.tolist(), "pixels": int(p)}
+            for k, (b, p) in enumerate(zip(boxes, pixels))
+        ],
+    }
+
+
+def _write_files(out: Path, session: Session, scene: Scene, xml: str, truth_boxes: list[dict[str, Any]]) -> None:
+    """``session.json``, ``truth.json``, ``scene.json``, ``model.xml`` and ``boxes_truth.json`` (see the module docstring)."""
+    session.to_json(out / "session.json")
+    (out / "truth.json").write_text(json.dumps(scene.truth_dict(), indent=2) + "\n")
+    scene.save(out / "scene.json")
+    (out / "model.xml").write_text(xml + "\n")
+    (out / "boxes_truth.json").write_text(json.dumps({"views": truth_boxes}, indent=2) + "\n")
 
 
 def _save_view_images(
