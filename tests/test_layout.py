@@ -68,7 +68,6 @@ ALLOWED_LONG_FILES: set[str] = set()
 ALLOWED_LONG_FUNCTIONS = {
     "batch/inputs.py:find_sessions",
     "batch/run.py:run",
-    "bench/accuracy.py:conditions",
     "cli/io.py:import_cmd",
     "cli/sim.py:simulate",
     "engine/sparse.py:refine",
