@@ -52,6 +52,10 @@ class BayesConfig:
     radius_min : float, metres, smallest object radius
     radius_max : float, metres, largest object radius
     n_radii : int, log-spaced radius bins between radius_min and radius_max
+    elongations : tuple or str, ratios (>= 1) of the semi-axis along ``up`` to the one across it of the search's
+        hypotheses, e.g. "1,1.6,2.5": each radius bin is also scored as upright spheroids of these elongations
+        (bins longer than radius_max along ``up`` are left out), so a tall box (bottle, container, hanging
+        cucumber) is explained from the start; "1" searches spheres only
     reach : float, metres, manipulator reach R (a cube of side 2R in front of the first view) when the session has no workspace
     accept : float, nats, minimum refined score of a reported object; raise it (e.g. 12) when the detector gives
         false positives, at the cost of missing occluded fruit
@@ -93,6 +97,7 @@ class BayesConfig:
     radius_min: float = 0.01
     radius_max: float = 0.08
     n_radii: int = 16
+    elongations: tuple[float, ...] | str = (1.0, 1.6, 2.5)
     reach: float = DEFAULT_REACH_M
     accept: float = 8.0
     min_views: int = 2
@@ -156,7 +161,19 @@ class BayesConfig:
         object.__setattr__(self, "max_memory", parse_bytes(self.max_memory))
         self.sensor  # validates the sensor fields  # noqa: B018
 
+    def _check_elongations(self) -> None:
+        value = self.elongations
+        items: Any = value.split(",") if isinstance(value, str) else value
+        try:
+            q = tuple(float(v) for v in items)
+        except (TypeError, ValueError):
+            raise InputError(f"elongations: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,1.6,2.5") from None
+        if not q or not all(math.isfinite(v) and v >= 1 for v in q) or any(isinstance(v, bool) for v in items):
+            raise InputError(f"elongations: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,1.6,2.5")
+        object.__setattr__(self, "elongations", tuple(sorted(set(q))))
+
     def _check_shape_fields(self) -> None:
+        self._check_elongations()
         if self.shape not in SHAPES:
             raise InputError(f"shape: got {self.shape!r}, expected one of {list(SHAPES)}")
         import numpy as np
@@ -219,6 +236,20 @@ class BayesConfig:
         if self.n_radii == 1:
             return np.array([np.sqrt(self.radius_min * self.radius_max)])
         return np.geomspace(self.radius_min, self.radius_max, self.n_radii)
+
+    @property
+    def hypothesis_bins(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The search's shape bins: semi-axes across ``up`` and along it, each shape (K,), metres.
+
+        Every radius bin with every elongation, elongation-major (the radius bins of one elongation are
+        neighbours, as :attr:`radii`), leaving out elongated bins longer than ``radius_max`` along ``up``.
+        """
+        import numpy as np
+
+        r = self.radii
+        across = [r[(q * r <= self.radius_max * (1 + 1e-9)) | (q == 1.0)] for q in self.elongations]
+        along = [a * q for a, q in zip(across, self.elongations)]
+        return np.concatenate(across), np.concatenate(along)
 
     def to_dict(self) -> dict[str, Any]:
         """The options as plain JSON values."""
