@@ -209,6 +209,42 @@ def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
     return mask
 
 
+def _plausible_shapes(
+    total: NDArray[np.float64], radii: NDArray[np.float64], semi_up: NDArray[np.float64], slack: float
+) -> NDArray[np.bool_]:
+    """Which bins of each cell stay in the search: every sphere bin, and the elongated bins (upright spheroids)
+    scoring at least the cell's best sphere bin minus ``slack`` nats, shape (N, K).
+
+    A round object's box is explained better by a sphere at every level, so its elongated bins stop being
+    refined early (they would only cost time); a tall object's are better than any sphere and stay.
+    """
+    sphere = semi_up == radii
+    if sphere.all() or not sphere.any():
+        return np.ones(total.shape, dtype=bool)
+    best_sphere = total[:, sphere].max(axis=1, keepdims=True)
+    return sphere[None, :] | (total >= best_sphere - slack)
+
+
+def _score_deferred(
+    problem: Problem, centres: NDArray[np.float64], cell: float, scores: Scores, sphere_bins: NDArray[np.bool_], floor: float
+) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16], int]:
+    """The first level's elongated bins, scored in the cells where a sphere bin reaches ``floor``; -inf elsewhere.
+
+    Returns the level's merged scores and the number of hypotheses scored.
+    """
+    total, n_assoc, assoc = (a.copy() for a in scores)
+    rows = np.flatnonzero((total[:, sphere_bins] >= floor).any(axis=1))
+    if len(rows) == 0:
+        return total, n_assoc, assoc, 0
+    radii, semi_up = problem.config.hypothesis_bins
+    mask = np.broadcast_to(~sphere_bins, (len(rows), len(radii)))
+    t, n, a = score_hypotheses(problem, frozenset(), centres[rows], radii, cell, np.ascontiguousarray(mask), semi_up)
+    cols = np.flatnonzero(~sphere_bins)
+    total[np.ix_(rows, cols)], n_assoc[np.ix_(rows, cols)] = t[:, cols], n[:, cols]
+    assoc[:, rows[:, None], cols[None, :]] = a[:, :, cols]
+    return total, n_assoc, assoc, int(mask.sum())
+
+
 def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[NDArray[np.float64], float, bool]:
     """Levels coarser than ``search_start`` (a workspace too large for it): cone counts only, no scoring.
 
@@ -240,7 +276,11 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
     R, t = level.T_base_grid[:3, :3], level.T_base_grid[:3, 3]
     cap = hypothesis_cap(problem)
     centres_grid, cell, capped = _cone_levels(problem, level, max(1, cap // len(radii)))
-    mask = np.ones((len(centres_grid), len(radii)), dtype=bool)
+    sphere_bins = semi_up == radii
+    # the first scored level scores the elongated bins only in the cells its spheres keep: its cell blur is so
+    # large that a sphere explains an elongated box nearly as well (the cells of tall objects stay)
+    deferred = bool(sphere_bins.any() and not sphere_bins.all())
+    mask = np.ones((len(centres_grid), len(radii)), dtype=bool) & (sphere_bins if deferred else True)
     floor = cfg.accept - cfg.prune_slack
     n_scored, counted = 0, True  # the cells from _cone_levels are already cone-checked at this size
     while True:
@@ -254,8 +294,11 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
         centres_grid, centres, mask = centres_grid[rows], centres[rows], mask[rows]
         n_scored += int(mask.sum())
         total, n_assoc, assoc = scores
+        if deferred:
+            total, n_assoc, assoc, n_more = _score_deferred(problem, centres, cell, scores, sphere_bins, floor)
+            mask, n_scored, deferred = mask | ~sphere_bins, n_scored + n_more, False
         # scores only fall as boxes are taken, so a hypothesis below the floor never matters again
-        mask = (total >= floor) & (n_assoc >= cfg.min_views)
+        mask = (total >= floor) & (n_assoc >= cfg.min_views) & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack)
         good = mask.any(axis=1)
         centres_grid, centres, mask = centres_grid[good], centres[good], mask[good]
         scores = (total[good], n_assoc[good], assoc[:, good])
