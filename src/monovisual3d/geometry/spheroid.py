@@ -63,7 +63,9 @@ def predict_spheroid_boxes(
         if camera.distortion_model != "none":
             xc = np.broadcast_to(X / Z, x1.shape)
             yc = np.broadcast_to(Y / Z, y1.shape)
-            pts = np.stack([np.stack([x1, yc], -1), np.stack([x2, yc], -1), np.stack([xc, y1], -1), np.stack([xc, y2], -1)], axis=-2)
+            pts = np.stack(
+                [np.stack([x1, yc], -1), np.stack([x2, yc], -1), np.stack([xc, y1], -1), np.stack([xc, y2], -1)], axis=-2
+            )
             dist = distort_normalised(pts, camera.distortion_model, camera.distortion_coefficients)
             x1, x2, y1, y2 = dist[..., 0, 0], dist[..., 1, 0], dist[..., 2, 1], dist[..., 3, 1]
     boxes = np.stack(

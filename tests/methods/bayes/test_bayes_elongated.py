@@ -17,9 +17,9 @@ from monovisual3d.geometry.spheroid import predict_spheroid_boxes
 from monovisual3d.methods.bayes import BayesConfig, run
 from monovisual3d.methods.bayes._kernels import HAVE_NUMBA, score_hypotheses
 from monovisual3d.methods.bayes.likelihood import SensorModel, view_scores
+from monovisual3d.session import Workspace
 from monovisual3d.sim.noise import NoiseModel
 from monovisual3d.sim.scene import EllipsoidFruit, Scene
-from monovisual3d.session import Workspace
 from monovisual3d.sim.simulate import simulate
 
 CAM = Camera.from_hfov(1280, 720, 69.0)
@@ -43,7 +43,9 @@ def three_views(rng, distance=0.6):
 
 
 def containers(centres):
-    return Scene(tuple(EllipsoidFruit.from_ellipsoid(Ellipsoid.from_rotation(c, CONTAINER, rotation_upright(0.3))) for c in centres))
+    return Scene(
+        tuple(EllipsoidFruit.from_ellipsoid(Ellipsoid.from_rotation(c, CONTAINER, rotation_upright(0.3))) for c in centres)
+    )
 
 
 def localise(scene, poses, rng):
@@ -68,7 +70,9 @@ def test_spheroid_boxes_are_the_exact_ellipsoid_boxes_and_spheres_the_sphere_mod
     spheres, sphere_visible = predict_sphere_boxes(CAM, p, np.array([0.03]))
     assert_allclose(boxes[:, 1], spheres[:, 0], rtol=0, atol=0)
     assert np.array_equal(visible[:, 1], sphere_visible[:, 0])
-    behind, vis = predict_spheroid_boxes(CAM, np.array([[0.0, 0.0, 0.03]]), [0.02], [0.05], [0.0, 0.0, 1.0])  # reaches behind the camera
+    behind, vis = predict_spheroid_boxes(
+        CAM, np.array([[0.0, 0.0, 0.03]]), [0.02], [0.05], [0.0, 0.0, 1.0]
+    )  # reaches behind the camera
     assert np.all(np.isnan(behind)) and not vis.any()
 
 

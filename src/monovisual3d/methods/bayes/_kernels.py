@@ -267,7 +267,9 @@ def _box_residuals_kernel(
                 for e in range(4):
                     out[p, 4 * m + e] = 1e3
                 continue
-            px1, py1, px2, py2 = _spheroid_box_px(X, Y, Z, r, b, up_opt[m, 0], up_opt[m, 1], up_opt[m, 2], fx, fy, cx, cy, code, coeffs)
+            px1, py1, px2, py2 = _spheroid_box_px(
+                X, Y, Z, r, b, up_opt[m, 0], up_opt[m, 1], up_opt[m, 2], fx, fy, cx, cy, code, coeffs
+            )
             sx = alpha * (px2 - px1) + sigma0
             sy = alpha * (py2 - py1) + sigma0
             if extra2[m] != 0.0:
