@@ -59,8 +59,11 @@ class BayesConfig:
         hypotheses, e.g. "1,2,4": every second radius bin is also scored as upright spheroids of these elongations
         (bins longer along ``up`` than the largest semi-axis of size_range are left out), so a tall box (bottle, container, hanging
         cucumber) is explained from the start; "1" searches spheres only
-    elongation_slack : float, nats: at each search level an elongated bin is refined further only where it scores at
-        least the cell's best sphere bin minus this (round objects drop their elongated bins early)
+    elongation_cost : float, nats: what an elongated hypothesis pays against a sphere (the Occam factor of its extra
+        shape parameter), so chance alignments of false-positive boxes do not pass as elongated objects
+    elongation_slack : float, nats: at each search level an elongated bin is refined further only where its box
+        evidence (before elongation_cost) is at least the cell's best sphere bin's minus this (round objects drop
+        their elongated bins early)
     reach : float, metres, manipulator reach R (a cube of side 2R in front of the first view) when the session has no workspace
     accept : float, nats, minimum refined score of a reported object; raise it (e.g. 12) when the detector gives
         false positives, at the cost of missing occluded fruit
@@ -103,6 +106,7 @@ class BayesConfig:
     radius_max: float = 0.08
     n_radii: int = 16
     elongations: tuple[float, ...] | str = (1.0, 2.0, 4.0)
+    elongation_cost: float = 2.0
     elongation_slack: float = 0.0
     reach: float = DEFAULT_REACH_M
     accept: float = 8.0
@@ -150,7 +154,7 @@ class BayesConfig:
                 raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
         if not self.radius_min < self.radius_max:
             raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
-        for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin", "elongation_slack"):
+        for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin", "elongation_slack", "elongation_cost"):
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")

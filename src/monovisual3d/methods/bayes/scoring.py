@@ -55,7 +55,8 @@ def score_hypotheses(
 
     Returns
     -------
-    total, n_assoc, assoc : see :data:`Scores`
+    total, n_assoc, assoc : see :data:`Scores`; an elongated bin's total is its log-likelihood ratio less
+        ``elongation_cost`` (:func:`shape_cost`)
     """
     blur = cell * np.sqrt(3) / 2
     cfg, cam = problem.config, problem.camera
@@ -64,7 +65,7 @@ def score_hypotheses(
         from ._kernels import score_hypotheses as fused
 
         # the pose's position uncertainty scales with 1/depth like the cell blur; its rotation part is constant
-        return fused(
+        scores = fused(
             cam,
             [vd.T_optical_base for vd in problem.views],
             [vd.boxes for vd in problem.views],
@@ -78,7 +79,21 @@ def score_hypotheses(
             semi_up,
             cfg.up_vector,
         )
-    return score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask, semi_up)
+    else:
+        scores = score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask, semi_up)
+    if semi_up is not None and np.any(semi_up != radii):
+        scores[0][:, semi_up != radii] -= cfg.elongation_cost
+    return scores
+
+
+def shape_cost(problem: Problem, semi_up: float | None) -> float:
+    """Nats an upright-spheroid hypothesis pays against a sphere: ``elongation_cost`` (0 for a sphere).
+
+    The Occam factor of the extra shape parameter: the prior spreads over the elongations searched, the
+    boxes pin it to a fraction of that range, and without the cost chance alignments of false-positive
+    boxes would find an elongated fit more often than a sphere.
+    """
+    return 0.0 if semi_up is None else float(problem.config.elongation_cost)
 
 
 def score_hypotheses_numpy(
@@ -254,7 +269,7 @@ def fit_fixed(
             else -np.inf
         )
         score += max(float(s), problem.model.miss_term)
-    return _object(problem, refined, score, assoc, len(obs))
+    return _object(problem, refined, score - shape_cost(problem, refined.semi_up), assoc, len(obs))
 
 
 def associations_list(problem: Problem, obj: DetectedObject) -> list[int]:

@@ -213,7 +213,8 @@ def _plausible_shapes(
     total: NDArray[np.float64], radii: NDArray[np.float64], semi_up: NDArray[np.float64], slack: float
 ) -> NDArray[np.bool_]:
     """Which bins of each cell stay in the search: every sphere bin, and the elongated bins (upright spheroids)
-    scoring at least the cell's best sphere bin minus ``slack`` nats, shape (N, K).
+    scoring at least the cell's best sphere bin minus ``slack`` nats, shape (N, K) (the search passes
+    ``elongation_slack + elongation_cost``: the box evidence is compared, not the prior).
 
     A round object's box is explained better by a sphere at every level, so its elongated bins stop being
     refined early (they would only cost time); a tall object's are better than any sphere and stay.
@@ -298,7 +299,11 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
             total, n_assoc, assoc, n_more = _score_deferred(problem, centres, cell, scores, sphere_bins, floor)
             mask, n_scored, deferred = mask | ~sphere_bins, n_scored + n_more, False
         # scores only fall as boxes are taken, so a hypothesis below the floor never matters again
-        mask = (total >= floor) & (n_assoc >= cfg.min_views) & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack)
+        mask = (
+            (total >= floor)
+            & (n_assoc >= cfg.min_views)
+            & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack + cfg.elongation_cost)
+        )
         good = mask.any(axis=1)
         centres_grid, centres, mask = centres_grid[good], centres[good], mask[good]
         scores = (total[good], n_assoc[good], assoc[:, good])
