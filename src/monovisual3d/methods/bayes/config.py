@@ -56,7 +56,7 @@ class BayesConfig:
     radius_max : float, metres, largest object radius
     n_radii : int, log-spaced radius bins between radius_min and radius_max
     elongations : tuple or str, ratios (>= 1) of the semi-axis along ``up`` to the one across it of the search's
-        hypotheses, e.g. "1,2,4": every second radius bin is also scored as upright spheroids of these elongations
+        hypotheses, e.g. "1,2.5": every second radius bin is also scored as upright spheroids of these elongations
         (bins longer along ``up`` than the largest semi-axis of size_range are left out), so a tall box (bottle, container, hanging
         cucumber) is explained from the start; "1" searches spheres only
     elongation_cost : float, nats: what an elongated hypothesis pays against a sphere (the Occam factor of its extra
@@ -105,7 +105,7 @@ class BayesConfig:
     radius_min: float = 0.01
     radius_max: float = 0.08
     n_radii: int = 16
-    elongations: tuple[float, ...] | str = (1.0, 2.0, 4.0)
+    elongations: tuple[float, ...] | str = (1.0, 2.5)
     elongation_cost: float = 2.0
     elongation_slack: float = 0.0
     reach: float = DEFAULT_REACH_M
