@@ -1,6 +1,7 @@
 """The one home of projection geometry: where objects (spheres, ellipsoids) appear in images.
 
 - :mod:`.sphere`: the sphere's exact box, the ``bayes`` likelihood's box model and the algebraic pinhole box;
+- :mod:`.spheroid`: the box of an upright spheroid in closed form (the ``bayes`` search's elongated hypotheses);
 - :mod:`.ellipsoid`: the :class:`Ellipsoid`, its dual quadric, the projected conic, closed-form and
   contour-sampled boxes, volume;
 - :mod:`.bounds`: the Cramer-Rao bound of the box-edge model for ellipsoids;
@@ -43,6 +44,7 @@ _LAZY = {
     "predict_sphere_boxes": "sphere",
     "sphere_bbox": "sphere",
     "sphere_bbox_optical": "sphere",
+    "predict_spheroid_boxes": "spheroid",
 }
 
 __all__ = sorted(_LAZY)
