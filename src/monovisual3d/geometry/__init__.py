@@ -1,6 +1,7 @@
 """The one home of projection geometry: where objects (spheres, ellipsoids) appear in images.
 
 - :mod:`.sphere`: the sphere's exact box, the ``bayes`` likelihood's box model and the algebraic pinhole box;
+- :mod:`.spheroid`: the box of an upright spheroid in closed form (the ``bayes`` search's elongated hypotheses);
 - :mod:`.ellipsoid`: the :class:`Ellipsoid`, closed-form and contour-sampled boxes, silhouette, volume;
 - :mod:`.quadric`: the dual quadric, the projected dual conic and the box of a conic;
 - :mod:`.orientation`: the "upright" rotation and quaternions;
@@ -44,6 +45,7 @@ _LAZY = {
     "predict_sphere_boxes": "sphere",
     "sphere_bbox": "sphere",
     "sphere_bbox_optical": "sphere",
+    "predict_spheroid_boxes": "spheroid",
 }
 
 __all__ = sorted(_LAZY)

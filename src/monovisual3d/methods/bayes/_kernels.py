@@ -58,6 +58,46 @@ def _sphere_box_px(X, Y, Z, r, fx, fy, cx, cy, code, coeffs):  # pragma: no cove
     return fx * nx1 + cx, fy * ny1 + cy, fx * nx2 + cx, fy * ny2 + cy
 
 
+def _spheroid_box_px(X, Y, Z, a, b, ux, uy, uz, fx, fy, cx, cy, code, coeffs):  # pragma: no cover - jitted
+    """Pixel box of an upright spheroid (semi-axis ``a`` across the unit axis ``u``, ``b`` along it) at optical
+    (X, Y, Z), for ``Z > 0`` and ``Z^2 > a^2 + (b^2 - a^2) uz^2``: as ``geometry.spheroid.predict_spheroid_boxes``.
+
+    The tangent lines of the projected dual conic ``C* = c c^T - A``; ``a == b`` uses :func:`_sphere_box_px`.
+    """
+    a2 = a * a
+    d = b * b - a2
+    if d == 0.0:
+        return _sphere_box_px(X, Y, Z, a, fx, fy, cx, cy, code, coeffs)
+    c11 = X * X - (a2 + d * ux * ux)
+    c22 = Y * Y - (a2 + d * uy * uy)
+    c33 = Z * Z - (a2 + d * uz * uz)
+    c13 = X * Z - d * ux * uz
+    c23 = Y * Z - d * uy * uz
+    qx = c13 * c13 - c11 * c33
+    qy = c23 * c23 - c22 * c33
+    sx_ = math.sqrt(qx) if qx > 0.0 else 0.0
+    sy_ = math.sqrt(qy) if qy > 0.0 else 0.0
+    nx1 = (c13 - sx_) / c33
+    nx2 = (c13 + sx_) / c33
+    ny1 = (c23 - sy_) / c33
+    ny2 = (c23 + sy_) / c33
+    if code != 0:
+        tx = X / Z
+        ty = Y / Z
+        nx1, _ = _distort_xy(nx1, ty, code, coeffs)
+        nx2, _ = _distort_xy(nx2, ty, code, coeffs)
+        _, ny1 = _distort_xy(tx, ny1, code, coeffs)
+        _, ny2 = _distort_xy(tx, ny2, code, coeffs)
+    return fx * nx1 + cx, fy * ny1 + cy, fx * nx2 + cx, fy * ny2 + cy
+
+
+def _in_front(Z, a, b, uz):  # pragma: no cover - jitted
+    """Whether the spheroid lies entirely in front of the camera (``Z > r`` for a sphere)."""
+    if a == b:
+        return Z > a
+    return Z > 0.0 and Z * Z > a * a + (b * b - a * a) * uz * uz
+
+
 def _edge_ll(d: float, sigma: float, in_floor: float, out_floor: float) -> float:  # pragma: no cover - jitted
     e = d / sigma
     ll = -0.5 * e * e
@@ -69,6 +109,8 @@ def _edge_ll(d: float, sigma: float, in_floor: float, out_floor: float) -> float
 def _score_kernel(
     centres,
     radii,
+    semi_up,
+    up_opt,
     mask,
     T_ob,
     boxes,
@@ -117,9 +159,12 @@ def _score_kernel(
                 if not mask[n, kk]:
                     continue
                 r = radii[kk]
-                if not (Z > r):
+                b = semi_up[kk]
+                if not _in_front(Z, r, b, up_opt[v, 2]):
                     continue
-                px1, py1, px2, py2 = _sphere_box_px(X, Y, Z, r, fx, fy, cx, cy, code, coeffs)
+                px1, py1, px2, py2 = _spheroid_box_px(
+                    X, Y, Z, r, b, up_opt[v, 0], up_opt[v, 1], up_opt[v, 2], fx, fy, cx, cy, code, coeffs
+                )
                 if not (px2 > 0 and px1 < W and py2 > 0 and py1 < H):
                     continue
                 sx = alpha * (px2 - px1) + sigma0
@@ -196,21 +241,26 @@ def _cone_kernel(centres, T_ob, boxes, nboxes, cam, code, coeffs, half_diagonal,
         counts[n] = c
 
 
-def _box_residuals_kernel(R, t, obs, censored, extra2, centres, radii, cam, code, coeffs, alpha, sigma0, out):  # pragma: no cover
+def _box_residuals_kernel(
+    R, t, obs, censored, extra2, centres, radii, semi_up, up_opt, cam, code, coeffs, alpha, sigma0, out
+):  # pragma: no cover
     P = centres.shape[0]
     M = R.shape[0]
     fx, fy, cx, cy = cam[0], cam[1], cam[2], cam[3]
     for p in range(P):
         r = radii[p]
+        b = semi_up[p]
         for m in range(M):
             X = R[m, 0, 0] * centres[p, 0] + R[m, 0, 1] * centres[p, 1] + R[m, 0, 2] * centres[p, 2] + t[m, 0]
             Y = R[m, 1, 0] * centres[p, 0] + R[m, 1, 1] * centres[p, 1] + R[m, 1, 2] * centres[p, 2] + t[m, 1]
             Z = R[m, 2, 0] * centres[p, 0] + R[m, 2, 1] * centres[p, 1] + R[m, 2, 2] * centres[p, 2] + t[m, 2]
-            if not (Z > r):
+            if not _in_front(Z, r, b, up_opt[m, 2]):
                 for e in range(4):
                     out[p, 4 * m + e] = 1e3
                 continue
-            px1, py1, px2, py2 = _sphere_box_px(X, Y, Z, r, fx, fy, cx, cy, code, coeffs)
+            px1, py1, px2, py2 = _spheroid_box_px(
+                X, Y, Z, r, b, up_opt[m, 0], up_opt[m, 1], up_opt[m, 2], fx, fy, cx, cy, code, coeffs
+            )
             sx = alpha * (px2 - px1) + sigma0
             sy = alpha * (py2 - py1) + sigma0
             if extra2[m] != 0.0:
@@ -252,8 +302,13 @@ def box_residuals_fused(
     centres_base: NDArray[np.float64],
     radii: NDArray[np.float64],
     model: SensorModel,
+    semi_up: NDArray[np.float64] | None = None,
+    up_optical: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Normalised box-edge residuals of M observations for P spheres, shape (P, 4 M), in one compiled loop.
+
+    With ``semi_up`` (P,) metres and ``up_optical`` (M, 3) (the symmetry axis in each observation's optical
+    frame), the objects are upright spheroids of semi-axes ``radii`` across and ``semi_up`` along the axis.
 
     The compiled twin of the numpy ``_BoxResiduals.batch_numpy`` of :mod:`.refine` (the reference, tested
     against this): ``R_optical_base`` (M, 3, 3), ``t_optical_base`` (M, 3), ``bbox_xyxy`` (M, 4) pixels,
@@ -262,6 +317,8 @@ def box_residuals_fused(
     """
     cam, code, coeffs = camera_arrays(camera)
     out = np.empty((len(radii), 4 * len(bbox_xyxy)))
+    semi_up = radii if semi_up is None else semi_up
+    up_optical = np.zeros((len(bbox_xyxy), 3)) if up_optical is None else up_optical
     _box_residuals_kernel(
         np.ascontiguousarray(R_optical_base, dtype=np.float64),
         np.ascontiguousarray(t_optical_base, dtype=np.float64),
@@ -270,6 +327,8 @@ def box_residuals_fused(
         np.ascontiguousarray(extra_sigma2_px2, dtype=np.float64),
         np.ascontiguousarray(centres_base, dtype=np.float64),
         np.ascontiguousarray(radii, dtype=np.float64),
+        np.ascontiguousarray(semi_up, dtype=np.float64),
+        np.ascontiguousarray(up_optical, dtype=np.float64),
         cam,
         code,
         coeffs,
@@ -311,6 +370,8 @@ def cone_counts_fused(
 _distort_xy = numba.njit(cache=True, inline="always")(_distort_xy)
 _edge_ll = numba.njit(cache=True, inline="always")(_edge_ll)
 _sphere_box_px = numba.njit(cache=True, inline="always")(_sphere_box_px)
+_spheroid_box_px = numba.njit(cache=True, inline="always")(_spheroid_box_px)
+_in_front = numba.njit(cache=True, inline="always")(_in_front)
 _box_residuals_kernel = numba.njit(cache=True)(_box_residuals_kernel)
 _score_kernel = numba.njit(cache=True, parallel=True, fastmath=True)(_score_kernel)
 _cone_kernel = numba.njit(cache=True, parallel=True)(_cone_kernel)
@@ -370,8 +431,13 @@ def score_hypotheses(
     blur_half_diagonal: float,
     extra_const_px: float = 0.0,
     mask: NDArray[np.bool_] | None = None,
+    semi_up: NDArray[np.float64] | None = None,
+    up_base: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
     """Score every (centre, radius) hypothesis against all views.
+
+    With ``semi_up`` (K,) metres and the unit axis ``up_base`` (3,), base frame, bin ``k`` is an upright
+    spheroid with semi-axes ``radii[k]`` across and ``semi_up[k]`` along the axis (a sphere where they are equal).
 
     The edge noise of a hypothesis at depth ``Z`` in a view gets
     ``f * blur_half_diagonal / Z`` and ``extra_const_px`` (pixels) added in
@@ -399,10 +465,15 @@ def score_hypotheses(
         mask = np.ones(total.shape, dtype=np.bool_)
     elif mask.shape != total.shape:
         raise ValueError(f"mask: shape {mask.shape}, expected {total.shape} (centres, radii)")
+    semi_up = radii if semi_up is None else semi_up
+    up = np.zeros(3) if up_base is None else np.asarray(up_base, dtype=float)
+    up_opt = np.ascontiguousarray(T[:, :, :3] @ up)
     with kernel_threads(int(NS_PER_HYPOTHESIS_BOX * total.size * int(nb.sum()))):
         _score_kernel(
             np.ascontiguousarray(centres_base, dtype=np.float64),
             np.ascontiguousarray(radii, dtype=np.float64),
+            np.ascontiguousarray(semi_up, dtype=np.float64),
+            up_opt,
             np.ascontiguousarray(mask, dtype=np.bool_),
             T,
             B,

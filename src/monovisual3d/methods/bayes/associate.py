@@ -15,17 +15,19 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import NDArray
 
-from ...geometry.sphere import predict_sphere_boxes
+from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
 from .problem import Problem, Taken
-from .scoring import associations_list, boxes_of, fit_fixed, refine_and_check
+from .scoring import associations_list, boxes_of, fit_fixed, refine_and_check, semi_up_of
 from .search import Hypotheses
 
 
 def _predicted_box(problem: Problem, v: int, o: DetectedObject) -> NDArray[np.float64]:
     T = problem.views[v].T_optical_base
     p_opt = T[:3, :3] @ o.position + T[:3, 3]
-    return predict_sphere_boxes(problem.camera, p_opt[None, :], np.array([o.radius]))[0][0, 0]
+    b = semi_up_of(o)
+    up = T[:3, :3] @ problem.config.up_vector
+    return predict_spheroid_boxes(problem.camera, p_opt[None, :], [float(o.radius)], [b or float(o.radius)], up)[0][0, 0]
 
 
 def _overlap(a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
@@ -36,8 +38,8 @@ def _try_swap(problem: Problem, v: int, a: DetectedObject, b: DetectedObject) ->
     """``a`` and ``b`` refit with their boxes in view ``v`` swapped, if their summed score grows by more than 1 nat."""
     assoc_a, assoc_b = associations_list(problem, a), associations_list(problem, b)
     assoc_a[v], assoc_b[v] = assoc_b[v], assoc_a[v]
-    new_a = fit_fixed(problem, a.position, float(a.radius), assoc_a)  # type: ignore[arg-type]
-    new_b = fit_fixed(problem, b.position, float(b.radius), assoc_b)  # type: ignore[arg-type]
+    new_a = fit_fixed(problem, a.position, float(a.radius), assoc_a, semi_up_of(a))  # type: ignore[arg-type]
+    new_b = fit_fixed(problem, b.position, float(b.radius), assoc_b, semi_up_of(b))  # type: ignore[arg-type]
     if new_a is None or new_b is None or new_a.score + new_b.score <= a.score + b.score + 1.0:
         return None
     return new_a, new_b
@@ -84,19 +86,19 @@ def _steal_candidates(problem: Problem, hyp: Hypotheses, taken: Taken) -> NDArra
 
 def _try_steal(
     problem: Problem, objects: list[DetectedObject], taken: Taken, holder: dict[tuple[int, int], int], centre: NDArray[np.float64],
-    radius: float, wanted: list[int],
+    radius: float, wanted: list[int], semi_up: float | None = None,
 ) -> tuple[DetectedObject, dict[int, DetectedObject]] | None:  # fmt: skip
     """The candidate refined with the boxes it wants (held ones released), and the holders refit without them."""
     cfg = problem.config
     stolen = {(v, j) for v, j in enumerate(wanted) if j >= 0 and (v, j) in holder}
-    new = refine_and_check(problem, taken - stolen, centre, radius, wanted)
+    new = refine_and_check(problem, taken - stolen, centre, radius, wanted, semi_up)
     if new is None:
         return None
     mine = boxes_of(problem, new)
     losers: dict[int, DetectedObject] = {}
     for i in sorted({holder[b] for b in mine if b in holder}):
         keep = [-1 if (v, j) in mine else j for v, j in enumerate(associations_list(problem, objects[i]))]
-        refit = fit_fixed(problem, objects[i].position, float(objects[i].radius), keep)  # type: ignore[arg-type]
+        refit = fit_fixed(problem, objects[i].position, float(objects[i].radius), keep, semi_up_of(objects[i]))  # type: ignore[arg-type]
         if refit is None or refit.score < cfg.accept:
             return None
         losers[i] = refit
@@ -136,7 +138,8 @@ def steal_pass(
             break
         c, k = np.unravel_index(int(np.argmax(sc)), sc.shape)
         tried |= np.linalg.norm(centres - centres[c], axis=1) <= max(2 * hyp.cell, radii[k])
-        move = _try_steal(problem, objects, taken, holder, centres[c], float(radii[k]), [int(a) for a in assoc0[:, c, k]])
+        wanted = [int(a) for a in assoc0[:, c, k]]
+        move = _try_steal(problem, objects, taken, holder, centres[c], float(radii[k]), wanted, hyp.bin_semi_up(int(k)))
         if move is None:
             continue
         new, losers = move

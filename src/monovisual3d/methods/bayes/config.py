@@ -17,6 +17,9 @@ if TYPE_CHECKING:
 
 #: Object models of ``BayesConfig.shape``.
 SHAPES = ("auto", "sphere", "spheroid", "ellipsoid")
+#: Elongated search bins use every this-many-th radius bin: their coarser size steps (~30 % with the default
+#: bins) cost a fraction of a nat per edge, the refinement fixes the size, and the search costs less.
+ELONGATED_RADIUS_STRIDE = 2
 #: Compute backends of the ``bayes`` method: the fused numba kernels (default) and the numpy reference.
 BACKENDS = ("numba", "numpy")
 
@@ -52,6 +55,15 @@ class BayesConfig:
     radius_min : float, metres, smallest object radius
     radius_max : float, metres, largest object radius
     n_radii : int, log-spaced radius bins between radius_min and radius_max
+    elongations : tuple or str, ratios (>= 1) of the semi-axis along ``up`` to the one across it of the search's
+        hypotheses, e.g. "1,2.5": every second radius bin is also scored as upright spheroids of these elongations
+        (bins longer along ``up`` than the largest semi-axis of size_range are left out), so a tall box (bottle, container, hanging
+        cucumber) is explained from the start; "1" searches spheres only
+    elongation_cost : float, nats: what an elongated hypothesis pays against a sphere (the Occam factor of its extra
+        shape parameter), so chance alignments of false-positive boxes do not pass as elongated objects
+    elongation_slack : float, nats: at each search level an elongated bin is refined further only where its box
+        evidence (before elongation_cost) is at least the cell's best sphere bin's minus this (round objects drop
+        their elongated bins early)
     reach : float, metres, manipulator reach R (a cube of side 2R in front of the first view) when the session has no workspace
     accept : float, nats, minimum refined score of a reported object; raise it (e.g. 12) when the detector gives
         false positives, at the cost of missing occluded fruit
@@ -93,6 +105,9 @@ class BayesConfig:
     radius_min: float = 0.01
     radius_max: float = 0.08
     n_radii: int = 16
+    elongations: tuple[float, ...] | str = (1.0, 2.5)
+    elongation_cost: float = 2.0
+    elongation_slack: float = 0.0
     reach: float = DEFAULT_REACH_M
     accept: float = 8.0
     min_views: int = 2
@@ -139,7 +154,7 @@ class BayesConfig:
                 raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
         if not self.radius_min < self.radius_max:
             raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
-        for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin"):
+        for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin", "elongation_slack", "elongation_cost"):
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
@@ -155,7 +170,19 @@ class BayesConfig:
         check_shared_options(self)
         self.sensor  # validates the sensor fields  # noqa: B018
 
+    def _check_elongations(self) -> None:
+        value = self.elongations
+        items: Any = value.split(",") if isinstance(value, str) else value
+        try:
+            q = tuple(float(v) for v in items)
+        except (TypeError, ValueError):
+            raise InputError(f"elongations: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,2,4") from None
+        if not q or not all(math.isfinite(v) and v >= 1 for v in q) or any(isinstance(v, bool) for v in items):
+            raise InputError(f"elongations: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,2,4")
+        object.__setattr__(self, "elongations", tuple(sorted(set(q))))
+
     def _check_shape_fields(self) -> None:
+        self._check_elongations()
         if self.shape not in SHAPES:
             raise InputError(f"shape: got {self.shape!r}, expected one of {list(SHAPES)}")
         import numpy as np
@@ -218,6 +245,23 @@ class BayesConfig:
         if self.n_radii == 1:
             return np.array([np.sqrt(self.radius_min * self.radius_max)])
         return np.geomspace(self.radius_min, self.radius_max, self.n_radii)
+
+    @property
+    def hypothesis_bins(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The search's shape bins: semi-axes across ``up`` and along it, each shape (K,), metres.
+
+        Every radius bin as a sphere, then every :data:`ELONGATED_RADIUS_STRIDE`-th radius bin with each
+        elongation > 1, elongation-major (the radius bins of one elongation are neighbours, as :attr:`radii`),
+        leaving out elongated bins longer along ``up`` than the largest semi-axis (:attr:`semi_axis_range`).
+        """
+        import numpy as np
+
+        r = self.radii
+        coarse = r[::ELONGATED_RADIUS_STRIDE]
+        longest = self.semi_axis_range[1] * (1 + 1e-9)
+        across = [r if q == 1.0 else coarse[q * coarse <= longest] for q in self.elongations]
+        along = [a * q for a, q in zip(across, self.elongations)]
+        return np.concatenate(across), np.concatenate(along)
 
     def to_dict(self) -> dict[str, Any]:
         """The options as plain JSON values."""

@@ -48,8 +48,9 @@ def _candidates(
             break
         key = (int(c), int(k))
         if key not in cache:  # a cached result stays valid while its boxes are not taken
-            _, assoc_h = score_one(problem, taken, centres[c], float(radii[k]), hyp.cell)
-            cache[key] = refine_and_check(problem, taken, centres[c], float(radii[k]), assoc_h)
+            b = hyp.bin_semi_up(int(k))
+            _, assoc_h = score_one(problem, taken, centres[c], float(radii[k]), hyp.cell, b)
+            cache[key] = refine_and_check(problem, taken, centres[c], float(radii[k]), assoc_h, b)
         near = np.linalg.norm(centres - centres[c], axis=1) <= max(2 * hyp.cell, radii[k])
         trial[near] = False
         out.append((cache[key], near))
@@ -67,7 +68,7 @@ def _take(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, obj: Det
         affected |= (work.assoc[v] == j).any(axis=1)
     if affected.any():
         sub = np.flatnonzero(affected)
-        t, n, a = score_hypotheses(problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub])
+        t, n, a = score_hypotheses(problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub], hyp.semi_up)
         work.total[sub], work.n_assoc[sub], work.assoc[:, sub] = t, n, a
     return taken
 

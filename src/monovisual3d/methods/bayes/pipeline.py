@@ -70,8 +70,11 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     t2 = time.perf_counter()
     timing = {"search_score": t1 - t0, "extract_refine": t2 - t1}
     corrections: list[dict[str, Any]] = []
-    if cfg.poses_uncertain and objects:
-        objects, corrections = bundle(problem, objects)
+    spheres = [o for o in objects if o.extra.get("semi_up") is None]
+    if cfg.poses_uncertain and spheres:
+        # the joint refinement models spheres; objects found as upright spheroids keep their own fit
+        refined, corrections = bundle(problem, spheres)
+        objects = refined + [o for o in objects if o.extra.get("semi_up") is not None]
         timing["bundle"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     objects = shape_stage(problem, objects)

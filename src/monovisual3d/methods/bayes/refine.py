@@ -19,6 +19,7 @@ from scipy.optimize import least_squares
 from ...camera import Camera
 from ...frames import invert_transform
 from ...geometry.sphere import pinhole_sphere_boxes, predict_sphere_boxes
+from ...geometry.spheroid import predict_spheroid_boxes
 from ._kernels import box_residuals_fused
 from .likelihood import SensorModel, edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
@@ -47,7 +48,10 @@ class Observation:
 
 @dataclass
 class Refined:
-    """Refined sphere: centre (3,) metres base frame, radius metres, position covariance (3, 3) m^2, cost."""
+    """Refined sphere: centre (3,) metres base frame, radius metres, position covariance (3, 3) m^2, cost.
+
+    ``semi_up`` (metres) is set for an upright spheroid (``radius`` is then its semi-axis across ``up``).
+    """
 
     centre: NDArray[np.float64]
     radius: float
@@ -55,6 +59,7 @@ class Refined:
     radius_std: float
     cost: float
     success: bool
+    semi_up: float | None = None
 
 
 def robust_loss(floor: float) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
@@ -114,27 +119,55 @@ def residuals(
 class _BoxResiduals:
     """Box-edge residuals of a fixed set of box observations for many spheres at once (stacked once)."""
 
-    def __init__(self, camera: Camera, observations: Sequence[Observation], model: SensorModel) -> None:
+    def __init__(
+        self, camera: Camera, observations: Sequence[Observation], model: SensorModel, up: NDArray[np.floating] | None = None
+    ) -> None:
         self.camera, self.model = camera, model
         T = np.stack([ob.T_optical_base[:3, :4] for ob in observations])
         self.R, self.t = T[:, :, :3], T[:, :, 3]
+        #: the spheroids' symmetry axis in each observation's optical frame (M, 3); zeros without one
+        self.up_optical = self.R @ np.asarray(up, dtype=float) if up is not None else np.zeros((len(T), 3))
         obs = np.stack([np.asarray(ob.bbox_xyxy, dtype=float) for ob in observations])
         self.obs = obs
         self.extra = np.array([float(np.asarray(ob.extra_sigma_px)) for ob in observations])
         self.extra2 = self.extra**2
         self.censored = censored_edges(obs, camera.width, camera.height, model.border_px)
 
-    def batch(self, centres_base: NDArray[np.floating], radii: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Residuals for centres (P, 3), metres, base frame, and radii (P,), metres: shape (P, 4 M)."""
+    def batch(
+        self, centres_base: NDArray[np.floating], radii: NDArray[np.floating], semi_up: NDArray[np.floating] | None = None
+    ) -> NDArray[np.float64]:
+        """Residuals for centres (P, 3), metres, base frame, and radii (P,), metres: shape (P, 4 M).
+
+        ``semi_up`` (P,), metres: upright spheroids (the axis given at construction) instead of spheres.
+        """
         return box_residuals_fused(
-            self.camera, self.R, self.t, self.obs, self.censored, self.extra2, centres_base, radii, self.model
+            self.camera,
+            self.R,
+            self.t,
+            self.obs,
+            self.censored,
+            self.extra2,
+            centres_base,
+            radii,
+            self.model,
+            semi_up,
+            self.up_optical,
         )
 
-    def batch_numpy(self, centres_base: NDArray[np.floating], radii: NDArray[np.floating]) -> NDArray[np.float64]:
+    def batch_numpy(
+        self, centres_base: NDArray[np.floating], radii: NDArray[np.floating], semi_up: NDArray[np.floating] | None = None
+    ) -> NDArray[np.float64]:
         """:meth:`batch` in numpy: the readable reference of the compiled loop."""
         cam, model = self.camera, self.model
         p_opt = np.einsum("mij,pj->pmi", self.R, centres_base) + self.t  # (P, M, 3)
-        if cam.distortion_model == "none":
+        if semi_up is not None:
+            pred = np.stack(
+                [
+                    np.stack([predict_spheroid_boxes(cam, p_opt[p, m][None], [a], [b], self.up_optical[m])[0][0, 0] for m in range(len(self.R))])
+                    for p, (a, b) in enumerate(zip(radii, semi_up))
+                ]
+            )  # fmt: skip
+        elif cam.distortion_model == "none":
             pred = pinhole_sphere_boxes(cam, p_opt, radii[:, None])
         else:
             pred = np.stack([predict_sphere_boxes(cam, p, np.array([r]))[0][:, 0, :] for p, r in zip(p_opt, radii)])
@@ -241,6 +274,56 @@ def refine_sphere(
         cost=float(sol.cost),
         success=bool(sol.success),
     )
+
+
+class _SpheroidResiduals:
+    """Box residuals of upright spheroids for ``params = (x, y, z, log a, log b)`` (masks are not used)."""
+
+    def __init__(self, camera: Camera, observations: Sequence[Observation], model: SensorModel, up: NDArray[np.floating]) -> None:
+        self.boxes = _BoxResiduals(camera, observations, model, up)
+
+    def batch(self, P: NDArray[np.floating]) -> NDArray[np.float64]:
+        return self.boxes.batch(P[:, :3], np.exp(P[:, 3]), np.exp(P[:, 4]))
+
+    def __call__(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
+        return self.batch(params[None, :])[0]
+
+    def jacobian(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Forward-difference Jacobian (n, 5), scipy's ``2-point`` steps, one batched call."""
+        h = _FD_REL_STEP * np.where(params >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(params))
+        h = (params + h) - params
+        f = self.batch(np.vstack([params, params + np.diag(h)]))
+        return ((f[1:] - f[0]) / h[:, None]).T
+
+
+def refine_spheroid(
+    camera: Camera,
+    observations: Sequence[Observation],
+    centre0: NDArray[np.floating],
+    radius0: float,
+    semi_up0: float,
+    model: SensorModel,
+    up: NDArray[np.floating],
+) -> Refined:
+    """Refine an upright spheroid (centre, semi-axis across ``up``, semi-axis along it) from its boxes.
+
+    The search's elongated hypotheses go through this instead of :func:`refine_sphere` (same robust loss;
+    masks are not used, the shape stage fits the final shape). ``covariance`` is the centre's block of
+    ``(J^T J)^-1``; ``radius_std`` is that of the semi-axis across ``up``.
+    """
+    x0 = np.concatenate([np.asarray(centre0, dtype=float), np.log([max(radius0, 1e-4), max(semi_up0, 1e-4)])])
+    fun = _SpheroidResiduals(camera, observations, model, up)
+    sol = least_squares(
+        fun, x0, jac=fun.jacobian, loss=robust_loss(model.inward_floor), method="trf",
+        x_scale=np.array([0.01, 0.01, 0.01, 0.1, 0.1]), max_nfev=MAX_NFEV,
+    )  # fmt: skip
+    try:
+        cov_full = np.linalg.inv(sol.jac.T @ sol.jac)
+    except np.linalg.LinAlgError:
+        cov_full = np.full((5, 5), np.nan)
+    a, b = float(np.exp(sol.x[3])), float(np.exp(sol.x[4]))
+    std = float(a * np.sqrt(max(cov_full[3, 3], 0.0))) if np.isfinite(cov_full[3, 3]) else float("nan")
+    return Refined(sol.x[:3].copy(), a, cov_full[:3, :3], std, float(sol.cost), bool(sol.success), semi_up=b)
 
 
 def observation_for(

@@ -13,11 +13,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...frames import transform_points
-from ...geometry.sphere import predict_sphere_boxes
+from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
 from .likelihood import box_scores, pose_sigma_px, view_scores
 from .problem import Problem, Taken
-from .refine import Observation, refine_sphere
+from .refine import Observation, Refined, refine_sphere, refine_spheroid
 
 #: The scores of hypotheses: total (N, K) nats, -inf where not scored; views with an associated box (N, K);
 #: associated box per view (V, N, K), -1 for none.
@@ -39,20 +39,24 @@ def score_hypotheses(
     radii: NDArray[np.float64],
     cell: float,
     mask: NDArray[np.bool_],
+    semi_up: NDArray[np.float64] | None = None,
 ) -> Scores:
     """Score the (cell, radius) hypotheses selected by ``mask`` with the boxes not in ``taken``.
 
     Parameters
     ----------
     centres_base : ndarray, shape (N, 3), metres, base frame
-    radii : ndarray, shape (K,), metres
+    radii : ndarray, shape (K,), metres, semi-axis across ``up`` (the radius of a sphere)
+    semi_up : ndarray, shape (K,), metres, optional: semi-axis along ``up`` (``BayesConfig.up``) of upright
+        spheroid hypotheses (a sphere where it equals the radius; default: all spheres)
     cell : float, metres: the cell size; the cell's projected half-diagonal is added to the edge
         noise so a cell is scored as the region it stands for (0: a single point)
     mask : ndarray, shape (N, K), bool
 
     Returns
     -------
-    total, n_assoc, assoc : see :data:`Scores`
+    total, n_assoc, assoc : see :data:`Scores`; an elongated bin's total is its log-likelihood ratio less
+        ``elongation_cost`` (:func:`shape_cost`)
     """
     blur = cell * np.sqrt(3) / 2
     cfg, cam = problem.config, problem.camera
@@ -61,7 +65,7 @@ def score_hypotheses(
         from ._kernels import score_hypotheses as fused
 
         # the pose's position uncertainty scales with 1/depth like the cell blur; its rotation part is constant
-        return fused(
+        scores = fused(
             cam,
             [vd.T_optical_base for vd in problem.views],
             [vd.boxes for vd in problem.views],
@@ -72,8 +76,24 @@ def score_hypotheses(
             float(np.hypot(blur, cfg.pose_position_sigma)) if cfg.pose_position_sigma > 0 else blur,
             max(cam.fx, cam.fy) * cfg.pose_rotation_sigma,
             mask,
+            semi_up,
+            cfg.up_vector,
         )
-    return score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask)
+    else:
+        scores = score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask, semi_up)
+    if semi_up is not None and np.any(semi_up != radii):
+        scores[0][:, semi_up != radii] -= cfg.elongation_cost
+    return scores
+
+
+def shape_cost(problem: Problem, semi_up: float | None) -> float:
+    """Nats an upright-spheroid hypothesis pays against a sphere: ``elongation_cost`` (0 for a sphere).
+
+    The Occam factor of the extra shape parameter: the prior spreads over the elongations searched, the
+    boxes pin it to a fraction of that range, and without the cost chance alignments of false-positive
+    boxes would find an elongated fit more often than a sphere.
+    """
+    return 0.0 if semi_up is None else float(problem.config.elongation_cost)
 
 
 def score_hypotheses_numpy(
@@ -83,15 +103,18 @@ def score_hypotheses_numpy(
     radii: NDArray[np.float64],
     blur: float,
     mask: NDArray[np.bool_],
+    semi_up: NDArray[np.float64] | None = None,
 ) -> Scores:
     """The numpy reference of :func:`score_hypotheses` (``blur``: the cell's half-diagonal, metres)."""
+    semi_up = radii if semi_up is None else semi_up
+    up = problem.config.up_vector
     cam, n, k = problem.camera, len(centres_base), len(radii)
     total = np.zeros((n, k))
     n_assoc = np.zeros((n, k), dtype=np.int32)
     assoc = np.empty((len(problem.views), n, k), dtype=np.int16)
     for v, vd in enumerate(problem.views):
         p_opt = transform_points(vd.T_optical_base, centres_base)
-        pred, visible = predict_sphere_boxes(cam, p_opt, radii)
+        pred, visible = predict_spheroid_boxes(cam, p_opt, radii, semi_up, vd.T_optical_base[:3, :3] @ up)
         extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
         if problem.config.poses_uncertain:
             extra = np.hypot(extra, pose_px(problem, p_opt[:, 2:3]))
@@ -104,10 +127,12 @@ def score_hypotheses_numpy(
 
 
 def score_one(
-    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, cell: float = 0.0
+    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, cell: float = 0.0, semi_up: float | None = None
 ) -> tuple[float, list[int]]:
-    """Score (nats) and best available box per view (-1: none) of one sphere; ``cell`` > 0 blurs it as a grid cell."""
-    total, _, assoc = score_hypotheses(problem, taken, centre[None, :], np.array([radius]), cell, np.ones((1, 1), dtype=bool))
+    """Score (nats) and best available box per view (-1: none) of one sphere (an upright spheroid with
+    ``semi_up``); ``cell`` > 0 blurs it as a grid cell."""
+    b = None if semi_up is None else np.array([semi_up])
+    total, _, assoc = score_hypotheses(problem, taken, centre[None, :], np.array([radius]), cell, np.ones((1, 1), dtype=bool), b)
     return float(total[0, 0]), [int(a) for a in assoc[:, 0, 0]]
 
 
@@ -123,9 +148,26 @@ def observations(problem: Problem, assoc: Sequence[int], centre: NDArray[np.floa
     return out
 
 
-def _radius_ok(problem: Problem, radius: float) -> bool:
+def _radius_ok(problem: Problem, radius: float, semi_up: float | None = None) -> bool:
     cfg = problem.config
-    return cfg.radius_min * 0.5 <= radius <= cfg.radius_max * 2
+    ok = cfg.radius_min * 0.5 <= radius <= cfg.radius_max * 2
+    return ok and (semi_up is None or cfg.radius_min * 0.5 <= semi_up <= cfg.radius_max * 2)
+
+
+def semi_up_of(obj: DetectedObject) -> float | None:
+    """The semi-axis along ``up`` of an object found as an upright spheroid (metres); None for a sphere."""
+    b = obj.extra.get("semi_up")
+    return None if b is None else float(b)
+
+
+def _refine(
+    problem: Problem, obs: Sequence[Observation], centre: NDArray[np.float64], radius: float, semi_up: float | None
+) -> Refined:
+    """A sphere through :func:`.refine.refine_sphere`, an upright spheroid (``semi_up``) through ``refine_spheroid``."""
+    cfg = problem.config
+    if semi_up is None:
+        return refine_sphere(problem.camera, obs, centre, radius, problem.model, use_masks=cfg.use_masks)
+    return refine_spheroid(problem.camera, obs, centre, radius, semi_up, problem.model, cfg.up_vector)
 
 
 def _object(problem: Problem, refined: object, score: float, assoc: Sequence[int], n_views: int) -> DetectedObject:
@@ -133,26 +175,30 @@ def _object(problem: Problem, refined: object, score: float, assoc: Sequence[int
     pose) is reported as None, never as NaN."""
     cov = refined.covariance  # type: ignore[attr-defined]
     radius_std = float(refined.radius_std)  # type: ignore[attr-defined]
+    extra: dict[str, Any] = {"radius_std": radius_std if np.isfinite(radius_std) else None, "n_views": int(n_views)}
+    if getattr(refined, "semi_up", None) is not None:
+        extra["semi_up"] = float(refined.semi_up)  # type: ignore[attr-defined]
     return DetectedObject(
         position=refined.centre,  # type: ignore[attr-defined]
         score=score,
         radius=float(refined.radius),  # type: ignore[attr-defined]
         covariance=cov if cov is not None and np.all(np.isfinite(cov)) else None,
         associations={vd.index: int(a) for vd, a in zip(problem.views, assoc) if a >= 0},
-        extra={"radius_std": radius_std if np.isfinite(radius_std) else None, "n_views": int(n_views)},
+        extra=extra,
     )
 
 
 def refine_and_check(
-    problem: Problem, taken: Taken, centre0: NDArray[np.float64], radius0: float, assoc0: Sequence[int]
-) -> DetectedObject | None:
+    problem: Problem, taken: Taken, centre0: NDArray[np.float64], radius0: float, assoc0: Sequence[int],
+    semi_up0: float | None = None,
+) -> DetectedObject | None:  # fmt: skip
     """Refine a hypothesis, re-associating its boxes among those not ``taken``; None unless it is accepted.
 
     Accepted: at least ``min_views`` associated views, a plausible radius and a
-    score of at least ``accept`` nats.
+    score of at least ``accept`` nats. ``semi_up0``: the hypothesis is an upright spheroid.
     """
     cfg = problem.config
-    fit = _refine_associating(problem, taken, centre0, float(radius0), list(assoc0))
+    fit = _refine_associating(problem, taken, centre0, float(radius0), list(assoc0), semi_up=semi_up0)
     if fit is not None and fit[1] < cfg.accept and sum(a >= 0 for a in fit[2]) > cfg.min_views:
         # A box cut by an unseen occluder can pull the least-squares fit off the position where the robust
         # score is best, and the object is then rejected although the other views agree. Refit without each
@@ -160,7 +206,7 @@ def refine_and_check(
         refined, _, assoc = fit
         for v in [v for v, a in enumerate(assoc) if a >= 0]:
             without = [-1 if u == v else a for u, a in enumerate(assoc)]
-            alt = _refine_associating(problem, taken, refined.centre, float(refined.radius), without, rounds=1)
+            alt = _refine_associating(problem, taken, refined.centre, float(refined.radius), without, 1, refined.semi_up)
             if alt is not None and alt[1] > fit[1]:
                 fit = alt
     if fit is None:
@@ -173,12 +219,13 @@ def refine_and_check(
 
 
 def _refine_associating(
-    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, assoc: list[int], rounds: int = 3
-) -> tuple[Any, float, list[int]] | None:
+    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, assoc: list[int], rounds: int = 3,
+    semi_up: float | None = None,
+) -> tuple[Any, float, list[int]] | None:  # fmt: skip
     """Refine on the associated boxes, rescore (re-associating the free boxes) and repeat up to ``rounds`` times.
 
-    Returns the refined sphere, its score and the association it was scored with (None: too few
-    views or an implausible radius).
+    Returns the refined sphere (or upright spheroid, with ``semi_up``), its score and the association it
+    was scored with (None: too few views or an implausible size).
     """
     cfg = problem.config
     refined, score = None, -np.inf
@@ -186,30 +233,34 @@ def _refine_associating(
         obs = observations(problem, assoc, centre)
         if len(obs) < cfg.min_views:
             return None
-        refined = refine_sphere(problem.camera, obs, centre, radius, problem.model, use_masks=cfg.use_masks)
-        centre, radius = refined.centre, refined.radius
-        if not _radius_ok(problem, radius):
+        refined = _refine(problem, obs, centre, radius, semi_up)
+        centre, radius, semi_up = refined.centre, refined.radius, refined.semi_up
+        if not _radius_ok(problem, radius, semi_up):
             return None
-        score, new_assoc = score_one(problem, taken, centre, radius)
+        score, new_assoc = score_one(problem, taken, centre, radius, 0.0, semi_up)
         if new_assoc == assoc:
             break
         assoc = new_assoc
     return (refined, score, assoc) if refined is not None else None
 
 
-def fit_fixed(problem: Problem, centre0: NDArray[np.float64], radius0: float, assoc: Sequence[int]) -> DetectedObject | None:
+def fit_fixed(
+    problem: Problem, centre0: NDArray[np.float64], radius0: float, assoc: Sequence[int], semi_up0: float | None = None
+) -> DetectedObject | None:
     """Refine one object with a fixed association and score it with that association (None: no valid fit)."""
     cfg, cam = problem.config, problem.camera
     obs = observations(problem, assoc, centre0)
     if len(obs) < cfg.min_views:
         return None
-    refined = refine_sphere(cam, obs, centre0, radius0, problem.model, use_masks=cfg.use_masks)
-    if not _radius_ok(problem, refined.radius):
+    refined = _refine(problem, obs, centre0, radius0, semi_up0)
+    if not _radius_ok(problem, refined.radius, refined.semi_up):
         return None
     score = 0.0
+    b = refined.radius if refined.semi_up is None else refined.semi_up
     for vd, j in zip(problem.views, assoc):
         p_opt = vd.T_optical_base[:3, :3] @ refined.centre + vd.T_optical_base[:3, 3]
-        pred, visible = predict_sphere_boxes(cam, p_opt[None, :], np.array([refined.radius]))
+        R_up = vd.T_optical_base[:3, :3] @ cfg.up_vector
+        pred, visible = predict_spheroid_boxes(cam, p_opt[None, :], [refined.radius], [b], R_up)
         if not visible[0, 0]:
             continue
         s = (
@@ -218,7 +269,7 @@ def fit_fixed(problem: Problem, centre0: NDArray[np.float64], radius0: float, as
             else -np.inf
         )
         score += max(float(s), problem.model.miss_term)
-    return _object(problem, refined, score, assoc, len(obs))
+    return _object(problem, refined, score - shape_cost(problem, refined.semi_up), assoc, len(obs))
 
 
 def associations_list(problem: Problem, obj: DetectedObject) -> list[int]:

@@ -1,4 +1,11 @@
-"""Coarse-to-fine search of the (cell, radius) hypotheses that can hold an object.
+"""Coarse-to-fine search of the (cell, shape bin) hypotheses that can hold an object.
+
+A shape bin is a sphere (one of ``BayesConfig.radii``) or an upright spheroid
+(a radius times an elongation of ``BayesConfig.elongations`` along ``up``):
+``BayesConfig.hypothesis_bins``. Man-made containers, bottles and hanging
+fruit stand (or hang) along gravity, so an elongated object's box is
+explained by an upright spheroid from the first level; a sphere would only
+match it with two edges at their floors and score too low to be kept.
 
 A cell can hold an object only if, in at least ``min_views`` views, its
 centre projects inside one of the boxes, widened by half the box size on
@@ -44,13 +51,14 @@ class Hypotheses:
     Attributes
     ----------
     centres_base : ndarray, shape (N, 3), metres, base frame: cell centres
-    radii : ndarray, shape (K,), metres
+    radii : ndarray, shape (K,), metres: the shape bins' semi-axis across ``up`` (a sphere's radius)
     cell : float, metres, cell size of the level
     scores : (total (N, K), n_assoc (N, K), assoc (V, N, K)), see :data:`.scoring.Scores`
     mask : ndarray, shape (N, K), bool: the radius bins scored per cell
     n_scored : int, hypotheses scored over all levels
     start_cell : float, metres, cell size of the first level
     capped : bool, whether a level had more hypotheses than the budget and kept only the best cells
+    semi_up : ndarray, shape (K,), metres: the bins' semi-axis along ``up`` (equal to ``radii`` for spheres)
     """
 
     centres_base: NDArray[np.float64]
@@ -61,6 +69,13 @@ class Hypotheses:
     n_scored: int
     start_cell: float
     capped: bool
+    semi_up: NDArray[np.float64] | None = None
+
+    def bin_semi_up(self, k: int) -> float | None:
+        """Semi-axis along ``up`` of bin ``k`` (metres), None for a sphere bin."""
+        if self.semi_up is None or self.semi_up[k] == self.radii[k]:
+            return None
+        return float(self.semi_up[k])
 
     def stats(self) -> dict[str, float | int | bool]:
         return {
@@ -81,7 +96,7 @@ def hypothesis_cap(problem: Problem) -> int:
     """Hypotheses one level may hold: ``max_hypotheses``, lowered to half the memory budget."""
     cfg = problem.config
     budget = int(cfg.max_memory) // 2 // bytes_per_hypothesis(len(problem.views))
-    return max(len(cfg.radii), min(cfg.max_hypotheses, budget))
+    return max(len(cfg.hypothesis_bins[0]), min(cfg.max_hypotheses, budget))
 
 
 def first_level(grid: VoxelGrid, start: float, resolution: float, max_cells: int = MAX_FIRST_LEVEL_CELLS) -> VoxelGrid:
@@ -130,7 +145,7 @@ def size_gated_counts(problem: Problem, centres_base: NDArray[np.float64], half_
         inside = (z > -half_diagonal) & ~front  # a region reaching behind the camera gets the benefit of the doubt
         for x1, y1, x2, y2 in vd.boxes:
             wx, wy = 0.5 * (x2 - x1), 0.5 * (y2 - y1)
-            z_max = DEPTH_GATE_SLACK * 2 * f * cfg.radius_max / max(x2 - x1, y2 - y1, 1.0) + half_diagonal
+            z_max = DEPTH_GATE_SLACK * 2 * f * float(cfg.hypothesis_bins[1].max()) / max(x2 - x1, y2 - y1, 1.0) + half_diagonal
             u, v = uv[:, 0], uv[:, 1]
             inside |= (
                 (u >= x1 - wx - margin)
@@ -168,15 +183,15 @@ def _score_level(
 
     Returns the rows kept (indices into ``centres``), their scores and whether cells were dropped.
     """
-    radii = problem.config.radii
+    radii, semi_up = problem.config.hypothesis_bins
     max_cells = max(1, cap // len(radii))
     if len(centres) <= max_cells:
-        return np.arange(len(centres)), score_hypotheses(problem, frozenset(), centres, radii, cell, mask), False
+        return np.arange(len(centres)), score_hypotheses(problem, frozenset(), centres, radii, cell, mask, semi_up), False
     rows = np.zeros(0, dtype=np.intp)
     best: Scores | None = None
     for start in range(0, len(centres), max_cells):
         idx = np.arange(start, min(start + max_cells, len(centres)))
-        sc = score_hypotheses(problem, frozenset(), centres[idx], radii, cell, mask[idx])
+        sc = score_hypotheses(problem, frozenset(), centres[idx], radii, cell, mask[idx], semi_up)
         if best is not None:
             idx = np.concatenate([rows, idx])
             sc = (np.concatenate([best[0], sc[0]]), np.concatenate([best[1], sc[1]]), np.concatenate([best[2], sc[2]], axis=1))
@@ -192,6 +207,43 @@ def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
     for _ in range(bins):
         mask = mask | np.pad(mask[:, 1:], ((0, 0), (0, 1))) | np.pad(mask[:, :-1], ((0, 0), (1, 0)))
     return mask
+
+
+def _plausible_shapes(
+    total: NDArray[np.float64], radii: NDArray[np.float64], semi_up: NDArray[np.float64], slack: float
+) -> NDArray[np.bool_]:
+    """Which bins of each cell stay in the search: every sphere bin, and the elongated bins (upright spheroids)
+    scoring at least the cell's best sphere bin minus ``slack`` nats, shape (N, K) (the search passes
+    ``elongation_slack + elongation_cost``: the box evidence is compared, not the prior).
+
+    A round object's box is explained better by a sphere at every level, so its elongated bins stop being
+    refined early (they would only cost time); a tall object's are better than any sphere and stay.
+    """
+    sphere = semi_up == radii
+    if sphere.all() or not sphere.any():
+        return np.ones(total.shape, dtype=bool)
+    best_sphere = total[:, sphere].max(axis=1, keepdims=True)
+    return sphere[None, :] | (total >= best_sphere - slack)
+
+
+def _score_deferred(
+    problem: Problem, centres: NDArray[np.float64], cell: float, scores: Scores, sphere_bins: NDArray[np.bool_], floor: float
+) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16], int]:
+    """The first level's elongated bins, scored in the cells where a sphere bin reaches ``floor``; -inf elsewhere.
+
+    Returns the level's merged scores and the number of hypotheses scored.
+    """
+    total, n_assoc, assoc = (a.copy() for a in scores)
+    rows = np.flatnonzero((total[:, sphere_bins] >= floor).any(axis=1))
+    if len(rows) == 0:
+        return total, n_assoc, assoc, 0
+    radii, semi_up = problem.config.hypothesis_bins
+    mask = np.broadcast_to(~sphere_bins, (len(rows), len(radii)))
+    t, n, a = score_hypotheses(problem, frozenset(), centres[rows], radii, cell, np.ascontiguousarray(mask), semi_up)
+    cols = np.flatnonzero(~sphere_bins)
+    total[np.ix_(rows, cols)], n_assoc[np.ix_(rows, cols)] = t[:, cols], n[:, cols]
+    assoc[:, rows[:, None], cols[None, :]] = a[:, :, cols]
+    return total, n_assoc, assoc, int(mask.sum())
 
 
 def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[NDArray[np.float64], float, bool]:
@@ -220,12 +272,16 @@ def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[ND
 def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
     """Coarse-to-fine search over ``grid``'s region (see the module docstring)."""
     cfg = problem.config
-    radii = cfg.radii
+    radii, semi_up = cfg.hypothesis_bins
     level = first_level(grid, cfg.search_start, cfg.resolution)
     R, t = level.T_base_grid[:3, :3], level.T_base_grid[:3, 3]
     cap = hypothesis_cap(problem)
     centres_grid, cell, capped = _cone_levels(problem, level, max(1, cap // len(radii)))
-    mask = np.ones((len(centres_grid), len(radii)), dtype=bool)
+    sphere_bins = semi_up == radii
+    # the first scored level scores the elongated bins only in the cells its spheres keep: its cell blur is so
+    # large that a sphere explains an elongated box nearly as well (the cells of tall objects stay)
+    deferred = bool(sphere_bins.any() and not sphere_bins.all())
+    mask = np.ones((len(centres_grid), len(radii)), dtype=bool) & (sphere_bins if deferred else True)
     floor = cfg.accept - cfg.prune_slack
     n_scored, counted = 0, True  # the cells from _cone_levels are already cone-checked at this size
     while True:
@@ -239,13 +295,20 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
         centres_grid, centres, mask = centres_grid[rows], centres[rows], mask[rows]
         n_scored += int(mask.sum())
         total, n_assoc, assoc = scores
+        if deferred:
+            total, n_assoc, assoc, n_more = _score_deferred(problem, centres, cell, scores, sphere_bins, floor)
+            mask, n_scored, deferred = mask | ~sphere_bins, n_scored + n_more, False
         # scores only fall as boxes are taken, so a hypothesis below the floor never matters again
-        mask = (total >= floor) & (n_assoc >= cfg.min_views)
+        mask = (
+            (total >= floor)
+            & (n_assoc >= cfg.min_views)
+            & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack + cfg.elongation_cost)
+        )
         good = mask.any(axis=1)
         centres_grid, centres, mask = centres_grid[good], centres[good], mask[good]
         scores = (total[good], n_assoc[good], assoc[:, good])
         if cell <= cfg.resolution * (1 + 1e-9) or len(centres) == 0:
-            return Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped)
+            return Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped, semi_up)
         # children inherit the radii their parent kept, widened (the parent's score is blurred in position, not radius)
         mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
         centres_grid = split_cells(centres_grid, cell)

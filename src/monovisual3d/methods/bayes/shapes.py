@@ -1,8 +1,8 @@
 """The shape stage: each object as a sphere, spheroid or ellipsoid (``BayesConfig.shape``).
 
-The search, extraction and association run with the sphere model (a tall box
-costs a sphere hypothesis only the heavy-tailed edge floors, so it is still
-found). This stage then fits each object's associated boxes with the shape
+The search, extraction and association run with spheres and upright spheroids
+(``BayesConfig.elongations``), so a tall box is found and associated as what it
+is. This stage then refines the shape: it fits each object's associated boxes with the shape
 model (:func:`monovisual3d.geometry.fit.fit_shape_by_bic`, robust, truncated
 edges left out):
 
@@ -64,8 +64,12 @@ def looks_round(problem: Problem, obj: DetectedObject) -> bool:
 
 
 def as_sphere(obj: DetectedObject) -> DetectedObject:
-    """The sphere estimate with its shape fields filled in."""
+    """The sphere estimate with its shape fields filled in (an upright spheroid of the search: its
+    volume-equivalent radius)."""
     r = float(obj.radius)  # type: ignore[arg-type]
+    b = obj.extra.get("semi_up")
+    if b is not None:
+        r = float((r * r * float(b)) ** (1 / 3))
     return DetectedObject(
         obj.position, obj.score, r, obj.covariance, obj.associations, obj.n_cells, obj.extra,
         shape="sphere", semi_axes=np.array([r, r, r]), quaternion_xyzw=np.array([0.0, 0.0, 0.0, 1.0]),
@@ -92,7 +96,7 @@ def fit_shape(problem: Problem, obj: DetectedObject) -> DetectedObject:
         )  # fmt: skip
     except InputError:  # too few usable edges for any model: keep the sphere
         return as_sphere(obj)
-    if best.model == "sphere" and cfg.shape == "auto":
+    if best.model == "sphere" and cfg.shape == "auto" and obj.extra.get("semi_up") is None:
         return as_sphere(obj)  # the sphere refinement (masks, pose noise) is the better sphere estimate
     e = best.ellipsoid
     extra = {**obj.extra, "shape_bic": float(best.bic), "shape_rms_px": float(best.rms_px)}
