@@ -16,7 +16,9 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from .._extras import require
+from .._structured import read_capped_bytes
 from ..errors import InputError
+from ..errors import one_line as text_line
 from ..result import Result
 from . import tables
 from .inputs import SessionInput, find_sessions
@@ -71,8 +73,8 @@ class BatchProgress:
 
 def _sha256(path: Path) -> str:
     try:
-        return input_hash(Path(path).read_bytes())
-    except OSError:
+        return input_hash(read_capped_bytes(path))
+    except InputError:
         return ""  # unreadable: never done, reported when it is read for the run
 
 
@@ -217,15 +219,23 @@ def run(
     _check_run_args(method, localizer, workers, scheduler, client, part_size, max_worker_deaths, chunk_size, output, resume)
     _check_options(method, localizer, options)
     found, output = find_sessions(inputs), Path(output)
-    output.mkdir(parents=True, exist_ok=True)
-    done = tables.done_keys(output) if resume else set()
-    writer = tables.PartWriter(output, part_size=part_size, part_seconds=part_seconds)
-    runner = _Runner(found, done, method, options, config_hash(method, options), writer, progress, chunk_size)
     try:
-        _dispatch(runner, localizer, workers, scheduler, client, max_worker_deaths, dashboard_address)
-    finally:
-        writer.flush()
-    fruit, sessions, _ = tables.consolidate(output)
+        output.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(
+            f"{text_line(str(output))}: cannot create the output folder ({exc.strerror or type(exc).__name__})"
+        ) from None
+    with tables.OutputLock(output):
+        if not resume and tables.has_parts(output):  # again under the lock: a run that started meanwhile
+            raise InputError(f"{text_line(str(output))}: holds an earlier batch; resume it, or choose an empty folder")
+        done = tables.done_keys(output) if resume else set()
+        writer = tables.PartWriter(output, part_size=part_size, part_seconds=part_seconds)
+        runner = _Runner(found, done, method, options, config_hash(method, options), writer, progress, chunk_size)
+        try:
+            _dispatch(runner, localizer, workers, scheduler, client, max_worker_deaths, dashboard_address)
+        finally:
+            writer.flush()
+        fruit, sessions, _ = tables.consolidate(output)
     return BatchTables(fruit, sessions)
 
 
@@ -327,9 +337,13 @@ class _Runner:
     def jobs(self) -> Iterator[Job]:
         """The jobs to run, read one at a time; unreadable files and resumed sessions are handled here."""
         for s in self.found:
+            if s.error is not None:  # an unreadable folder: a failed row, never a silent skip
+                job = Job(s.session_id, str(s.path), "", "", self.method, self.options, self.cfg_hash)
+                self.record(session_row(job, status="error", error=s.error, error_type="OSError"), [])
+                continue
             try:
                 job = make_job(s.path, s.session_id, s.truth_path, self.method, self.options, self.cfg_hash)
-            except (OSError, UnicodeError) as exc:
+            except (OSError, UnicodeError, InputError) as exc:
                 job = Job(s.session_id, str(s.path), "", "", self.method, self.options, self.cfg_hash)
                 message = f"{exc.filename or s.path}: {exc.strerror or exc}" if isinstance(exc, OSError) else str(exc)
                 self.record(session_row(job, status="error", error=message, error_type=type(exc).__name__), [])
