@@ -50,3 +50,31 @@ DEFAULT_REACH_M = 0.6
 DEFAULT_KEEP_THRESHOLD = 0.1
 #: Largest dense grid by default, bytes: the default ``max_memory`` (2 GiB) of every method.
 DEFAULT_MAX_BYTES = 2 * 1024**3
+
+# ---------------------------------------------------------------------- work limits of the commands (issue 23)
+# Options that set how much work a command does are bounded here, so a typo such as
+# ``--false-positives 1e9`` is a one-line error naming the option and its limit, not
+# minutes of work or a MemoryError. Each is set far above real use.
+
+#: Most candidate poses of ``next-view`` (``cap:N`` or a candidate file); the planner holds ~30 KB per candidate.
+MAX_CANDIDATES = 5_000
+#: Most views ``simulate`` generates (``ring:N``, ``hemisphere:N``, a pose file, ``--active N``): ~40 ms each.
+MAX_SIM_VIEWS = 500
+#: Most rays ``simulate`` casts in one run: views x width x height x supersample**2 (500 views of 640 x 480).
+MAX_SIM_RAYS = 500 * 640 * 480
+#: Most view pictures (``--images``) ``simulate`` draws in one run (~0.2 s each with matplotlib).
+MAX_SIM_PICTURES = 100
+#: Most fruit of a generated ``simulate`` scene (``--n-fruit``).
+MAX_SIM_FRUIT = 1_000
+#: Largest expected number of simulated false-positive boxes per image (``--false-positives``).
+MAX_SIM_FALSE_POSITIVES = 100.0
+#: Largest simulated camera position error, millimetres (``--pose-error-mm``): 1 m.
+MAX_SIM_POSE_ERROR_MM = 1000.0
+#: Largest simulated camera rotation error, degrees (``--pose-error-deg``).
+MAX_SIM_POSE_ERROR_DEG = 180.0
+#: Largest seed accepted by ``simulate`` and the benchmarks (numpy's seeds are non-negative, below 2**128).
+MAX_SEED = 2**63 - 1
+#: Most data rows of one imported pose or detection table (a 30 fps video of an hour is 108,000 frames).
+MAX_TABLE_ROWS = 200_000
+#: Largest ``--time-limit``, seconds (one day); the option's default is no limit.
+MAX_TIME_LIMIT_S = 86_400.0

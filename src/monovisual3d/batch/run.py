@@ -225,6 +225,7 @@ def run(
         raise InputError(
             f"{text_line(str(output))}: cannot create the output folder ({exc.strerror or type(exc).__name__})"
         ) from None
+    _check_not_inputs(found, output)
     with tables.OutputLock(output):
         if not resume and tables.has_parts(output):  # again under the lock: a run that started meanwhile
             raise InputError(f"{text_line(str(output))}: holds an earlier batch; resume it, or choose an empty folder")
@@ -291,6 +292,16 @@ def _check_run_args(
         raise InputError(f"{output}: exists and is not a folder")
     if not resume and tables.has_parts(output):
         raise InputError(f"{output}: holds an earlier batch; resume it, or choose an empty folder")
+
+
+def _check_not_inputs(found: list[SessionInput], output: Path) -> None:
+    """Refuse an output folder whose tables would overwrite one of the sessions (``summary.json`` matched by a glob)."""
+    written = {(output / name).resolve() for name in tables.WRITTEN_FILES}
+    for s in found:
+        if s.path.resolve() in written:
+            raise InputError(
+                f"{text_line(str(s.path))}: is also an output of this batch; refusing to overwrite it, choose another --output"
+            )
 
 
 def _default_method() -> str:

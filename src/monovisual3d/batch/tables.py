@@ -81,6 +81,8 @@ SESSION_COLUMNS: dict[str, str] = {
     "radius_error_mean_m": "float64",
 }
 
+#: Files a batch writes into its output folder (besides ``parts/`` and ``.lock``).
+WRITTEN_FILES = ("fruit.parquet", "fruit.csv", "sessions.parquet", "sessions.csv", "summary.json", ".lock")
 #: Error types that say nothing about the input (a lost worker, a cancelled task): ``resume`` runs them again.
 TRANSIENT_ERRORS = frozenset({"KilledWorker", "CancelledError", "FutureCancelledError"})
 

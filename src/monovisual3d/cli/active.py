@@ -11,7 +11,7 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors
+from ._app import app, check_output, console, handle_errors, write_output
 from .bench import bench_app
 from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
@@ -71,6 +71,8 @@ def next_view(
     """
     from ..active.api import plan_session
 
+    candidate_file = None if candidates.strip().startswith("cap:") else Path(candidates)
+    check_output(output, session, candidate_file)
     try:
         out = plan_session(
             session, candidates, count=count, target_mm=target_mm, motion_weight=motion_weight, reach_m=reach,
@@ -82,7 +84,7 @@ def next_view(
     if output is None:
         sys.stdout.write(text + "\n")
     else:
-        output.write_text(text + "\n")
+        write_output(output, text + "\n")
         console.print(
             f"next view: candidate {out['index']} (gain {out['gain']:.2f}), done={str(out['done']).lower()}; wrote {output}",
             highlight=False,

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from ..errors import InputError
+from .. import limits
+from ..errors import InputError, one_line
 from ._app import app, console, handle_errors
 
 
@@ -58,8 +60,8 @@ def simulate(
         pose_error_mm=pose_error_mm,
         pose_error_deg=pose_error_deg,
     )
-    if n_fruit is not None and n_fruit < 1:
-        raise InputError(f"--n-fruit: got {n_fruit}, expected a positive integer")
+    _check_counts(n_fruit, seed, active)
+    _check_out_dir(output, Path(scene), Path(views))
     rng = np.random.default_rng(seed)
     try:
         camera = Camera.from_hfov(640, 480, hfov_deg)
@@ -76,8 +78,6 @@ def simulate(
     if active is not None:
         from ..active.loop import write_active_simulation
 
-        if active < 1:
-            raise InputError(f"--active: got {active}, expected a positive number of views")
         paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
         console.print(
             f"active loop: {active} views of {len(sc.fruits)} fruit ({sc.name}); wrote {', '.join(p.name for p in paths.values())} to {output}",
@@ -90,3 +90,34 @@ def simulate(
         f"simulated {len(sc.fruits)} fruit ({sc.name}) from {len(poses)} views; wrote {', '.join(p.name for p in paths.values())} to {output}",
         highlight=False,
     )
+
+
+def _check_counts(n_fruit: int | None, seed: int, active: int | None) -> None:
+    """Refuse counts beyond :mod:`monovisual3d.limits` before any work (one line naming the option)."""
+    if n_fruit is not None and not 1 <= n_fruit <= limits.MAX_SIM_FRUIT:
+        raise InputError(f"--n-fruit: got {n_fruit}, expected a positive integer of at most {limits.MAX_SIM_FRUIT}")
+    if not 0 <= seed <= limits.MAX_SEED:
+        raise InputError(f"--seed: got {seed}, expected an integer in [0, {limits.MAX_SEED}]")
+    if active is not None and not 1 <= active <= limits.MAX_SIM_VIEWS:
+        raise InputError(f"--active: got {active}, expected a positive number of views of at most {limits.MAX_SIM_VIEWS}")
+
+
+#: Files ``simulate`` writes into its output folder (besides the view pictures).
+_WRITTEN = ("session.json", "truth.json", "scene.json")
+
+
+def _check_out_dir(output: Path, *inputs: Path) -> None:
+    """The output folder must be a folder we can create or write, and must not hold an input we would overwrite."""
+    name = one_line(str(output))
+    if output.exists() and not output.is_dir():
+        raise InputError(f"{name}: exists and is not a folder, expected the output folder")
+    existing = next((p for p in (output, *output.parents) if p.exists()), Path("."))
+    if not os.access(existing, os.W_OK):
+        raise InputError(f"{name}: cannot write ({one_line(str(existing))} is not writable)")
+    for source in inputs:
+        for written in _WRITTEN:
+            target = output / written
+            if source.is_file() and target.exists() and os.path.samefile(source, target):
+                raise InputError(
+                    f"{one_line(str(target))}: is also an input file; refusing to overwrite it, choose another --output"
+                )

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors
+from ._app import app, check_output, console, handle_errors
 
 
 @app.command()
@@ -34,6 +34,8 @@ def view(
         raise InputError(f"--output: got {str(output)!r}, expected a file name ending in .html")
     if rrd is not None and rrd.suffix.lower() != ".rrd":
         raise InputError(f"--rrd: got {str(rrd)!r}, expected a file name ending in .rrd")
+    check_output(output, session, result, truth)
+    check_output(rrd, session, result, truth)
     from ..viz3d import write_scene_html
 
     try:
