@@ -15,7 +15,7 @@ from .result import DetectedObject
 CENTRES = ("weighted", "geometric")
 K_RULES = ("max", "mode", "min", "last")
 #: Default relative threshold: cells with p >= threshold * max(p) take part in clustering.
-from .limits import DEFAULT_KEEP_THRESHOLD  # noqa: E402  (re-exported)
+from .limits import DEFAULT_KEEP_THRESHOLD, MAX_KMEANS_WORK  # noqa: E402  (DEFAULT_KEEP_THRESHOLD re-exported)
 
 
 def choose_k(counts: Sequence[int], rule: str | int = "max") -> int:
@@ -94,6 +94,11 @@ def kmeans_objects(
     w = p[keep]
     x = grid.centres_base(keep)
     k = min(k, len(keep))
+    if k * len(keep) > MAX_KMEANS_WORK:
+        raise InputError(
+            f"k: k-means of {k} clusters over {len(keep):,} cells is beyond the {MAX_KMEANS_WORK:.3g} cluster-cells accepted "
+            "(monovisual3d.limits.MAX_KMEANS_WORK); give a smaller --k, a coarser --resolution, or use --method bayes"
+        )
     from sklearn.cluster import KMeans
     from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
 

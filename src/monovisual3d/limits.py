@@ -78,3 +78,10 @@ MAX_SEED = 2**63 - 1
 MAX_TABLE_ROWS = 200_000
 #: Largest ``--time-limit``, seconds (one day); the option's default is no limit.
 MAX_TIME_LIMIT_S = 86_400.0
+#: Finest ``resolution`` of the ``bayes`` search, metres: each halving below it adds a search level of up to
+#: the hypothesis cap (0.1 mm took over 70 s on the one-sphere example); the continuous refinement, not
+#: the grid, gives the accuracy, so finer cells buy nothing.
+MIN_SEARCH_RESOLUTION_M = 1e-3
+#: Largest k-means of the ``paper`` method: clusters x clustered cells (distances per iteration). 50 clusters over
+#: 1 M cells; 1,000 boxes per view ask for 1,000 clusters, which took minutes before this limit.
+MAX_KMEANS_WORK = 50_000_000

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -81,9 +82,21 @@ def batch(
     options = parse_options(option)
     kwargs = dict(method=method, workers=workers, scheduler=scheduler, resume=resume,
                   part_size=part_size, max_worker_deaths=max_worker_deaths, chunk_size=chunk_size)  # fmt: skip
-    with spread_flags(workers, scheduler):
+    with spread_flags(workers, scheduler), _option_flags(options):
         tables = run(inputs, output, **kwargs, **options) if quiet else _run_with_bar(inputs, output, kwargs, options)
     _report(tables, output)
+
+
+@contextlib.contextmanager
+def _option_flags(options: dict[str, Any]) -> Iterator[None]:
+    """Name a method option as typed (``--option resolution: ...``) in the errors raised about it."""
+    try:
+        yield
+    except InputError as exc:
+        key = str(exc).partition(":")[0]
+        if key in options:
+            raise InputError(f"--option {exc}") from None
+        raise
 
 
 def _run_with_bar(inputs: list[str], output: Path, kwargs: dict[str, Any], options: dict[str, Any]) -> Any:
