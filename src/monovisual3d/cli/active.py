@@ -11,9 +11,9 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
-from ._app import app, check_output, console, handle_errors, write_output
+from ._app import app, check_output, command_budget, console, handle_errors, write_output
 from .bench import bench_app
-from .options import SpreadScheduler, SpreadWorkers, spread_flags
+from .options import MaxMemory, SpreadScheduler, SpreadWorkers, TimeLimit, spread_flags
 
 #: plan_session's parameters named in its errors, and the flags they come from.
 _FLAGS = {
@@ -62,6 +62,8 @@ def next_view(
             "(at least 0.01; the sensor model's 0.05 until there are enough)."
         ),
     ] = "auto",
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Choose the next camera pose from candidates by expected gain; report "done" when the estimate is good enough.
 
@@ -74,10 +76,11 @@ def next_view(
     candidate_file = None if candidates.strip().startswith("cap:") else Path(candidates)
     check_output(output, session, candidate_file)
     try:
-        out = plan_session(
-            session, candidates, count=count, target_mm=target_mm, motion_weight=motion_weight, reach_m=reach,
-            base=base, target=target, box_noise=_box_noise(box_noise),
-        )  # fmt: skip
+        with command_budget(time_limit, max_memory):
+            out = plan_session(
+                session, candidates, count=count, target_mm=target_mm, motion_weight=motion_weight, reach_m=reach,
+                base=base, target=target, box_noise=_box_noise(box_noise),
+            )  # fmt: skip
     except InputError as exc:
         raise InputError(_as_flags(str(exc))) from None
     text = json.dumps(out, indent=2)

@@ -11,9 +11,9 @@ from typing import Annotated, Any
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors
+from ._app import app, command_budget, console, handle_errors
 from .bench import bench_app
-from .options import spread_flags
+from .options import TimeLimit, spread_flags
 
 
 def parse_options(items: list[str] | None) -> dict[str, Any]:
@@ -69,6 +69,10 @@ def batch(
         ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    time_limit: TimeLimit = None,
+    max_memory: Annotated[
+        str | None, typer.Option("--max-memory", help="Memory budget of each session's method, e.g. 2GiB (--option max_memory).")
+    ] = None,
 ) -> None:
     """Localise many sessions in parallel; write one table of fruit and one of sessions.
 
@@ -80,9 +84,13 @@ def batch(
     if workers is not None and scheduler is not None:
         raise InputError("--workers, --scheduler: give one of them (--scheduler uses the cluster's workers)")
     options = parse_options(option)
+    if max_memory is not None:
+        if "max_memory" in options:
+            raise InputError("--max-memory, --option max_memory: give one of them")
+        options["max_memory"] = max_memory
     kwargs = dict(method=method, workers=workers, scheduler=scheduler, resume=resume,
                   part_size=part_size, max_worker_deaths=max_worker_deaths, chunk_size=chunk_size)  # fmt: skip
-    with spread_flags(workers, scheduler), _option_flags(options):
+    with spread_flags(workers, scheduler), _option_flags(options), command_budget(time_limit):
         tables = run(inputs, output, **kwargs, **options) if quiet else _run_with_bar(inputs, output, kwargs, options)
     _report(tables, output)
 

@@ -10,7 +10,8 @@ import typer
 
 from .. import limits
 from ..errors import InputError, one_line
-from ._app import app, console, handle_errors
+from ._app import app, command_budget, console, handle_errors
+from .options import MaxMemory, TimeLimit
 
 
 @app.command()
@@ -38,6 +39,8 @@ def simulate(
     active: Annotated[
         int | None, typer.Option(help="Choose N views with the next-best-view loop (cap:60 candidates) instead of --views.")
     ] = None,
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Simulate the bounding-box camera on a scene and write session + ground truth.
 
@@ -78,14 +81,16 @@ def simulate(
     if active is not None:
         from ..active.loop import write_active_simulation
 
-        paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
+        with command_budget(time_limit, max_memory):
+            paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
         console.print(
             f"active loop: {active} views of {len(sc.fruits)} fruit ({sc.name}); wrote {', '.join(p.name for p in paths.values())} to {output}",
             highlight=False,
         )
         return
     poses = poses_by_name(views, scene_target(sc), distance=distance)
-    paths = write_simulation(output, sc, camera, poses, noise=noise_model, rng=rng, supersample=supersample, images=images)
+    with command_budget(time_limit, max_memory):
+        paths = write_simulation(output, sc, camera, poses, noise=noise_model, rng=rng, supersample=supersample, images=images)
     console.print(
         f"simulated {len(sc.fruits)} fruit ({sc.name}) from {len(poses)} views; wrote {', '.join(p.name for p in paths.values())} to {output}",
         highlight=False,
