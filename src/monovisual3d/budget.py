@@ -10,11 +10,11 @@ it starts. This module bounds the rest, for a whole command run:
   also waits ``grace_s`` more and then, with ``hard_exit``, writes the same
   one-line error to stderr and ends the process with exit code 2. Without
   ``SIGALRM`` (Windows) or outside the main thread only the watchdog acts.
-- :func:`memory_limit` caps the process's address space (``RLIMIT_AS``) at what it
-  uses now plus ``max_bytes``: an allocation beyond it raises ``MemoryError``
-  instead of swapping or waking the out-of-memory killer. The CLI turns that
-  into a one-line error naming ``--max-memory``. Address space counts mapped
-  but unused memory too, so the cap is a ceiling, not a measure.
+- :func:`memory_limit` watches the process's resident memory (every
+  :data:`POLL_S` seconds) and, once it has grown by more than ``max_bytes``, writes
+  a one-line error naming ``--max-memory`` and ends the process with exit code 2,
+  before the machine swaps or the out-of-memory killer acts. An allocation made
+  between two looks can overshoot the cap by what it allocates.
 
 Both are context managers that restore the previous state on exit, and both do
 nothing when given ``None``.
@@ -36,6 +36,8 @@ from .limits import MAX_TIME_LIMIT_S
 
 #: Seconds the watchdog waits after the soft limit before it ends the process (a compiled kernel may be running).
 GRACE_S = 5.0
+#: Seconds between two looks of the memory watchdog.
+POLL_S = 0.05
 #: Exit code of a process ended by the watchdog (a usage error: the limit the user set was too small).
 EXIT_CODE = 2
 
@@ -119,43 +121,47 @@ def _hard_stop(message: str) -> None:  # pragma: no cover - ends the process
 
 
 @contextlib.contextmanager
-def memory_limit(max_bytes: int | None) -> Iterator[None]:
-    """Cap the process's address space at its current size plus ``max_bytes`` for the ``with`` block.
+def memory_limit(max_bytes: int | None, *, name: str = "--max-memory", poll_s: float = POLL_S) -> Iterator[None]:
+    """End the process when its resident memory grows more than ``max_bytes`` during the ``with`` block.
+
+    A watchdog thread reads the resident set size every ``poll_s`` seconds; past the
+    cap it writes a one-line error naming ``name`` and ends the process with exit
+    code 2 (for command-line runs). An address-space limit was tried first: libraries
+    that cannot map their buffers then spin instead of failing (OpenBLAS at import).
 
     Parameters
     ----------
-    max_bytes : int or None, bytes the block may add; None: no cap. Where ``resource``
-        is missing (Windows) nothing is capped.
+    max_bytes : int or None, bytes the block may add to the resident memory; None: no cap.
+        Where ``/proc`` is missing nothing is capped.
     """
-    if max_bytes is None:
+    start = _resident_bytes()
+    if max_bytes is None or start is None:
         yield
         return
-    try:
-        import resource
-    except ImportError:  # pragma: no cover - Windows
-        yield
-        return
-    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
-    cap = _address_space() + int(max_bytes)
-    if hard != resource.RLIM_INFINITY:
-        cap = min(cap, hard)
-    resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
+    cap = start + int(max_bytes)
+    stop = threading.Event()
+
+    def watch() -> None:  # pragma: no cover - runs in a thread; ends the process
+        while not stop.wait(poll_s):
+            rss = _resident_bytes()
+            if rss is not None and rss > cap:
+                _hard_stop(f"{name}: the command grew by more than {int(max_bytes) / 1024**2:.0f} MiB, stopped; raise {name}")
+
+    thread = threading.Thread(target=watch, name="monovisual3d-memory-limit", daemon=True)
+    thread.start()
     try:
         yield
     finally:
-        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+        stop.set()
 
 
-def _address_space() -> int:
-    """Bytes of address space the process maps now (``VmSize``; 0 where /proc is missing)."""
+def _resident_bytes() -> int | None:
+    """Resident memory of the process, bytes (``/proc/self/statm``; None where it is missing)."""
     try:
-        with open("/proc/self/status", encoding="ascii", errors="replace") as f:
-            for line in f:
-                if line.startswith("VmSize:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return 0
+        with open("/proc/self/statm", encoding="ascii") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 __all__ = ["EXIT_CODE", "GRACE_S", "TimeLimitExceeded", "check_seconds", "memory_limit", "time_limit"]

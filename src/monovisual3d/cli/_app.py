@@ -65,8 +65,8 @@ def handle_errors(fn: F) -> F:
         except TimeLimitExceeded as exc:  # --time-limit expired
             _print_error(str(exc))
             raise typer.Exit(2) from None
-        except MemoryError:  # the --max-memory cap (an address-space limit) or the machine ran out
-            _print_error("out of memory: the command needs more than --max-memory allows (or the machine has)")
+        except MemoryError:  # the machine (or a ulimit) ran out
+            _print_error("out of memory (MemoryError): give the command less work")
             raise typer.Exit(2) from None
         except OSError as exc:  # file system errors (missing, read-only, disk full, I/O): one line naming the file
             name = exc.filename if exc.filename is not None else "(file)"
