@@ -32,10 +32,10 @@ MAX_IMAGE_PIXELS = 2**26
 MAX_ABS_INTRINSIC_PX = 1e7
 #: Largest |distortion coefficient|.
 MAX_ABS_DISTORTION = 1e6
-#: Most views in a session.
-MAX_VIEWS = 100_000
-#: Most detections in one view.
-MAX_DETECTIONS_PER_VIEW = 10_000
+#: Most views in a session (an hour of robot scanning at 3 views a second; the paper uses 3).
+MAX_VIEWS = 10_000
+#: Most detections in one view (a dense plant row shows 50-100 fruit; far above real use).
+MAX_DETECTIONS_PER_VIEW = 2_000
 #: Most points of a mask polygon.
 MAX_POLYGON_POINTS = 100_000
 #: Mask polygon vertices may lie this many image sizes outside the image (the outline of a clipped object).
