@@ -75,9 +75,11 @@ class _Walk:
         self.unreadable: dict[Path, str] = {}
 
     def walk(self, folder: Path) -> None:
-        stack = [folder]
-        while stack:
-            d = stack.pop()
+        """Add the paths below ``folder``; folders reached through a link are walked after all the others,
+        so a file reachable both ways is listed under its path without links."""
+        stack, linked = [folder], []
+        while stack or linked:
+            d = stack.pop() if stack else linked.pop()
             try:
                 info = d.stat()
                 key = (info.st_dev, info.st_ino)
@@ -88,16 +90,17 @@ class _Walk:
             except OSError as exc:
                 self.unreadable[d] = f"cannot read folder ({exc.strerror or type(exc).__name__})"
                 continue
-            subdirs = []
+            subdirs, links = [], []
             for e in entries:
                 path = d / e.name
                 self.paths.append(path)
                 try:
                     if e.is_dir():  # follows links; the seen set stops loops
-                        subdirs.append(path)
+                        (links if e.is_symlink() else subdirs).append(path)
                 except OSError:
                     continue
             stack.extend(reversed(subdirs))
+            linked[:0] = reversed(links)  # first found, first walked
 
 
 def _session_files(folder: Path, walk: _Walk | None = None) -> list[Path]:
