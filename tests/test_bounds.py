@@ -149,7 +149,7 @@ def test_simulate_option_limits(tmp_path: Path, option: str, value: str, error: 
 
 
 def test_simulate_work_limits() -> None:
-    with pytest.raises(InputError, match=r"--supersample: 3 views x 640x480 px x 50\^2 = 2.3e\+09 rays, more than"):
+    with pytest.raises(InputError, match=r"--supersample \(supersample\): 3 views x 640x480 px x 50\^2 = 2.3e\+09 rays, more than"):
         check_sim_work(3, None, 50)
     with pytest.raises(InputError, match="--views: 501 views, more than the 500"):
         check_sim_work(limits.MAX_SIM_VIEWS + 1, None, 1)

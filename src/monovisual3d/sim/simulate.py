@@ -226,12 +226,12 @@ def check_sim_work(n_views: int, camera: Camera | None, supersample: int) -> Non
     if n_views > limits.MAX_SIM_VIEWS:
         raise InputError(f"--views: {n_views} views, more than the {limits.MAX_SIM_VIEWS} a simulation may have")
     if isinstance(supersample, bool) or not isinstance(supersample, (int, np.integer)) or supersample < 1:
-        raise InputError(f"--supersample: got {supersample!r}, expected a positive integer")
+        return  # the renderer refuses it with its own message
     width, height = (camera or default_camera()).size
     rays = n_views * width * height * int(supersample) ** 2
     if rays > limits.MAX_SIM_RAYS:
         raise InputError(
-            f"--supersample: {n_views} views x {width}x{height} px x {supersample}^2 = {rays:.3g} rays, more than the "
+            f"--supersample (supersample): {n_views} views x {width}x{height} px x {supersample}^2 = {rays:.3g} rays, more than the "
             f"{limits.MAX_SIM_RAYS:.3g} cast in one run; use fewer --views or a lower --supersample"
         )
 
