@@ -10,6 +10,7 @@ from typing import Annotated
 
 import typer
 
+from .._structured import read_text
 from ..errors import InputError
 from ._app import app, check_output, command_budget, console, handle_errors, write_output
 from .bench import bench_app
@@ -121,11 +122,13 @@ def bench_active(
     from ..active.bench import format_markdown, merge_results, run_active_bench, save
     from ..active.bench import plot as plot_results
 
+    for path in (output, plot, markdown):
+        check_output(path)
     if report is not None:
         parts = []
         for name in report.split(","):
             try:
-                parts.append(json.loads(Path(name).read_text()))
+                parts.append(json.loads(read_text(name)))
             except json.JSONDecodeError as exc:
                 raise InputError(f"{name}: not a results file ({exc.msg})") from None
         res = merge_results(parts)

@@ -11,7 +11,7 @@ from typing import Annotated, Any
 import typer
 
 from ..errors import InputError
-from ._app import app, command_budget, console, handle_errors
+from ._app import app, check_output, command_budget, console, handle_errors
 from .bench import bench_app
 from .options import TimeLimit, spread_flags
 
@@ -190,6 +190,8 @@ def bench_batch(
 ) -> None:
     """Sessions per second of ``batch`` with 1 and 2 workers, and its overhead over ``localize`` in a loop."""
     from ..bench.batch import format_rows, run_bench_batch
+
+    check_output(output)
 
     try:
         counts = tuple(int(w) for w in workers.split(","))
