@@ -139,6 +139,7 @@ def test_next_view_dev_full_names_the_file() -> None:
         ("--views", "hemisphere:100000:90", "--views: got 'hemisphere:100000:90', more than the 500 views a simulation may have"),
         ("--views", "ring:1000000", "--views: got 'ring:1000000', more than the 500 views a simulation may have"),
         ("--n-fruit", "1000000000", "--n-fruit: got 1000000000, expected a positive integer of at most 1000"),
+        ("--active", "500", "--active: got 500, expected a positive number of views of at most 20"),
     ],
 )
 def test_simulate_option_limits(tmp_path: Path, option: str, value: str, error: str) -> None:

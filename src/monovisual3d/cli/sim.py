@@ -103,8 +103,8 @@ def _check_counts(n_fruit: int | None, seed: int, active: int | None) -> None:
         raise InputError(f"--n-fruit: got {n_fruit}, expected a positive integer of at most {limits.MAX_SIM_FRUIT}")
     if not 0 <= seed <= limits.MAX_SEED:
         raise InputError(f"--seed: got {seed}, expected an integer in [0, {limits.MAX_SEED}]")
-    if active is not None and not 1 <= active <= limits.MAX_SIM_VIEWS:
-        raise InputError(f"--active: got {active}, expected a positive number of views of at most {limits.MAX_SIM_VIEWS}")
+    if active is not None and not 1 <= active <= limits.MAX_ACTIVE_VIEWS:
+        raise InputError(f"--active: got {active}, expected a positive number of views of at most {limits.MAX_ACTIVE_VIEWS}")
 
 
 #: Files ``simulate`` writes into its output folder (besides the view pictures).
