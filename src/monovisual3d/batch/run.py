@@ -219,17 +219,9 @@ def run(
     _check_run_args(method, localizer, workers, scheduler, client, part_size, max_worker_deaths, chunk_size, output, resume)
     _check_options(method, localizer, options)
     found, output = find_sessions(inputs), Path(output)
-    try:
-        output.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(
-            f"{text_line(str(output))}: cannot create the output folder ({exc.strerror or type(exc).__name__})"
-        ) from None
-    _check_not_inputs(found, output)
+    _prepare_output(found, output)
     with tables.OutputLock(output):
-        if not resume and tables.has_parts(output):  # again under the lock: a run that started meanwhile
-            raise InputError(f"{text_line(str(output))}: holds an earlier batch; resume it, or choose an empty folder")
-        done = tables.done_keys(output) if resume else set()
+        done = _done_keys(output, resume)
         writer = tables.PartWriter(output, part_size=part_size, part_seconds=part_seconds)
         runner = _Runner(found, done, method, options, config_hash(method, options), writer, progress, chunk_size)
         try:
@@ -294,8 +286,23 @@ def _check_run_args(
         raise InputError(f"{output}: holds an earlier batch; resume it, or choose an empty folder")
 
 
-def _check_not_inputs(found: list[SessionInput], output: Path) -> None:
-    """Refuse an output folder whose tables would overwrite one of the sessions (``summary.json`` matched by a glob)."""
+def _done_keys(output: Path, resume: bool) -> set[tuple[str, str, str]]:
+    """The sessions done in ``output`` when resuming; without ``resume`` a folder with parts is refused
+    (checked again under the lock: a run may have started since :func:`_check_run_args` looked)."""
+    if not resume and tables.has_parts(output):
+        raise InputError(f"{text_line(str(output))}: holds an earlier batch; resume it, or choose an empty folder")
+    return tables.done_keys(output) if resume else set()
+
+
+def _prepare_output(found: list[SessionInput], output: Path) -> None:
+    """Create the output folder, refusing one that cannot be created or whose tables would overwrite a session
+    (``summary.json`` matched by a glob)."""
+    try:
+        output.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(
+            f"{text_line(str(output))}: cannot create the output folder ({exc.strerror or type(exc).__name__})"
+        ) from None
     written = {(output / name).resolve() for name in tables.WRITTEN_FILES}
     for s in found:
         if s.path.resolve() in written:
