@@ -150,7 +150,9 @@ def test_simulate_option_limits(tmp_path: Path, option: str, value: str, error: 
 
 
 def test_simulate_work_limits() -> None:
-    with pytest.raises(InputError, match=r"--supersample \(supersample\): 3 views x 640x480 px x 50\^2 = 2.3e\+09 rays, more than"):
+    with pytest.raises(
+        InputError, match=r"--supersample \(supersample\): 3 views x 640x480 px x 50\^2 = 2.3e\+09 rays, more than"
+    ):
         check_sim_work(3, None, 50)
     with pytest.raises(InputError, match="--views: 501 views, more than the 500"):
         check_sim_work(limits.MAX_SIM_VIEWS + 1, None, 1)
@@ -257,7 +259,9 @@ def test_import_errors_name_the_input_line(tmp_path: Path) -> None:
         "import", "--camera", str(FIXTURES / "opencv_calibration.yaml"), "--poses", str(FIXTURES / "poses.csv"),
         "--detections", str(labels), "-o", str(tmp_path / "s.json"),
     )  # fmt: skip
-    assert line == f"error: {labels / 'img_001.txt'}: line {n_lines + 1}: mask.polygon: 100010 points, more than the 100000 accepted"
+    assert (
+        line == f"error: {labels / 'img_001.txt'}: line {n_lines + 1}: mask.polygon: 100010 points, more than the 100000 accepted"
+    )
 
 
 def test_import_refuses_huge_tables_before_parsing(tmp_path: Path) -> None:
@@ -297,3 +301,19 @@ def test_time_limit_on_the_command_line(tmp_path: Path) -> None:
     assert one_error("localize", str(example_session_path()), "--time-limit", "-1") == (
         "error: --time-limit: got -1.0, expected seconds in (0, 86400]"
     )
+
+
+@pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="the memory watchdog reads /proc")
+def test_max_memory_stops_a_command_in_one_line(tmp_path: Path) -> None:
+    import subprocess
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(__file__).parents[1] / "src"), os.environ.get("PYTHONPATH", "")]))
+    args = ["simulate", "-o", str(tmp_path / "o"), "--views", "ring:100", "--supersample", "2", "--no-images"]
+    proc = subprocess.run(
+        [sys.executable, "-c", "from monovisual3d.cli import main; main()", *args, "--max-memory", "16MiB"],
+        capture_output=True, text=True, timeout=300, env=env,
+    )  # fmt: skip
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert lines == ["error: --max-memory: the command grew by more than 16 MiB, stopped; raise --max-memory"]
+    assert not (tmp_path / "o" / "session.json").exists()
