@@ -122,8 +122,9 @@ def bench_active(
     from ..active.bench import format_markdown, merge_results, run_active_bench, save
     from ..active.bench import plot as plot_results
 
+    reports = [Path(name) for name in report.split(",")] if report is not None else []
     for path in (output, plot, markdown):
-        check_output(path)
+        check_output(path, *reports)
     if report is not None:
         parts = []
         for name in report.split(","):
