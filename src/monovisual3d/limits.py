@@ -87,3 +87,5 @@ MIN_SEARCH_RESOLUTION_M = 1e-3
 #: Largest k-means of the ``paper`` method: clusters x clustered cells (distances per iteration). 50 clusters over
 #: 1 M cells; 1,000 boxes per view ask for 1,000 clusters, which took minutes before this limit.
 MAX_KMEANS_WORK = 50_000_000
+#: Most local worker processes a batch or a benchmark starts (``--workers``); each loads the package (~200 MB).
+MAX_LOCAL_WORKERS = 256

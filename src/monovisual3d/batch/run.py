@@ -19,6 +19,7 @@ from .._extras import require
 from .._structured import read_capped_bytes
 from ..errors import InputError
 from ..errors import one_line as text_line
+from ..limits import MAX_LOCAL_WORKERS
 from ..result import Result
 from . import tables
 from .inputs import SessionInput, find_sessions
@@ -270,6 +271,8 @@ def _check_run_args(
         raise InputError(f"method: got {method!r}, expected one of {sorted(METHODS)}")
     if workers is not None and workers < 0:
         raise InputError(f"workers: got {workers}, expected 0 (in-process) or a positive number of processes")
+    if workers is not None and workers > MAX_LOCAL_WORKERS:
+        raise InputError(f"workers: got {workers}, more than the {MAX_LOCAL_WORKERS} local processes accepted")
     given = [name for name, value in (("workers", workers), ("scheduler", scheduler), ("client", client)) if value is not None]
     if len(given) > 1:
         raise InputError(f"{', '.join(given)}: give at most one of them")

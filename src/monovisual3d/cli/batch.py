@@ -11,6 +11,7 @@ from typing import Annotated, Any
 import typer
 
 from ..errors import InputError
+from ..limits import MAX_LOCAL_WORKERS
 from ._app import app, check_output, command_budget, console, handle_errors
 from .bench import bench_app
 from .options import TimeLimit, spread_flags
@@ -199,6 +200,8 @@ def bench_batch(
         raise InputError(f"--workers: got {workers!r}, expected integers separated by commas") from None
     if any(c < 1 for c in counts):
         raise InputError(f"--workers: got {workers!r}, expected positive worker counts")
+    if any(c > MAX_LOCAL_WORKERS for c in counts):
+        raise InputError(f"--workers: got {workers!r}, more than the {MAX_LOCAL_WORKERS} local processes accepted")
     options = parse_options(option) if option else ({"backend": "numba"} if method == "paper" else {})
     result = run_bench_batch(
         n_sessions=sessions, worker_counts=counts, method=method, options=options, data=data, repeats=repeats,
