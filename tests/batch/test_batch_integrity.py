@@ -139,3 +139,15 @@ def test_an_output_that_is_an_input_is_refused(runs: Path, tmp_path: Path) -> No
     with pytest.raises(InputError, match="is also an output of this batch; refusing to overwrite it"):
         run([out / "summary.json"], out, workers=0, **FAST)
     assert (out / "summary.json").read_bytes() == before
+
+
+def test_worker_count_is_bounded(runs: Path, tmp_path: Path) -> None:
+    from monovisual3d.batch.spread import check_spread
+    from monovisual3d.limits import MAX_LOCAL_WORKERS
+
+    n = MAX_LOCAL_WORKERS + 1
+    with pytest.raises(InputError, match=rf"^workers: got {n}, more than the {MAX_LOCAL_WORKERS} local processes accepted$"):
+        run([runs], tmp_path / "out", workers=n, **FAST)
+    with pytest.raises(InputError, match="more than the 256 local processes"):
+        check_spread(n, None)
+    assert not (tmp_path / "out").exists()  # refused before anything was written
