@@ -189,11 +189,13 @@ def find_sessions(inputs: Sequence[str | Path]) -> list[SessionInput]:
         ``session.json``, ``session.yaml``, ``session.yml``) and globs
         (``runs/*/session.json``, ``runs/**``; a matched folder is searched, and of
         the matched files those ending in .json/.yaml/.yml are sessions except
-        ``truth.json`` and ``scene.json``).
+        ``truth.json`` and ``scene.json``). Links to folders are followed, each real folder once (no
+        loops), and a file reached several ways is one session, under its path without links.
 
     Returns
     -------
     list of SessionInput
+        An unreadable folder is an entry with ``error`` set (a failed row of the batch, id ``FOLDER/``).
         Ids are paths relative to the deepest folder that holds all the inputs
         (a folder input counts as itself, a file as its folder), so
         ``batch runs/`` and ``batch runs/*/session.json`` give the same ids.
@@ -202,7 +204,7 @@ def find_sessions(inputs: Sequence[str | Path]) -> list[SessionInput]:
     ------
     InputError
         When ``inputs`` is empty, names something that does not exist, a glob
-        matches nothing, or a folder holds no session.
+        matches nothing, a folder holds no session, or a device, FIFO or socket is named as an input.
 
     Examples
     --------
