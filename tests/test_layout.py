@@ -29,6 +29,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
         (
             "_extras",
             "_structured",
+            "budget",
             "camera",
             "checks",
             "completeness",

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import re
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -27,23 +28,52 @@ from .errors import InputError, excerpt, one_line
 from .limits import MAX_FILE_BYTES, MAX_NESTING, MAX_NODES, MAX_YAML_BYTES, MAX_YAML_NODES
 
 
-def read_text(path: str | Path) -> str:
-    """Read a UTF-8 text file (a BOM is allowed) with a one-line error for missing, directory, binary or huge files."""
+def read_capped_bytes(path: str | Path, limit: int = MAX_FILE_BYTES) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes, with a one-line error otherwise.
+
+    Devices (``/dev/zero``), FIFOs and sockets are refused before they are opened
+    (reading them has no end, or blocks), and at most ``limit + 1`` bytes are ever
+    read (a file that grows while it is read is refused, not read without bound).
+    """
     path = Path(path)
     name = one_line(str(path))
     try:
         if not path.exists():
             raise InputError(f"{name}: file not found")
-        if path.is_dir():
+        info = path.stat()
+        if stat.S_ISDIR(info.st_mode):
             raise InputError(f"{name}: is a directory, expected a file")
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise InputError(f"{name}: {size} bytes, larger than the {MAX_FILE_BYTES} bytes accepted")
-        raw = path.read_bytes()
+        if not stat.S_ISREG(info.st_mode):
+            raise InputError(f"{name}: is a {_file_kind(info.st_mode)}, expected a regular file")
+        if info.st_size > limit:
+            raise InputError(f"{name}: {info.st_size} bytes, larger than the {limit} bytes accepted")
+        with open(path, "rb") as f:
+            raw = f.read(limit + 1)
     except OSError as exc:
         raise InputError(f"{name}: cannot read ({exc.strerror or type(exc).__name__})") from None
-    if len(raw) > MAX_FILE_BYTES:  # a pipe or device reports no size
-        raise InputError(f"{name}: larger than the {MAX_FILE_BYTES} bytes accepted")
+    if len(raw) > limit:  # it grew while it was read
+        raise InputError(f"{name}: larger than the {limit} bytes accepted")
+    return raw
+
+
+def _file_kind(mode: int) -> str:
+    """What a non-regular file is, in words (for errors)."""
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "device"
+    if stat.S_ISFIFO(mode):
+        return "FIFO (named pipe)"
+    if stat.S_ISSOCK(mode):
+        return "socket"
+    return "special file"
+
+
+def read_text(path: str | Path) -> str:
+    """Read a UTF-8 text file (a BOM is allowed) with a one-line error for missing, directory, binary or huge files.
+
+    Devices and FIFOs are refused (see :func:`read_capped_bytes`).
+    """
+    name = one_line(str(path))
+    raw = read_capped_bytes(path)
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:

@@ -43,10 +43,10 @@ MAX_IMAGE_PIXELS = 2**26
 MAX_ABS_INTRINSIC_PX = 1e7
 #: Largest |distortion coefficient|.
 MAX_ABS_DISTORTION = 1e6
-#: Most views in a session.
-MAX_VIEWS = 100_000
-#: Most detections in one view.
-MAX_DETECTIONS_PER_VIEW = 10_000
+#: Most views in a session (an hour of robot scanning at 3 views a second; the paper uses 3).
+MAX_VIEWS = 10_000
+#: Most detections in one view (a dense plant row shows 50-100 fruit; far above real use).
+MAX_DETECTIONS_PER_VIEW = 2_000
 #: Most points of a mask polygon.
 MAX_POLYGON_POINTS = 100_000
 #: Mask polygon vertices may lie this many image sizes outside the image (the outline of a clipped object).
@@ -132,3 +132,43 @@ def format_bytes(n: float) -> str:
             v = n / size
             return f"{v:.1f} {unit}" if v < 1e5 else f"{v:.4g} {unit}"
     return f"{int(n)} B"
+
+
+# ---------------------------------------------------------------------- work limits of the commands (issue 23)
+# Options that set how much work a command does are bounded here, so a typo such as
+# ``--false-positives 1e9`` is a one-line error naming the option and its limit, not
+# minutes of work or a MemoryError. Each is set far above real use.
+
+#: Most candidate poses of ``next-view`` (``cap:N`` or a candidate file); the planner holds ~30 KB per candidate.
+MAX_CANDIDATES = 5_000
+#: Most views ``simulate`` generates (``ring:N``, ``hemisphere:N``, a pose file, ``--active N``): ~40 ms each.
+MAX_SIM_VIEWS = 500
+#: Most views of ``simulate --active N`` (each step localises every view so far and plans: 12 views took 9 s of CPU).
+MAX_ACTIVE_VIEWS = 20
+#: Most rays ``simulate`` casts in one run: views x width x height x supersample**2 (500 views of 640 x 480).
+MAX_SIM_RAYS = 500 * 640 * 480
+#: Most view pictures (``--images``) ``simulate`` draws in one run (~0.2 s each with matplotlib).
+MAX_SIM_PICTURES = 100
+#: Most fruit of a generated ``simulate`` scene (``--n-fruit``).
+MAX_SIM_FRUIT = 1_000
+#: Largest expected number of simulated false-positive boxes per image (``--false-positives``).
+MAX_SIM_FALSE_POSITIVES = 100.0
+#: Largest simulated camera position error, millimetres (``--pose-error-mm``): 1 m.
+MAX_SIM_POSE_ERROR_MM = 1000.0
+#: Largest simulated camera rotation error, degrees (``--pose-error-deg``).
+MAX_SIM_POSE_ERROR_DEG = 180.0
+#: Largest seed accepted by ``simulate`` and the benchmarks (numpy's seeds are non-negative, below 2**128).
+MAX_SEED = 2**63 - 1
+#: Most data rows of one imported pose or detection table (a 30 fps video of an hour is 108,000 frames).
+MAX_TABLE_ROWS = 200_000
+#: Largest ``--time-limit``, seconds (one day); the option's default is no limit.
+MAX_TIME_LIMIT_S = 86_400.0
+#: Finest ``resolution`` of the ``bayes`` search, metres: each halving below it adds a search level of up to
+#: the hypothesis cap (0.1 mm took over 70 s on the one-sphere example); the continuous refinement, not
+#: the grid, gives the accuracy, so finer cells buy nothing.
+MIN_SEARCH_RESOLUTION_M = 1e-3
+#: Largest k-means of the ``paper`` method: clusters x clustered cells (distances per iteration). 50 clusters over
+#: 1 M cells; 1,000 boxes per view ask for 1,000 clusters, which took minutes before this limit.
+MAX_KMEANS_WORK = 50_000_000
+#: Most local worker processes a batch or a benchmark starts (``--workers``); each loads the package (~200 MB).
+MAX_LOCAL_WORKERS = 256

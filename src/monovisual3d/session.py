@@ -259,7 +259,7 @@ def _session_from_dict(data: Any, source: str | None) -> Session:
     if not views_data:
         raise InputError("views: empty, expected at least one view")
     if len(views_data) > limits.MAX_VIEWS:
-        raise InputError(f"views: {len(views_data)} views, more than the {limits.MAX_VIEWS} accepted")
+        raise InputError(f"views: {len(views_data)} views, more than the {limits.MAX_VIEWS:,} accepted (limits.MAX_VIEWS)")
     views = tuple(_view_from_dict(v, f"views[{i}]", camera, pose_frame, source) for i, v in enumerate(views_data))
     workspace = None
     if data.get("workspace") is not None:
@@ -330,7 +330,8 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
         raise InputError(f"{where}.detections: expected a list, got {type(dets_data).__name__}")
     if len(dets_data) > limits.MAX_DETECTIONS_PER_VIEW:
         raise InputError(
-            f"{where}.detections: {len(dets_data)} detections, more than the {limits.MAX_DETECTIONS_PER_VIEW} accepted"
+            f"{where}.detections: {len(dets_data)} detections, more than the {limits.MAX_DETECTIONS_PER_VIEW:,} accepted per view "
+            "(limits.MAX_DETECTIONS_PER_VIEW)"
         )
     prefix = f"{source}: " if source else ""
     if not dets_data:

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+import bounds  # noqa: E402
 import mutate  # noqa: E402
 
 from monovisual3d import InputError, load_session, localize  # noqa: E402
@@ -421,7 +422,7 @@ def bag_case(rng: random.Random, tmp: Path, report: Report, case: str) -> None:
 #: Share of loadable sessions that are also localised (the slow part); FUZZ_LOCALIZE_SHARE overrides.
 LOCALIZE_SHARE = 0.3
 #: Mix of case kinds: (kind, weight).
-MIX = [("session", 72), ("evaluate", 10), ("import", 6), ("cli", 9), ("bag", 3)]
+MIX = [("session", 72), ("evaluate", 10), ("import", 6), ("cli", 9), ("bag", 3), ("bounds", 4)]
 
 
 def run(cases: int, seed: int, *, log: Any = None, start: int = 0) -> Report:
@@ -453,6 +454,8 @@ def run(cases: int, seed: int, *, log: Any = None, start: int = 0) -> Report:
                         import_case(rng, tmp, report, case)
                     elif kind == "bag":
                         bag_case(rng, tmp, report, case)
+                    elif kind == "bounds":
+                        bounds.bounds_case(rng, tmp, report, case)
                     else:
                         cli_case(rng, tmp, report, case, bases)
                 except Hang:

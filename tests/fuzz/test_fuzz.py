@@ -116,6 +116,9 @@ def _bomb_session() -> str:
             "s.json: camera.width: got 100000, more than the 32768 pixels accepted",
         ),
         ("s.json", "example", ["localize", "s.json", "-q", "-o", "/dev/full"], "/dev/full: cannot write"),
+        ("s.json", "device", ["localize", "/dev/zero", "-q"], "/dev/zero: is a device, expected a regular file"),
+        ("s.json", "device", ["next-view", "s.json", "--candidates", "cap:100000"], "--candidates: got 'cap:100000', more than"),
+        ("s.json", "device", ["simulate", "-o", "o", "--views", "ring:1000000"], "--views: got 'ring:1000000', more than"),
     ],
 )
 def test_real_cli_subprocess(tmp_path: Path, name: str, content: str, args: list[str], expected: str) -> None:
@@ -129,8 +132,8 @@ def test_real_cli_subprocess(tmp_path: Path, name: str, content: str, args: list
     else:
         text = json.dumps(BASES[0])
     (tmp_path / name).write_text(text)
-    if content == "example" and not Path("/dev/full").exists():
-        pytest.skip("needs /dev/full")
+    if content == "example" and not Path("/dev/full").exists() or content == "device" and not Path("/dev/zero").exists():
+        pytest.skip("needs /dev/full and /dev/zero")
     limit = int(MAX_RSS_MIB * 1024**2)
 
     def cap() -> None:  # pragma: no cover - runs in the child

@@ -29,6 +29,10 @@ from ..frames import (
     look_at,
     position_quaternion_from_transform,
 )
+from ..limits import MAX_CANDIDATES
+
+#: Digits of the N in ``cap:N`` read as a number (longer is over the limit, not parsed).
+_MAX_DIGITS = 12
 
 #: Golden ratio conjugates of the 3-D R-sequence (a low-discrepancy sequence: deterministic, evenly spread).
 _PHI3 = 1.2207440846057596  # root of x^4 = x + 1
@@ -57,6 +61,8 @@ class CapSpec:
     def __post_init__(self) -> None:
         if isinstance(self.n, bool) or not isinstance(self.n, (int, np.integer)) or self.n < 1:
             raise InputError(f"cap: N: got {self.n!r}, expected a positive integer")
+        if self.n > MAX_CANDIDATES:
+            raise InputError(f"cap: N: got {self.n}, more than the {MAX_CANDIDATES} candidates accepted")
         _check_range(self.distance_m, "distance", 0.0, math.inf, "metres", open_low=True)
         _check_range(self.azimuth_deg, "azimuth", -180.0, 180.0, "degrees")
         _check_range(self.elevation_deg, "elevation", -90.0, 90.0, "degrees")
@@ -78,6 +84,8 @@ class CapSpec:
                 f"--candidates: got {spec!r}, expected cap:N[:distance=LO..HI][:azimuth=LO..HI][:elevation=LO..HI][:reach=R]"
             )
         parts = rest.split(":")
+        if parts[0].strip().isdigit() and (len(parts[0].strip()) > _MAX_DIGITS or int(parts[0]) > MAX_CANDIDATES):
+            raise InputError(f"--candidates: got {spec!r}, more than the {MAX_CANDIDATES} candidates accepted (cap:N)")
         try:
             n = int(parts[0])
         except ValueError:
@@ -181,6 +189,8 @@ def load_candidates(path: str | Path, pose_frame: str = "optical") -> NDArray[np
         raise InputError(f"{path}: poses: expected a list of {{position, quaternion_xyzw}}")
     if not data:
         raise InputError(f"{path}: poses: empty list, expected at least one candidate pose")
+    if len(data) > MAX_CANDIDATES:
+        raise InputError(f"{path}: poses: {len(data)} candidate poses, more than the {MAX_CANDIDATES} accepted")
     out = []
     for i, item in enumerate(data):
         try:
@@ -204,6 +214,8 @@ def check_candidates(candidates: ArrayLike) -> NDArray[np.float64]:
         raise InputError(f"candidates: expected shape (N, 4, 4), got {P.shape}")
     if len(P) == 0:
         raise InputError("candidates: empty list, expected at least one candidate pose")
+    if len(P) > MAX_CANDIDATES:
+        raise InputError(f"candidates: {len(P)} candidate poses, more than the {MAX_CANDIDATES} accepted")
     with np.errstate(over="ignore", invalid="ignore"):
         R = P[:, :3, :3]
         err = np.abs(np.einsum("nji,njk->nik", R, R) - np.eye(3)).max(axis=(1, 2))

@@ -16,7 +16,10 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from .._extras import require
+from .._structured import read_capped_bytes
 from ..errors import InputError
+from ..errors import one_line as text_line
+from ..limits import MAX_LOCAL_WORKERS
 from ..result import Result
 from . import tables
 from .inputs import SessionInput, find_sessions
@@ -71,8 +74,8 @@ class BatchProgress:
 
 def _sha256(path: Path) -> str:
     try:
-        return input_hash(Path(path).read_bytes())
-    except OSError:
+        return input_hash(read_capped_bytes(path))
+    except InputError:
         return ""  # unreadable: never done, reported when it is read for the run
 
 
@@ -217,15 +220,16 @@ def run(
     _check_run_args(method, localizer, workers, scheduler, client, part_size, max_worker_deaths, chunk_size, output, resume)
     _check_options(method, localizer, options)
     found, output = find_sessions(inputs), Path(output)
-    output.mkdir(parents=True, exist_ok=True)
-    done = tables.done_keys(output) if resume else set()
-    writer = tables.PartWriter(output, part_size=part_size, part_seconds=part_seconds)
-    runner = _Runner(found, done, method, options, config_hash(method, options), writer, progress, chunk_size)
-    try:
-        _dispatch(runner, localizer, workers, scheduler, client, max_worker_deaths, dashboard_address)
-    finally:
-        writer.flush()
-    fruit, sessions, _ = tables.consolidate(output)
+    _prepare_output(found, output)
+    with tables.OutputLock(output):
+        done = _done_keys(output, resume)
+        writer = tables.PartWriter(output, part_size=part_size, part_seconds=part_seconds)
+        runner = _Runner(found, done, method, options, config_hash(method, options), writer, progress, chunk_size)
+        try:
+            _dispatch(runner, localizer, workers, scheduler, client, max_worker_deaths, dashboard_address)
+        finally:
+            writer.flush()
+        fruit, sessions, _ = tables.consolidate(output)
     return BatchTables(fruit, sessions)
 
 
@@ -267,6 +271,8 @@ def _check_run_args(
         raise InputError(f"method: got {method!r}, expected one of {sorted(METHODS)}")
     if workers is not None and workers < 0:
         raise InputError(f"workers: got {workers}, expected 0 (in-process) or a positive number of processes")
+    if workers is not None and workers > MAX_LOCAL_WORKERS:
+        raise InputError(f"workers: got {workers}, more than the {MAX_LOCAL_WORKERS} local processes accepted")
     given = [name for name, value in (("workers", workers), ("scheduler", scheduler), ("client", client)) if value is not None]
     if len(given) > 1:
         raise InputError(f"{', '.join(given)}: give at most one of them")
@@ -281,6 +287,31 @@ def _check_run_args(
         raise InputError(f"{output}: exists and is not a folder")
     if not resume and tables.has_parts(output):
         raise InputError(f"{output}: holds an earlier batch; resume it, or choose an empty folder")
+
+
+def _done_keys(output: Path, resume: bool) -> set[tuple[str, str, str]]:
+    """The sessions done in ``output`` when resuming; without ``resume`` a folder with parts is refused
+    (checked again under the lock: a run may have started since :func:`_check_run_args` looked)."""
+    if not resume and tables.has_parts(output):
+        raise InputError(f"{text_line(str(output))}: holds an earlier batch; resume it, or choose an empty folder")
+    return tables.done_keys(output) if resume else set()
+
+
+def _prepare_output(found: list[SessionInput], output: Path) -> None:
+    """Create the output folder, refusing one that cannot be created or whose tables would overwrite a session
+    (``summary.json`` matched by a glob)."""
+    try:
+        output.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(
+            f"{text_line(str(output))}: cannot create the output folder ({exc.strerror or type(exc).__name__})"
+        ) from None
+    written = {(output / name).resolve() for name in tables.WRITTEN_FILES}
+    for s in found:
+        if s.path.resolve() in written:
+            raise InputError(
+                f"{text_line(str(s.path))}: is also an output of this batch; refusing to overwrite it, choose another --output"
+            )
 
 
 def _default_method() -> str:
@@ -327,9 +358,13 @@ class _Runner:
     def jobs(self) -> Iterator[Job]:
         """The jobs to run, read one at a time; unreadable files and resumed sessions are handled here."""
         for s in self.found:
+            if s.error is not None:  # an unreadable folder: a failed row, never a silent skip
+                job = Job(s.session_id, str(s.path), "", "", self.method, self.options, self.cfg_hash)
+                self.record(session_row(job, status="error", error=s.error, error_type="OSError"), [])
+                continue
             try:
                 job = make_job(s.path, s.session_id, s.truth_path, self.method, self.options, self.cfg_hash)
-            except (OSError, UnicodeError) as exc:
+            except (OSError, UnicodeError, InputError) as exc:
                 job = Job(s.session_id, str(s.path), "", "", self.method, self.options, self.cfg_hash)
                 message = f"{exc.filename or s.path}: {exc.strerror or exc}" if isinstance(exc, OSError) else str(exc)
                 self.record(session_row(job, status="error", error=message, error_type=type(exc).__name__), [])

@@ -2,8 +2,14 @@
 
 Layout of an output folder::
 
-    parts/fruit-000001.parquet, parts/sessions-000001.parquet, ...   (written as results arrive)
+    parts/fruit-000001-TOKEN.parquet, parts/sessions-000001-TOKEN.parquet, ...   (written as results arrive)
     fruit.parquet, fruit.csv, sessions.parquet, sessions.csv, summary.json  (consolidated)
+    .lock   (held by the run writing to the folder)
+
+Part names carry a token of the run that wrote them, so two runs never write
+the same name even where the lock cannot be taken (a file system without
+``flock``). The CSV files follow RFC 4180 (CRLF line ends, fields with a comma,
+quote, CR or LF quoted), so any session id reads back as written.
 
 A part is written atomically (temporary name, then rename), fruit before
 sessions: a ``sessions`` part is the mark that its sessions are done. When a
@@ -17,10 +23,12 @@ import json
 import math
 import os
 import re
+import uuid
 from pathlib import Path
 from typing import Any
 
 from .._extras import require
+from ..errors import InputError, one_line
 
 #: ``fruit`` columns and their pandas dtypes (one row per localised fruit).
 FRUIT_COLUMNS: dict[str, str] = {
@@ -73,10 +81,12 @@ SESSION_COLUMNS: dict[str, str] = {
     "radius_error_mean_m": "float64",
 }
 
+#: Files a batch writes into its output folder (besides ``parts/`` and ``.lock``).
+WRITTEN_FILES = ("fruit.parquet", "fruit.csv", "sessions.parquet", "sessions.csv", "summary.json", ".lock")
 #: Error types that say nothing about the input (a lost worker, a cancelled task): ``resume`` runs them again.
 TRANSIENT_ERRORS = frozenset({"KilledWorker", "CancelledError", "FutureCancelledError"})
 
-_PART = re.compile(r"^(fruit|sessions)-(\d{6})\.parquet$")
+_PART = re.compile(r"^(fruit|sessions)-(\d{6,})(?:-([0-9a-f]{8,32}))?\.parquet$")
 
 
 def _pandas() -> Any:
@@ -121,6 +131,7 @@ class PartWriter:
         self.part_seconds = part_seconds
         numbers = [int(m.group(2)) for p in self.dir.iterdir() if (m := _PART.match(p.name))]
         self.next_part = max(numbers, default=0) + 1
+        self.token = uuid.uuid4().hex[:12]  # this run's mark in its part names: never the name of another run's part
         self.sessions: list[dict[str, Any]] = []
         self.fruit: list[dict[str, Any]] = []
         self.last_flush: float | None = None
@@ -139,8 +150,8 @@ class PartWriter:
         if not self.sessions:
             return
         n = self.next_part
-        _write_atomic(frame(self.fruit, FRUIT_COLUMNS), self.dir / f"fruit-{n:06d}.parquet")
-        _write_atomic(frame(self.sessions, SESSION_COLUMNS), self.dir / f"sessions-{n:06d}.parquet")
+        _write_atomic(frame(self.fruit, FRUIT_COLUMNS), self.dir / f"fruit-{n:06d}-{self.token}.parquet")
+        _write_atomic(frame(self.sessions, SESSION_COLUMNS), self.dir / f"sessions-{n:06d}-{self.token}.parquet")
         self.next_part += 1
         self.sessions, self.fruit = [], []
         self.last_flush = now
@@ -155,20 +166,20 @@ def read_parts(output: Path) -> tuple[Any, Any]:
     """All parts of ``output``, deduplicated: (fruit, sessions), each session's last row and its fruit."""
     pd = _pandas()
     d = Path(output) / "parts"
-    found: dict[int, dict[str, Path]] = {}
+    found: dict[tuple[int, str], dict[str, Path]] = {}  # (number, run token) -> {"fruit": path, "sessions": path}
     if d.is_dir():
         for p in d.iterdir():
             if m := _PART.match(p.name):
-                found.setdefault(int(m.group(2)), {})[m.group(1)] = p
+                found.setdefault((int(m.group(2)), m.group(3) or ""), {})[m.group(1)] = p
     sessions, fruit = [], []
-    for n in sorted(found):
-        if "sessions" not in found[n]:
+    for n, key in enumerate(sorted(found)):
+        if "sessions" not in found[key]:
             continue  # the client stopped between the two writes: its sessions count as not done
-        s = pd.read_parquet(found[n]["sessions"])
+        s = pd.read_parquet(found[key]["sessions"])
         s["_part"] = n
         sessions.append(s)
-        if "fruit" in found[n]:
-            f = pd.read_parquet(found[n]["fruit"])
+        if "fruit" in found[key]:
+            f = pd.read_parquet(found[key]["fruit"])
             f["_part"] = n
             fruit.append(f)
     if not sessions:
@@ -223,6 +234,58 @@ def summarize(fruit: Any, sessions: Any) -> dict[str, Any]:
     return out
 
 
+def strict_json(value: Any) -> Any:
+    """``value`` with every non-finite float replaced by ``None`` (JSON ``null``: ``NaN`` is not JSON)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [strict_json(v) for v in value]
+    return value
+
+
+class OutputLock:
+    """An exclusive lock on a batch output folder (``OUTPUT/.lock``, ``flock``), held while a run writes to it.
+
+    A second run on the same folder is refused with a one-line :class:`InputError`
+    instead of interleaving its parts and tables with the first. The lock is
+    released when the run ends, also when it is killed (the kernel drops it).
+    On a system without ``fcntl`` (Windows) no lock is taken; the part names
+    still never collide.
+    """
+
+    def __init__(self, output: Path) -> None:
+        self.path = Path(output) / ".lock"
+        self.file: Any = None
+
+    def __enter__(self) -> OutputLock:
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows
+            return self
+        self.file = open(self.path, "a+", encoding="utf-8")  # noqa: SIM115 - held until __exit__
+        try:
+            fcntl.flock(self.file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self.file.close()
+            self.file = None
+            raise InputError(
+                f"{one_line(str(self.path.parent))}: another batch is writing to this folder (it holds {self.path.name}); "
+                "wait for it to end or choose another --output"
+            ) from None
+        self.file.seek(0)
+        self.file.truncate()
+        self.file.write(f"{os.getpid()}\n")
+        self.file.flush()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.file is not None:
+            self.file.close()  # closing releases the flock
+            self.file = None
+
+
 def consolidate(output: Path) -> tuple[Any, Any, dict[str, Any]]:
     """Merge the parts into ``fruit``/``sessions`` Parquet and CSV files and ``summary.json``."""
     output = Path(output)
@@ -231,9 +294,11 @@ def consolidate(output: Path) -> tuple[Any, Any, dict[str, Any]]:
     for name, df in (("fruit", fruit), ("sessions", sessions)):
         _write_atomic(df, output / f"{name}.parquet")
         tmp = output / f".{name}.csv.tmp"
-        df.to_csv(tmp, index=False)
+        df.to_csv(tmp, index=False, lineterminator="\r\n")  # RFC 4180: a CR or LF inside a field is quoted
         os.replace(tmp, output / f"{name}.csv")
-    (output / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=True) + "\n")
+    tmp = output / ".summary.json.tmp"
+    tmp.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    os.replace(tmp, output / "summary.json")
     return fruit, sessions, summary
 
 

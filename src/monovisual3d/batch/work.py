@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from .._structured import read_capped_bytes
 from ..errors import InputError
 from ..result import DetectedObject, Result
 
@@ -235,9 +236,13 @@ def _utf8(data: bytes, path: Path) -> str:
 def make_job(
     path: Path, session_id: str, truth_path: Path | None, method: str, options: dict[str, Any], config_sha256: str
 ) -> Job:
-    """Read a session (and its truth) into a :class:`Job`; raises OSError when the file cannot be read."""
-    data = Path(path).read_bytes()
-    truth_text = _utf8(Path(truth_path).read_bytes(), truth_path) if truth_path is not None else None
+    """Read a session (and its truth) into a :class:`Job`.
+
+    Raises :class:`InputError` when a file cannot be read, is not a regular file
+    (a device, a FIFO) or is larger than :data:`~monovisual3d.limits.MAX_FILE_BYTES`.
+    """
+    data = read_capped_bytes(path)
+    truth_text = _utf8(read_capped_bytes(truth_path), truth_path) if truth_path is not None else None
     return Job(
         session_id=session_id,
         path=str(path),

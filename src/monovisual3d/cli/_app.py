@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
 import os
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -16,6 +17,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from ..budget import TimeLimitExceeded, memory_limit, time_limit
 from ..errors import InputError, one_line
 
 app = typer.Typer(
@@ -92,6 +94,12 @@ def handle_errors(fn: F) -> F:
         except InputError as exc:
             _print_error(str(exc))
             raise typer.Exit(2) from None
+        except TimeLimitExceeded as exc:  # --time-limit expired
+            _print_error(str(exc))
+            raise typer.Exit(2) from None
+        except MemoryError:  # the machine (or a ulimit) ran out
+            _print_error("out of memory (MemoryError): give the command less work")
+            raise typer.Exit(2) from None
         except OSError as exc:  # file system errors (missing, read-only, disk full, I/O): one line naming the file
             name = exc.filename if exc.filename is not None else "(file)"
             _print_error(f"{name}: {exc.strerror or type(exc).__name__}")
@@ -129,6 +137,18 @@ def check_output(output: Path | None, *inputs: Path | None) -> None:
             same = False
         if same:
             raise InputError(f"{name}: is also an input file; refusing to overwrite it, choose another --output")
+
+
+@contextlib.contextmanager
+def command_budget(time_limit_s: float | None, max_memory: str | None = None) -> Iterator[None]:
+    """Run the ``with`` block within ``--time-limit`` seconds and ``--max-memory`` bytes (see :mod:`monovisual3d.budget`)."""
+    cap = None
+    if max_memory is not None:
+        from ..methods.options import parse_bytes
+
+        cap = parse_bytes(max_memory, "--max-memory")
+    with time_limit(time_limit_s, hard_exit=True), memory_limit(cap):
+        yield
 
 
 def json_text(data: object, indent: int = 2) -> str:

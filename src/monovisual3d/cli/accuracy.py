@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from ._app import console, handle_errors, plain
+from ._app import check_output, console, handle_errors, plain
 from .bench import bench_app
 from .options import SpreadScheduler, SpreadWorkers, spread_flags
 
@@ -33,6 +33,7 @@ def accuracy(
 
     from ..bench.accuracy import format_markdown, run_accuracy, save
 
+    check_output(output)
     with spread_flags(workers, scheduler), Progress(console=console, transient=True) as bar:
         task = bar.add_task("accuracy benchmark", total=None)
         results = run_accuracy(

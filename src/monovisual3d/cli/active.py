@@ -11,10 +11,11 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
+from .._structured import read_text
 from ..errors import InputError
-from ._app import app, console, handle_errors, plain
+from ._app import app, check_output, command_budget, console, handle_errors, plain, write_output
 from .bench import bench_app
-from .options import SpreadScheduler, SpreadWorkers, spread_flags
+from .options import MaxMemory, SpreadScheduler, SpreadWorkers, TimeLimit, spread_flags
 
 #: plan_session's parameters named in its errors, and the flags they come from.
 _FLAGS = {
@@ -63,6 +64,8 @@ def next_view(
             "(at least 0.01; the sensor model's 0.05 until there are enough)."
         ),
     ] = "auto",
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Choose the next camera pose from candidates by expected gain; report "done" when the estimate is good enough.
 
@@ -72,18 +75,21 @@ def next_view(
     """
     from ..active.api import plan_session
 
+    candidate_file = None if candidates.strip().startswith("cap:") else Path(candidates)
+    check_output(output, session, candidate_file)
     try:
-        out = plan_session(
-            session, candidates, count=count, target_mm=target_mm, motion_weight=motion_weight, reach_m=reach,
-            base=base, target=target, box_noise=_box_noise(box_noise),
-        )  # fmt: skip
+        with command_budget(time_limit, max_memory):
+            out = plan_session(
+                session, candidates, count=count, target_mm=target_mm, motion_weight=motion_weight, reach_m=reach,
+                base=base, target=target, box_noise=_box_noise(box_noise),
+            )  # fmt: skip
     except InputError as exc:
         raise InputError(_as_flags(str(exc))) from None
     text = json.dumps(out, indent=2)
     if output is None:
         sys.stdout.write(text + "\n")
     else:
-        output.write_text(text + "\n")
+        write_output(output, text + "\n")
         _print_plan(out, output)
 
 
@@ -127,6 +133,9 @@ def bench_active(
     scheduler: SpreadScheduler = None,
 ) -> None:
     """Next-best-view against fixed, random and view-sphere viewpoints: error, recall, 95 % ellipsoid vs. views."""
+    reports = [Path(name) for name in report.split(",")] if report is not None else []
+    for path in (output, plot, markdown):  # before any work, and never over an input
+        check_output(path, *reports)
     if report is not None:
         res = _merge_reports(report)
     else:
@@ -148,7 +157,7 @@ def _merge_reports(report: str) -> dict[str, Any]:
     parts = []
     for name in report.split(","):
         try:
-            parts.append(json.loads(Path(name).read_text()))
+            parts.append(json.loads(read_text(name)))
         except json.JSONDecodeError as exc:
             raise InputError(f"{name}: not a results file ({exc.msg})") from None
     return merge_results(parts)
@@ -199,7 +208,7 @@ def _write_results(res: dict[str, Any], *, markdown: Path | None, output: Path |
     text = format_markdown(res, command)
     print(text)
     if markdown is not None:
-        markdown.write_text(text)
+        write_output(markdown, text)
     if output is not None:
         save(res, str(output))
         console.print(f"wrote {plain(output)}", highlight=False)

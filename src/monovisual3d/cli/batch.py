@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors, plain, print_warning
+from ..limits import MAX_LOCAL_WORKERS
+from ._app import app, check_output, command_budget, console, handle_errors, plain, print_warning
 from .bench import bench_app
-from .options import spread_flags
+from .options import TimeLimit, spread_flags
 
 
 def parse_options(items: list[str] | None) -> dict[str, Any]:
@@ -76,6 +78,10 @@ def batch(
             "or boxes associated to no object (as localize --strict; listed in sessions.csv, column warnings).",
         ),
     ] = False,
+    time_limit: TimeLimit = None,
+    max_memory: Annotated[
+        str | None, typer.Option("--max-memory", help="Memory budget of each session's method, e.g. 2GiB (--option max_memory).")
+    ] = None,
 ) -> None:
     """Localise many sessions in parallel; write one table of fruit and one of sessions.
 
@@ -87,12 +93,34 @@ def batch(
 
     if workers is not None and scheduler is not None:
         raise InputError("--workers, --scheduler: give one of them (--scheduler uses the cluster's workers)")
-    options = parse_options(option)
+    options = _method_options(option, max_memory)
     kwargs = dict(method=method, workers=workers, scheduler=scheduler, resume=resume,
                   part_size=part_size, max_worker_deaths=max_worker_deaths, chunk_size=chunk_size)  # fmt: skip
-    with spread_flags(workers, scheduler):
+    with spread_flags(workers, scheduler), _option_flags(options), command_budget(time_limit):
         tables = run(inputs, output, **kwargs, **options) if quiet else _run_with_bar(inputs, output, kwargs, options)
     _report(tables, output, strict)
+
+
+def _method_options(option: list[str] | None, max_memory: str | None) -> dict[str, Any]:
+    """The method options of ``--option NAME=VALUE`` and ``--max-memory`` (one of the two for the memory budget)."""
+    options = parse_options(option)
+    if max_memory is not None:
+        if "max_memory" in options:
+            raise InputError("--max-memory, --option max_memory: give one of them")
+        options["max_memory"] = max_memory
+    return options
+
+
+@contextlib.contextmanager
+def _option_flags(options: dict[str, Any]) -> Iterator[None]:
+    """Name a method option as typed (``--option resolution: ...``) in the errors raised about it."""
+    try:
+        yield
+    except InputError as exc:
+        key = str(exc).partition(":")[0]
+        if key in options:
+            raise InputError(f"--option {exc}") from None
+        raise
 
 
 def _run_with_bar(inputs: list[str], output: Path, kwargs: dict[str, Any], options: dict[str, Any]) -> Any:
@@ -215,12 +243,16 @@ def bench_batch(
     """Sessions per second of ``batch`` with 1 and 2 workers, and its overhead over ``localize`` in a loop."""
     from ..bench.batch import format_rows, run_bench_batch
 
+    check_output(output)
+
     try:
         counts = tuple(int(w) for w in workers.split(","))
     except ValueError:
         raise InputError(f"--workers: got {workers!r}, expected integers separated by commas") from None
     if any(c < 1 for c in counts):
         raise InputError(f"--workers: got {workers!r}, expected positive worker counts")
+    if any(c > MAX_LOCAL_WORKERS for c in counts):
+        raise InputError(f"--workers: got {workers!r}, more than the {MAX_LOCAL_WORKERS} local processes accepted")
     options = parse_options(option) if option else ({"backend": "numba"} if method == "paper" else {})
     result = run_bench_batch(
         n_sessions=sessions, worker_counts=counts, method=method, options=options, data=data, repeats=repeats,

@@ -12,8 +12,8 @@ from rich.table import Table
 
 from ..errors import InputError, InputWarning
 from ..methods import DEFAULT_METHOD, METHODS
-from ._app import app, check_output, console, handle_errors, json_text, plain, print_warning, write_output
-from .options import method_config, translate_error, with_method_options
+from ._app import app, check_output, command_budget, console, handle_errors, json_text, plain, print_warning, write_output
+from .options import TimeLimit, method_config, translate_error, with_method_options
 
 if TYPE_CHECKING:
     from ..metrics import Metrics
@@ -102,23 +102,30 @@ def localize(
             "or leaves boxes associated to no object.",
         ),
     ] = False,
+    time_limit: TimeLimit = None,
     *,
     method_options: dict[str, Any],
 ) -> None:
     """Localise the objects of a session and print/write them.
 
     Warnings follow the table, one line each on stderr (also with --quiet), and are kept in the
-    result's "warnings". Every option after --strict is a field of a method's config; its help says
+    result's "warnings". Every option after --time-limit is a field of a method's config; its help says
     which method it applies to.
     """
-    from ..completeness import incomplete_reasons, merge_reasons
-    from ..session import geometry_warnings, load_session
-
     # validate the options, the files and the outputs before the progress bar, so an error prints alone
     config = method_config(method, method_options)
     check_output(output, session)
     if view is not None:
         check_output(view, session)
+    with command_budget(time_limit):
+        _localize_and_write(session, config, output, quiet, view, strict)
+
+
+def _localize_and_write(session: Path, config: Any, output: Path | None, quiet: bool, view: Path | None, strict: bool) -> None:
+    """The body of ``localize`` after its checks: load, localise, write and print; ``strict``: exit 1 if incomplete."""
+    from ..completeness import incomplete_reasons, merge_reasons
+    from ..session import geometry_warnings, load_session
+
     loaded = load_session(session)
     for message in geometry_warnings(loaded, single_view=True):
         if message.startswith("views: a single view"):  # load_session warned about the others

@@ -8,7 +8,8 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from ..errors import InputError, one_line
-from ._app import app, check_output, console, handle_errors, json_text, plain, write_output
+from ._app import app, check_output, command_budget, console, handle_errors, json_text, plain, write_output
+from .options import MaxMemory, TimeLimit
 
 if TYPE_CHECKING:
     from ..io.summary import ImportResult
@@ -100,34 +101,37 @@ def import_cmd(
     workspace: Annotated[
         str | None, typer.Option("--workspace", help="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in metres, base frame.")
     ] = None,
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Build a session file from a calibration, poses and detections, and print what was skipped."""
     from ..io.build import import_session
 
     check_output(output, camera, poses, detections, hand_eye, class_names, coco_images)
-    result = import_session(
-        camera,
-        poses,
-        detections,
-        hand_eye=hand_eye,
-        camera_format=camera_format,
-        camera_name=camera_name,
-        image_size=_size(image_size),
-        resize=resize,
-        crop_xyxy=_crop(crop),
-        pose_format=pose_format,
-        units=units,
-        hand_eye_units=hand_eye_units,
-        pose_frame=pose_frame,
-        detections_format=detections_format,
-        class_names=class_names,
-        coco_images=coco_images,
-        labels=label or None,
-        min_score=min_score,
-        match=match,
-        max_gap=max_gap,
-        workspace=_workspace(workspace),
-    )
+    with command_budget(time_limit, max_memory):
+        result = import_session(
+            camera,
+            poses,
+            detections,
+            hand_eye=hand_eye,
+            camera_format=camera_format,
+            camera_name=camera_name,
+            image_size=_size(image_size),
+            resize=resize,
+            crop_xyxy=_crop(crop),
+            pose_format=pose_format,
+            units=units,
+            hand_eye_units=hand_eye_units,
+            pose_frame=pose_frame,
+            detections_format=detections_format,
+            class_names=class_names,
+            coco_images=coco_images,
+            labels=label or None,
+            min_score=min_score,
+            match=match,
+            max_gap=max_gap,
+            workspace=_workspace(workspace),
+        )
     _report(result, output)
 
 
@@ -161,27 +165,30 @@ def import_bag_cmd(
     workspace: Annotated[
         str | None, typer.Option("--workspace", help="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in metres, base frame.")
     ] = None,
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Build a session file from a ROS bag: TF poses, CameraInfo and Detection2DArray."""
     from ..io.rosbag import read_bag
 
     check_output(output, bag, camera, class_names)
-    result = read_bag(
-        bag,
-        base_frame=base_frame,
-        camera_frame=camera_frame,
-        detections_topic=detections,
-        camera_info_topic=camera_info,
-        camera=camera,
-        pose_frame=pose_frame,
-        max_gap=max_gap,
-        min_score=min_score,
-        labels=label or None,
-        class_names=class_names,
-        image_size=_size(image_size),
-        resize=resize,
-        workspace=_workspace(workspace),
-    )
+    with command_budget(time_limit, max_memory):
+        result = read_bag(
+            bag,
+            base_frame=base_frame,
+            camera_frame=camera_frame,
+            detections_topic=detections,
+            camera_info_topic=camera_info,
+            camera=camera,
+            pose_frame=pose_frame,
+            max_gap=max_gap,
+            min_score=min_score,
+            labels=label or None,
+            class_names=class_names,
+            image_size=_size(image_size),
+            resize=resize,
+            workspace=_workspace(workspace),
+        )
     _report(result, output)
 
 

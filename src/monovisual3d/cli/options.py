@@ -199,3 +199,18 @@ def _flag_errors() -> Iterator[None]:
             if message.startswith(f"{name}:"):
                 raise InputError(f"--{message}") from None
         raise
+
+
+#: ``--time-limit`` of every command that does work (see :mod:`monovisual3d.budget`).
+TimeLimit = Annotated[
+    float | None,
+    typer.Option(
+        "--time-limit",
+        help="Stop with an error after this many seconds (default: no limit); a batch keeps the rows it has written.",
+    ),
+]
+#: ``--max-memory`` of the commands without a method option of that name: a cap on the memory the command adds.
+MaxMemory = Annotated[
+    str | None,
+    typer.Option("--max-memory", help="Memory the command may add, e.g. 2GiB (default: no cap); beyond it, an error."),
+]

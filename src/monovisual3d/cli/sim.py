@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from ..errors import InputError
-from ._app import app, console, handle_errors, plain
+from .. import limits
+from ..errors import InputError, one_line
+from ._app import app, command_budget, console, handle_errors, plain
+from .options import MaxMemory, TimeLimit
 
 
 @app.command()
@@ -36,6 +39,8 @@ def simulate(
     active: Annotated[
         int | None, typer.Option(help="Choose N views with the next-best-view loop (cap:60 candidates) instead of --views.")
     ] = None,
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Simulate the bounding-box camera on a scene and write session + ground truth.
 
@@ -59,8 +64,8 @@ def simulate(
         pose_error_mm=pose_error_mm,
         pose_error_deg=pose_error_deg,
     )
-    if n_fruit is not None and n_fruit < 1:
-        raise InputError(f"--n-fruit: got {n_fruit}, expected a positive integer")
+    _check_counts(n_fruit, seed, active)
+    _check_out_dir(output, Path(scene), Path(views))
     rng = np.random.default_rng(seed)
     try:
         camera = Camera.from_hfov(640, 480, hfov_deg)
@@ -77,9 +82,8 @@ def simulate(
     if active is not None:
         from ..active.loop import write_active_simulation
 
-        if active < 1:
-            raise InputError(f"--active: got {active}, expected a positive number of views")
-        paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
+        with command_budget(time_limit, max_memory):
+            paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
         console.print(
             f"active loop: {active} views of {len(sc.fruits)} fruit ({plain(sc.name)}); "
             f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
@@ -87,11 +91,51 @@ def simulate(
         )
         return
     poses = poses_by_name(views, scene_target(sc), distance=distance)
-    paths = write_simulation(
-        output, sc, camera, poses, noise=noise_model, rng=rng, supersample=supersample, images=images, picture=write_view_picture
-    )
+    with command_budget(time_limit, max_memory):
+        paths = write_simulation(
+            output,
+            sc,
+            camera,
+            poses,
+            noise=noise_model,
+            rng=rng,
+            supersample=supersample,
+            images=images,
+            picture=write_view_picture,
+        )
     console.print(
         f"simulated {len(sc.fruits)} fruit ({plain(sc.name)}) from {len(poses)} views; "
         f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
         highlight=False,
     )
+
+
+def _check_counts(n_fruit: int | None, seed: int, active: int | None) -> None:
+    """Refuse counts beyond :mod:`monovisual3d.limits` before any work (one line naming the option)."""
+    if n_fruit is not None and not 1 <= n_fruit <= limits.MAX_SIM_FRUIT:
+        raise InputError(f"--n-fruit: got {n_fruit}, expected a positive integer of at most {limits.MAX_SIM_FRUIT}")
+    if not 0 <= seed <= limits.MAX_SEED:
+        raise InputError(f"--seed: got {seed}, expected an integer in [0, {limits.MAX_SEED}]")
+    if active is not None and not 1 <= active <= limits.MAX_ACTIVE_VIEWS:
+        raise InputError(f"--active: got {active}, expected a positive number of views of at most {limits.MAX_ACTIVE_VIEWS}")
+
+
+#: Files ``simulate`` writes into its output folder (besides the view pictures).
+_WRITTEN = ("session.json", "truth.json", "scene.json")
+
+
+def _check_out_dir(output: Path, *inputs: Path) -> None:
+    """The output folder must be a folder we can create or write, and must not hold an input we would overwrite."""
+    name = one_line(str(output))
+    if output.exists() and not output.is_dir():
+        raise InputError(f"{name}: exists and is not a folder, expected the output folder")
+    existing = next((p for p in (output, *output.parents) if p.exists()), Path("."))
+    if not os.access(existing, os.W_OK):
+        raise InputError(f"{name}: cannot write ({one_line(str(existing))} is not writable)")
+    for source in inputs:
+        for written in _WRITTEN:
+            target = output / written
+            if source.is_file() and target.exists() and os.path.samefile(source, target):
+                raise InputError(
+                    f"{one_line(str(target))}: is also an input file; refusing to overwrite it, choose another --output"
+                )

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from ._app import console, handle_errors
+from ._app import check_output, console, handle_errors
 from .bench import bench_app
 
 
@@ -23,6 +23,7 @@ def startup(
     from ..bench.startup import rows_to_dicts, run_startup
     from ..bench.timing import machine_metadata
 
+    check_output(output)
     rows = run_startup(runs)
     table = Table(title="Start-up (fresh process, wall seconds)")
     for col in ("case", "load", "runs", "median s", "min s", "max s", "target s", "met"):

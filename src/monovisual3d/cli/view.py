@@ -9,7 +9,8 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
-from ._app import app, console, handle_errors, plain
+from ._app import app, check_output, command_budget, console, handle_errors, plain
+from .options import MaxMemory, TimeLimit
 
 
 @app.command()
@@ -25,6 +26,8 @@ def view(
     rrd: Annotated[
         Path | None, typer.Option("--rrd", help="Also write a rerun recording (.rrd) of the same scene (extra [rerun]).")
     ] = None,
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Write an interactive 3D view (cameras, boxes, viewing cones, fruit, errors) as one self-contained HTML file.
 
@@ -34,10 +37,13 @@ def view(
         raise InputError(f"--output: got {str(output)!r}, expected a file name ending in .html")
     if rrd is not None and rrd.suffix.lower() != ".rrd":
         raise InputError(f"--rrd: got {str(rrd)!r}, expected a file name ending in .rrd")
+    check_output(output, session, result, truth)
+    check_output(rrd, session, result, truth)
     from ..figures.html3d import write_scene_html
 
     try:
-        path = write_scene_html(session, result, truth, path=output)
+        with command_budget(time_limit, max_memory):
+            path = write_scene_html(session, result, truth, path=output)
     except ImportError as exc:  # the extra is missing: say which, in one line
         raise InputError(str(exc)) from None
     console.print(f"wrote {plain(path)} ({path.stat().st_size / 1e6:.1f} MB, works offline)", highlight=False)
@@ -45,7 +51,8 @@ def view(
         from ..rerun_log import write_rrd
 
         try:
-            written = write_rrd(session, result, truth, path=rrd)
+            with command_budget(time_limit, max_memory):
+                written = write_rrd(session, result, truth, path=rrd)
         except ImportError as exc:
             raise InputError(str(exc)) from None
         console.print(f"wrote {plain(written)} (open with `rerun {plain(written)}`)", highlight=False)

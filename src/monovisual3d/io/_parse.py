@@ -18,10 +18,24 @@ from numpy.typing import NDArray
 
 from .. import _structured
 from ..errors import InputError, excerpt
-from ..limits import MAX_ABS_ANGLE_RAD, MAX_ABS_POSITION_M, MAX_ABS_STAMP_S
+from ..limits import MAX_ABS_ANGLE_RAD, MAX_ABS_POSITION_M, MAX_ABS_STAMP_S, MAX_TABLE_ROWS
 
 read_text = _structured.read_text
 load_json = _structured.load_json
+
+
+def read_table_text(path: str | Path) -> str:
+    """:func:`read_text` of a table (CSV, TUM, YOLO labels), refused when it has more than
+    :data:`~monovisual3d.limits.MAX_TABLE_ROWS` lines, before any line is parsed."""
+    text = read_text(path)
+    check_rows(text.count("\n"), str(path), "lines")
+    return text
+
+
+def check_rows(n: int, where: str, what: str = "rows") -> None:
+    """Refuse a table or list of more than :data:`~monovisual3d.limits.MAX_TABLE_ROWS` items (one line naming ``where``)."""
+    if n > MAX_TABLE_ROWS:
+        raise InputError(f"{where}: {n:,} {what}, more than the {MAX_TABLE_ROWS:,} accepted in one file")
 
 
 # ---------------------------------------------------------------------- YAML

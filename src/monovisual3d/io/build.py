@@ -8,6 +8,7 @@ same loader as session files, and a summary of what was skipped and why.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -152,9 +153,30 @@ def assemble_session(
     if workspace is not None:
         ws = workspace_from_dict(workspace, "workspace") if isinstance(workspace, dict) else workspace
         data["workspace"] = ws.to_dict()
-    session = session_from_dict(data, None)
+    try:
+        session = session_from_dict(data, None)
+    except InputError as exc:
+        raise InputError(_input_where(str(exc), [f for _, f in pairs])) from None
     summary.count_session(session)
     return ImportResult(session, summary)
+
+
+_VIEW_FIELD = re.compile(r"^views\[(\d+)\](?:\.detections\[(\d+)\])?\.?")
+
+
+def _input_where(message: str, frames: Sequence[ImageDetections]) -> str:
+    """A session check's error (``views[0].detections[2].mask.polygon: ...``) told in the user's words:
+    the detection file and line it came from (``labels/a.txt: line 3: mask.polygon: ...``), else the image."""
+    m = _VIEW_FIELD.match(message)
+    if m is None or int(m.group(1)) >= len(frames):
+        return message
+    frame = frames[int(m.group(1))]
+    rest = message[m.end() :].lstrip(": ").strip()
+    j = m.group(2)
+    if j is not None and int(j) < len(frame.lines):
+        return f"{frame.lines[int(j)]}: {rest}"
+    what = f"image {frame.name}" + (f", detection {int(j) + 1}" if j is not None else "")
+    return f"{frame.source or 'detections'}: {what}: {rest}"
 
 
 def _detections_source(frames: Sequence[ImageDetections]) -> str:
@@ -225,9 +247,18 @@ def _match_by_name(
         else:
             used.add(key)
             f = ImageDetections(
-                image=name, stamp=f.stamp if f.stamp is not None else stamp, detections=f.detections, source=f.source
+                image=name,
+                stamp=f.stamp if f.stamp is not None else stamp,
+                detections=f.detections,
+                source=f.source,
+                lines=f.lines,
             )
         pairs.append((T, f))
+    if by_key and not used:  # every view would be empty: a session that says nothing
+        raise InputError(
+            f"{det_source}: no detection image matches an image named in {poses.source or 'the poses'} "
+            f"(e.g. {excerpt(next(iter(by_key)))} vs {excerpt(image_key(poses.images[0]))}); check the names, or pass --match stamp or --match order"
+        )
     for key, f in by_key.items():
         if key not in used:
             summary.skip("image", f.name, "no pose for this image", f"{len(f.detections)} detections")

@@ -25,11 +25,13 @@ from ._parse import (
     as_array,
     as_float,
     as_int,
+    check_rows,
     expect_list,
     expect_mapping,
     image_key,
     load_json,
     load_structured,
+    read_table_text,
     read_text,
     stamp_from_name,
 )
@@ -49,6 +51,8 @@ class ImageDetections:
     detections : tuple of Detection, boxes ``bbox_xyxy`` in pixels
     image_size : (width, height) or None, the size the boxes refer to when the source states it
     source : str or None, where they were read (file name)
+    lines : tuple of str, where each detection was read (``FILE: line N``), for errors found after the import;
+        empty when not known
     """
 
     image: str | None
@@ -56,6 +60,7 @@ class ImageDetections:
     detections: tuple[Detection, ...] = ()
     image_size: tuple[int, int] | None = None
     source: str | None = field(default=None, compare=False)
+    lines: tuple[str, ...] = field(default=(), compare=False)
 
     @property
     def name(self) -> str:
@@ -198,14 +203,17 @@ def read_yolo_labels(source: str | Path, image_size: tuple[int, int], *, class_n
     W, H = (as_int(v, f"image_size[{i}]", minimum=1) for i, v in enumerate(image_size))
     out = []
     for f in files:
-        dets = []
-        for lineno, line in enumerate(read_text(f).splitlines(), start=1):
+        dets, wheres = [], []
+        for lineno, line in enumerate(read_table_text(f).splitlines(), start=1):
             text = line.strip()
             if not text or text.startswith("#"):
                 continue
-            dets.append(_yolo_line(text.split(), W, H, names, f"{f}: line {lineno}"))
+            wheres.append(f"{f}: line {lineno}")
+            dets.append(_yolo_line(text.split(), W, H, names, wheres[-1]))
         key = f.stem
-        out.append(ImageDetections(image=key, stamp=stamp_from_name(key), detections=tuple(dets), source=str(f)))
+        out.append(
+            ImageDetections(image=key, stamp=stamp_from_name(key), detections=tuple(dets), source=str(f), lines=tuple(wheres))
+        )
     return out
 
 
@@ -285,6 +293,7 @@ def read_coco(
     if images is not None:
         image_list, categories = _coco_images_argument(images, categories, where)
     results = expect_list(results, f"{where}: annotations")
+    check_rows(len(results), where, "annotations")
     names = load_class_names(class_names) if class_names is not None else None
     by_id: dict[Any, ImageDetections] = {}
     order: list[Any] = []
@@ -434,6 +443,7 @@ def read_detections_csv(source: str | Path, *, class_names: Any = None) -> list[
         raise InputError(f"{path}: header: needs an 'image' or a 'stamp' column")
     names = load_class_names(class_names) if class_names is not None else None
     groups: dict[Any, list[Detection]] = {}
+    wheres: dict[Any, list[str]] = {}
     meta: dict[Any, tuple[str | None, float | None]] = {}
     for lineno, row in rows:
         where = f"{path}: line {lineno}"
@@ -446,7 +456,7 @@ def read_detections_csv(source: str | Path, *, class_names: Any = None) -> list[
             stamp = stamp_from_name(image)
         key = image_key(image) if image else stamp
         if key not in groups:
-            groups[key] = []
+            groups[key], wheres[key] = [], []
             meta[key] = (image or None, stamp)
         cells = [row[col[k]].strip() for k in ("x1", "y1", "x2", "y2")]
         if not any(cells):
@@ -459,9 +469,13 @@ def read_detections_csv(source: str | Path, *, class_names: Any = None) -> list[
                 raise InputError(f"{where}: score {score:g}, expected a value in [0, 1]")
         label = _label_for(row[col["label"]], names) if "label" in col else None
         groups[key].append(Detection(np.asarray(box), score=score, label=label))
+        wheres[key].append(where)
     if not groups:
         raise InputError(f"{path}: no rows after the header")
-    return [ImageDetections(image=meta[k][0], stamp=meta[k][1], detections=tuple(v), source=str(path)) for k, v in groups.items()]
+    return [
+        ImageDetections(image=meta[k][0], stamp=meta[k][1], detections=tuple(v), source=str(path), lines=tuple(wheres[k]))
+        for k, v in groups.items()
+    ]
 
 
 def read_csv_table(
@@ -474,7 +488,7 @@ def read_csv_table(
     rows : list of (line number, cells), every row padded to the header's length
     col : dict canonical column name -> index
     """
-    text = read_text(path)
+    text = read_table_text(path)
     lines = [(i, line) for i, line in enumerate(text.splitlines(), start=1) if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise InputError(f"{path}: empty, expected a header line and rows")
@@ -537,7 +551,7 @@ def filter_detections(
     out = []
     unscored = 0
     for f in frames:
-        keep = []
+        keep, kept_lines = [], []
         for j, d in enumerate(f.detections):
             item = f"{f.name} #{j}"
             if wanted is not None and d.label not in wanted:
@@ -553,7 +567,9 @@ def filter_detections(
                         summary.skip("detection", item, f"score below {min_score:g}", f"score {d.score:.3g}", warn=False)
                     continue
             keep.append(d)
-        out.append(replace(f, detections=tuple(keep)))
+            if j < len(f.lines):
+                kept_lines.append(f.lines[j])
+        out.append(replace(f, detections=tuple(keep), lines=tuple(kept_lines) if len(kept_lines) == len(keep) else ()))
     if unscored and summary is not None:
         summary.note(f"{unscored} detections have no score and were kept by the score threshold")
     return out

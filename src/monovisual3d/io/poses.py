@@ -24,11 +24,12 @@ from ._parse import (
     as_array,
     as_float,
     check_angles,
+    check_rows,
     check_stamp,
     check_translations,
     expect_mapping,
     load_structured,
-    read_text,
+    read_table_text,
 )
 from .detections import read_csv_table
 
@@ -146,7 +147,7 @@ def read_tum(source: str | Path, *, units: str = "m") -> PoseTrajectory:
     path = Path(source)
     scale = _scale(units)
     T, stamps = [], []
-    for lineno, line in enumerate(read_text(path).splitlines(), start=1):
+    for lineno, line in enumerate(read_table_text(path).splitlines(), start=1):
         text = line.strip()
         if not text or text.startswith("#"):
             continue
@@ -254,6 +255,7 @@ def read_pose_json(source: str | Path | list[Any] | dict[str, Any], *, units: st
         data = data["poses"]
     if not isinstance(data, list):
         raise InputError(f"{where}: expected a list of poses, got {type(data).__name__}")
+    check_rows(len(data), where, "poses")
     T, stamps, images = [], [], []
     for i, item in enumerate(data):
         w = f"{where}: poses[{i}]"

@@ -45,6 +45,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
 from ..frames import check_transform
+from ..limits import MAX_SIM_FALSE_POSITIVES, MAX_SIM_POSE_ERROR_DEG, MAX_SIM_POSE_ERROR_MM
 
 #: The paper's noisy simulation: N(0, 0.05) on box centre and size, 2 % missed detections.
 PAPER_BOX_SIGMA = 0.05
@@ -66,6 +67,12 @@ def _option(name: str) -> str:
     if name.startswith("pose_error_"):  # parameters of NoiseModel.from_mm_deg, not fields
         return f"{CLI_OPTIONS[name]} ({name})"
     return f"{CLI_OPTIONS[name]} (noise.{name})" if name in CLI_OPTIONS else f"noise.{name}"
+
+
+def _check_at_most(value: float, most: float, name: str) -> None:
+    """Refuse a noise parameter beyond its documented limit (:mod:`monovisual3d.limits`)."""
+    if value > most:
+        raise InputError(f"{_option(name)}: got {value:g}, more than the {most:g} accepted")
 
 
 @dataclass(frozen=True)
@@ -108,6 +115,9 @@ class NoiseModel:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= 0):
                 raise InputError(f"{_option(name)}: got {value!r}, expected a finite number >= 0")
             object.__setattr__(self, name, float(value))
+        _check_at_most(self.false_positive_rate, MAX_SIM_FALSE_POSITIVES, "false_positive_rate")
+        _check_at_most(self.pose_position_std, MAX_SIM_POSE_ERROR_MM / 1000.0, "pose_position_std")
+        _check_at_most(self.pose_rotation_std, math.radians(MAX_SIM_POSE_ERROR_DEG), "pose_rotation_std")
         p = self.drop_probability
         if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 <= p <= 1.0:
             raise InputError(f"{_option('drop_probability')}: got {p!r}, expected a probability in [0, 1]")
@@ -138,9 +148,15 @@ class NoiseModel:
         pose_error_deg: float = 0.0,
     ) -> NoiseModel:
         """Constructor with the pose errors in millimetres and degrees (as the CLI takes them)."""
-        for name, value in (("pose_error_mm", pose_error_mm), ("pose_error_deg", pose_error_deg)):
+        bounds = (
+            ("pose_error_mm", pose_error_mm, MAX_SIM_POSE_ERROR_MM),
+            ("pose_error_deg", pose_error_deg, MAX_SIM_POSE_ERROR_DEG),
+        )
+        for name, value, most in bounds:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise InputError(f"{_option(name)}: got {value!r}, expected a finite number >= 0")
+            if value > most:
+                raise InputError(f"{_option(name)}: got {value:g}, more than the {most:g} accepted")
         return cls(
             box_sigma=box_sigma,
             drop_probability=drop_probability,

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import struct
+import warnings
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -25,9 +26,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .. import limits
 from ..camera import Camera
 from ..errors import InputError
-from ..session import Detection, Session, View, Workspace
+from ..session import Detection, Session, View, Workspace, load_session
 from .noise import NoiseModel
 from .raycast import BACKGROUND, OCCLUDER, Rendering, render
 from .scene import Scene
@@ -103,6 +105,7 @@ def simulate_views(
     noise = noise or NoiseModel()
     if not isinstance(noise, NoiseModel):
         raise InputError(f"noise: expected a NoiseModel, got {type(noise).__name__}")
+    check_sim_work(len(P), camera, supersample)
     rng = np.random.default_rng(rng)
     out = []
     for T_true in P:
@@ -196,11 +199,18 @@ def write_simulation(
     out_dir = Path(directory)
     if out_dir.exists() and not out_dir.is_dir():
         raise InputError(f"{out_dir}: exists and is not a directory")
+    n_poses = 3 if poses is None else len(np.asarray(poses))
+    if images and n_poses > limits.MAX_SIM_PICTURES:
+        raise InputError(
+            f"--views: {n_poses} views with --images, more than the {limits.MAX_SIM_PICTURES} pictures drawn in one run; "
+            "give --no-images or fewer views"
+        )
     views = simulate_views(scene, camera, poses, noise=noise, rng=rng, supersample=supersample, min_pixels=min_pixels)
     camera = camera or default_camera()
-    out_dir.mkdir(parents=True, exist_ok=True)
     names = [f"view_{i:02d}.png" for i in range(len(views))] if images else None
     session, truth = _session_and_truth(scene, camera, views, noise or NoiseModel(), workspace, images=names)
+    _check_loads(session, out_dir / "session.json")
+    out_dir.mkdir(parents=True, exist_ok=True)
     paths = {"session": out_dir / "session.json", "truth": out_dir / "truth.json", "scene": out_dir / "scene.json"}
     session.to_json(paths["session"])
     paths["truth"].write_text(json.dumps(truth, indent=2) + "\n")
@@ -214,6 +224,32 @@ def write_simulation(
                 picture(path, v, f"view {i}")
             paths[name.removesuffix(".png")] = path
     return paths
+
+
+def check_sim_work(n_views: int, camera: Camera | None, supersample: int) -> None:
+    """Refuse a simulation beyond :data:`~monovisual3d.limits.MAX_SIM_VIEWS` views or
+    :data:`~monovisual3d.limits.MAX_SIM_RAYS` rays, before any ray is cast (one-line :class:`InputError`)."""
+    if n_views > limits.MAX_SIM_VIEWS:
+        raise InputError(f"--views: {n_views} views, more than the {limits.MAX_SIM_VIEWS} a simulation may have")
+    if isinstance(supersample, bool) or not isinstance(supersample, (int, np.integer)) or supersample < 1:
+        return  # the renderer refuses it with its own message
+    width, height = (camera or default_camera()).size
+    rays = n_views * width * height * int(supersample) ** 2
+    if rays > limits.MAX_SIM_RAYS:
+        raise InputError(
+            f"--supersample (supersample): {n_views} views x {width}x{height} px x {supersample}^2 = {rays:.3g} rays, more than the "
+            f"{limits.MAX_SIM_RAYS:.3g} cast in one run; use fewer --views or a lower --supersample"
+        )
+
+
+def _check_loads(session: Session, path: Path) -> None:
+    """Refuse to write a session that :func:`monovisual3d.load_session` would refuse (what we write, we can read)."""
+    try:
+        with warnings.catch_warnings():  # the geometry warnings come when the file is loaded
+            warnings.simplefilter("ignore")
+            load_session(session.to_dict())
+    except InputError as exc:
+        raise InputError(f"{path}: the simulated session would not load ({exc}); check --distance and --pose-error-mm") from None
 
 
 def view_image(view: SimulatedView, *, boxes: bool = True) -> NDArray[np.uint8]:

@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
 from ..frames import check_transform, look_at
+from ..limits import MAX_SIM_VIEWS
 
 #: Centre of the default scenes (metres, base frame).
 DEFAULT_TARGET = (0.6, 0.0, 0.45)
@@ -289,6 +290,8 @@ def poses_by_name(
             raise InputError(f"--views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG")
         if n < 1:
             raise InputError(f"--views: got {spec!r}, expected {name}:N with N >= 1 views")
+        if n > MAX_SIM_VIEWS:
+            raise InputError(f"--views: got {spec!r}, more than the {MAX_SIM_VIEWS} views a simulation may have")
         if angle_deg is not None and not 0.0 <= angle_deg <= 90.0:
             what = "cone half-angle" if name == "ring" else "largest angle from the axis"
             raise InputError(f"--views: got {spec!r}, expected the {what} ANGLE_DEG in [0, 90] degrees")

@@ -7,7 +7,7 @@ from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
 from ...errors import InputError
-from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, is_real
+from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, MIN_SEARCH_RESOLUTION_M, is_real
 from ..options import check_shared_options
 from .sensor import SensorModel
 
@@ -152,6 +152,11 @@ class BayesConfig:
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v > 0):
                 raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
+        if self.resolution < MIN_SEARCH_RESOLUTION_M:
+            raise InputError(
+                f"resolution: got {self.resolution:g} m, finer than the {MIN_SEARCH_RESOLUTION_M:g} m accepted "
+                "(each halving adds a search level; the refinement, not the grid, gives the accuracy)"
+            )
         if not self.radius_min < self.radius_max:
             raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
         for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin", "elongation_slack", "elongation_cost"):

@@ -10,11 +10,20 @@ from numpy.typing import NDArray
 
 from ...errors import InputError
 from ...grid import VoxelGrid
-from ...limits import DEFAULT_KEEP_THRESHOLD
+from ...limits import DEFAULT_KEEP_THRESHOLD, MAX_KMEANS_WORK
 from ...result import DetectedObject
 
 CENTRES = ("weighted", "geometric")
 K_RULES = ("max", "mode", "min", "last")
+
+
+def _check_kmeans_work(k: int, n_cells: int) -> None:
+    """Refuse a k-means beyond :data:`~monovisual3d.limits.MAX_KMEANS_WORK` cluster-cells (one-line error naming --k)."""
+    if k * n_cells > MAX_KMEANS_WORK:
+        raise InputError(
+            f"k: k-means of {k} clusters over {n_cells:,} cells is beyond the {MAX_KMEANS_WORK:.3g} cluster-cells accepted "
+            "(monovisual3d.limits.MAX_KMEANS_WORK); give a smaller --k, a coarser --resolution, or use --method bayes"
+        )
 
 
 def choose_k(counts: Sequence[int], rule: str | int = "max") -> int:
@@ -93,6 +102,7 @@ def kmeans_objects(
     w = p[keep]
     x = grid.centres_base(keep)
     k = min(k, len(keep))
+    _check_kmeans_work(k, len(keep))
     from sklearn.cluster import KMeans
     from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
 
