@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from ...frames import transform_points
 from ...geometry.sphere import predict_sphere_boxes
 from ...result import DetectedObject
+from .boxindex import EdgeIndex, build_index
 from .likelihood import box_scores, pose_sigma_px, view_scores
 from .problem import Problem, Taken
 from .refine import Observation, refine_sphere
@@ -30,6 +31,23 @@ def pose_px(problem: Problem, depth: NDArray[np.floating] | float) -> NDArray[np
     if not cfg.poses_uncertain:
         return 0.0
     return pose_sigma_px(problem.camera, depth, cfg.pose_position_sigma, cfg.pose_rotation_sigma)
+
+
+#: Problems whose box index is kept (the last few: one estimate scores its problem thousands of times).
+INDEX_CACHE_SIZE = 4
+_INDEX_CACHE: list[tuple[Problem, EdgeIndex]] = []
+
+
+def box_index(problem: Problem) -> EdgeIndex:
+    """The problem's box index (:func:`.boxindex.build_index`), built once per problem."""
+    for p, index in _INDEX_CACHE:
+        if p is problem:
+            return index
+    cam = problem.camera
+    index = build_index([vd.boxes for vd in problem.views], cam.width, cam.height, problem.model)
+    _INDEX_CACHE.insert(0, (problem, index))
+    del _INDEX_CACHE[INDEX_CACHE_SIZE:]
+    return index
 
 
 def score_hypotheses(
@@ -72,6 +90,7 @@ def score_hypotheses(
             float(np.hypot(blur, cfg.pose_position_sigma)) if cfg.pose_position_sigma > 0 else blur,
             max(cam.fx, cam.fy) * cfg.pose_rotation_sigma,
             mask,
+            box_index(problem),
         )
     return score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask)
 
