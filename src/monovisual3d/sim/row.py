@@ -24,16 +24,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
 from ..errors import InputError
-from ..frames import look_at
-from .scene import Scene
-from .viewpoints import DEFAULT_TARGET, DEFAULT_VIEW_DIRECTION
+from .scene import Scene, Sphere
+from .viewpoints import DEFAULT_TARGET, ROW_DISTANCE_M, ROW_LENGTH_M, row_poses
 
-#: Size of the row's box along the row (base y), vertically (base z) and in depth (base x), metres.
-ROW_LENGTH_M, ROW_HEIGHT_M, ROW_DEPTH_M = 1.2, 0.7, 0.25
+#: Size of the row's box vertically (base z) and in depth (base x), metres (its length: ``ROW_LENGTH_M``).
+ROW_HEIGHT_M, ROW_DEPTH_M = 0.7, 0.25
 #: Fruit radius range of the row (metres).
 ROW_RADIUS_RANGE = (0.02, 0.04)
-#: Distance from the cameras to the row's centre plane, metres.
-ROW_DISTANCE_M = 0.8
 #: The row camera: image size (pixels) and horizontal field of view (degrees).
 ROW_IMAGE_SIZE, ROW_HFOV_DEG = (1280, 720), 90.0
 #: Smallest surface-to-surface gap between two fruit, metres.
@@ -101,8 +98,6 @@ def row_scene(
     rng = np.random.default_rng(rng)
     t = np.asarray(target, dtype=float)
     centres, radii = _place(rng, t, size / 2, (r_lo, r_hi), int(n_fruit))
-    from .scene import Sphere
-
     grow = r_hi + 0.02
     meta = {
         "target": t.tolist(),
@@ -134,39 +129,4 @@ def _place(
     return centres, radii
 
 
-def row_poses(
-    n: int,
-    target: ArrayLike = DEFAULT_TARGET,
-    *,
-    length: float = ROW_LENGTH_M,
-    distance: float = ROW_DISTANCE_M,
-    view_direction: ArrayLike = DEFAULT_VIEW_DIRECTION,
-) -> NDArray[np.float64]:
-    """``n`` cameras along the row, ``distance`` in front of it, spread evenly over ``length``, looking straight at it.
-
-    The row runs along base y (the image's horizontal when ``view_direction`` is base +x).
-
-    Returns
-    -------
-    T_base_optical : ndarray, shape (n, 4, 4)
-
-    Examples
-    --------
-    >>> P = row_poses(3)
-    >>> P[:, 1, 3].round(3).tolist(), P[0, :3, 2].round(6).tolist()
-    ([0.6, 0.0, -0.6], [1.0, 0.0, 0.0])
-    """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise InputError(f"--views: got row:{n!r}, expected row:N with N >= 1 views")
-    for name, v in (("--distance (distance)", distance), ("row length", length)):
-        if not (math.isfinite(v) and v > 0):
-            raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
-    d = np.asarray(view_direction, dtype=float)
-    d = d / np.linalg.norm(d)
-    along = np.cross([0.0, 0.0, 1.0], d)  # base +y for a view along +x: the row's direction
-    if not np.linalg.norm(along) > 1e-9:
-        raise InputError("view_direction: must not be vertical for a row")
-    along /= np.linalg.norm(along)
-    t = np.asarray(target, dtype=float)
-    offsets = np.linspace(length / 2, -length / 2, n) if n > 1 else np.zeros(1)
-    return np.stack([look_at(t - distance * d + s * along, t + s * along) for s in offsets])
+__all__ = ["ROW_DISTANCE_M", "ROW_LENGTH_M", "row_camera", "row_poses", "row_scene"]

@@ -161,7 +161,9 @@ def _best_box(v, boxes, available, index, px1, py1, px2, py2, sx, sy, cam, param
             for pos in range(n_cens[v, e]):
                 j = cens[v, e, pos]
                 if available[v, j]:
-                    s = _box_score(boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found)
+                    s = _box_score(
+                        boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found
+                    )
                     if _beats(s, j, best, found):
                         best = s
                         found = j

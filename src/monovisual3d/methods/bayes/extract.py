@@ -43,7 +43,9 @@ class _Work:
     @classmethod
     def start(cls, hyp: Hypotheses, min_views: int) -> _Work:
         total, n_assoc, assoc = hyp.scores
-        work = cls(total.copy(), n_assoc.copy(), assoc.copy(), np.ones(len(total), dtype=bool), total.copy(), np.zeros(len(total)))
+        work = cls(
+            total.copy(), n_assoc.copy(), assoc.copy(), np.ones(len(total), dtype=bool), total.copy(), np.zeros(len(total))
+        )
         work.update(np.arange(len(total)), min_views)
         return work
 
