@@ -84,7 +84,7 @@ def row_scene(
     if isinstance(n_fruit, bool) or not isinstance(n_fruit, (int, np.integer)) or n_fruit < 1:
         raise InputError(f"n_fruit: got {n_fruit!r}, expected a positive integer")
     size = np.array([depth, length, height], dtype=float)
-    for name, v in zip(("depth", "length", "height"), size):
+    for name, v in zip(("depth", "length", "height"), size.tolist()):
         if not (math.isfinite(v) and v > 0):
             raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
     r_lo, r_hi = (float(r) for r in radius_range)
