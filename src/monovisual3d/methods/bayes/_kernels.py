@@ -130,6 +130,8 @@ def _best_box(v, boxes, available, index, px1, py1, px2, py2, sx, sy, cam, param
 
     Scores only the boxes with an edge near the predicted one (:mod:`.boxindex`), in any order; the tie rule
     of :func:`_beats` makes the result the scan's. A box met twice (two near edges) cannot replace itself.
+    The window of each edge is that of the best score so far, never narrower than that of the final best,
+    so every box that could be the final best is scored.
     """
     count, values, order, n_cens, cens, origin, bucket, start, near, scan_all = index
     W, H = cam[4], cam[5]
@@ -147,7 +149,11 @@ def _best_box(v, boxes, available, index, px1, py1, px2, py2, sx, sy, cam, param
         return best, found
     for e in range(4):
         c = px1 if e == 0 else (py1 if e == 1 else (px2 if e == 2 else py2))
-        h = near * (sx if e % 2 == 0 else sy)
+        # a box that can still beat ``best`` has an edge within sqrt((bonus - best) / 2) sigmas (``near`` at a miss):
+        # the window narrows as better boxes are found, and a box it leaves out scores below ``best``
+        gap = bonus - best
+        h = near * math.sqrt(gap / (bonus - miss)) if gap > 0 else 0.0
+        h *= sx if e % 2 == 0 else sy
         for pos in range(_lower_bound(values, origin, bucket, start, v, e, n, c - h), n):
             if values[v, e, pos] > c + h:
                 break
