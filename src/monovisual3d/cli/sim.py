@@ -55,8 +55,7 @@ def simulate(
     import numpy as np
 
     from ..sim.noise import NoiseModel
-    from ..sim.scene import Scene
-    from ..sim.scenes import SHAPE_SCENES, scene_by_name, scene_target
+    from ..sim.scenes import scene_target
     from ..sim.simulate import write_simulation
     from ..sim.viewpoints import PAPER_DISTANCE_M, ROW_DISTANCE_M, ROW_LENGTH_M, poses_by_name
 
@@ -76,26 +75,9 @@ def simulate(
     camera = _camera(image_size, hfov_deg, is_row)
     distance = distance if distance is not None else (ROW_DISTANCE_M if is_row else PAPER_DISTANCE_M)
     length = ROW_LENGTH_M if row_length is None else row_length
-    scene_path = Path(scene)
-    if scene_path.suffix.lower() in (".json", ".yaml", ".yml"):
-        if n_fruit is not None:
-            raise InputError("--n-fruit: only for the generated scenes (greenhouse, random, shape scenes), not a scene file")
-        sc = Scene.load(scene_path)
-    else:
-        options: dict[str, object] = {"camera": camera} if scene in ("greenhouse", *SHAPE_SCENES) else {}
-        if is_row:
-            options = {"length": length}
-        sc = scene_by_name(scene, rng, n_fruit=n_fruit, **options)
+    sc = _scene(scene, n_fruit, rng, camera, length)
     if active is not None:
-        from ..active.loop import write_active_simulation
-
-        if active < 1:
-            raise InputError(f"--active: got {active}, expected a positive number of views")
-        paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
-        console.print(
-            f"active loop: {active} views of {len(sc.fruits)} fruit ({sc.name}); wrote {', '.join(p.name for p in paths.values())} to {output}",
-            highlight=False,
-        )
+        _write_active(output, sc, camera, active, noise_model, rng)
         return
     poses = poses_by_name(views, scene_target(sc), distance=distance, row_length=length)
     paths = write_simulation(
@@ -105,6 +87,34 @@ def simulate(
         f"simulated {len(sc.fruits)} fruit ({sc.name}) from {len(poses)} views; wrote {', '.join(p.name for p in paths.values())} to {output}",
         highlight=False,
     )
+
+
+def _write_active(output: Path, sc, camera, active: int, noise_model, rng) -> None:  # noqa: ANN001 - sim types imported lazily
+    """``--active``: choose the views with the next-best-view loop and write the simulation."""
+    from ..active.loop import write_active_simulation
+
+    if active < 1:
+        raise InputError(f"--active: got {active}, expected a positive number of views")
+    paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
+    console.print(
+        f"active loop: {active} views of {len(sc.fruits)} fruit ({sc.name}); wrote {', '.join(p.name for p in paths.values())} to {output}",
+        highlight=False,
+    )
+
+
+def _scene(scene: str, n_fruit: int | None, rng, camera, length: float):  # noqa: ANN001, ANN202 - sim types imported lazily
+    """The scene of ``--scene``: a scene file, or a generated scene (the row of ``length`` metres)."""
+    from ..sim.scene import Scene
+    from ..sim.scenes import SHAPE_SCENES, scene_by_name
+
+    if Path(scene).suffix.lower() in (".json", ".yaml", ".yml"):
+        if n_fruit is not None:
+            raise InputError("--n-fruit: only for the generated scenes (greenhouse, random, row, shape scenes), not a scene file")
+        return Scene.load(Path(scene))
+    options: dict[str, object] = {"camera": camera} if scene in ("greenhouse", *SHAPE_SCENES) else {}
+    if scene == "row":
+        options = {"length": length}
+    return scene_by_name(scene, rng, n_fruit=n_fruit, **options)
 
 
 def _camera(image_size: str | None, hfov_deg: float | None, row: bool):  # noqa: ANN202 - Camera imported lazily
