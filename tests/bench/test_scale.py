@@ -21,7 +21,7 @@ def test_run_scale_small(tmp_path):
     assert rows[1]["recall"] == 1.0 and rows[1]["mean_mm"] < 10
     g = result["growth"]["idle"]
     assert (g["from"], g["to"]) == (3, 6) and g["ratio"] == rows[1]["time_s"] / rows[0]["time_s"]
-    assert len(format_table(result)) == 3 and result["meta"]["cores"] >= 1
+    assert len(format_table(result)) == 3 and all(r["cpu_s"] > 0 for r in rows) and result["meta"]["cores"] >= 1
 
 
 def test_growth_uses_the_largest_count_up_to_96():

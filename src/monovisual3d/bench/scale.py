@@ -9,7 +9,9 @@ the number of fruit at :data:`SWEEP_VIEWS` views, and the number of views at
 :data:`SWEEP_FRUIT` fruit.
 
 Per case: the median over seeds of the median over ``repeats`` timed calls of
-``timing_s.total`` (the method's own time, without loading the session), the
+``timing_s.total`` (the method's own time, without loading the session) and of
+the process's CPU time over the call (all threads: on a shared machine it shows the
+work when the wall time shows the queue), the
 pooled mean error of the matched fruit (mm), recall and precision
 (:func:`monovisual3d.metrics.evaluate`), and the boxes per view. The growth
 factor is time(largest fruit count <= 96) / time(smallest), the target being
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import json
 import statistics
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -61,15 +64,18 @@ def row_session(n_fruit: int, n_views: int, seed: int):  # noqa: ANN201 - (Sessi
 
 def run_case(n_fruit: int, n_views: int, seeds: Sequence[int], repeats: int) -> dict[str, Any]:
     """One (fruit, views) case over ``seeds``: time, errors, recall, precision, boxes per view."""
-    times, errors, n_truth, tp, n_est, boxes = [], [], 0, 0, 0, []
+    times, cpu, errors, n_truth, tp, n_est, boxes = [], [], [], 0, 0, 0, []
     for seed in seeds:
         session, scene = row_session(n_fruit, n_views, seed)
         boxes.append(float(np.mean([len(v.detections) for v in session.views])))
-        per_seed = []
+        per_seed, cpu_seed = [], []
         for _ in range(repeats):
+            c0 = time.process_time()
             res = localize(session, **OPTIONS)
+            cpu_seed.append(time.process_time() - c0)
             per_seed.append(float(res.timing_s["total"]))
         times.append(statistics.median(per_seed))
+        cpu.append(statistics.median(cpu_seed))
         est = np.array([o.position for o in res.objects]).reshape(-1, 3)
         m = evaluate(est, scene.centres, truth_radii=scene.radii)
         pairs = m.euclidean_mean * m.true_positives if m.true_positives else 0.0
@@ -82,6 +88,7 @@ def run_case(n_fruit: int, n_views: int, seeds: Sequence[int], repeats: int) -> 
         "boxes_per_view": statistics.mean(boxes),
         "time_s": statistics.median(times),
         "time_s_per_seed": times,
+        "cpu_s": statistics.median(cpu),
         "mean_mm": 1e3 * sum(e for e, _ in errors) / matched if matched else None,
         "recall": tp / n_truth if n_truth else None,
         "precision": tp / n_est if n_est else None,
@@ -134,12 +141,12 @@ def growth(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
 
 
 def format_table(result: dict[str, Any]) -> list[list[str]]:
-    """Rows of the printed table: load, fruit, views, boxes/view, time, error, recall, precision."""
+    """Rows of the printed table: load, fruit, views, boxes/view, time, CPU time, error, recall, precision."""
     out = []
     for r in result["rows"]:
         out.append(
             [
-                r["load"], str(r["fruit"]), str(r["views"]), f"{r['boxes_per_view']:.0f}", f"{r['time_s']:.2f}",
+                r["load"], str(r["fruit"]), str(r["views"]), f"{r['boxes_per_view']:.0f}", f"{r['time_s']:.2f}", f"{r['cpu_s']:.2f}",
                 "-" if r["mean_mm"] is None else f"{r['mean_mm']:.2f}", "-" if r["recall"] is None else f"{r['recall']:.3f}",
                 "-" if r["precision"] is None else f"{r['precision']:.3f}",
             ]

@@ -148,7 +148,7 @@ def scale(
         title=f"bayes on a plant row, 1280x720, 3 % box noise, median over seeds {meta['seeds']} "
         f"({meta['cpu']}, {meta['cores']} cores, load {meta.get('load_average_1m', float('nan')):.1f})"
     )
-    for col in ("load", "fruit", "views", "boxes/view", "time s", "mean mm", "recall", "precision"):
+    for col in ("load", "fruit", "views", "boxes/view", "time s", "CPU s", "mean mm", "recall", "precision"):
         table.add_column(col, justify="left" if col == "load" else "right")
     for row in format_table(result):
         table.add_row(*row)

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from ...camera import Camera
 from ...engine.threads import kernel_threads
-from .boxindex import EdgeIndex, build_index
+from .boxindex import SCAN_BELOW_BOXES, EdgeIndex, build_index
 from .likelihood import SensorModel
 
 try:  # numba is a core dependency, but keep the package importable without it
@@ -29,9 +29,10 @@ try:  # numba is a core dependency, but keep the package importable without it
 except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
-#: Single-thread cost of one hypothesis in one view in ``_score_kernel`` (the walk of the view's box index),
-#: nanoseconds (the thread count's work estimate, see :mod:`monovisual3d.engine.threads`).
-NS_PER_HYPOTHESIS_VIEW = 150.0
+#: Single-thread cost of one hypothesis against one box of a scanned view in ``_score_kernel``, and of one
+#: hypothesis in a view looked up in the box index, nanoseconds (the thread count's work estimate, see
+#: :mod:`monovisual3d.engine.threads`; measured on plant rows of 48 boxes per view).
+NS_PER_HYPOTHESIS_BOX, NS_PER_HYPOTHESIS_VIEW = 20.0, 320.0
 #: Single-thread cost of one point in one view in ``_cone_kernel``, nanoseconds.
 NS_PER_POINT_VIEW = 20.0
 
@@ -139,7 +140,7 @@ def _best_box(v, boxes, available, index, px1, py1, px2, py2, sx, sy, cam, param
     best = miss
     found = -1
     n = count[v]
-    if scan_all:
+    if scan_all or n <= SCAN_BELOW_BOXES:  # a short list is scanned faster than looked up
         for j in range(n):
             if available[v, j]:
                 s = _box_score(boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found)
@@ -415,6 +416,12 @@ def pack_views(
     return T, B, nb, A
 
 
+def score_work_ns(n_boxes: NDArray[np.int64], scan_all: bool = False) -> float:
+    """Estimated single-thread nanoseconds of ``_score_kernel`` per hypothesis for views of ``n_boxes`` boxes."""
+    scanned = (n_boxes <= SCAN_BELOW_BOXES) | scan_all
+    return float(NS_PER_HYPOTHESIS_BOX * n_boxes[scanned].sum() + NS_PER_HYPOTHESIS_VIEW * np.count_nonzero(~scanned))
+
+
 def camera_arrays(camera: Camera) -> tuple[NDArray[np.float64], int, NDArray[np.float64]]:
     """``fx, fy, cx, cy, width, height`` (6,), the distortion id and the 8 coefficients of :meth:`Camera.packed`."""
     p = camera.packed()
@@ -481,7 +488,7 @@ def score_hypotheses(
         mask = np.ones(total.shape, dtype=np.bool_)
     elif mask.shape != total.shape:
         raise ValueError(f"mask: shape {mask.shape}, expected {total.shape} (centres, radii)")
-    with kernel_threads(int(NS_PER_HYPOTHESIS_VIEW * total.size * len(boxes))):
+    with kernel_threads(int(total.size * score_work_ns(nb, index.scan_all))):
         _score_kernel(
             np.ascontiguousarray(centres_base, dtype=np.float64),
             np.ascontiguousarray(radii, dtype=np.float64),

@@ -18,7 +18,8 @@ border) scores 0 whenever the predicted edge lies beyond it, so the boxes with a
 censored edge are listed apart and looked at when the predicted edge crosses
 that border. The result is identical to the scan (``tests/methods/bayes/test_boxindex.py``
 checks it against the numpy reference); with floors at or below ``G / 4`` the
-index is not valid and the kernels scan every box (``scan_all``).
+index is not valid and the kernels scan every box (``scan_all``). A view with few boxes
+(:data:`SCAN_BELOW_BOXES`) is scanned too: for so few, the look-up costs more than it saves.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ WINDOW_SLACK = 1e-6
 BUCKET_PX = 8.0
 #: Buckets per view and edge at most.
 MAX_BUCKETS = 4096
+#: Views with at most this many boxes are scanned box by box (faster than the look-up for so few; same result).
+SCAN_BELOW_BOXES = 32
 
 
 @dataclass(frozen=True)
