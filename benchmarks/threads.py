@@ -28,7 +28,7 @@ from monovisual3d.engine import threads
 from monovisual3d.engine.dense import NS_PER_CELL_VIEW, paper_update_fused
 from monovisual3d.engine.threads import thread_limit, threads_for
 from monovisual3d.frames import invert_transform
-from monovisual3d.methods.bayes._kernels import NS_PER_HYPOTHESIS_BOX, score_hypotheses
+from monovisual3d.methods.bayes._kernels import score_hypotheses, score_work_ns
 from monovisual3d.methods.bayes.likelihood import SensorModel
 
 
@@ -41,7 +41,7 @@ def _score_case(n: int):  # type: ignore[no-untyped-def]
     boxes = [v.boxes_xyxy for v in views]
     avail = [np.ones(len(b), bool) for b in boxes]
     radii = np.linspace(0.02, 0.06, 16)
-    work = NS_PER_HYPOTHESIS_BOX * n * len(radii) * sum(len(b) for b in boxes)
+    work = n * len(radii) * score_work_ns(np.array([len(b) for b in boxes]))
     return work, lambda: score_hypotheses(camera, T, boxes, avail, centres, radii, SensorModel(), 0.005)
 
 

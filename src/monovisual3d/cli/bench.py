@@ -166,3 +166,57 @@ def real(
     if output is not None:
         write_output(output, text + "\n")
         console.print(f"wrote {plain(str(output))}", highlight=False)
+
+
+@bench_app.command("scale")
+@handle_errors
+def scale(
+    fruit: Annotated[str, typer.Option(help="Fruit counts of the fruit sweep (5 views), comma separated.")] = "12,24,48,96,192",
+    views: Annotated[str, typer.Option(help="View counts of the view sweep (48 fruit), comma separated.")] = "3,5,8",
+    seeds: Annotated[str, typer.Option(help="Scene seeds, comma separated (the time is the median over them).")] = "0,1,2",
+    repeats: Annotated[int, typer.Option(min=1, help="Timed calls per scene (their median is its time).")] = 1,
+    busy: Annotated[bool, typer.Option("--busy/--idle-only", help="Also run with a busy-loop process on one core.")] = True,
+    output: Annotated[
+        Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
+    ] = None,
+    figure: Annotated[Path | None, typer.Option(help="Write a log-log figure of time against boxes here (PNG).")] = None,
+) -> None:
+    """The default method on plant rows of 12-192 fruit and 3-8 views: time, error, recall, growth factor."""
+    from ..bench.scale import TARGET_GROWTH, format_table, run_scale, write_figure, write_json
+
+    result = run_scale(
+        _ints(fruit, "--fruit"), _ints(views, "--views"), _ints(seeds, "--seeds"), repeats, busy,
+        progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
+    )  # fmt: skip
+    meta = result["meta"]
+    table = Table(
+        title=f"bayes on a plant row, 1280x720, 3 % box noise, median over seeds {meta['seeds']} "
+        f"({meta['cpu']}, {meta['cores']} cores, load {meta.get('load_average_1m', float('nan')):.1f})"
+    )
+    for col in ("load", "fruit", "views", "boxes/view", "time s", "CPU s", "mean mm", "recall", "precision"):
+        table.add_column(col, justify="left" if col == "load" else "right")
+    for row in format_table(result):
+        table.add_row(*row)
+    console.print(table)
+    for load, g in result["growth"].items():
+        console.print(
+            f"growth {load}: time({g['to']} fruit) / time({g['from']} fruit) = {g['ratio']:.1f} "
+            f"(target <= {TARGET_GROWTH:g} for 12 -> 96)",
+            highlight=False,
+        )
+    if output is not None:
+        write_json(result, str(output))
+        console.print(f"wrote {plain(str(output))}", highlight=False)
+    if figure is not None:
+        write_figure(result, str(figure))
+        console.print(f"wrote {plain(str(figure))}", highlight=False)
+
+
+def _ints(text: str, flag: str) -> list[int]:
+    """Comma-separated integers of a flag."""
+    from ..errors import InputError
+
+    try:
+        return [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise InputError(f"{flag}: got {text!r}, expected integers separated by commas") from None

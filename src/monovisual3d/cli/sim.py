@@ -19,20 +19,30 @@ from .options import MaxMemory, TimeLimit
 def simulate(
     output: Annotated[Path, typer.Option("--output", "-o", help="Directory for session.json, truth.json, scene.json, images.")],
     scene: Annotated[
-        str, typer.Option(help="paper, greenhouse, random, peppers, cucumbers, apples, mixed, or a scene JSON file.")
+        str, typer.Option(help="paper, greenhouse, random, row, peppers, cucumbers, apples, mixed, or a scene JSON file.")
     ] = "paper",
     n_fruit: Annotated[
         int | None,
-        typer.Option(help="Fruit in greenhouse (default 5-10), random and shape scenes (default 6; cucumbers 4)."),
+        typer.Option(help="Fruit in greenhouse (default 5-10), random and shape scenes (default 6; cucumbers 4), row (48)."),
     ] = None,
-    views: Annotated[str, typer.Option(help="paper, ring:N[:DEG], hemisphere:N[:DEG], or a pose file (.json/.yaml).")] = "paper",
-    distance: Annotated[float, typer.Option(help="Camera distance to the scene's target, metres.")] = 0.5,
+    views: Annotated[
+        str, typer.Option(help="paper, ring:N[:DEG], hemisphere:N[:DEG], row:N (along the row), or a pose file (.json/.yaml).")
+    ] = "paper",
+    distance: Annotated[
+        float | None, typer.Option(help="Camera distance to the scene's target, metres (default 0.5; row scene 0.8).")
+    ] = None,
+    row_length: Annotated[
+        float | None, typer.Option(help="Length of the row scene and of row:N views, metres (default 1.2).")
+    ] = None,
     noise: Annotated[float, typer.Option(help="Box noise std as a fraction of the box size (paper: 0.05).")] = 0.0,
     drop: Annotated[float, typer.Option(help="Probability of missing a detection (paper: 0.02).")] = 0.0,
     false_positives: Annotated[float, typer.Option(help="Expected false-positive boxes per image.")] = 0.0,
     pose_error_mm: Annotated[float, typer.Option(help="Std of the reported camera position error per axis, mm.")] = 0.0,
     pose_error_deg: Annotated[float, typer.Option(help="Std of the reported camera rotation error per axis, degrees.")] = 0.0,
-    hfov_deg: Annotated[float, typer.Option(help="Horizontal field of view of the 640x480 camera, degrees.")] = 69.0,
+    hfov_deg: Annotated[float | None, typer.Option(help="Horizontal field of view, degrees (default 69; row scene 90).")] = None,
+    image_size: Annotated[
+        str | None, typer.Option(help="Image size WIDTHxHEIGHT in pixels (default 640x480; row scene 1280x720).")
+    ] = None,
     supersample: Annotated[int, typer.Option(help="Sub-pixel rays per pixel and axis (box accuracy 1/N px).")] = 1,
     images: Annotated[bool, typer.Option("--images/--no-images", help="Write a PNG of each view.")] = True,
     seed: Annotated[int, typer.Option(help="Random seed (scene generation and noise).")] = 0,
@@ -49,13 +59,11 @@ def simulate(
     """
     import numpy as np
 
-    from ..camera import Camera
     from ..figures.views import write_view_picture
     from ..sim.noise import NoiseModel
-    from ..sim.scene import Scene
-    from ..sim.scenes import SHAPE_SCENES, scene_by_name, scene_target
+    from ..sim.scenes import scene_target
     from ..sim.simulate import write_simulation
-    from ..sim.viewpoints import poses_by_name
+    from ..sim.viewpoints import PAPER_DISTANCE_M, ROW_DISTANCE_M, ROW_LENGTH_M, poses_by_name
 
     noise_model = NoiseModel.from_mm_deg(
         box_sigma=noise,
@@ -67,30 +75,18 @@ def simulate(
     _check_counts(n_fruit, seed, active)
     _check_out_dir(output, Path(scene), Path(views))
     rng = np.random.default_rng(seed)
-    try:
-        camera = Camera.from_hfov(640, 480, hfov_deg)
-    except InputError:
-        raise InputError(f"--hfov-deg: got {hfov_deg!r}, expected degrees in (0, 180)") from None
-    scene_path = Path(scene)
-    if scene_path.suffix.lower() in (".json", ".yaml", ".yml"):
-        if n_fruit is not None:
-            raise InputError("--n-fruit: only for the generated scenes (greenhouse, random, shape scenes), not a scene file")
-        sc = Scene.load(scene_path)
-    else:
-        options = {"camera": camera} if scene in ("greenhouse", *SHAPE_SCENES) else {}
-        sc = scene_by_name(scene, rng, n_fruit=n_fruit, **options)
+    is_row = scene == "row"
+    if row_length is not None and not (is_row or views.strip().startswith("row:")):
+        raise InputError("--row-length: only for --scene row or --views row:N")
+    camera = _camera(image_size, hfov_deg, is_row)
+    distance = distance if distance is not None else (ROW_DISTANCE_M if is_row else PAPER_DISTANCE_M)
+    length = ROW_LENGTH_M if row_length is None else row_length
+    sc = _scene(scene, n_fruit, rng, camera, length)
     if active is not None:
-        from ..active.loop import write_active_simulation
-
         with command_budget(time_limit, max_memory):
-            paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
-        console.print(
-            f"active loop: {active} views of {len(sc.fruits)} fruit ({plain(sc.name)}); "
-            f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
-            highlight=False,
-        )
+            _write_active(output, sc, camera, active, noise_model, rng)
         return
-    poses = poses_by_name(views, scene_target(sc), distance=distance)
+    poses = poses_by_name(views, scene_target(sc), distance=distance, row_length=length)
     with command_budget(time_limit, max_memory):
         paths = write_simulation(
             output,
@@ -101,6 +97,7 @@ def simulate(
             rng=rng,
             supersample=supersample,
             images=images,
+            workspace=_workspace(sc),
             picture=write_view_picture,
         )
     console.print(
@@ -139,3 +136,62 @@ def _check_out_dir(output: Path, *inputs: Path) -> None:
                 raise InputError(
                     f"{one_line(str(target))}: is also an input file; refusing to overwrite it, choose another --output"
                 )
+
+
+def _write_active(output: Path, sc, camera, active: int, noise_model, rng) -> None:  # noqa: ANN001 - sim types imported lazily
+    """``--active``: choose the views with the next-best-view loop and write the simulation."""
+    from ..active.loop import write_active_simulation
+
+    if active < 1:
+        raise InputError(f"--active: got {active}, expected a positive number of views")
+    paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
+    console.print(
+        f"active loop: {active} views of {len(sc.fruits)} fruit ({plain(sc.name)}); "
+        f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
+        highlight=False,
+    )
+
+
+def _scene(scene: str, n_fruit: int | None, rng, camera, length: float):  # noqa: ANN001, ANN202 - sim types imported lazily
+    """The scene of ``--scene``: a scene file, or a generated scene (the row of ``length`` metres)."""
+    from ..sim.scene import Scene
+    from ..sim.scenes import SHAPE_SCENES, scene_by_name
+
+    if Path(scene).suffix.lower() in (".json", ".yaml", ".yml"):
+        if n_fruit is not None:
+            raise InputError("--n-fruit: only for the generated scenes (greenhouse, random, row, shape scenes), not a scene file")
+        return Scene.load(Path(scene))
+    options: dict[str, object] = {"camera": camera} if scene in ("greenhouse", *SHAPE_SCENES) else {}
+    if scene == "row":
+        options = {"length": length}
+    return scene_by_name(scene, rng, n_fruit=n_fruit, **options)
+
+
+def _camera(image_size: str | None, hfov_deg: float | None, row: bool):  # noqa: ANN202 - Camera imported lazily
+    """The simulated camera of ``--image-size`` and ``--hfov-deg`` (defaults: 640x480 at 69 degrees; row: 1280x720 at 90)."""
+    from ..camera import Camera
+    from ..sim.row import ROW_HFOV_DEG, ROW_IMAGE_SIZE
+
+    width, height = ROW_IMAGE_SIZE if row else (640, 480)
+    if image_size is not None:
+        w, sep, h = image_size.lower().partition("x")
+        if not (sep and w.strip().isdigit() and h.strip().isdigit() and int(w) > 0 and int(h) > 0):
+            raise InputError(f"--image-size: got {image_size!r}, expected WIDTHxHEIGHT in pixels, e.g. 1280x720")
+        width, height = int(w), int(h)
+    hfov = hfov_deg if hfov_deg is not None else (ROW_HFOV_DEG if row else 69.0)
+    try:
+        return Camera.from_hfov(width, height, hfov)
+    except InputError:
+        raise InputError(f"--hfov-deg: got {hfov!r}, expected degrees in (0, 180)") from None
+
+
+def _workspace(scene):  # noqa: ANN001, ANN202 - Scene/Workspace imported lazily
+    """The workspace a generated scene states (the row scene's box), else None."""
+    import numpy as np
+
+    from ..session import Workspace
+
+    ws = scene.metadata.get("workspace") if isinstance(scene.metadata, dict) else None
+    if not isinstance(ws, dict):
+        return None
+    return Workspace(np.asarray(ws["min"], dtype=float), np.asarray(ws["max"], dtype=float))

@@ -95,8 +95,10 @@ SHAPE_SCENES: dict[str, tuple[tuple[str, ...], int, tuple[float, float, float]]]
     "apples": (("apple",), 6, (0.05, 0.2, 0.1)),
     "mixed": (("tomato", "pepper", "cucumber", "apple", "plum", "tomato"), 6, (0.05, 0.2, 0.1)),
 }
+#: Fruit of the row scene (:mod:`.row`) when no number is given.
+ROW_DEFAULT_FRUIT = 48
 #: Names accepted by :func:`scene_by_name`.
-SCENE_NAMES = ("paper", "greenhouse", "random", *SHAPE_SCENES)
+SCENE_NAMES = ("paper", "greenhouse", "random", "row", *SHAPE_SCENES)
 
 
 def default_camera() -> Camera:
@@ -307,7 +309,8 @@ def _silhouette_areas(camera: Camera, poses: NDArray[np.float64], fruits: list[A
 def scene_by_name(
     name: str, rng: np.random.Generator | int | None = None, *, n_fruit: int | None = None, **options: Any
 ) -> Scene:
-    """A built-in scene by name: ``paper``, ``greenhouse``, ``random`` (``n_fruit`` defaults to 6) or a shape scene
+    """A built-in scene by name: ``paper``, ``greenhouse``, ``random`` (``n_fruit`` defaults to 6), ``row``
+    (a plant row, :func:`monovisual3d.sim.row.row_scene`, 48 fruit by default) or a shape scene
     (``peppers``, ``cucumbers``, ``apples``, ``mixed``; :func:`shapes_scene`).
 
     ``n_fruit`` is refused for ``paper`` (it always has six spheres); other keyword
@@ -328,6 +331,10 @@ def scene_by_name(
         return random_scene(6 if n_fruit is None else n_fruit, rng, **options)
     if name in SHAPE_SCENES:
         return shapes_scene(name, rng, n_fruit=n_fruit, **options)
+    if name == "row":
+        from .row import row_scene
+
+        return row_scene(ROW_DEFAULT_FRUIT if n_fruit is None else n_fruit, rng, **options)
     raise InputError(f"scene: got {name!r}, expected one of {list(SCENE_NAMES)} or a scene JSON file")
 
 

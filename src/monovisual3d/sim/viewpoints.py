@@ -46,6 +46,10 @@ PAPER_OFFSET_M = 0.2
 #: Default cone half-angle of :func:`ring_poses` and largest polar angle of :func:`hemisphere_poses`.
 DEFAULT_RING_ANGLE = math.radians(20.0)
 DEFAULT_HEMISPHERE_ANGLE = math.radians(60.0)
+#: Length of the plant row of :func:`row_poses` (and of the row scene), metres.
+ROW_LENGTH_M = 1.2
+#: Distance from the cameras of :func:`row_poses` to the row's centre plane, metres.
+ROW_DISTANCE_M = 0.8
 
 
 def paper_poses(
@@ -256,18 +260,58 @@ def load_poses(path: str | Path, target: ArrayLike = DEFAULT_TARGET) -> NDArray[
     return np.stack(out)
 
 
+def row_poses(
+    n: int,
+    target: ArrayLike = DEFAULT_TARGET,
+    *,
+    length: float = ROW_LENGTH_M,
+    distance: float = ROW_DISTANCE_M,
+    view_direction: ArrayLike = DEFAULT_VIEW_DIRECTION,
+) -> NDArray[np.float64]:
+    """``n`` cameras along the row, ``distance`` in front of it, spread evenly over ``length``, looking straight at it.
+
+    The row runs along base y (the image's horizontal when ``view_direction`` is base +x).
+
+    Returns
+    -------
+    T_base_optical : ndarray, shape (n, 4, 4)
+
+    Examples
+    --------
+    >>> P = row_poses(3)
+    >>> P[:, 1, 3].round(3).tolist(), P[0, :3, 2].round(6).tolist()
+    ([0.6, 0.0, -0.6], [1.0, 0.0, 0.0])
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputError(f"--views: got row:{n!r}, expected row:N with N >= 1 views")
+    for name, v in (("--distance (distance)", distance), ("--row-length (length)", length)):
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
+    d = np.asarray(view_direction, dtype=float)
+    d = d / np.linalg.norm(d)
+    along = np.cross([0.0, 0.0, 1.0], d)  # base +y for a view along +x: the row's direction
+    if not np.linalg.norm(along) > 1e-9:
+        raise InputError("view_direction: must not be vertical for a row")
+    along /= np.linalg.norm(along)
+    t = np.asarray(target, dtype=float)
+    offsets = np.linspace(length / 2, -length / 2, n) if n > 1 else np.zeros(1)
+    return np.stack([look_at(t - distance * d + s * along, t + s * along) for s in offsets])
+
+
 def poses_by_name(
     spec: str,
     target: ArrayLike = DEFAULT_TARGET,
     *,
     distance: float = PAPER_DISTANCE_M,
     view_direction: ArrayLike = DEFAULT_VIEW_DIRECTION,
+    row_length: float = ROW_LENGTH_M,
 ) -> NDArray[np.float64]:
     """Poses from a short description, as the CLI's ``--views`` takes it.
 
     ``paper`` (the three poses), ``ring:N[:ANGLE_DEG]`` (:func:`ring_poses`,
     default 20 degrees), ``hemisphere:N[:ANGLE_DEG]`` (:func:`hemisphere_poses`,
-    default 60 degrees), or the path of a pose file (:func:`load_poses`).
+    default 60 degrees), ``row:N`` (:func:`row_poses`: N cameras along a row of
+    ``row_length`` at ``distance``), or the path of a pose file (:func:`load_poses`).
 
     Examples
     --------
@@ -300,10 +344,16 @@ def poses_by_name(
             return ring_poses(target, n, distance=distance, cone_angle=angle, view_direction=view_direction)
         angle = math.radians(angle_deg) if angle_deg is not None else DEFAULT_HEMISPHERE_ANGLE
         return hemisphere_poses(target, n, distance=distance, max_angle=angle, view_direction=view_direction)
+    if name == "row" and rest:
+        try:
+            n = int(rest)
+        except ValueError:
+            raise InputError(f"--views: got {spec!r}, expected row:N with N an integer") from None
+        return row_poses(n, target, length=row_length, distance=distance, view_direction=view_direction)
     if Path(spec).suffix.lower() in (".json", ".yaml", ".yml"):
         return load_poses(spec, target)
     raise InputError(
-        f"--views: got {spec!r}, expected paper, ring:N[:ANGLE_DEG], hemisphere:N[:ANGLE_DEG] or a pose file (.json/.yaml)"
+        f"--views: got {spec!r}, expected paper, ring:N[:ANGLE_DEG], hemisphere:N[:ANGLE_DEG], row:N or a pose file (.json/.yaml)"
     )
 
 

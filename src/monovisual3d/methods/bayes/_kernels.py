@@ -21,11 +21,13 @@ from numpy.typing import NDArray
 from ...camera import Camera
 from ...engine._project import distort_xy  # the one compiled distortion (ids and coefficients of Camera.packed)
 from ...engine.threads import kernel_threads
+from .boxindex import SCAN_BELOW_BOXES, EdgeIndex, build_index
 from .likelihood import SensorModel
 
-#: Single-thread cost of one hypothesis against one box in ``_score_kernel``, nanoseconds (the
-#: thread count's work estimate, see :mod:`monovisual3d.engine.threads`).
-NS_PER_HYPOTHESIS_BOX = 20.0
+#: Single-thread cost of one hypothesis against one box of a scanned view in ``_score_kernel``, and of one
+#: hypothesis in a view looked up in the box index, nanoseconds (the thread count's work estimate, see
+#: :mod:`monovisual3d.engine.threads`; measured on plant rows of 48 boxes per view).
+NS_PER_HYPOTHESIS_BOX, NS_PER_HYPOTHESIS_VIEW = 20.0, 320.0
 #: Single-thread cost of one point in one view in ``_cone_kernel``, nanoseconds.
 NS_PER_POINT_VIEW = 20.0
 
@@ -106,6 +108,106 @@ def _edge_ll(d: float, sigma: float, in_floor: float, out_floor: float) -> float
     return ll if ll > -out_floor else -out_floor
 
 
+#: Stands for infinity inside the fast-math kernels (which may assume that no value is infinite).
+HUGE = 1e300
+
+
+def _beats(s: float, j: int, best: float, found: int) -> bool:  # pragma: no cover - jitted
+    """Whether box ``j`` scoring ``s`` replaces the best so far: the scan's rule (highest score, then lowest index)."""
+    return s > best or (s == best and found >= 0 and j < found)
+
+
+def _box_score(b, j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found):  # pragma: no cover
+    """Score of box ``b`` (4,) index ``j``, or -inf as soon as a partial sum shows it cannot beat ``best``."""
+    bx1, by1, bx2, by2 = b[0], b[1], b[2], b[3]
+    d1 = bx1 - px1
+    if bx1 <= border and d1 > 0:
+        d1 = 0.0
+    s = bonus + _edge_ll(d1, sx, in_floor, out_floor)
+    if not _beats(s, j, best, found):  # the other edges can only lower the score
+        return -HUGE
+    d3 = px2 - bx2
+    if bx2 >= W - border and d3 > 0:
+        d3 = 0.0
+    s += _edge_ll(d3, sx, in_floor, out_floor)
+    if not _beats(s, j, best, found):
+        return -HUGE
+    d2 = by1 - py1
+    if by1 <= border and d2 > 0:
+        d2 = 0.0
+    s += _edge_ll(d2, sy, in_floor, out_floor)
+    if not _beats(s, j, best, found):
+        return -HUGE
+    d4 = py2 - by2
+    if by2 >= H - border and d4 > 0:
+        d4 = 0.0
+    return s + _edge_ll(d4, sy, in_floor, out_floor)
+
+
+def _lower_bound(values, origin, bucket, start, v, e, n, x):  # pragma: no cover - jitted
+    """First position in ``values[v, e, :n]`` (sorted) whose value is >= ``x``: from its bucket, then forward."""
+    if not (x > origin[v, e]):
+        return 0
+    b = int((x - origin[v, e]) / bucket[v, e])
+    if b >= start.shape[2]:
+        b = start.shape[2] - 1
+    pos = start[v, e, b]
+    while pos < n and values[v, e, pos] < x:
+        pos += 1
+    return pos
+
+
+def _best_box(v, boxes, available, index, px1, py1, px2, py2, sx, sy, cam, params):  # pragma: no cover - jitted
+    """The best available box of view ``v`` for one predicted box: (score, index), (miss, -1) when none beats a miss.
+
+    Scores only the boxes with an edge near the predicted one (:mod:`.boxindex`), in any order; the tie rule
+    of :func:`_beats` makes the result the scan's. A box met twice (two near edges) cannot replace itself.
+    The window of each edge is that of the best score so far, never narrower than that of the final best,
+    so every box that could be the final best is scored.
+    """
+    count, values, order, n_cens, cens, origin, bucket, start, near, scan_all = index
+    W, H = cam[4], cam[5]
+    in_floor, out_floor, bonus, miss, border = params[2], params[3], params[4], params[5], params[6]
+    best = miss
+    found = -1
+    n = count[v]
+    if scan_all or n <= SCAN_BELOW_BOXES:  # a short list is scanned faster than looked up
+        for j in range(n):
+            if available[v, j]:
+                s = _box_score(boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found)
+                if _beats(s, j, best, found):
+                    best = s
+                    found = j
+        return best, found
+    for e in range(4):
+        c = px1 if e == 0 else (py1 if e == 1 else (px2 if e == 2 else py2))
+        # a box that can still beat ``best`` has an edge within sqrt((bonus - best) / 2) sigmas (``near`` at a miss):
+        # the window narrows as better boxes are found, and a box it leaves out scores below ``best``
+        gap = bonus - best
+        h = near * math.sqrt(gap / (bonus - miss)) if gap > 0 else 0.0
+        h *= sx if e % 2 == 0 else sy
+        for pos in range(_lower_bound(values, origin, bucket, start, v, e, n, c - h), n):
+            if values[v, e, pos] > c + h:
+                break
+            j = order[v, e, pos]
+            if available[v, j]:
+                s = _box_score(boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found)
+                if _beats(s, j, best, found):
+                    best = s
+                    found = j
+        if (c < border) if e < 2 else (c > (W if e == 2 else H) - border):  # the predicted edge lies beyond the border
+            for pos in range(n_cens[v, e]):
+                j = cens[v, e, pos]
+                if available[v, j]:
+                    s = _box_score(
+                        boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found
+                    )
+                    if _beats(s, j, best, found):
+                        best = s
+                        found = j
+    return best, found
+
+
 def _score_kernel(
     centres,
     radii,
@@ -114,13 +216,13 @@ def _score_kernel(
     mask,
     T_ob,
     boxes,
-    nboxes,
+    index,
     available,
     cam,
     code,
     coeffs,
     params,
-    blur_half_diag,
+    blur_half_diagonal,
     extra_const_px,
     total,
     n_assoc,
@@ -130,15 +232,7 @@ def _score_kernel(
     K = radii.shape[0]
     V = T_ob.shape[0]
     fx, fy, cx, cy, W, H = cam[0], cam[1], cam[2], cam[3], cam[4], cam[5]
-    alpha, sigma0, in_floor, out_floor, bonus, miss, border = (
-        params[0],
-        params[1],
-        params[2],
-        params[3],
-        params[4],
-        params[5],
-        params[6],
-    )
+    alpha, sigma0 = params[0], params[1]
     fmax = fx if fx > fy else fy
     for n in numba.prange(N):
         for kk in range(K):
@@ -153,7 +247,7 @@ def _score_kernel(
             Y = T_ob[v, 1, 0] * centres[n, 0] + T_ob[v, 1, 1] * centres[n, 1] + T_ob[v, 1, 2] * centres[n, 2] + T_ob[v, 1, 3]
             Z = T_ob[v, 2, 0] * centres[n, 0] + T_ob[v, 2, 1] * centres[n, 1] + T_ob[v, 2, 2] * centres[n, 2] + T_ob[v, 2, 3]
             zc = Z if Z > 1e-6 else 1e-6
-            extra = fmax * blur_half_diag / zc
+            extra = fmax * blur_half_diagonal / zc
             extra2 = extra * extra + extra_const_px * extra_const_px
             for kk in range(K):
                 if not mask[n, kk]:
@@ -172,37 +266,7 @@ def _score_kernel(
                 if extra2 > 0:
                     sx = math.sqrt(sx * sx + extra2)
                     sy = math.sqrt(sy * sy + extra2)
-                best = miss
-                found = -1
-                for j in range(nboxes[v]):
-                    if not available[v, j]:
-                        continue
-                    bx1, by1, bx2, by2 = boxes[v, j, 0], boxes[v, j, 1], boxes[v, j, 2], boxes[v, j, 3]
-                    d1 = bx1 - px1
-                    if bx1 <= border and d1 > 0:
-                        d1 = 0.0
-                    s = bonus + _edge_ll(d1, sx, in_floor, out_floor)
-                    if s <= best:  # the other edges can only lower the score
-                        continue
-                    d3 = px2 - bx2
-                    if bx2 >= W - border and d3 > 0:
-                        d3 = 0.0
-                    s += _edge_ll(d3, sx, in_floor, out_floor)
-                    if s <= best:
-                        continue
-                    d2 = by1 - py1
-                    if by1 <= border and d2 > 0:
-                        d2 = 0.0
-                    s += _edge_ll(d2, sy, in_floor, out_floor)
-                    if s <= best:
-                        continue
-                    d4 = py2 - by2
-                    if by2 >= H - border and d4 > 0:
-                        d4 = 0.0
-                    s += _edge_ll(d4, sy, in_floor, out_floor)
-                    if s > best:
-                        best = s
-                        found = j
+                best, found = _best_box(v, boxes, available, index, px1, py1, px2, py2, sx, sy, cam, params)
                 total[n, kk] += best
                 if found >= 0:
                     n_assoc[n, kk] += 1
@@ -373,6 +437,10 @@ _sphere_box_px = numba.njit(cache=True, inline="always")(_sphere_box_px)
 _spheroid_box_px = numba.njit(cache=True, inline="always")(_spheroid_box_px)
 _in_front = numba.njit(cache=True, inline="always")(_in_front)
 _box_residuals_kernel = numba.njit(cache=True)(_box_residuals_kernel)
+_lower_bound = numba.njit(cache=True, inline="always")(_lower_bound)
+_beats = numba.njit(cache=True, inline="always")(_beats)
+_box_score = numba.njit(cache=True, inline="always", fastmath=True)(_box_score)
+_best_box = numba.njit(cache=True, inline="always", fastmath=True)(_best_box)
 _score_kernel = numba.njit(cache=True, parallel=True, fastmath=True)(_score_kernel)
 _cone_kernel = numba.njit(cache=True, parallel=True)(_cone_kernel)
 
@@ -397,6 +465,12 @@ def pack_views(
             B[v, : len(boxes[v])] = boxes[v]
             A[v, : len(boxes[v])] = available[v]
     return T, B, nb, A
+
+
+def score_work_ns(n_boxes: NDArray[np.int64], scan_all: bool = False) -> float:
+    """Estimated single-thread nanoseconds of ``_score_kernel`` per hypothesis for views of ``n_boxes`` boxes."""
+    scanned = (n_boxes <= SCAN_BELOW_BOXES) | scan_all
+    return float(NS_PER_HYPOTHESIS_BOX * n_boxes[scanned].sum() + NS_PER_HYPOTHESIS_VIEW * np.count_nonzero(~scanned))
 
 
 def camera_arrays(camera: Camera) -> tuple[NDArray[np.float64], int, NDArray[np.float64]]:
@@ -433,6 +507,7 @@ def score_hypotheses(
     mask: NDArray[np.bool_] | None = None,
     semi_up: NDArray[np.float64] | None = None,
     up_base: NDArray[np.float64] | None = None,
+    index: EdgeIndex | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
     """Score every (centre, radius) hypothesis against all views.
 
@@ -448,7 +523,9 @@ def score_hypotheses(
 
     ``mask`` (N, K) bool, optional, selects the hypotheses to score; the others
     get ``total = -inf``, ``n_assoc = 0`` and no association (the search uses
-    it to skip the radii a parent cell already ruled out).
+    it to skip the radii a parent cell already ruled out). ``index`` is :func:`.boxindex.build_index` of
+    ``boxes`` for ``model`` (built here when not given): each hypothesis scores only the boxes it can
+    match, with the same result as scoring all of them.
 
     Returns
     -------
@@ -458,6 +535,8 @@ def score_hypotheses(
     """
     T, B, nb, A = pack_views(camera, T_optical_base, boxes, available)
     cam, code, coeffs = camera_arrays(camera)
+    if index is None:
+        index = build_index(boxes, camera.width, camera.height, model)
     total = np.empty((len(centres_base), len(radii)))
     n_assoc = np.empty((len(centres_base), len(radii)), dtype=np.int32)
     assoc = np.empty((len(boxes), len(centres_base), len(radii)), dtype=np.int16)
@@ -468,7 +547,7 @@ def score_hypotheses(
     semi_up = radii if semi_up is None else semi_up
     up = np.zeros(3) if up_base is None else np.asarray(up_base, dtype=float)
     up_opt = np.ascontiguousarray(T[:, :, :3] @ up)
-    with kernel_threads(int(NS_PER_HYPOTHESIS_BOX * total.size * int(nb.sum()))):
+    with kernel_threads(int(total.size * score_work_ns(nb, index.scan_all))):
         _score_kernel(
             np.ascontiguousarray(centres_base, dtype=np.float64),
             np.ascontiguousarray(radii, dtype=np.float64),
@@ -477,7 +556,7 @@ def score_hypotheses(
             np.ascontiguousarray(mask, dtype=np.bool_),
             T,
             B,
-            nb,
+            index.as_tuple(),
             A,
             cam,
             code,

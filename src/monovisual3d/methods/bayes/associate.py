@@ -34,12 +34,27 @@ def _overlap(a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
     return bool(min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1]))
 
 
-def _try_swap(problem: Problem, v: int, a: DetectedObject, b: DetectedObject) -> tuple[DetectedObject, DetectedObject] | None:
+#: Fits of :func:`fit_fixed` already made in a swap pass: (start position bytes, radius, semi-axis along up, association) -> fit.
+_Fits = dict[tuple[bytes, float, float | None, tuple[int, ...]], "DetectedObject | None"]
+
+
+def _fit(problem: Problem, o: DetectedObject, assoc: list[int], fits: _Fits) -> DetectedObject | None:
+    """``fit_fixed`` from ``o`` with ``assoc``, made once per pass (the pass's second round meets the same pairs)."""
+    semi_up = semi_up_of(o)
+    key = (np.asarray(o.position, dtype=np.float64).tobytes(), float(o.radius), semi_up, tuple(assoc))  # type: ignore[arg-type]
+    if key not in fits:
+        fits[key] = fit_fixed(problem, o.position, float(o.radius), assoc, semi_up)  # type: ignore[arg-type]
+    return fits[key]
+
+
+def _try_swap(
+    problem: Problem, v: int, a: DetectedObject, b: DetectedObject, fits: _Fits
+) -> tuple[DetectedObject, DetectedObject] | None:
     """``a`` and ``b`` refit with their boxes in view ``v`` swapped, if their summed score grows by more than 1 nat."""
     assoc_a, assoc_b = associations_list(problem, a), associations_list(problem, b)
     assoc_a[v], assoc_b[v] = assoc_b[v], assoc_a[v]
-    new_a = fit_fixed(problem, a.position, float(a.radius), assoc_a, semi_up_of(a))  # type: ignore[arg-type]
-    new_b = fit_fixed(problem, b.position, float(b.radius), assoc_b, semi_up_of(b))  # type: ignore[arg-type]
+    new_a = _fit(problem, a, assoc_a, fits)
+    new_b = _fit(problem, b, assoc_b, fits)
     if new_a is None or new_b is None or new_a.score + new_b.score <= a.score + b.score + 1.0:
         return None
     return new_a, new_b
@@ -54,6 +69,7 @@ def swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedO
     not change.
     """
     objects = list(objects)
+    fits: _Fits = {}
     for _ in range(2):
         changed = False
         for v, vd in enumerate(problem.views):
@@ -62,7 +78,7 @@ def swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedO
             for ia, ib in combinations(holders, 2):
                 if not _overlap(boxes[ia], boxes[ib]):
                     continue
-                swapped = _try_swap(problem, v, objects[ia], objects[ib])
+                swapped = _try_swap(problem, v, objects[ia], objects[ib], fits)
                 if swapped is None:
                     continue
                 objects[ia], objects[ib] = swapped

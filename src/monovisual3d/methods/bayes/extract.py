@@ -25,12 +25,49 @@ from .search import Hypotheses
 
 @dataclass
 class _Work:
-    """The extraction's working copy of the scores (private to :func:`extract`)."""
+    """The extraction's working copy of the scores (private to :func:`extract`).
+
+    ``eligible`` is ``total`` where the row is active and the hypothesis has ``min_views`` associated
+    views, else -inf; ``row_best`` its maximum per row. Both are updated only in the rows that change
+    (suppressed or rescored), so finding the best hypothesis costs one pass over the rows, not over all
+    hypotheses.
+    """
 
     total: NDArray[np.float64]
     n_assoc: NDArray[np.int32]
     assoc: NDArray[np.int16]
     active: NDArray[np.bool_]
+    eligible: NDArray[np.float64]
+    row_best: NDArray[np.float64]
+
+    @classmethod
+    def start(cls, hyp: Hypotheses, min_views: int) -> _Work:
+        total, n_assoc, assoc = hyp.scores
+        work = cls(
+            total.copy(), n_assoc.copy(), assoc.copy(), np.ones(len(total), dtype=bool), total.copy(), np.zeros(len(total))
+        )
+        work.update(np.arange(len(total)), min_views)
+        return work
+
+    def update(self, rows: NDArray[np.intp], min_views: int) -> None:
+        """Recompute ``eligible`` and ``row_best`` in ``rows``."""
+        ok = self.active[rows, None] & (self.n_assoc[rows] >= min_views)
+        self.eligible[rows] = np.where(ok, self.total[rows], -np.inf)
+        self.row_best[rows] = self.eligible[rows].max(axis=1, initial=-np.inf)
+
+    def suppress(self, rows: NDArray[np.bool_]) -> None:
+        """Deactivate the cells ``rows`` (N,) bool."""
+        self.active[rows] = False
+        self.eligible[rows] = -np.inf
+        self.row_best[rows] = -np.inf
+
+    def best(self, rows: NDArray[np.bool_]) -> tuple[int, int, float]:
+        """The first best eligible hypothesis among ``rows`` (N,) bool, as ``argmax`` over all of them finds it."""
+        c = int(np.argmax(np.where(rows, self.row_best, -np.inf))) if len(rows) else 0
+        if not len(rows) or not rows[c]:
+            return c, 0, -np.inf
+        k = int(np.argmax(self.eligible[c]))
+        return c, k, float(self.eligible[c, k])
 
 
 def _candidates(
@@ -42,11 +79,10 @@ def _candidates(
     trial = work.active.copy()
     out = []
     for _ in range(cfg.lookahead):
-        sc = np.where(trial & (work.n_assoc >= cfg.min_views), work.total, -np.inf)
-        c, k = np.unravel_index(int(np.argmax(sc)), sc.shape)
-        if not np.isfinite(sc[c, k]) or sc[c, k] < max(floor, best - cfg.lookahead_margin):
+        c, k, score = work.best(trial)
+        if not np.isfinite(score) or score < max(floor, best - cfg.lookahead_margin):
             break
-        key = (int(c), int(k))
+        key = (c, k)
         if key not in cache:  # a cached result stays valid while its boxes are not taken
             b = hyp.bin_semi_up(int(k))
             _, assoc_h = score_one(problem, taken, centres[c], float(radii[k]), hyp.cell, b)
@@ -62,7 +98,7 @@ def _take(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, obj: Det
     new = boxes_of(problem, obj)
     taken = taken | new
     near = np.linalg.norm(hyp.centres_base - obj.position, axis=1) <= max(hyp.cell, 0.5 * float(obj.radius or 0))
-    work.active[near] = False
+    work.suppress(near)
     affected = np.zeros(len(hyp.centres_base), dtype=bool)
     for v, j in new:
         affected |= (work.assoc[v] == j).any(axis=1)
@@ -70,29 +106,28 @@ def _take(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, obj: Det
         sub = np.flatnonzero(affected)
         t, n, a = score_hypotheses(problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub], hyp.semi_up)
         work.total[sub], work.n_assoc[sub], work.assoc[:, sub] = t, n, a
+        work.update(sub, problem.config.min_views)
     return taken
 
 
 def extract(problem: Problem, hyp: Hypotheses) -> tuple[list[DetectedObject], Taken]:
     """Objects found greedily in ``hyp``, and the boxes they took."""
     cfg = problem.config
-    total, n_assoc, assoc = hyp.scores
-    work = _Work(total.copy(), n_assoc.copy(), assoc.copy(), np.ones(total.shape, dtype=bool))
+    work = _Work.start(hyp, cfg.min_views)
     objects: list[DetectedObject] = []
     taken: Taken = frozenset()
     cache: dict[tuple[int, int], DetectedObject | None] = {}
     max_iter = sum(len(vd.boxes) for vd in problem.views) * 3 + 10
     for _ in range(max_iter):
-        scores = np.where(work.active & (work.n_assoc >= cfg.min_views), work.total, -np.inf)
-        if scores.size == 0:
+        if work.total.size == 0:
             break
-        best = float(scores.max())
+        best = float(work.row_best.max())
         if not np.isfinite(best) or best < cfg.accept - cfg.prune_slack:
             break
         candidates = _candidates(problem, hyp, work, taken, best, cache)
         for cand, near in candidates:
             if cand is None:
-                work.active[near] = False
+                work.suppress(near)
         accepted = [cand for cand, _ in candidates if cand is not None]
         if not accepted:
             continue

@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from ...frames import transform_points
 from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
+from .boxindex import EdgeIndex, build_index
 from .likelihood import box_scores, pose_sigma_px, view_scores
 from .problem import Problem, Taken
 from .refine import Observation, Refined, refine_sphere, refine_spheroid
@@ -30,6 +31,23 @@ def pose_px(problem: Problem, depth: NDArray[np.floating] | float) -> NDArray[np
     if not cfg.poses_uncertain:
         return 0.0
     return pose_sigma_px(problem.camera, depth, cfg.pose_position_sigma, cfg.pose_rotation_sigma)
+
+
+#: Problems whose box index is kept (the last few: one estimate scores its problem thousands of times).
+INDEX_CACHE_SIZE = 4
+_INDEX_CACHE: list[tuple[Problem, EdgeIndex]] = []
+
+
+def box_index(problem: Problem) -> EdgeIndex:
+    """The problem's box index (:func:`.boxindex.build_index`), built once per problem."""
+    for p, index in _INDEX_CACHE:
+        if p is problem:
+            return index
+    cam = problem.camera
+    index = build_index([vd.boxes for vd in problem.views], cam.width, cam.height, problem.model)
+    _INDEX_CACHE.insert(0, (problem, index))
+    del _INDEX_CACHE[INDEX_CACHE_SIZE:]
+    return index
 
 
 def score_hypotheses(
@@ -78,6 +96,7 @@ def score_hypotheses(
             mask,
             semi_up,
             cfg.up_vector,
+            box_index(problem),
         )
     else:
         scores = score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask, semi_up)

@@ -1,0 +1,141 @@
+"""The box index of the ``bayes`` kernels (issue 22): it skips only boxes that cannot match, so scores are unchanged."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from monovisual3d.camera import Camera
+from monovisual3d.frames import look_at, transform_points
+from monovisual3d.geometry.sphere import predict_sphere_boxes
+from monovisual3d.methods.bayes._kernels import HAVE_NUMBA, score_hypotheses
+from monovisual3d.methods.bayes.boxindex import build_index, candidate_boxes, near_sigmas
+from monovisual3d.methods.bayes.likelihood import SensorModel, box_scores, view_scores
+
+CAM = Camera.from_hfov(1280, 720, 90.0)
+TARGET = np.array([0.6, 0.0, 0.45])
+
+
+def _dense_views(rng, n_boxes=300):
+    """Three row-like views with many boxes: overlapping, tiny and huge, duplicated, and cut by the border."""
+    poses = [look_at(TARGET + [-0.8, y, 0.0], TARGET + [0.0, y, 0.0]) for y in (0.3, 0.0, -0.3)]
+    views = []
+    for _ in poses:
+        c = rng.uniform([-50, -50], [1330, 770], (n_boxes, 2))
+        half = rng.uniform(2, 90, (n_boxes, 2)) * rng.choice([1.0, 3.0], (n_boxes, 1))
+        b = np.clip(np.hstack([c - half, c + half]), 0, [1280, 720, 1280, 720])
+        b = b[(b[:, 2] > b[:, 0]) & (b[:, 3] > b[:, 1])]
+        b = np.vstack([b, b[:5], [[0, 100, 60, 160], [1230, 0, 1280, 40]]])  # exact duplicates (ties) and border boxes
+        views.append(b)
+    return [np.linalg.inv(T) for T in poses], views
+
+
+def _reference(T_ob, boxes, avail, centres, radii, model, blur):
+    total = np.zeros((len(centres), len(radii)))
+    n_assoc = np.zeros(total.shape, dtype=np.int32)
+    assoc = []
+    for T, b, a in zip(T_ob, boxes, avail):
+        p_opt = transform_points(T, centres)
+        pred, vis = predict_sphere_boxes(CAM, p_opt, radii)
+        extra = max(CAM.fx, CAM.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
+        llr, a_ref = view_scores(pred, vis, b, a, model, CAM.width, CAM.height, extra)
+        total += llr
+        n_assoc += a_ref >= 0
+        assoc.append(a_ref)
+    return total, n_assoc, np.array(assoc)
+
+
+MODELS = {
+    "default": SensorModel(),
+    "low floors (index off: every box scanned)": SensorModel(inward_floor=1.0, outward_floor=2.0),
+    "strict": SensorModel(alpha=0.02, sigma0_px=0.5, inward_floor=5.0, outward_floor=9.0, match_bonus=12.0, p_miss=0.3),
+}
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+@pytest.mark.parametrize("name", list(MODELS))
+@pytest.mark.parametrize("blur", [0.0, 0.01, 0.04])
+def test_indexed_kernel_equals_the_scan_over_all_boxes(name, blur):
+    model = MODELS[name]
+    rng = np.random.default_rng(22)
+    T_ob, boxes = _dense_views(rng)
+    avail = [rng.random(len(b)) > 0.2 for b in boxes]
+    centres = TARGET + rng.uniform([-0.2, -0.7, -0.4], [0.2, 0.7, 0.4], (400, 3))
+    radii = np.geomspace(0.01, 0.08, 6)
+    total, n_assoc, assoc = score_hypotheses(CAM, T_ob, boxes, avail, centres, radii, model, blur)
+    ref_total, ref_n, ref_assoc = _reference(T_ob, boxes, avail, centres, radii, model, blur)
+    assert_array_equal(assoc, ref_assoc)
+    assert_array_equal(n_assoc, ref_n)
+    assert_allclose(total, ref_total, rtol=1e-9, atol=1e-9)
+    assert np.count_nonzero(ref_assoc >= 0) > 100  # the case has matches to get right
+
+
+def test_every_box_that_beats_a_miss_is_a_candidate():
+    """The numpy twin of the compiled look-up: the boxes it leaves out all score below the miss term."""
+    model = SensorModel()
+    rng = np.random.default_rng(5)
+    T_ob, boxes = _dense_views(rng, n_boxes=150)
+    index = build_index(boxes, CAM.width, CAM.height, model)
+    centres = TARGET + rng.uniform([-0.2, -0.7, -0.4], [0.2, 0.7, 0.4], (150, 3))
+    radii = np.geomspace(0.01, 0.08, 4)
+    n_left_out = 0
+    for v, (T, b) in enumerate(zip(T_ob, boxes)):
+        pred, vis = predict_sphere_boxes(CAM, transform_points(T, centres), radii)
+        for i, k in zip(*np.nonzero(vis)):
+            p = pred[i, k]
+            sigma = (model.alpha * (p[2] - p[0]) + model.sigma0_px, model.alpha * (p[3] - p[1]) + model.sigma0_px)
+            cand = candidate_boxes(index, v, p, sigma, CAM.width, CAM.height, model.border_px)
+            out = np.setdiff1d(np.arange(len(b)), cand)
+            scores = np.array([box_scores(p, b[j], model, CAM.width, CAM.height) for j in out])
+            assert np.all(scores < model.miss_term)
+            n_left_out += len(out)
+    assert n_left_out > 0.8 * sum(len(b) for b in boxes) * 150 * 4 / 2  # most boxes are never looked at
+
+
+def test_near_window_and_its_fallback():
+    assert near_sigmas(SensorModel()) == pytest.approx(np.sqrt((8 - np.log(0.1)) / 2), rel=1e-5)
+    assert near_sigmas(SensorModel(inward_floor=2.0)) == 0.0  # a far edge may cost less than G / 4: scan every box
+    index = build_index([np.array([[0.0, 0.0, 10.0, 10.0]])], 640, 480, SensorModel(inward_floor=2.0))
+    assert index.scan_all
+    assert_array_equal(candidate_boxes(index, 0, np.array([300.0, 300, 310, 310]), (1.0, 1.0), 640, 480, 1.0), [0])
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
+def test_views_without_boxes_and_all_boxes_taken():
+    rng = np.random.default_rng(1)
+    T_ob, boxes = _dense_views(rng, n_boxes=20)
+    boxes[1] = np.zeros((0, 4))
+    avail = [np.ones(len(b), bool) for b in boxes]
+    avail[2][:] = False
+    centres = TARGET + rng.uniform(-0.2, 0.2, (50, 3))
+    radii = np.array([0.02, 0.04])
+    got = score_hypotheses(CAM, T_ob, boxes, avail, centres, radii, SensorModel(), 0.01)
+    ref = _reference(T_ob, boxes, avail, centres, radii, SensorModel(), 0.01)
+    assert_array_equal(got[2], ref[2])
+    assert_allclose(got[0], ref[0], rtol=1e-9, atol=1e-9)
+    index = build_index(boxes, CAM.width, CAM.height, SensorModel())
+    assert index.count[1] == 0 and dataclasses.asdict(index)["scan_all"] is False
+
+
+def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
+    """The extraction's per-row bests (kept up to date row by row) find what argmax over all hypotheses finds."""
+    from monovisual3d.methods.bayes.extract import _Work
+
+    rng = np.random.default_rng(7)
+    total = np.round(rng.normal(size=(300, 5)), 1)  # rounded: many ties, the first one wins as in np.argmax
+    total[rng.random(total.shape) < 0.3] = -np.inf
+    n_assoc = rng.integers(0, 4, total.shape).astype(np.int32)
+    work = _Work(total, n_assoc, np.zeros((2, 300, 5), np.int16), np.ones(300, bool), total.copy(), np.zeros(300))
+    work.update(np.arange(300), 2)
+    for _ in range(20):
+        rows = rng.random(300) > 0.3
+        c, k, s = work.best(rows)
+        full = np.where(rows[:, None] & work.active[:, None] & (work.n_assoc >= 2), work.total, -np.inf)
+        assert (c, k) == np.unravel_index(int(np.argmax(full)), full.shape) and s == full.max()
+        work.suppress(rng.random(300) < 0.05)
+        changed = np.flatnonzero(rng.random(300) < 0.1)
+        work.total[changed] = rng.normal(size=(len(changed), 5))
+        work.update(changed, 2)
