@@ -11,7 +11,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at, transform_points
 from monovisual3d.geometry.sphere import predict_sphere_boxes
-from monovisual3d.methods.bayes._kernels import HAVE_NUMBA, score_hypotheses
+from monovisual3d.methods.bayes._kernels import score_hypotheses
 from monovisual3d.methods.bayes.boxindex import build_index, candidate_boxes, near_sigmas
 from monovisual3d.methods.bayes.likelihood import SensorModel, box_scores, view_scores
 
@@ -55,7 +55,6 @@ MODELS = {
 }
 
 
-@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 @pytest.mark.parametrize("name", list(MODELS))
 @pytest.mark.parametrize("blur", [0.0, 0.01, 0.04])
 def test_indexed_kernel_equals_the_scan_over_all_boxes(name, blur):
@@ -103,7 +102,6 @@ def test_near_window_and_its_fallback():
     assert_array_equal(candidate_boxes(index, 0, np.array([300.0, 300, 310, 310]), (1.0, 1.0), 640, 480, 1.0), [0])
 
 
-@pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 def test_views_without_boxes_and_all_boxes_taken():
     rng = np.random.default_rng(1)
     T_ob, boxes = _dense_views(rng, n_boxes=20)
