@@ -36,7 +36,7 @@ from ..errors import InputError, one_line
 from ..io.lfd import read_lfd
 from ..metrics import MIN_GATE_M, match
 from ..session import Session
-from .speed import machine_metadata
+from .timing import machine_metadata
 
 #: Where the shared Aldoma set lies, relative to the repository root (and to the working directory).
 ALDOMA_RELATIVE = Path("..") / "shared" / "data" / "aldoma"
