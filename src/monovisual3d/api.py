@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -62,4 +63,7 @@ def localize(
             raise InputError(f"config: got {type(config).__name__}, expected the config class of one of {sorted(METHODS)}")
         method = matches[0]
     get_method(method)  # a bad name fails before anything runs
-    return run_method(session, method, config, progress, **options)
+    start = time.perf_counter()
+    result = run_method(session, method, config, progress, **options)
+    result.timing_s.setdefault("total", time.perf_counter() - start)  # a method that does not time itself
+    return result
