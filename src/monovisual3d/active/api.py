@@ -147,7 +147,7 @@ def _with_target_workspace(state: PlannerState, target: Point | None) -> Planner
 
 
 def _pose_frame(session: str | Path) -> str:
-    from ..session import read_structured_file
+    from .._structured import read_structured_file
 
     raw = read_structured_file(session)
     return raw.get("pose_frame", "optical") if isinstance(raw, dict) else "optical"

@@ -175,7 +175,8 @@ def load_candidates(path: str | Path, pose_frame: str = "optical") -> NDArray[np
     -------
     T_base_optical : ndarray, shape (N, 4, 4)
     """
-    from ..session import pose_from_dict, read_structured_file
+    from .._structured import read_structured_file
+    from ..session.load import pose_from_dict
 
     data = read_structured_file(path)
     if isinstance(data, dict):

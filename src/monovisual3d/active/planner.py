@@ -58,11 +58,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._structured import read_structured_file
 from ..camera import camera_from_dict
 from ..errors import InputError
 from ..methods.bayes.sensor import box_edge_sigma_px
 from ..result import DetectedObject, Result
-from ..session import Session, Workspace, load_session, read_structured_file, workspace_from_dict
+from ..session import Session, Workspace
+from ..session.load import load_session, workspace_from_dict
 from .candidates import check_candidates
 from .config import PlannerConfig
 from .information import (

@@ -20,7 +20,8 @@ from ..errors import InputError, InputWarning
 from ..figures.views import write_view_picture
 from ..metrics import Metrics, evaluate
 from ..result import Result
-from ..session import Session, load_session
+from ..session import Session
+from ..session.load import load_session
 from ..sim.noise import NoiseModel
 from ..sim.scene import Scene
 from ..sim.scenes import default_camera, greenhouse_scene, scene_target

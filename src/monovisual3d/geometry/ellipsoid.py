@@ -24,8 +24,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import check_quaternion_xyzw
 from ..errors import InputError
-from ..frames import check_quaternion_xyzw
 from .orientation import DEFAULT_UP, quaternion_xyzw_from_rotation, rotation_from_quaternion_xyzw, rotation_upright
 from .quadric import bbox_from_dual_conic, centre_and_shape_matrix, dual_quadric, projected_dual_conic, to_optical
 from .sphere import clip_boxes

@@ -17,10 +17,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import as_float
 from ..errors import InputError, excerpt
 from ..frames import T_base_optical_from_T_base_cameralink
-from ..session import POSE_FRAMES, Workspace, session_from_dict, workspace_from_dict
-from ._parse import as_float, image_key
+from ..session import Workspace
+from ..session.load import POSE_FRAMES, session_from_dict, workspace_from_dict
+from ._parse import image_key
 from .calibration import read_calibration
 from .detections import ImageDetections, _detection_format, filter_detections, read_detections
 from .poses import (

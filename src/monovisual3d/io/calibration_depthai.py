@@ -9,8 +9,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera import Camera
+from ..checks import as_array, as_int
 from ..errors import InputError, InputWarning, excerpt
-from ._parse import as_array, as_int, expect_mapping
+from ._parse import expect_mapping
 from .calibration_opencv import OPENCV_COEFF_NAMES, opencv_camera
 
 #: DepthAI camera sockets by name (CameraBoardSocket).

@@ -6,8 +6,9 @@ import re
 from typing import Any
 
 from ..camera import Camera
+from ..checks import as_array, as_int
 from ..errors import InputError, excerpt
-from ._parse import as_array, as_int, expect_mapping
+from ._parse import expect_mapping
 from .calibration_opencv import opencv_camera
 
 

@@ -13,8 +13,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import as_array, as_int
 from ..errors import InputError, excerpt
-from ._parse import as_array, as_int, expect_mapping
+from ._parse import expect_mapping
 from .image_size import size_pair
 
 #: Keys under which calibration files store the camera matrix.

@@ -19,12 +19,10 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import as_array, as_float, as_int
 from ..errors import InputError, excerpt
 from ..session import Detection
 from ._parse import (
-    as_array,
-    as_float,
-    as_int,
     check_rows,
     expect_list,
     expect_mapping,

@@ -18,19 +18,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
+from ..checks import as_array, as_float, check_quaternion_xyzw
 from ..errors import InputError, excerpt
-from ..frames import check_quaternion_xyzw, check_transform, transform_from_position_quaternion
-from ._parse import (
-    as_array,
-    as_float,
-    check_angles,
-    check_rows,
-    check_stamp,
-    check_translations,
-    expect_mapping,
-    load_structured,
-    read_table_text,
-)
+from ..frames import check_transform, transform_from_position_quaternion
+from ._parse import check_angles, check_rows, check_stamp, check_translations, expect_mapping, load_structured, read_table_text
 from .detections import read_csv_table
 
 POSE_FORMATS = ("tum", "csv", "json")
@@ -280,7 +271,7 @@ def read_pose_json(source: str | Path | list[Any] | dict[str, Any], *, units: st
 
 
 def _pose_object(item: dict[str, Any], where: str) -> NDArray[np.float64]:
-    from ..session import pose_from_dict
+    from ..session.load import pose_from_dict
 
     return pose_from_dict(item, where)
 
@@ -334,7 +325,7 @@ def _hand_eye(data: Any) -> NDArray[np.float64]:
             T[:3, :3] = as_array(data["rotation"], "rotation", shape=(3, 3))
             T[:3, 3] = as_array(data["translation"], "translation", size=3).ravel()
             return check_transform(T, where="rotation")
-        from ..session import pose_from_dict
+        from ..session.load import pose_from_dict
 
         return pose_from_dict(data, "(hand-eye)")
     return check_transform(as_array(data, "matrix"), where="matrix")

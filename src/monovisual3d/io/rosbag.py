@@ -33,7 +33,8 @@ from ..camera import Camera
 from ..errors import InputError, InputWarning, excerpt
 from ..frames import T_base_optical_from_T_base_cameralink, transform_from_position_quaternion
 from ..limits import MAX_ABS_POSITION_M
-from ..session import POSE_FRAMES, Detection, Workspace
+from ..session import Detection, Workspace
+from ..session.load import POSE_FRAMES
 from .build import DEFAULT_MAX_GAP, assemble_session
 from .calibration import read_calibration
 from .calibration_ros import camera_from_camera_info

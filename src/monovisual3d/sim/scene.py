@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..checks import check_quaternion_xyzw
 from ..errors import InputError
-from ..frames import check_quaternion_xyzw
 from ..geometry.ellipsoid import Ellipsoid, equivalent_radius
 from ..geometry.orientation import rotation_from_quaternion_xyzw
 
@@ -224,7 +224,7 @@ class Scene:
     @classmethod
     def load(cls, path: str | Path) -> Scene:
         """Read a scene file (JSON or YAML, :meth:`from_dict`'s format, as :meth:`save` writes it)."""
-        from ..session import read_structured_file
+        from .._structured import read_structured_file
 
         data = read_structured_file(path)  # its errors name the file already
         try:

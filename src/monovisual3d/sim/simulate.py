@@ -29,7 +29,8 @@ from numpy.typing import ArrayLike, NDArray
 from .. import limits
 from ..camera import Camera
 from ..errors import InputError
-from ..session import Detection, Session, View, Workspace, load_session
+from ..session import Detection, Session, View, Workspace
+from ..session.load import load_session
 from .noise import NoiseModel
 from .raycast import BACKGROUND, OCCLUDER, Rendering, render
 from .scene import Scene

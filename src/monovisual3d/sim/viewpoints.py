@@ -228,7 +228,9 @@ def load_poses(path: str | Path, target: ArrayLike = DEFAULT_TARGET) -> NDArray[
     -------
     T_base_optical : ndarray, shape (N, 4, 4)
     """
-    from ..session import _vector, pose_from_dict, read_structured_file
+    from .._structured import read_structured_file
+    from ..checks import vector
+    from ..session.load import pose_from_dict
 
     data = read_structured_file(path)
     if isinstance(data, dict) and "poses" in data:
@@ -250,8 +252,8 @@ def load_poses(path: str | Path, target: ArrayLike = DEFAULT_TARGET) -> NDArray[
             if unknown:
                 raise InputError(f"{where}.{unknown[0]}: unknown field, expected position [+ target]")
             try:
-                p = _vector(item["position"], 3, f"poses[{i}].position")
-                t = _vector(item["target"], 3, f"poses[{i}].target") if "target" in item else _vector3(target, "target")
+                p = vector(item["position"], 3, f"poses[{i}].position")
+                t = vector(item["target"], 3, f"poses[{i}].target") if "target" in item else _vector3(target, "target")
                 out.append(look_at(p, t))
             except InputError as exc:
                 raise InputError(f"{path}: {exc}") from None

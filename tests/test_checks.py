@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from monovisual3d.checks import format_bytes, is_real, parse_bytes
 from monovisual3d.errors import InputError
-from monovisual3d.limits import MAX_PARSED_BYTES, MIN_MAX_MEMORY, format_bytes, is_real, parse_bytes
+from monovisual3d.limits import MAX_PARSED_BYTES, MIN_MAX_MEMORY
 
 
 @pytest.mark.parametrize(
