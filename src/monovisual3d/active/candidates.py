@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..checks import is_int
 from ..errors import InputError
 from ..frames import (
     ROTATION_TOL,
@@ -59,7 +60,7 @@ class CapSpec:
     reach_m: float = math.inf
 
     def __post_init__(self) -> None:
-        if isinstance(self.n, bool) or not isinstance(self.n, (int, np.integer)) or self.n < 1:
+        if not is_int(self.n) or self.n < 1:
             raise InputError(f"cap: N: got {self.n!r}, expected a positive integer")
         if self.n > MAX_CANDIDATES:
             raise InputError(f"cap: N: got {self.n}, more than the {MAX_CANDIDATES} candidates accepted")

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
-from ..checks import check_quaternion_xyzw
+from ..checks import check_quaternion_xyzw, is_int
 from ..errors import InputError
 from .orientation import DEFAULT_UP, quaternion_xyzw_from_rotation, rotation_from_quaternion_xyzw, rotation_upright
 from .quadric import bbox_from_dual_conic, centre_and_shape_matrix, dual_quadric, projected_dual_conic, to_optical
@@ -182,7 +182,7 @@ def ellipsoid_contour_optical(
     p_optical : ndarray, shape (..., n, 3), metres, optical frame; NaN where the
         camera centre is inside the ellipsoid (no rim)
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 4:
+    if not is_int(n) or n < 4:
         raise InputError(f"n: got {n!r}, expected an integer >= 4 (rim points)")
     c, _ = centre_and_shape_matrix(centre_optical, semi_axes, R_optical_ellipsoid)
     s = np.broadcast_to(np.asarray(semi_axes, dtype=float), c.shape)

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera import Camera
-from ..checks import as_array, as_int
+from ..checks import as_array, as_int, is_int
 from ..errors import InputError, InputWarning, excerpt
 from ._parse import expect_mapping
 from .calibration_opencv import OPENCV_COEFF_NAMES, opencv_camera
@@ -73,7 +73,7 @@ def _socket_number(socket: str | int | None, sockets: dict[int, Any]) -> int:
     """The socket asked for (number or name; default CAM_A, or the only one) among those of the file."""
     if socket is None:
         return 0 if 0 in sockets or len(sockets) > 1 else next(iter(sockets))
-    if isinstance(socket, int) and not isinstance(socket, bool):
+    if is_int(socket):
         return socket
     if str(socket).strip().isdigit():
         return int(str(socket).strip())

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import check_quaternion_xyzw
+from ..checks import check_quaternion_xyzw, is_real
 from ..errors import InputError
 from ..geometry.ellipsoid import Ellipsoid, equivalent_radius
 from ..geometry.orientation import rotation_from_quaternion_xyzw
@@ -308,6 +308,6 @@ def _vec(value: Any, n: int, where: str) -> NDArray[np.float64]:
 
 
 def _positive(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (np.isfinite(value) and value > 0):
+    if not is_real(value) or not (np.isfinite(value) and value > 0):
         raise InputError(f"{where}: expected a positive number of metres, got {value!r}")
     return float(value)

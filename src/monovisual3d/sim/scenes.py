@@ -55,6 +55,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import is_int
 from ..errors import InputError
 from ..geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
 from ..geometry.orientation import rotation_upright
@@ -290,7 +291,7 @@ def _greenhouse_counts(
     if n > 12:
         raise InputError(f"n_fruit: got {n}, a truss holds at most 12 fruit here (use random_scene for more)")
     n_leaf = int(rng.integers(3, 7)) if n_leaves is None else n_leaves
-    if isinstance(n_leaf, bool) or not isinstance(n_leaf, (int, np.integer)) or n_leaf < 0:
+    if not is_int(n_leaf) or n_leaf < 0:
         raise InputError(f"n_leaves: got {n_leaves!r}, expected an integer >= 0")
     return n, int(n_leaf)
 
@@ -565,7 +566,7 @@ def _target(target: ArrayLike) -> NDArray[np.float64]:
 
 
 def _count(n: int, where: str) -> int:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+    if not is_int(n) or n < 1:
         raise InputError(f"{where}: got {n!r}, expected a positive integer")
     return int(n)
 

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..checks import is_int, is_real
 from ..errors import InputError
 from ..frames import check_transform, look_at
 from ..limits import MAX_SIM_VIEWS
@@ -284,7 +285,7 @@ def row_poses(
     >>> P[:, 1, 3].round(3).tolist(), P[0, :3, 2].round(6).tolist()
     ([0.6, 0.0, -0.6], [1.0, 0.0, 0.0])
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+    if not is_int(n) or n < 1:
         raise InputError(f"--views: got row:{n!r}, expected row:N with N >= 1 views")
     for name, v in (("--distance (distance)", distance), ("--row-length (length)", length)):
         if not (math.isfinite(v) and v > 0):
@@ -393,12 +394,12 @@ def _unit(v: ArrayLike, where: str) -> NDArray[np.float64]:
 
 
 def _check_positive(value: float, where: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+    if not is_real(value) or not (math.isfinite(value) and value > 0):
         raise InputError(f"{where}: got {value!r}, expected a positive number of metres")
 
 
 def _check_count(n: int, where: str) -> int:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+    if not is_int(n) or n < 1:
         raise InputError(f"{where}: got {n!r}, expected a positive integer")
     return int(n)
 
