@@ -49,9 +49,17 @@ def speed(
 
     edge_t, chosen, kernels = _speed_choices(edges, methods, kernel)
     result = run_speed(
-        quick=quick, edges=edge_t, kernels=kernels, repeats=repeats, torch_device=device, sparse_refine_to=refine_to,
-        scaling=not no_scaling, threads=threads, methods=chosen, progress=lambda msg: console.print(f"[dim]running {plain(msg)}[/]", highlight=False),
-    )  # fmt: skip
+        quick=quick,
+        edges=edge_t,
+        kernels=kernels,
+        repeats=repeats,
+        torch_device=device,
+        sparse_refine_to=refine_to,
+        scaling=not no_scaling,
+        threads=threads,
+        methods=chosen,
+        progress=lambda msg: console.print(f"[dim]running {plain(msg)}[/]", highlight=False),
+    )
     meta = result["meta"]
     table = Table(
         title="Per-view update, mean of the paper's 3 views, paper scene "
@@ -185,9 +193,13 @@ def scale(
     from ..bench.scale import TARGET_GROWTH, format_table, run_scale, write_figure, write_json
 
     result = run_scale(
-        _ints(fruit, "--fruit"), _ints(views, "--views"), _ints(seeds, "--seeds"), repeats, busy,
+        _ints(fruit, "--fruit"),
+        _ints(views, "--views"),
+        _ints(seeds, "--seeds"),
+        repeats,
+        busy,
         progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
-    )  # fmt: skip
+    )
     meta = result["meta"]
     table = Table(
         title=f"bayes on a plant row, 1280x720, 3 % box noise, median over seeds {meta['seeds']} "

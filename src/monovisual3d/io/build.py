@@ -516,9 +516,18 @@ def import_session(
         T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
     summary = _import_summary(camera, traj, det_source, size_note)
     return build_session(
-        cam, traj, frames, hand_eye=T_ee_camera, pose_frame=pose_frame, match=match, max_gap=max_gap, min_score=min_score,
-        labels=labels, workspace=workspace, summary=summary,
-    )  # fmt: skip
+        cam,
+        traj,
+        frames,
+        hand_eye=T_ee_camera,
+        pose_frame=pose_frame,
+        match=match,
+        max_gap=max_gap,
+        min_score=min_score,
+        labels=labels,
+        workspace=workspace,
+        summary=summary,
+    )
 
 
 __all__ = [
