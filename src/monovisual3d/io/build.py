@@ -59,6 +59,8 @@ def build_session(
 ) -> ImportResult:
     """Pair poses with detections and validate the result as a session.
 
+    One unit of thought: the public builder; its documented options make most of its length, the body only checks them and joins poses to detections.
+
     Parameters
     ----------
     camera : Camera, for the images the detections were made on
@@ -468,6 +470,8 @@ def import_session(
     workspace: Workspace | dict[str, Any] | None = None,
 ) -> ImportResult:
     """Read a calibration, poses and detections from files and build a validated session.
+
+    One unit of thought: the public importer; its documented options (one per input format) make most of its length, the body reads each input and calls :func:`build_session`.
 
     Parameters
     ----------

@@ -60,6 +60,8 @@ def read_calibration(
 ) -> Camera:
     """Read a camera calibration from a file, a parsed dict or a CameraInfo message.
 
+    One unit of thought: the public reader; its documented options make most of its length, the body only dispatches to the format's reader.
+
     Parameters
     ----------
     source : path, dict or CameraInfo-like object

@@ -150,6 +150,8 @@ def read_bag(
 ) -> ImportResult:
     """Build a session from a ROS 1 or ROS 2 bag.
 
+    One unit of thought: the public bag reader; its documented options (topics, frames, timing) make most of its length, the body checks them and calls the bag's readers.
+
     Parameters
     ----------
     path : a ROS 1 ``.bag`` file or a ROS 2 bag folder (sqlite3 or MCAP storage)

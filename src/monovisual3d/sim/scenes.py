@@ -153,6 +153,8 @@ def random_scene(
 ) -> Scene:
     """Non-overlapping spheres with centres uniform in a box in front of the camera.
 
+    One unit of thought: the scene's documented parameters make most of its length; the body draws the fruit in one pass.
+
     Parameters
     ----------
     n_fruit : int, number of spheres
@@ -218,6 +220,8 @@ def greenhouse_scene(
     max_attempts: int = 50,
 ) -> Scene:
     """A tomato truss: fruit clustered along a stem, leaves partly occluding some of them.
+
+    One unit of thought: the scene's documented parameters make most of its length; the body draws the plants in one pass.
 
     Layout (metres, base frame, around ``target``): a vertical main stem
     (radius 6 mm) 8 cm behind the target; a truss stem (radius 3.5 mm) that
@@ -378,6 +382,8 @@ def shapes_scene(
     max_attempts: int = 200,
 ) -> Scene:
     """Non-spherical fruit (ellipsoids) in front of the camera, each visible in every view.
+
+    One unit of thought: the scene's documented parameters make most of its length; the body draws the fruit in one pass.
 
     Parameters
     ----------
