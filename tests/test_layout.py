@@ -68,12 +68,10 @@ WHOLE_MARKER = "One unit of thought:"
 ALLOWED_LONG_FILES: set[str] = set()
 ALLOWED_LONG_FUNCTIONS = {
     "methods/bayes/_kernels.py:score_hypotheses",
-    "batch/inputs.py:find_sessions",
     "cli/io.py:import_cmd",
     "cli/sim.py:simulate",
     "engine/sparse.py:refine",
     "geometry/fit.py:fit_ellipsoid_to_boxes",
-    "io/poses.py:interpolate_poses",
 }
 #: TEMPORARY (issue 19): import cycles being removed on other branches (camera <-> session; sim.simulate <-> viz),
 #: each as the sorted tuple of the modules on the cycle. Empty it once those branches are merged.
