@@ -162,22 +162,13 @@ def first_non_number(value: Any) -> Any:
 
 def finite_array(value: ArrayLike, shape: tuple[int, ...], where: str) -> NDArray[np.float64]:
     """A finite float array of exactly ``shape`` from nested lists of numbers (text, booleans and None refused)."""
-    import numpy as np
-
     if first_non_number(value) is not None:
-        got = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else excerpt(value)
+        got = f"an array of {value.dtype}" if hasattr(value, "dtype") else excerpt(value)
         raise InputError(f"{where}: expected numbers with shape {list(shape)}, got {got}")
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: expected numbers with shape {list(shape)}, got {excerpt(value)}") from None
-    except OverflowError:
-        raise InputError(f"{where}: got {excerpt(value)}, a number too large") from None
+    arr = _float_array(value, where, f"numbers with shape {list(shape)}")
     if arr.shape != shape:
         raise InputError(f"{where}: expected shape {list(shape)}, got {list(arr.shape)}")
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{where}: contains NaN or infinity")
-    return arr
+    return _all_finite(arr, where)
 
 
 def as_array(value: Any, where: str, shape: tuple[int, ...] | None = None, size: int | None = None) -> NDArray[np.float64]:
@@ -186,21 +177,12 @@ def as_array(value: Any, where: str, shape: tuple[int, ...] | None = None, size:
     Unlike :func:`finite_array`, a flat list of the right length is reshaped to ``shape`` (calibration
     files write matrices row by row).
     """
-    import numpy as np
-
     if isinstance(value, (str, bytes, dict)) or value is None or isinstance(value, bool):
         raise InputError(f"{where}: expected a list of numbers, got {excerpt(value)}")
     bad = first_non_number(value)
     if bad is not None:
         raise InputError(f"{where}: expected a list of numbers, got {excerpt(bad)} in {excerpt(value)}")
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: expected a list of numbers, got {excerpt(value)}") from None
-    except OverflowError:
-        raise InputError(f"{where}: number too large in {excerpt(value)}") from None
-    if arr.dtype == object:
-        raise InputError(f"{where}: expected a list of numbers, got {excerpt(value)}")
+    arr = _float_array(value, where, "a list of numbers")
     if shape is not None and arr.shape != shape:
         if arr.size == math.prod(shape) and arr.ndim <= 1:
             arr = arr.reshape(shape)
@@ -208,6 +190,26 @@ def as_array(value: Any, where: str, shape: tuple[int, ...] | None = None, size:
             raise InputError(f"{where}: expected shape {list(shape)}, got {list(arr.shape)}")
     if size is not None and arr.size != size:
         raise InputError(f"{where}: expected {size} numbers, got {arr.size}")
+    return _all_finite(arr, where)
+
+
+def _float_array(value: Any, where: str, expected: str) -> NDArray[np.float64]:
+    """``value`` (nested lists of numbers, checked by the caller) as a float array; ragged lists and huge integers refused."""
+    import numpy as np
+
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: expected {expected}, got {excerpt(value)}") from None
+    except OverflowError:
+        raise InputError(f"{where}: got {excerpt(value)}, a number too large") from None
+    return arr
+
+
+def _all_finite(arr: NDArray[np.float64], where: str) -> NDArray[np.float64]:
+    """``arr`` itself when every entry is finite; else one line naming ``where``."""
+    import numpy as np
+
     if not np.all(np.isfinite(arr)):
         raise InputError(f"{where}: contains NaN or infinity")
     return arr
