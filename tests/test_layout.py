@@ -69,7 +69,6 @@ ALLOWED_LONG_FILES: set[str] = set()
 ALLOWED_LONG_FUNCTIONS = {
     "methods/bayes/_kernels.py:score_hypotheses",
     "cli/io.py:import_cmd",
-    "cli/sim.py:simulate",
     "engine/sparse.py:refine",
     "geometry/fit.py:fit_ellipsoid_to_boxes",
 }
