@@ -68,7 +68,6 @@ WHOLE_MARKER = "One unit of thought:"
 ALLOWED_LONG_FILES: set[str] = set()
 ALLOWED_LONG_FUNCTIONS = {
     "methods/bayes/_kernels.py:score_hypotheses",
-    "engine/sparse.py:refine",
     "geometry/fit.py:fit_ellipsoid_to_boxes",
 }
 #: TEMPORARY (issue 19): import cycles being removed on other branches (camera <-> session; sim.simulate <-> viz),
