@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..checks import is_int, is_real
+from ..checks import is_int, is_real, vector
 from ..errors import InputError
 from ..frames import check_transform, look_at
 from ..limits import MAX_SIM_VIEWS
@@ -79,7 +79,7 @@ def paper_poses(
     >>> P[:, :3, 3].round(3).tolist()
     [[0.1, 0.0, 0.45], [0.1, 0.2, 0.25], [0.1, -0.2, 0.65]]
     """
-    target = _vector3(target, "target")
+    target = vector(target, 3, "target")
     _check_positive(distance, "distance")
     if not (math.isfinite(offset) and offset >= 0):
         raise InputError(f"offset: got {offset!r}, expected a number >= 0 (metres)")
@@ -197,7 +197,7 @@ def poses_from_positions(positions: ArrayLike, target: ArrayLike = DEFAULT_TARGE
     P = np.asarray(positions, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)) or len(P) == 0:
         raise InputError(f"positions: expected a non-empty list of finite [x, y, z] (metres), got shape {P.shape}")
-    t = _vector3(target, "target")
+    t = vector(target, 3, "target")
     return np.stack([look_at(p, t) for p in P])
 
 
@@ -230,7 +230,6 @@ def load_poses(path: str | Path, target: ArrayLike = DEFAULT_TARGET) -> NDArray[
     T_base_optical : ndarray, shape (N, 4, 4)
     """
     from .._structured import read_structured_file
-    from ..checks import vector
     from ..session.load import pose_from_dict
 
     data = read_structured_file(path)
@@ -254,7 +253,7 @@ def load_poses(path: str | Path, target: ArrayLike = DEFAULT_TARGET) -> NDArray[
                 raise InputError(f"{where}.{unknown[0]}: unknown field, expected position [+ target]")
             try:
                 p = vector(item["position"], 3, f"poses[{i}].position")
-                t = vector(item["target"], 3, f"poses[{i}].target") if "target" in item else _vector3(target, "target")
+                t = vector(item["target"], 3, f"poses[{i}].target") if "target" in item else vector(target, 3, "target")
                 out.append(look_at(p, t))
             except InputError as exc:
                 raise InputError(f"{path}: {exc}") from None
@@ -365,7 +364,7 @@ def _poses_on_sphere(
     target: ArrayLike, distance: float, view_direction: ArrayLike, polar: NDArray, azimuth: NDArray
 ) -> NDArray[np.float64]:
     """Cameras at ``distance`` from ``target``, ``polar`` radians off the axis, looking at the target."""
-    t = _vector3(target, "target")
+    t = vector(target, 3, "target")
     _check_positive(distance, "distance")
     axis = _unit(view_direction, "view_direction")
     frame = look_at(t - distance * axis, t)  # the axial view: its image right/down span the azimuth plane
@@ -378,15 +377,8 @@ def _poses_on_sphere(
     return np.stack(out)
 
 
-def _vector3(v: ArrayLike, where: str) -> NDArray[np.float64]:
-    a = np.asarray(v, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InputError(f"{where}: expected [x, y, z] finite (metres), got {v!r}")
-    return a
-
-
 def _unit(v: ArrayLike, where: str) -> NDArray[np.float64]:
-    a = _vector3(v, where)
+    a = vector(v, 3, where)
     n = float(np.linalg.norm(a))
     if n == 0:
         raise InputError(f"{where}: zero vector, expected a direction")
