@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..checks import is_int
+from ..checks import is_int, is_real
 from ..errors import InputError
 from ..frames import (
     ROTATION_TOL,
@@ -67,7 +67,7 @@ class CapSpec:
         _check_range(self.distance_m, "distance", 0.0, math.inf, "metres", open_low=True)
         _check_range(self.azimuth_deg, "azimuth", -180.0, 180.0, "degrees")
         _check_range(self.elevation_deg, "elevation", -90.0, 90.0, "degrees")
-        if not (isinstance(self.reach_m, (int, float)) and self.reach_m > 0 and not math.isnan(self.reach_m)):
+        if not (is_real(self.reach_m) and self.reach_m > 0 and not math.isnan(self.reach_m)):
             raise InputError(f"cap: reach: got {self.reach_m!r}, expected a positive number of metres")
 
     @classmethod

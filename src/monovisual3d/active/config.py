@@ -78,7 +78,7 @@ class PlannerConfig:
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
         for name in ("p_occluder", "p_occluder_seen", "min_visible_fraction"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and 0 <= v < 1):
+            if not (is_real(v) and 0 <= v < 1):
                 raise InputError(f"{name}: got {v!r}, expected a probability in [0, 1)")
         if (
             self.box_noise is not None
@@ -86,9 +86,9 @@ class PlannerConfig:
             and not (is_real(self.box_noise) and math.isfinite(self.box_noise) and self.box_noise >= 0)
         ):
             raise InputError(f"box_noise: got {self.box_noise!r}, expected a fraction >= 0 or 'auto'")
-        if not (isinstance(self.min_box_noise, (int, float)) and 0 <= self.min_box_noise < 1):
+        if not (is_real(self.min_box_noise) and 0 <= self.min_box_noise < 1):
             raise InputError(f"min_box_noise: got {self.min_box_noise!r}, expected a fraction in [0, 1)")
-        if not (isinstance(self.reach_m, (int, float)) and self.reach_m > 0):
+        if not (is_real(self.reach_m) and self.reach_m > 0):
             raise InputError(f"reach_m: got {self.reach_m!r}, expected a positive number of metres")
         if not isinstance(self.joint_confidence, bool):
             raise InputError(f"joint_confidence: got {self.joint_confidence!r}, expected true or false")

@@ -154,7 +154,7 @@ class NoiseModel:
             ("pose_error_deg", pose_error_deg, MAX_SIM_POSE_ERROR_DEG),
         )
         for name, value, most in bounds:
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            if not (is_real(value) and math.isfinite(value) and value >= 0):
                 raise InputError(f"{_option(name)}: got {value!r}, expected a finite number >= 0")
             if value > most:
                 raise InputError(f"{_option(name)}: got {value:g}, more than the {most:g} accepted")

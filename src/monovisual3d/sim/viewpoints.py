@@ -397,5 +397,5 @@ def _check_count(n: int, where: str) -> int:
 
 
 def _check_angle(angle: float, where: str, max_value: float) -> None:
-    if not (isinstance(angle, (int, float)) and math.isfinite(angle) and 0 <= angle <= max_value + 1e-12):
+    if not (is_real(angle) and math.isfinite(angle) and 0 <= angle <= max_value + 1e-12):
         raise InputError(f"{where}: got {angle!r} rad, expected a value in [0, {max_value:.4g}] rad")
