@@ -32,10 +32,18 @@ MAX_EXACT_INT = 2**53
 
 
 # ---------------------------------------------------------------------- objects
-def expect_object(data: Any, where: str) -> None:
-    """Refuse anything but a mapping (a JSON object) at ``where``."""
+def expect_object(data: Any, where: str) -> dict[Any, Any]:
+    """``data`` itself when it is a mapping (a JSON object); else one line naming ``where``."""
     if not isinstance(data, dict):
         raise InputError(f"{where}: expected an object, got {type(data).__name__}")
+    return data
+
+
+def expect_list(data: Any, where: str) -> list[Any]:
+    """``data`` itself when it is a list (a JSON array); else one line naming ``where``."""
+    if not isinstance(data, list):
+        raise InputError(f"{where}: expected a list, got {type(data).__name__}")
+    return data
 
 
 def reject_unknown(data: dict[str, Any], allowed: set[str], where: str) -> None:

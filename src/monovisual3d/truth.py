@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._structured import read_structured_file
-from .checks import check_position, finite_number, vector
+from .checks import check_position, expect_list, finite_number, vector
 from .errors import InputError, one_line
 from .file_kinds import wrong_kind
 from .limits import MAX_ABS_POSITION_M
@@ -63,9 +63,7 @@ def load_objects(source: str | Path | dict[str, Any], *, allow_empty: bool = Tru
 def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:
     if not isinstance(data, dict) or "objects" not in data:
         raise InputError('objects: missing field, expected {"objects": [{"position": [x, y, z]}, ...]}')
-    objs = data["objects"]
-    if not isinstance(objs, list):
-        raise InputError(f"objects: expected a list, got {type(objs).__name__}")
+    objs = expect_list(data["objects"], "objects")
     if not objs and not allow_empty:
         raise InputError("objects: empty, expected at least one object")
     pos, radii, labels, semi, volumes = [], [], [], [], []

@@ -109,18 +109,6 @@ def check_angles(values: Any, where: str) -> NDArray[np.float64]:
     return arr
 
 
-def expect_mapping(value: Any, where: str) -> dict[str, Any]:
-    if not isinstance(value, dict):
-        raise InputError(f"{where}: expected a mapping (object), got {type(value).__name__}")
-    return value
-
-
-def expect_list(value: Any, where: str) -> list[Any]:
-    if not isinstance(value, list):
-        raise InputError(f"{where}: expected a list, got {type(value).__name__}")
-    return value
-
-
 def stamp_from_name(name: str) -> float | None:
     """Seconds from a numeric file stem (``1700000000.25.png`` or nanoseconds ``1700000000250000000.png``).
 

@@ -19,20 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import as_array, as_float, as_int
+from ..checks import as_array, as_float, as_int, expect_list, expect_object
 from ..errors import InputError, excerpt
 from ..session import Detection
-from ._parse import (
-    check_rows,
-    expect_list,
-    expect_mapping,
-    image_key,
-    load_json,
-    load_structured,
-    read_table_text,
-    read_text,
-    stamp_from_name,
-)
+from ._parse import check_rows, image_key, load_json, load_structured, read_table_text, read_text, stamp_from_name
 from .summary import ImportSummary
 
 DETECTION_FORMATS = ("yolo", "coco", "csv")
@@ -298,7 +288,7 @@ def read_coco(
     dets: dict[Any, list[Detection]] = {k: [] for k in by_id}
     for j, r in enumerate(results):
         w_r = f"{where}: annotations[{j}]"
-        r = expect_mapping(r, w_r)
+        r = expect_object(r, w_r)
         for k in ("image_id", "bbox"):
             if k not in r:
                 raise InputError(f"{w_r}.{k}: missing field")
@@ -358,7 +348,7 @@ def _coco_image_list(image_list: Any, where: str) -> dict[Any, ImageDetections]:
     by_id: dict[Any, ImageDetections] = {}
     for i, im in enumerate(expect_list(image_list, f"{where}: images")):
         w_im = f"{where}: images[{i}]"
-        im = expect_mapping(im, w_im)
+        im = expect_object(im, w_im)
         if "id" not in im:
             raise InputError(f"{w_im}.id: missing field")
         iid = _coco_id(im["id"], f"{w_im}.id")
@@ -380,7 +370,7 @@ def _coco_categories(data: dict[str, Any], where: str) -> dict[int, str]:
     out: dict[int, str] = {}
     if data.get("categories") is not None:
         for i, c in enumerate(expect_list(data["categories"], f"{where}: categories")):
-            c = expect_mapping(c, f"{where}: categories[{i}]")
+            c = expect_object(c, f"{where}: categories[{i}]")
             if "id" in c and "name" in c:
                 out[as_int(c["id"], f"{where}: categories[{i}].id")] = _name(c["name"], f"{where}: categories[{i}].name")
     return out

@@ -18,10 +18,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
-from ..checks import as_array, as_float, check_quaternion_xyzw
+from ..checks import as_array, as_float, check_quaternion_xyzw, expect_object
 from ..errors import InputError, excerpt
 from ..frames import check_transform, transform_from_position_quaternion
-from ._parse import check_angles, check_rows, check_stamp, check_translations, expect_mapping, load_structured, read_table_text
+from ._parse import check_angles, check_rows, check_stamp, check_translations, load_structured, read_table_text
 from .detections import read_csv_table
 
 POSE_FORMATS = ("tum", "csv", "json")
@@ -311,7 +311,7 @@ def _hand_eye(data: Any) -> NDArray[np.float64]:
         if "T_ee_camera" in data:
             return _hand_eye(data["T_ee_camera"])
         if "transformation" in data:
-            t = expect_mapping(data["transformation"], "transformation")
+            t = expect_object(data["transformation"], "transformation")
             missing = [k for k in ("x", "y", "z", "qx", "qy", "qz", "qw") if k not in t]
             if missing:
                 raise InputError(f"transformation.{missing[0]}: missing field (easy_handeye format x y z qx qy qz qw)")

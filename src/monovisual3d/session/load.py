@@ -17,7 +17,17 @@ from numpy.typing import NDArray
 from .. import limits
 from .._structured import read_structured_file
 from ..camera import Camera, camera_from_dict
-from ..checks import check_position, check_quaternion_xyzw, expect_object, finite_number, is_int, is_real, reject_unknown, vector
+from ..checks import (
+    check_position,
+    check_quaternion_xyzw,
+    expect_list,
+    expect_object,
+    finite_number,
+    is_int,
+    is_real,
+    reject_unknown,
+    vector,
+)
 from ..errors import InputError, InputWarning, excerpt, one_line
 from ..file_kinds import wrong_kind
 from ..frames import T_base_optical_from_T_base_cameralink, check_transform, transform_from_position_quaternion
@@ -92,9 +102,7 @@ def _session_from_dict(data: Any, source: str | None) -> Session:
         raise InputError(f"pose_frame: got {excerpt(pose_frame)}, expected one of {list(POSE_FRAMES)}")
     if "views" not in data:
         raise InputError("views: missing field, expected a list of views")
-    views_data = data["views"]
-    if not isinstance(views_data, list):
-        raise InputError(f"views: expected a list, got {type(views_data).__name__}")
+    views_data = expect_list(data["views"], "views")
     if not views_data:
         raise InputError("views: empty, expected at least one view")
     if len(views_data) > limits.MAX_VIEWS:
@@ -165,8 +173,7 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
     dets_data = data.get("detections")
     if dets_data is None:
         raise InputError(f"{where}.detections: missing field, expected a list (may be empty)")
-    if not isinstance(dets_data, list):
-        raise InputError(f"{where}.detections: expected a list, got {type(dets_data).__name__}")
+    expect_list(dets_data, f"{where}.detections")
     if len(dets_data) > limits.MAX_DETECTIONS_PER_VIEW:
         raise InputError(
             f"{where}.detections: {len(dets_data)} detections, more than the {limits.MAX_DETECTIONS_PER_VIEW:,} accepted per view "
