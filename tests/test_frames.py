@@ -8,11 +8,11 @@ from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 
 from monovisual3d import Camera, InputError
+from monovisual3d.checks import check_quaternion_xyzw
 from monovisual3d.frames import (
     QUATERNION_XYZW_CAMERALINK_OPTICAL,
     T_base_optical_from_T_base_cameralink,
     T_cameralink_optical,
-    check_quaternion_xyzw,
     check_transform,
     invert_transform,
     look_at,

@@ -18,11 +18,11 @@ import yaml
 from typer.testing import CliRunner
 
 from monovisual3d import InputError, InputWarning, load_session
+from monovisual3d.checks import as_array
 from monovisual3d.cli import app
 from monovisual3d.errors import excerpt, one_line
 from monovisual3d.examples import example_session_path
 from monovisual3d.grid import VoxelGrid
-from monovisual3d.io._parse import as_array
 from monovisual3d.truth import load_objects
 
 HUGE = "1" + "0" * 400  # a JSON integer no float can hold

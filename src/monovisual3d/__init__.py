@@ -37,7 +37,7 @@ _LAZY = {
     "VoxelGrid": "grid",
     "Workspace": "session",
     "evaluate": "metrics",
-    "load_session": "session",
+    "load_session": "session.load",
     "localize": "api",
 }
 
@@ -55,7 +55,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .methods.paper.filter import HistogramFilter
     from .metrics import evaluate
     from .result import DetectedObject, Result
-    from .session import Detection, Session, View, Workspace, load_session
+    from .session import Detection, Session, View, Workspace
+    from .session.load import load_session
 
 
 def __getattr__(name: str) -> Any:

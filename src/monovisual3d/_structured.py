@@ -287,3 +287,22 @@ def check_tree(data: Any, source: str) -> int:
             else:
                 total = frame[2]
     return total
+
+
+def read_structured_file(path: str | Path) -> Any:
+    """Read JSON or YAML (by suffix) with a one-line error for malformed or hostile content.
+
+    Strict UTF-8, no duplicate keys, bounded size, nesting and YAML aliases, no YAML
+    tags (see :mod:`monovisual3d.limits`).
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{one_line(str(path))}: is a directory, expected a JSON or YAML file")
+    return load_structured(path)
+
+
+def parse_structured_text(text: str, path: str | Path) -> Any:
+    """Parse JSON or YAML text read from ``path`` (YAML by suffix), with the checks and errors of :func:`read_structured_file`."""
+    if Path(path).suffix.lower() in (".yaml", ".yml"):
+        return load_yaml(text, str(path))
+    return load_json(text, str(path))

@@ -10,7 +10,8 @@ from typing import Any
 from .errors import InputError
 from .methods import DEFAULT_METHOD, METHODS, get_method, run_method
 from .result import Result
-from .session import Session, Workspace, load_session
+from .session import Session, Workspace
+from .session.load import load_session
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "localize"]
 
@@ -52,7 +53,7 @@ def localize(
     """
     session = load_session(session)
     if isinstance(workspace, dict):
-        from .session import workspace_from_dict
+        from .session.load import workspace_from_dict
 
         workspace = workspace_from_dict(workspace, "workspace")
     if workspace is not None:

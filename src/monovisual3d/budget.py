@@ -31,6 +31,7 @@ import threading
 from collections.abc import Iterator
 from types import FrameType
 
+from .checks import is_real
 from .errors import InputError
 from .limits import MAX_TIME_LIMIT_S
 
@@ -54,7 +55,7 @@ def check_seconds(seconds: float | None, name: str = "--time-limit") -> float | 
     """``seconds`` as a float in (0, :data:`~monovisual3d.limits.MAX_TIME_LIMIT_S`], or None; else a one-line error."""
     if seconds is None:
         return None
-    if not (isinstance(seconds, (int, float)) and math.isfinite(seconds) and 0 < seconds <= MAX_TIME_LIMIT_S):
+    if not (is_real(seconds) and math.isfinite(seconds) and 0 < seconds <= MAX_TIME_LIMIT_S):
         raise InputError(f"{name}: got {seconds!r}, expected seconds in (0, {MAX_TIME_LIMIT_S:g}]")
     return float(seconds)
 

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import limits
-from .checks import expect_object, finite_number, reject_unknown
+from .checks import expect_object, finite_number, is_int, reject_unknown
 from .errors import InputError, excerpt
 
 DISTORTION_ALIASES = {
@@ -323,7 +323,7 @@ def check_image_size(width: Any, height: Any, where: str = "camera") -> None:
     where : str, the path named in the message (``camera``, ``views[2].camera``)
     """
     for name, value in (("width", width), ("height", height)):
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value <= 0:
+        if not is_int(value) or value <= 0:
             raise InputError(f"{where}.{name}: expected a positive integer (pixels), got {excerpt(value)}")
         if value > limits.MAX_IMAGE_SIDE:
             raise InputError(f"{where}.{name}: got {excerpt(value)}, more than the {limits.MAX_IMAGE_SIDE} pixels accepted")

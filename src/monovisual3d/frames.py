@@ -19,48 +19,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import InputError, excerpt
+from .checks import finite_array
+from .errors import InputError
 
 #: Rotation of the optical frame expressed in the ROS camera_link frame, as
 #: given in the paper: quaternion (x, y, z, w) = (-0.5, 0.5, -0.5, 0.5).
 QUATERNION_XYZW_CAMERALINK_OPTICAL = np.array([-0.5, 0.5, -0.5, 0.5])
 
-#: Default tolerance on ``| |q| - 1 |`` for unit quaternions.
-QUATERNION_NORM_TOL = 1e-3
 #: Default tolerance on ``max |R^T R - I|`` and ``|det R - 1|`` for rotations.
 ROTATION_TOL = 1e-4
-
-
-def check_quaternion_xyzw(
-    q: ArrayLike, *, where: str = "quaternion_xyzw", tol: float = QUATERNION_NORM_TOL
-) -> NDArray[np.float64]:
-    """Validate a unit quaternion in (x, y, z, w) order and return it normalised.
-
-    Parameters
-    ----------
-    q : array_like, shape (4,)
-        Quaternion, (x, y, z, w).
-    where : str
-        Name used in the error message (e.g. ``views[3].pose.quaternion_xyzw``).
-    tol : float
-        Accepted deviation of the norm from 1.
-
-    Returns
-    -------
-    q : ndarray, shape (4,), float64
-        The quaternion scaled to unit norm.
-
-    Examples
-    --------
-    >>> check_quaternion_xyzw([0, 0, 0, 1])
-    array([0., 0., 0., 1.])
-    """
-    arr = _finite_array(q, (4,), where)
-    with np.errstate(over="ignore"):  # huge entries: norm inf, reported below
-        norm = float(np.linalg.norm(arr))
-    if not abs(norm - 1.0) <= tol:
-        raise InputError(f"{where}: norm {norm:.4g}, expected 1 (order is x, y, z, w)")
-    return arr / norm
 
 
 def check_transform(T: ArrayLike, *, where: str = "matrix", tol: float = ROTATION_TOL) -> NDArray[np.float64]:
@@ -84,7 +51,7 @@ def check_transform(T: ArrayLike, *, where: str = "matrix", tol: float = ROTATIO
     >>> check_transform(np.eye(4)).shape
     (4, 4)
     """
-    arr = _finite_array(T, (4, 4), where)
+    arr = finite_array(T, (4, 4), where)
     R = arr[:3, :3]
     with np.errstate(over="ignore", invalid="ignore"):  # huge entries give inf/NaN, rejected below (not > tol: NaN too)
         err = float(np.max(np.abs(R.T @ R - np.eye(3))))
@@ -214,30 +181,3 @@ def look_at(position: ArrayLike, target: ArrayLike, up: ArrayLike = (0.0, 0.0, 1
     T = np.eye(4)
     T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, y, z, position
     return T
-
-
-def _finite_array(value: ArrayLike, shape: tuple[int, ...], where: str) -> NDArray[np.float64]:
-    # text, booleans and None are not numbers, even where numpy would convert them
-    if not _all_numbers(value):
-        got = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else excerpt(value)
-        raise InputError(f"{where}: expected numbers with shape {list(shape)}, got {got}")
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: expected numbers with shape {list(shape)}, got {excerpt(value)}") from None
-    except OverflowError:
-        raise InputError(f"{where}: got {excerpt(value)}, a number too large") from None
-    if arr.shape != shape:
-        raise InputError(f"{where}: expected shape {list(shape)}, got {list(arr.shape)}")
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{where}: contains NaN or infinity")
-    return arr
-
-
-def _all_numbers(value: object) -> bool:
-    """True when ``value`` is a number or nested lists/tuples/arrays of numbers (no bool, str, None)."""
-    if isinstance(value, np.ndarray):
-        return value.dtype.kind in "iuf"
-    if isinstance(value, (list, tuple)):
-        return all(_all_numbers(v) for v in value)
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))

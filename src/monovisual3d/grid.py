@@ -15,9 +15,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .checks import format_bytes
 from .errors import InputError
 from .frames import invert_transform, transform_points
-from .limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, format_bytes
+from .limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M
 
 if TYPE_CHECKING:
     from .camera import Camera

@@ -1,7 +1,6 @@
 """Documented limits of the input files (sessions, truth/result files, imported data).
 
-It also owns byte sizes as text (:func:`parse_bytes`, :func:`format_bytes`), so the memory
-budgets of the methods and the error messages of the grid read the same. Numpy-free: the
+Numbers only: the checks that apply them live in :mod:`monovisual3d.checks`. Numpy-free: the
 CLI's ``--help`` imports it.
 
 One module owns the limits, so the loaders, the readers of :mod:`monovisual3d.io`, the
@@ -11,13 +10,6 @@ the field, never by running out of memory or time.
 """
 
 from __future__ import annotations
-
-import math
-import numbers
-import re
-from typing import Any
-
-from .errors import InputError
 
 #: Files larger than this are refused, bytes (a JSON file takes up to ~25 times its size in memory once parsed).
 MAX_FILE_BYTES = 64 * 1024 * 1024
@@ -63,7 +55,7 @@ DEFAULT_KEEP_THRESHOLD = 0.1
 DEFAULT_MAX_BYTES = 2 * 1024**3
 #: Smallest memory budget accepted, bytes (below this nothing useful fits).
 MIN_MAX_MEMORY = 16 * 1024**2
-#: Largest byte count :func:`parse_bytes` returns (an int64 with room to spare).
+#: Largest byte count :func:`~monovisual3d.checks.parse_bytes` returns (an int64 with room to spare).
 MAX_PARSED_BYTES = 2**62
 #: Byte-size suffixes (lower case) and their multipliers: SI (k, MB, ...) and binary (KiB, MiB, ...).
 BYTE_UNITS = {
@@ -82,56 +74,6 @@ BYTE_UNITS = {
     "tb": 1000**4,
     "tib": 1024**4,
 }
-
-
-def is_real(v: Any) -> bool:
-    """A real number (Python or numpy: numpy registers its scalars as :class:`numbers.Real`), not a bool.
-
-    Examples
-    --------
-    >>> is_real(1.5), is_real(True), is_real("1")
-    (True, False, False)
-    """
-    return isinstance(v, numbers.Real) and not isinstance(v, bool)
-
-
-def parse_bytes(value: Any, name: str = "max_memory") -> int:
-    """A memory size in bytes from a number or a string such as ``"2GiB"``, ``"512 MB"``, ``"1.5g"``.
-
-    At least :data:`MIN_MAX_MEMORY`; capped at :data:`MAX_PARSED_BYTES`.
-
-    Examples
-    --------
-    >>> parse_bytes("2GiB"), parse_bytes(1e9), parse_bytes("512 mb")
-    (2147483648, 1000000000, 512000000)
-    """
-    if isinstance(value, str):
-        m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([a-zA-Z]*)\s*", value)
-        if m is None or m.group(2).lower() not in BYTE_UNITS:
-            raise InputError(f"{name}: got {value[:40]!r}, expected a size in bytes such as 2GiB, 512MiB or 1e9")
-        number = float(m.group(1)) * BYTE_UNITS[m.group(2).lower()]
-    elif is_real(value):
-        number = float(value)
-    else:
-        raise InputError(f"{name}: got {type(value).__name__}, expected a size in bytes such as 2GiB or 1e9")
-    if not (math.isfinite(number) and number >= MIN_MAX_MEMORY):
-        raise InputError(f"{name}: got {value!r}, expected at least {MIN_MAX_MEMORY // 1024**2} MiB")
-    return int(min(number, MAX_PARSED_BYTES))
-
-
-def format_bytes(n: float) -> str:
-    """``1.5 GiB``-style text of a byte count.
-
-    Examples
-    --------
-    >>> format_bytes(1.5 * 1024**3), format_bytes(512)
-    ('1.5 GiB', '512 B')
-    """
-    for unit, size in (("GiB", 1024**3), ("MiB", 1024**2), ("KiB", 1024)):
-        if n >= size:
-            v = n / size
-            return f"{v:.1f} {unit}" if v < 1e5 else f"{v:.4g} {unit}"
-    return f"{int(n)} B"
 
 
 # ---------------------------------------------------------------------- work limits of the commands (issue 23)

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import is_int
 from .errors import InputError
 
 #: Contour points kept per mask.
@@ -60,7 +61,7 @@ def rle_counts(rle: dict[str, Any]) -> list[int]:
             counts = _decode_compressed_counts(counts)
         except IndexError:
             raise InputError("mask.counts: not a valid COCO compressed RLE string") from None
-    if not isinstance(counts, list) or not all(isinstance(c, int) and not isinstance(c, bool) and c >= 0 for c in counts):
+    if not isinstance(counts, list) or not all(is_int(c) and c >= 0 for c in counts):
         raise InputError("mask.counts: expected a list of non-negative run lengths or a COCO compressed string")
     total = sum(counts)
     if total != h * w:

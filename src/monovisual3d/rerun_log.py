@@ -26,7 +26,8 @@ from ._extras import require
 from .figures.html3d.fruits import Fruit, load_fruits
 from .figures.html3d.geometry import error_ellipsoid_axes
 from .result import Result
-from .session import Session, View, load_session
+from .session import Session, View
+from .session.load import load_session
 from .truth import ObjectSet, load_objects
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -18,10 +18,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ._structured import read_structured_file
+from .checks import check_position, expect_list, finite_number, vector
 from .errors import InputError, one_line
 from .file_kinds import wrong_kind
 from .limits import MAX_ABS_POSITION_M
-from .session import _check_position, _number, _vector, read_structured_file
 
 
 @dataclass(frozen=True)
@@ -62,9 +63,7 @@ def load_objects(source: str | Path | dict[str, Any], *, allow_empty: bool = Tru
 def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:
     if not isinstance(data, dict) or "objects" not in data:
         raise InputError('objects: missing field, expected {"objects": [{"position": [x, y, z]}, ...]}')
-    objs = data["objects"]
-    if not isinstance(objs, list):
-        raise InputError(f"objects: expected a list, got {type(objs).__name__}")
+    objs = expect_list(data["objects"], "objects")
     if not objs and not allow_empty:
         raise InputError("objects: empty, expected at least one object")
     pos, radii, labels, semi, volumes = [], [], [], [], []
@@ -74,21 +73,21 @@ def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:
             raise InputError(f"objects[{i}]: expected an object, got {type(o).__name__}")
         if "position" not in o:
             raise InputError(f"objects[{i}].position: missing field, expected [x, y, z] in metres")
-        p = _vector(o["position"], 3, f"objects[{i}].position")
-        _check_position(p, f"objects[{i}].position")
+        p = vector(o["position"], 3, f"objects[{i}].position")
+        check_position(p, f"objects[{i}].position")
         pos.append(p)
         r = o.get("radius")
         if r is None:
             radii.append(np.nan)
         else:
-            r = _number(r, f"objects[{i}].radius", MAX_ABS_POSITION_M, "m")
+            r = finite_number(r, f"objects[{i}].radius", MAX_ABS_POSITION_M, "m")
             if r <= 0:
                 raise InputError(f"objects[{i}].radius: got {r}, expected a positive number of metres")
             radii.append(r)
         labels.append(o.get("label"))
         if o.get("semi_axes") is not None:
             has_shapes = True
-            s = _vector(o["semi_axes"], 3, f"objects[{i}].semi_axes")
+            s = vector(o["semi_axes"], 3, f"objects[{i}].semi_axes")
             if not np.all(s > 0):
                 raise InputError(f"objects[{i}].semi_axes: got {s.tolist()}, expected three positive lengths in metres")
         else:
@@ -96,7 +95,7 @@ def objects_from_dict(data: Any, *, allow_empty: bool = True) -> ObjectSet:
         semi.append(s)
         v = o.get("volume_m3")
         if v is not None:
-            v = _number(v, f"objects[{i}].volume_m3")
+            v = finite_number(v, f"objects[{i}].volume_m3")
             if v <= 0:
                 raise InputError(f"objects[{i}].volume_m3: got {v}, expected a positive volume in m^3")
         else:

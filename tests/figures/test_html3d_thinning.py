@@ -14,9 +14,9 @@ import pytest
 pytest.importorskip("plotly")
 from html3d_cases import two_fruit_session  # noqa: E402
 
+from monovisual3d import load_session  # noqa: E402
 from monovisual3d.errors import InputWarning  # noqa: E402
 from monovisual3d.figures.html3d import MAX_DRAWN_BOXES, figure_json_from_html, select_boxes, write_scene_html  # noqa: E402
-from monovisual3d.session import load_session  # noqa: E402
 
 N_BOXES = 10_000
 #: The page holds plotly.js (about 4.6 MB) and at most MAX_DRAWN_BOXES boxes, cones and menu entries.

@@ -41,7 +41,7 @@ def base_sessions() -> list[dict[str, Any]]:
     ex = json.loads(example_session_path().read_text())
     out = [ex]
     m = copy.deepcopy(ex)
-    from monovisual3d.session import load_session
+    from monovisual3d import load_session
 
     s = load_session(ex)
     for v, view in zip(m["views"], s.views):

@@ -40,9 +40,9 @@ import bounds  # noqa: E402
 import mutate  # noqa: E402
 
 from monovisual3d import InputError, load_session, localize  # noqa: E402
+from monovisual3d._structured import read_structured_file  # noqa: E402
 from monovisual3d.io.schema import session_schema  # noqa: E402
 from monovisual3d.metrics import evaluate  # noqa: E402
-from monovisual3d.session import read_structured_file  # noqa: E402
 from monovisual3d.truth import load_objects  # noqa: E402
 
 #: A case running longer than this (seconds) is a hang. Generous: the machine is shared and noisy.

@@ -14,7 +14,8 @@ import numpy as np
 from monovisual3d import Camera, localize
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.sphere import sphere_bbox
-from monovisual3d.session import Session, session_from_dict
+from monovisual3d.session import Session
+from monovisual3d.session.load import session_from_dict
 
 #: OpenCV-convention intrinsics (pixel centres at integers) and mild plumb_bob distortion.
 K_OPENCV = np.array([[462.5, 0.0, 319.25], [0.0, 463.0, 241.75], [0.0, 0.0, 1.0]])

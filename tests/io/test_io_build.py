@@ -10,11 +10,12 @@ import pytest
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
+from monovisual3d import load_session
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError, InputWarning
 from monovisual3d.frames import T_cameralink_optical, invert_transform
 from monovisual3d.io import ImageDetections, build_session, import_session, read_poses
-from monovisual3d.session import Detection, load_session
+from monovisual3d.session import Detection
 
 
 @pytest.fixture(scope="module")

@@ -35,7 +35,8 @@ from monovisual3d.io import (
     read_pose_json,
     read_poses,
 )
-from monovisual3d.session import Session, session_from_dict
+from monovisual3d.session import Session
+from monovisual3d.session.load import session_from_dict
 
 #: Examples per property; raise for a deeper local run, e.g. MV3D_HYPOTHESIS_EXAMPLES=1000.
 EXAMPLES = int(os.environ.get("MV3D_HYPOTHESIS_EXAMPLES", "40"))

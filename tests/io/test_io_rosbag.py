@@ -8,10 +8,10 @@ import pytest
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
+from monovisual3d import load_session
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError, InputWarning
 from monovisual3d.io import read_bag
-from monovisual3d.session import load_session
 
 pytest.importorskip("rosbags")
 

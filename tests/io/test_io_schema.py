@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from monovisual3d.errors import InputError, InputWarning
 from monovisual3d.examples import example_session_path
 from monovisual3d.io import session_schema, session_schema_path, validate_session_schema
-from monovisual3d.session import session_from_dict
+from monovisual3d.session.load import session_from_dict
 
 BASE: dict[str, Any] = {
     "camera": {"width": 640, "height": 480, "fx": 462.4, "fy": 462.4, "cx": 320.0, "cy": 240.0},

@@ -11,11 +11,11 @@ import pytest
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
+from monovisual3d import load_session
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError
 from monovisual3d.io.lfd import read_lfd, read_lfd_arrays
 from monovisual3d.io.schema import validate_session_schema
-from monovisual3d.session import load_session
 from monovisual3d.truth import load_objects
 
 ALDOMA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "aldoma"

@@ -8,8 +8,8 @@ import numpy as np
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
+from monovisual3d import load_session
 from monovisual3d.cli import app
-from monovisual3d.session import load_session
 from monovisual3d.sim.scenes import paper_scene, random_scene
 from monovisual3d.truth import load_objects
 

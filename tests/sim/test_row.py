@@ -9,9 +9,9 @@ import pytest
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
+from monovisual3d import load_session
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError
-from monovisual3d.session import load_session
 from monovisual3d.sim.row import row_camera, row_scene
 from monovisual3d.sim.scenes import scene_by_name
 from monovisual3d.sim.viewpoints import poses_by_name, row_poses

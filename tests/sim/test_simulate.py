@@ -9,8 +9,9 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 import monovisual3d
+from monovisual3d import load_session
 from monovisual3d.errors import InputError
-from monovisual3d.session import Workspace, load_session
+from monovisual3d.session import Workspace
 from monovisual3d.sim.noise import NoiseModel
 from monovisual3d.sim.raycast import render
 from monovisual3d.sim.scene import Leaf, Scene, Sphere

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..checks import is_int
 from ..errors import InputError
 from ..result import DetectedObject
 from ..session import Session, Workspace
@@ -79,7 +80,7 @@ def plan_session(
         :meth:`~monovisual3d.active.planner.Plan.to_dict` plus ``n_objects``, ``views`` and, for
         ``cap:``, ``candidates`` (the poses the indices refer to, after the reach filter).
     """
-    if isinstance(count, bool) or count < 1:
+    if not is_int(count) or count < 1:
         raise InputError(f"count: got {count}, expected a positive integer")
     pose_frame = _pose_frame(session)
     sess = load_planning_session(session)
@@ -147,7 +148,7 @@ def _with_target_workspace(state: PlannerState, target: Point | None) -> Planner
 
 
 def _pose_frame(session: str | Path) -> str:
-    from ..session import read_structured_file
+    from .._structured import read_structured_file
 
     raw = read_structured_file(session)
     return raw.get("pose_frame", "optical") if isinstance(raw, dict) else "optical"

@@ -106,14 +106,7 @@ def run_active_bench(
 
     check_spread(workers, scheduler)
     known = active_conditions()
-    for c in conditions:
-        if c not in known:
-            raise InputError(f"conditions: got {c!r}, expected some of {', '.join(known)}")
-    for s in strategies:
-        if s not in STRATEGIES:
-            raise InputError(f"strategies: got {s!r}, expected some of {', '.join(STRATEGIES)}")
-    if max_views < 1 or n_candidates < max_views:
-        raise InputError(f"max_views/n_candidates: got {max_views}/{n_candidates}, expected 1 <= views <= candidates")
+    _check_choice(conditions, strategies, max_views, n_candidates, known)
     items = [(c, seed, s, max_views, n_candidates) for c in conditions for seed in seeds for s in strategies]
 
     def tick(i: int, _: Any) -> None:
@@ -124,11 +117,16 @@ def run_active_bench(
     by_key = {(c, seed, s): r for (c, seed, s, _, _), r in zip(items, played)}
     results = {
         c: _run_condition(
-            c, known[c], seeds, max_views, n_candidates, strategies,
+            c,
+            known[c],
+            seeds,
+            max_views,
+            n_candidates,
+            strategies,
             {(seed, s): by_key[(c, seed, s)] for seed in seeds for s in strategies},
         )
         for c in conditions
-    }  # fmt: skip
+    }
     timing = time_planning(repeats=timing_repeats)
     return {
         "benchmark": "active",
@@ -140,6 +138,20 @@ def run_active_bench(
         "timing": timing,
         "targets": check_targets(results, timing),
     }
+
+
+def _check_choice(
+    conditions: tuple[str, ...], strategies: tuple[str, ...], max_views: int, n_candidates: int, known: dict[str, Any]
+) -> None:
+    """Refuse an unknown condition or strategy, or fewer candidates than views (one line naming the argument)."""
+    for c in conditions:
+        if c not in known:
+            raise InputError(f"conditions: got {c!r}, expected some of {', '.join(known)}")
+    for s in strategies:
+        if s not in STRATEGIES:
+            raise InputError(f"strategies: got {s!r}, expected some of {', '.join(STRATEGIES)}")
+    if max_views < 1 or n_candidates < max_views:
+        raise InputError(f"max_views/n_candidates: got {max_views}/{n_candidates}, expected 1 <= views <= candidates")
 
 
 def _run_condition(
@@ -187,9 +199,17 @@ def play_seed(cname: str, seed: int, strategy: str, max_views: int, n_candidates
     target = scene_target(scene)
     cands = cap_poses(CapSpec(n=n_candidates), target)
     run = run_loop(
-        scene, default_camera(), cands, max_views, strategy=strategy, target=target, noise=cond.noise, rng=seed,
-        choice_rng=10_000 + seed, planner=PlannerConfig(box_noise=cond.box_noise),
-    )  # fmt: skip
+        scene,
+        default_camera(),
+        cands,
+        max_views,
+        strategy=strategy,
+        target=target,
+        noise=cond.noise,
+        rng=seed,
+        choice_rng=10_000 + seed,
+        planner=PlannerConfig(box_noise=cond.box_noise),
+    )
     return {
         "chosen": run.chosen,
         "steps": [evaluate_step(step.objects, scene) for step in run.steps],
@@ -311,36 +331,61 @@ def _reduction_targets(gname: str, g: dict[str, Any]) -> list[dict[str, Any]]:
                 base = min(tab["fixed"][b - 1]["mean_mm"], tab["random"][b - 1]["mean_mm"])
                 red.append(1.0 - nbv / base)
             value = float(np.mean(red))
-            out.append({"target": f"{gname}: NBV mean error below the better of fixed/random, mean over {budgets} views",
-                        "value": f"{100 * value:.1f} % ({', '.join(f'{100 * r:.1f} %' for r in red)})",
-                        "goal": f">= {100 * TARGET_REDUCTION:.0f} %", "met": value >= TARGET_REDUCTION})  # fmt: skip
+            out.append(
+                {
+                    "target": f"{gname}: NBV mean error below the better of fixed/random, mean over {budgets} views",
+                    "value": f"{100 * value:.1f} % ({', '.join(f'{100 * r:.1f} %' for r in red)})",
+                    "goal": f">= {100 * TARGET_REDUCTION:.0f} %",
+                    "met": value >= TARGET_REDUCTION,
+                }
+            )
             lower = [
                 (b, s)
                 for b in range(2, len(tab["nbv"]) + 1)
                 for s in ("fixed", "random")
                 if tab["nbv"][b - 1]["recall"] < tab[s][b - 1]["recall"] - 1e-12
             ]
-            out.append({"target": f"{gname}: NBV recall never lower than fixed/random (2..N views)",
-                        "value": "never lower" if not lower else "lower at " + ", ".join(f"{b} views vs {s}" for b, s in lower),
-                        "goal": "never lower", "met": not lower})  # fmt: skip
+            out.append(
+                {
+                    "target": f"{gname}: NBV recall never lower than fixed/random (2..N views)",
+                    "value": "never lower" if not lower else "lower at " + ", ".join(f"{b} views vs {s}" for b, s in lower),
+                    "goal": "never lower",
+                    "met": not lower,
+                }
+            )
     return out
 
 
 def _other_targets(results: dict[str, Any], timing: dict[str, Any]) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
-    out.append({"target": f"planning time, {timing['n_candidates']} candidates, {timing['n_objects']} objects (median)",
-                "value": f"{1e3 * timing['median_s']:.0f} ms", "goal": f"<= {1e3 * PLAN_TIME_TARGET_S:.0f} ms",
-                "met": timing["median_s"] <= PLAN_TIME_TARGET_S})  # fmt: skip
+    out.append(
+        {
+            "target": f"planning time, {timing['n_candidates']} candidates, {timing['n_objects']} objects (median)",
+            "value": f"{1e3 * timing['median_s']:.0f} ms",
+            "goal": f"<= {1e3 * PLAN_TIME_TARGET_S:.0f} ms",
+            "met": timing["median_s"] <= PLAN_TIME_TARGET_S,
+        }
+    )
     for name in [n for n in results if n.split("@")[0] in ("greenhouse", "greenhouse-noise")]:
         r = results[name]
         if not r["stopping"]:
             continue
-        ok = [s["done_at_views"] is not None and s["done_at_views"] <= STOP_MAX_VIEWS
-              and s["max_error_mm_at_stop"] is not None and s["max_error_mm_at_stop"] <= 5.0 for s in r["stopping"]]  # fmt: skip
+        ok = [
+            s["done_at_views"] is not None
+            and s["done_at_views"] <= STOP_MAX_VIEWS
+            and s["max_error_mm_at_stop"] is not None
+            and s["max_error_mm_at_stop"] <= 5.0
+            for s in r["stopping"]
+        ]
         rate = float(np.mean(ok))
-        out.append({"target": f"{name}: stopping rule stops within {STOP_MAX_VIEWS} views, every fruit within 5 mm",
-                    "value": f"{100 * rate:.0f} % of {len(ok)} seeds", "goal": f">= {100 * STOP_SUCCESS:.0f} %",
-                    "met": rate >= STOP_SUCCESS if name.split("@")[0] == "greenhouse" else None})  # fmt: skip
+        out.append(
+            {
+                "target": f"{name}: stopping rule stops within {STOP_MAX_VIEWS} views, every fruit within 5 mm",
+                "value": f"{100 * rate:.0f} % of {len(ok)} seeds",
+                "goal": f">= {100 * STOP_SUCCESS:.0f} %",
+                "met": rate >= STOP_SUCCESS if name.split("@")[0] == "greenhouse" else None,
+            }
+        )
     return out
 
 

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..checks import is_int, is_real
 from ..errors import InputError
 from ..frames import (
     ROTATION_TOL,
@@ -59,14 +60,14 @@ class CapSpec:
     reach_m: float = math.inf
 
     def __post_init__(self) -> None:
-        if isinstance(self.n, bool) or not isinstance(self.n, (int, np.integer)) or self.n < 1:
+        if not is_int(self.n) or self.n < 1:
             raise InputError(f"cap: N: got {self.n!r}, expected a positive integer")
         if self.n > MAX_CANDIDATES:
             raise InputError(f"cap: N: got {self.n}, more than the {MAX_CANDIDATES} candidates accepted")
         _check_range(self.distance_m, "distance", 0.0, math.inf, "metres", open_low=True)
         _check_range(self.azimuth_deg, "azimuth", -180.0, 180.0, "degrees")
         _check_range(self.elevation_deg, "elevation", -90.0, 90.0, "degrees")
-        if not (isinstance(self.reach_m, (int, float)) and self.reach_m > 0 and not math.isnan(self.reach_m)):
+        if not (is_real(self.reach_m) and self.reach_m > 0 and not math.isnan(self.reach_m)):
             raise InputError(f"cap: reach: got {self.reach_m!r}, expected a positive number of metres")
 
     @classmethod
@@ -175,7 +176,8 @@ def load_candidates(path: str | Path, pose_frame: str = "optical") -> NDArray[np
     -------
     T_base_optical : ndarray, shape (N, 4, 4)
     """
-    from ..session import pose_from_dict, read_structured_file
+    from .._structured import read_structured_file
+    from ..session.load import pose_from_dict
 
     data = read_structured_file(path)
     if isinstance(data, dict):

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..checks import is_int, is_real
 from ..errors import InputError
 from ..methods.bayes.sensor import SensorModel
 
@@ -69,34 +70,29 @@ class PlannerConfig:
     def __post_init__(self) -> None:
         for name in ("target_mm", "rotation_scale_m", "cap_mm", "prior_radius_m", "prior_radius_std_m", "occluder_angle_deg"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
+            if not (is_real(v) and math.isfinite(v) and v > 0):
                 raise InputError(f"{name}: got {v!r}, expected a positive number")
         for name in ("motion_weight", "discovery_weight", "coverage_mm", "border_px", "occluded_edge_sigma"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0):
+            if not (is_real(v) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
         for name in ("p_occluder", "p_occluder_seen", "min_visible_fraction"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and 0 <= v < 1):
+            if not (is_real(v) and 0 <= v < 1):
                 raise InputError(f"{name}: got {v!r}, expected a probability in [0, 1)")
         if (
             self.box_noise is not None
             and self.box_noise != "auto"
-            and not (
-                isinstance(self.box_noise, (int, float))
-                and not isinstance(self.box_noise, bool)
-                and math.isfinite(self.box_noise)
-                and self.box_noise >= 0
-            )
+            and not (is_real(self.box_noise) and math.isfinite(self.box_noise) and self.box_noise >= 0)
         ):
             raise InputError(f"box_noise: got {self.box_noise!r}, expected a fraction >= 0 or 'auto'")
-        if not (isinstance(self.min_box_noise, (int, float)) and 0 <= self.min_box_noise < 1):
+        if not (is_real(self.min_box_noise) and 0 <= self.min_box_noise < 1):
             raise InputError(f"min_box_noise: got {self.min_box_noise!r}, expected a fraction in [0, 1)")
-        if not (isinstance(self.reach_m, (int, float)) and self.reach_m > 0):
+        if not (is_real(self.reach_m) and self.reach_m > 0):
             raise InputError(f"reach_m: got {self.reach_m!r}, expected a positive number of metres")
         if not isinstance(self.joint_confidence, bool):
             raise InputError(f"joint_confidence: got {self.joint_confidence!r}, expected true or false")
-        if isinstance(self.coverage_points, bool) or not isinstance(self.coverage_points, int) or self.coverage_points < 2:
+        if not is_int(self.coverage_points) or self.coverage_points < 2:
             raise InputError(f"coverage_points: got {self.coverage_points!r}, expected an integer >= 2")
         b = np.asarray(self.base_centre, dtype=float)
         if b.shape != (3,) or not np.all(np.isfinite(b)):

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import is_int
 from ..errors import InputError
 from ..frames import look_at
 from ..methods.bayes import BayesConfig, BayesLocalizer
@@ -169,7 +170,7 @@ def run_loop(
     """
     if strategy not in STRATEGIES:
         raise InputError(f"strategy: got {strategy!r}, expected one of {', '.join(STRATEGIES)}")
-    if isinstance(n_views, bool) or not isinstance(n_views, (int, np.integer)) or n_views < 1:
+    if not is_int(n_views) or n_views < 1:
         raise InputError(f"n_views: got {n_views!r}, expected a positive integer")
     t = np.asarray(target, dtype=float)
     noise = noise or NoiseModel()

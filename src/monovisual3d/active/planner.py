@@ -58,11 +58,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._structured import read_structured_file
 from ..camera import camera_from_dict
+from ..checks import is_int
 from ..errors import InputError
 from ..methods.bayes.sensor import box_edge_sigma_px
 from ..result import DetectedObject, Result
-from ..session import Session, Workspace, load_session, read_structured_file, workspace_from_dict
+from ..session import Session, Workspace
+from ..session.load import load_session, workspace_from_dict
 from .candidates import check_candidates
 from .config import PlannerConfig
 from .information import (
@@ -248,7 +251,7 @@ def plan_from_state(state: PlannerState, candidates: ArrayLike, *, count: int = 
     cfg = config or PlannerConfig()
     T_cand = check_candidates(candidates)
     N = len(T_cand)
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+    if not is_int(count) or count < 1:
         raise InputError(f"count: got {count!r}, expected a positive integer")
     reachable = np.linalg.norm(T_cand[:, :3, 3] - np.asarray(cfg.base_centre), axis=1) <= cfg.reach_m
     if count > int(reachable.sum()):

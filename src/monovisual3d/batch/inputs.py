@@ -227,38 +227,49 @@ def find_sessions(inputs: Sequence[str | Path]) -> list[SessionInput]:
     for item in inputs:
         text = str(item)
         if _has_magic(text) and not Path(text).exists():  # an existing path is taken as written, "[" and all
-            walk = _Walk()
-            matches = _glob(text, walk)
-            unreadable.update(walk.unreadable)
-            if not matches and not walk.unreadable:
-                raise InputError(f"{one_line(text)}: matched no file or folder")
+            add(_glob_sessions(text, unreadable))
             roots.append(_abs(_glob_root(text)))
-            searched: set[Path] = set()
-            for m in matches:
-                if m.is_dir():
-                    if not any(parent in searched for parent in m.parents):
-                        searched.add(m)
-                        add(_folder_sessions(m, unreadable))
-                elif m.name not in COMPANION_NAMES and m.suffix.lower() in SESSION_SUFFIXES:
-                    add([m])
             continue
-        path = Path(text)
-        if not path.exists():
-            raise InputError(f"{one_line(text)}: no such file or folder")
-        if path.is_dir():
-            before = len(unreadable)
-            found = _folder_sessions(path, unreadable)
-            if not found and len(unreadable) == before:
-                raise InputError(f"{one_line(text)}: no {' or '.join(SESSION_NAMES)} in this folder or below")
-            roots.append(_abs(path))
-            add(found)
-        else:
-            _check_regular(path, text)
-            roots.append(_abs(path).parent)
-            add([path])
+        found, root = _path_sessions(text, unreadable)
+        roots.append(root)
+        add(found)
     if not files and not unreadable:
         raise InputError(f"{one_line(', '.join(map(str, inputs)))}: no session file found")
     return _session_inputs(list(files.values()), roots, unreadable)
+
+
+def _path_sessions(text: str, unreadable: dict[Path, str]) -> tuple[list[Path], Path]:
+    """The session files a path names (itself, or those in the folder and below) and the folder their ids start from."""
+    path = Path(text)
+    if not path.exists():
+        raise InputError(f"{one_line(text)}: no such file or folder")
+    if not path.is_dir():
+        _check_regular(path, text)
+        return [path], _abs(path).parent
+    before = len(unreadable)
+    found = _folder_sessions(path, unreadable)
+    if not found and len(unreadable) == before:
+        raise InputError(f"{one_line(text)}: no {' or '.join(SESSION_NAMES)} in this folder or below")
+    return found, _abs(path)
+
+
+def _glob_sessions(pattern: str, unreadable: dict[Path, str]) -> list[Path]:
+    """The session files a glob names: matched session files, and the sessions in matched folders (each folder once)."""
+    walk = _Walk()
+    matches = _glob(pattern, walk)
+    unreadable.update(walk.unreadable)
+    if not matches and not walk.unreadable:
+        raise InputError(f"{one_line(pattern)}: matched no file or folder")
+    found: list[Path] = []
+    searched: set[Path] = set()
+    for m in matches:
+        if m.is_dir():
+            if not any(parent in searched for parent in m.parents):
+                searched.add(m)
+                found.extend(_folder_sessions(m, unreadable))
+        elif m.name not in COMPANION_NAMES and m.suffix.lower() in SESSION_SUFFIXES:
+            found.append(m)
+    return found
 
 
 def _folder_sessions(folder: Path, unreadable: dict[Path, str]) -> list[Path]:

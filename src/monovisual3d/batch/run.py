@@ -172,6 +172,8 @@ def run(
 ) -> BatchTables:
     """Localise many sessions on a Dask cluster and collect one table of fruit and one of sessions.
 
+    One unit of thought: the public batch entry point; its documented options make most of its length, the body checks them and hands the work to the runner.
+
     A bad session is recorded in ``sessions`` with its one-line error and the batch goes on.
     A worker that dies has its sessions retried on other workers; a session whose workers die
     ``max_worker_deaths`` times is recorded as failed (``error_type`` ``KilledWorker``). Rows are

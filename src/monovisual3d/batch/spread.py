@@ -10,13 +10,14 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from ..checks import is_int
 from ..errors import InputError
 from ..limits import MAX_LOCAL_WORKERS
 
 
 def check_spread(workers: int | None, scheduler: str | None) -> None:
     """Raise :class:`InputError` unless at most one of ``workers`` (>= 0) and ``scheduler`` is given."""
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
+    if workers is not None and (not is_int(workers) or workers < 0):
         raise InputError(f"workers: got {workers!r}, expected 0 (in this process) or a positive number of processes")
     if workers is not None and workers > MAX_LOCAL_WORKERS:
         raise InputError(f"workers: got {workers}, more than the {MAX_LOCAL_WORKERS} local processes accepted")

@@ -180,8 +180,9 @@ def run_job(job: Job, localizer: Callable[..., Result] | None = None) -> tuple[d
     session_row : dict, status ``ok`` or ``error`` with the one-line error
     fruit_rows : list of dict, empty when the session failed
     """
+    from .._structured import parse_structured_text
     from ..completeness import incomplete_reasons, merge_reasons
-    from ..session import parse_structured_text, session_from_dict
+    from ..session.load import session_from_dict
     from ..truth import objects_from_dict
 
     if localizer is None:

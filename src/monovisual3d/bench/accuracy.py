@@ -359,9 +359,13 @@ def run_accuracy(
         }
     spread = None if not workers and scheduler is None else {"workers": workers, "scheduler": scheduler}
     return {
-        "benchmark": "accuracy", "quick": quick, "machine": machine_metadata(), "spread": spread, "results": results,
+        "benchmark": "accuracy",
+        "quick": quick,
+        "machine": machine_metadata(),
+        "spread": spread,
+        "results": results,
         "targets": TARGETS,
-    }  # fmt: skip
+    }
 
 
 #: Methods whose kernels this process has loaded (the untimed warm-up of :func:`measure_seed`).

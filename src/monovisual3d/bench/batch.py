@@ -61,7 +61,7 @@ def _cpu_s() -> float:
 def _loop(paths: list[Path], method: str, options: dict[str, Any]) -> float:
     """Seconds for ``load_session`` + ``localize`` of every path, in this process."""
     from ..api import localize
-    from ..session import load_session
+    from ..session.load import load_session
 
     t0 = time.perf_counter()
     for p in paths:

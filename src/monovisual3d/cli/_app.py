@@ -144,7 +144,7 @@ def command_budget(time_limit_s: float | None, max_memory: str | None = None) ->
     """Run the ``with`` block within ``--time-limit`` seconds and ``--max-memory`` bytes (see :mod:`monovisual3d.budget`)."""
     cap = None
     if max_memory is not None:
-        from ..methods.options import parse_bytes
+        from ..checks import parse_bytes
 
         cap = parse_bytes(max_memory, "--max-memory")
     with time_limit(time_limit_s, hard_exit=True), memory_limit(cap):

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from ._app import check_output, console, handle_errors, plain
 from .bench import bench_app
-from .options import SpreadScheduler, SpreadWorkers, spread_flags
+from .options import ResultsOutput, SpreadScheduler, SpreadWorkers, spread_flags
 
 
 @bench_app.command("accuracy")
@@ -22,9 +21,7 @@ def accuracy(
     only: Annotated[
         str | None, typer.Option(help="Only these conditions, comma separated (e.g. paper-clean,greenhouse).")
     ] = None,
-    output: Annotated[
-        Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
-    ] = None,
+    output: ResultsOutput = None,
     workers: SpreadWorkers = None,
     scheduler: SpreadScheduler = None,
 ) -> None:

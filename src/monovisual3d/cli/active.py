@@ -19,9 +19,14 @@ from .options import MaxMemory, SpreadScheduler, SpreadWorkers, TimeLimit, sprea
 
 #: plan_session's parameters named in its errors, and the flags they come from.
 _FLAGS = {
-    "count": "--count", "reach_m": "--reach", "base": "--base", "target": "--target", "box_noise": "--box-noise",
-    "target_mm": "--target-mm", "motion_weight": "--motion-weight",
-}  # fmt: skip
+    "count": "--count",
+    "reach_m": "--reach",
+    "base": "--base",
+    "target": "--target",
+    "box_noise": "--box-noise",
+    "target_mm": "--target-mm",
+    "motion_weight": "--motion-weight",
+}
 
 
 def _as_flags(message: str) -> str:
@@ -80,11 +85,23 @@ def next_view(
     try:
         with command_budget(time_limit, max_memory):
             out = plan_session(
-                session, candidates, count=count, target_mm=target_mm, motion_weight=motion_weight, reach_m=reach,
-                base=base, target=target, box_noise=_box_noise(box_noise),
-            )  # fmt: skip
+                session,
+                candidates,
+                count=count,
+                target_mm=target_mm,
+                motion_weight=motion_weight,
+                reach_m=reach,
+                base=base,
+                target=target,
+                box_noise=_box_noise(box_noise),
+            )
     except InputError as exc:
         raise InputError(_as_flags(str(exc))) from None
+    _write_plan(out, output)
+
+
+def _write_plan(out: dict[str, Any], output: Path | None) -> None:
+    """The plan as JSON on stdout, or written to ``output`` with a short summary on the terminal."""
     text = json.dumps(out, indent=2)
     if output is None:
         sys.stdout.write(text + "\n")

@@ -38,6 +38,23 @@ def parse_options(items: list[str] | None) -> dict[str, Any]:
     return out
 
 
+#: ``--max-worker-deaths``: how often a task may kill its worker before its sessions are retried one by one.
+MaxWorkerDeaths = Annotated[
+    int,
+    typer.Option(
+        min=1,
+        help="Worker deaths a task (a chunk of sessions) may cause before it fails; its sessions are then retried one by one with the same allowance (local cluster).",
+    ),
+]
+#: ``--chunk-size``: sessions per Dask task.
+ChunkSize = Annotated[
+    int | None,
+    typer.Option(
+        min=1, help="Sessions per Dask task (default: up to 16, at least 4 tasks per worker; not used with --workers 0)."
+    ),
+]
+
+
 @app.command()
 @handle_errors
 def batch(
@@ -56,19 +73,8 @@ def batch(
         bool, typer.Option("--resume", help="Skip sessions already in --output (same id, content and options).")
     ] = False,
     part_size: Annotated[int, typer.Option(min=1, help="Sessions per written part file.")] = 100,
-    max_worker_deaths: Annotated[
-        int,
-        typer.Option(
-            min=1,
-            help="Worker deaths a task (a chunk of sessions) may cause before it fails; its sessions are then retried one by one with the same allowance (local cluster).",
-        ),
-    ] = 3,
-    chunk_size: Annotated[
-        int | None,
-        typer.Option(
-            min=1, help="Sessions per Dask task (default: up to 16, at least 4 tasks per worker; not used with --workers 0)."
-        ),
-    ] = None,
+    max_worker_deaths: MaxWorkerDeaths = 3,
+    chunk_size: ChunkSize = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     strict: Annotated[
         bool,
@@ -94,8 +100,15 @@ def batch(
     if workers is not None and scheduler is not None:
         raise InputError("--workers, --scheduler: give one of them (--scheduler uses the cluster's workers)")
     options = _method_options(option, max_memory)
-    kwargs = dict(method=method, workers=workers, scheduler=scheduler, resume=resume,
-                  part_size=part_size, max_worker_deaths=max_worker_deaths, chunk_size=chunk_size)  # fmt: skip
+    kwargs = dict(
+        method=method,
+        workers=workers,
+        scheduler=scheduler,
+        resume=resume,
+        part_size=part_size,
+        max_worker_deaths=max_worker_deaths,
+        chunk_size=chunk_size,
+    )
     with spread_flags(workers, scheduler), _option_flags(options), command_budget(time_limit):
         tables = run(inputs, output, **kwargs, **options) if quiet else _run_with_bar(inputs, output, kwargs, options)
     _report(tables, output, strict)
@@ -255,9 +268,14 @@ def bench_batch(
         raise InputError(f"--workers: got {workers!r}, more than the {MAX_LOCAL_WORKERS} local processes accepted")
     options = parse_options(option) if option else ({"backend": "numba"} if method == "paper" else {})
     result = run_bench_batch(
-        n_sessions=sessions, worker_counts=counts, method=method, options=options, data=data, repeats=repeats,
+        n_sessions=sessions,
+        worker_counts=counts,
+        method=method,
+        options=options,
+        data=data,
+        repeats=repeats,
         progress=lambda msg: console.print(f"[dim]{plain(msg)}[/]", highlight=False),
-    )  # fmt: skip
+    )
     for line in format_rows(result):
         console.print(line, highlight=False)
     if output is not None:

@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from ._app import app, console, handle_errors, plain
-from .options import SpreadScheduler, SpreadWorkers, spread_flags
+from .options import ResultsOutput, SpreadScheduler, SpreadWorkers, spread_flags
 
 bench_app = typer.Typer(
     help="Benchmarks: accuracy of the methods on simulated scenes, speed, start-up, next-best-view and batch.",
@@ -23,9 +23,7 @@ app.add_typer(bench_app, name="bench")
 @handle_errors
 def speed(
     quick: Annotated[bool, typer.Option("--quick", help="Small grids, two repetitions: a few seconds.")] = False,
-    output: Annotated[
-        Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
-    ] = None,
+    output: ResultsOutput = None,
     edges: Annotated[
         str | None, typer.Option(help="Cells per grid axis, comma separated (default 63,126,252: 0.25/2/16 M cells).")
     ] = None,
@@ -49,9 +47,17 @@ def speed(
 
     edge_t, chosen, kernels = _speed_choices(edges, methods, kernel)
     result = run_speed(
-        quick=quick, edges=edge_t, kernels=kernels, repeats=repeats, torch_device=device, sparse_refine_to=refine_to,
-        scaling=not no_scaling, threads=threads, methods=chosen, progress=lambda msg: console.print(f"[dim]running {plain(msg)}[/]", highlight=False),
-    )  # fmt: skip
+        quick=quick,
+        edges=edge_t,
+        kernels=kernels,
+        repeats=repeats,
+        torch_device=device,
+        sparse_refine_to=refine_to,
+        scaling=not no_scaling,
+        threads=threads,
+        methods=chosen,
+        progress=lambda msg: console.print(f"[dim]running {plain(msg)}[/]", highlight=False),
+    )
     meta = result["meta"]
     table = Table(
         title="Per-view update, mean of the paper's 3 views, paper scene "
@@ -137,9 +143,7 @@ def real(
     reach: Annotated[float, typer.Option(min=0.01, help="Search reach of every method, metres.")] = 1.0,
     subset_size: Annotated[int, typer.Option("--subset-size", min=1, help="Views per subset.")] = 3,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results (with machine metadata) as JSON.")] = False,
-    output: Annotated[
-        Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
-    ] = None,
+    output: ResultsOutput = None,
     workers: SpreadWorkers = None,
     scheduler: SpreadScheduler = None,
 ) -> None:
@@ -176,18 +180,20 @@ def scale(
     seeds: Annotated[str, typer.Option(help="Scene seeds, comma separated (the time is the median over them).")] = "0,1,2",
     repeats: Annotated[int, typer.Option(min=1, help="Timed calls per scene (their median is its time).")] = 1,
     busy: Annotated[bool, typer.Option("--busy/--idle-only", help="Also run with a busy-loop process on one core.")] = True,
-    output: Annotated[
-        Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
-    ] = None,
+    output: ResultsOutput = None,
     figure: Annotated[Path | None, typer.Option(help="Write a log-log figure of time against boxes here (PNG).")] = None,
 ) -> None:
     """The default method on plant rows of 12-192 fruit and 3-8 views: time, error, recall, growth factor."""
     from ..bench.scale import TARGET_GROWTH, format_table, run_scale, write_figure, write_json
 
     result = run_scale(
-        _ints(fruit, "--fruit"), _ints(views, "--views"), _ints(seeds, "--seeds"), repeats, busy,
+        _ints(fruit, "--fruit"),
+        _ints(views, "--views"),
+        _ints(seeds, "--seeds"),
+        repeats,
+        busy,
         progress=lambda msg: console.print(f"[dim]running {msg}[/]", highlight=False),
-    )  # fmt: skip
+    )
     meta = result["meta"]
     table = Table(
         title=f"bayes on a plant row, 1280x720, 3 % box noise, median over seeds {meta['seeds']} "

@@ -54,53 +54,73 @@ def _report(result: ImportResult, output: Path) -> None:
         console.print(f"  {line}", highlight=False, markup=False, soft_wrap=True)
 
 
+#: ``--camera`` of ``import``.
+CameraOption = Annotated[
+    Path, typer.Option("--camera", help="Calibration: Kalibr, ROS camera_info, OpenCV, DepthAI or session camera.")
+]
+#: ``--hand-eye`` of ``import``.
+HandEyeOption = Annotated[
+    Path | None, typer.Option("--hand-eye", help="T_ee_camera (eye-in-hand); the poses are then end-effector poses.")
+]
+#: ``--camera-format`` of ``import``.
+CameraFormatOption = Annotated[str | None, typer.Option("--camera-format", help="kalibr, ros, opencv, depthai, monovisual3d.")]
+#: ``--camera-name`` of ``import``.
+CameraNameOption = Annotated[
+    str | None, typer.Option("--camera-name", help="Kalibr cam0/cam1..., DepthAI socket (CAM_A, rgb...).")
+]
+#: ``--image-size`` of ``import`` and ``import-bag``.
+ImageSizeOption = Annotated[
+    str | None, typer.Option("--image-size", help="Size of the detector's images, WxH, if not the calibration's.")
+]
+#: ``--crop`` of ``import``.
+CropOption = Annotated[
+    str | None, typer.Option("--crop", help="Region of the calibration image the images were cut from: X1,Y1,X2,Y2.")
+]
+#: ``--pose-frame`` of ``import``.
+PoseFrameOption = Annotated[str, typer.Option("--pose-frame", help="Camera frame of the poses: optical or camera_link.")]
+#: ``--class-names`` of ``import``.
+ClassNamesOption = Annotated[Path | None, typer.Option("--class-names", help="Class names: data.yaml, classes.txt or JSON.")]
+#: ``--coco-images`` of ``import``.
+CocoImagesOption = Annotated[
+    Path | None, typer.Option("--coco-images", help="COCO file with the images list, for a bare COCO results list.")
+]
+#: ``--max-gap`` of ``import``.
+MaxGapOption = Annotated[float, typer.Option("--max-gap", help="Largest time (s) between an image and the poses used for it.")]
+#: ``--workspace`` of ``import`` and ``import-bag``.
+WorkspaceOption = Annotated[str | None, typer.Option("--workspace", help="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in metres, base frame.")]
+#: ``--resize`` of ``import`` and ``import-bag``.
+ResizeOption = Annotated[str, typer.Option("--resize", help="How the images were resized: auto, stretch, crop (centre).")]
+#: ``--label`` of ``import`` and ``import-bag``.
+LabelOption = Annotated[list[str] | None, typer.Option("--label", help="Keep only this label (repeatable).")]
+#: ``--min-score`` of ``import`` and ``import-bag``.
+MinScoreOption = Annotated[float | None, typer.Option("--min-score", help="Drop detections scored below this.")]
+
+
 @app.command(name="import")
 @handle_errors
 def import_cmd(
-    camera: Annotated[
-        Path, typer.Option("--camera", help="Calibration: Kalibr, ROS camera_info, OpenCV, DepthAI or session camera.")
-    ],
+    camera: CameraOption,
     poses: Annotated[Path, typer.Option("--poses", help="Poses: TUM (.txt), CSV or JSON list of 4x4 matrices.")],
     detections: Annotated[Path, typer.Option("--detections", help="YOLO label folder/file, COCO JSON or CSV.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="Session file to write (JSON).")],
-    hand_eye: Annotated[
-        Path | None, typer.Option("--hand-eye", help="T_ee_camera (eye-in-hand); the poses are then end-effector poses.")
-    ] = None,
-    camera_format: Annotated[
-        str | None, typer.Option("--camera-format", help="kalibr, ros, opencv, depthai, monovisual3d.")
-    ] = None,
-    camera_name: Annotated[
-        str | None, typer.Option("--camera-name", help="Kalibr cam0/cam1..., DepthAI socket (CAM_A, rgb...).")
-    ] = None,
-    image_size: Annotated[
-        str | None, typer.Option("--image-size", help="Size of the detector's images, WxH, if not the calibration's.")
-    ] = None,
-    resize: Annotated[str, typer.Option("--resize", help="How the images were resized: auto, stretch, crop (centre).")] = "auto",
-    crop: Annotated[
-        str | None, typer.Option("--crop", help="Region of the calibration image the images were cut from: X1,Y1,X2,Y2.")
-    ] = None,
+    hand_eye: HandEyeOption = None,
+    camera_format: CameraFormatOption = None,
+    camera_name: CameraNameOption = None,
+    image_size: ImageSizeOption = None,
+    resize: ResizeOption = "auto",
+    crop: CropOption = None,
     pose_format: Annotated[str | None, typer.Option("--pose-format", help="tum, csv or json (default: by suffix).")] = None,
     units: Annotated[str, typer.Option("--units", help="Unit of positions in the pose file: m, mm, cm.")] = "m",
     hand_eye_units: Annotated[str, typer.Option("--hand-eye-units", help="Unit of the hand-eye translation: m, mm, cm.")] = "m",
-    pose_frame: Annotated[
-        str, typer.Option("--pose-frame", help="Camera frame of the poses: optical or camera_link.")
-    ] = "optical",
+    pose_frame: PoseFrameOption = "optical",
     detections_format: Annotated[str | None, typer.Option("--detections-format", help="yolo, coco or csv.")] = None,
-    class_names: Annotated[
-        Path | None, typer.Option("--class-names", help="Class names: data.yaml, classes.txt or JSON.")
-    ] = None,
-    coco_images: Annotated[
-        Path | None, typer.Option("--coco-images", help="COCO file with the images list, for a bare COCO results list.")
-    ] = None,
-    label: Annotated[list[str] | None, typer.Option("--label", help="Keep only this label (repeatable).")] = None,
-    min_score: Annotated[float | None, typer.Option("--min-score", help="Drop detections scored below this.")] = None,
+    class_names: ClassNamesOption = None,
+    coco_images: CocoImagesOption = None,
+    label: LabelOption = None,
+    min_score: MinScoreOption = None,
     match: Annotated[str, typer.Option("--match", help="Pair poses and images by: auto, name, stamp, order.")] = "auto",
-    max_gap: Annotated[
-        float, typer.Option("--max-gap", help="Largest time (s) between an image and the poses used for it.")
-    ] = 0.1,
-    workspace: Annotated[
-        str | None, typer.Option("--workspace", help="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in metres, base frame.")
-    ] = None,
+    max_gap: MaxGapOption = 0.1,
+    workspace: WorkspaceOption = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,
 ) -> None:
@@ -150,21 +170,17 @@ def import_bag_cmd(
     pose_frame: Annotated[
         str, typer.Option("--pose-frame", help="Convention of --camera-frame: optical or camera_link.")
     ] = "optical",
-    image_size: Annotated[
-        str | None, typer.Option("--image-size", help="Size of the detector's images, WxH, if not the calibration's.")
-    ] = None,
-    resize: Annotated[str, typer.Option("--resize", help="How the images were resized: auto, stretch, crop (centre).")] = "auto",
+    image_size: ImageSizeOption = None,
+    resize: ResizeOption = "auto",
     class_names: Annotated[
         Path | None, typer.Option("--class-names", help="Names of numeric class ids: data.yaml, classes.txt or JSON.")
     ] = None,
-    label: Annotated[list[str] | None, typer.Option("--label", help="Keep only this label (repeatable).")] = None,
-    min_score: Annotated[float | None, typer.Option("--min-score", help="Drop detections scored below this.")] = None,
+    label: LabelOption = None,
+    min_score: MinScoreOption = None,
     max_gap: Annotated[
         float, typer.Option("--max-gap", help="Largest time (s) between a detection and the TF samples used.")
     ] = 0.1,
-    workspace: Annotated[
-        str | None, typer.Option("--workspace", help="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in metres, base frame.")
-    ] = None,
+    workspace: WorkspaceOption = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,
 ) -> None:

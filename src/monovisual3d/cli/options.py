@@ -15,6 +15,7 @@ import inspect
 import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -213,4 +214,8 @@ TimeLimit = Annotated[
 MaxMemory = Annotated[
     str | None,
     typer.Option("--max-memory", help="Memory the command may add, e.g. 2GiB (default: no cap); beyond it, an error."),
+]
+#: ``--output`` of the benchmarks: where their JSON results go.
+ResultsOutput = Annotated[
+    Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
 ]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -13,42 +13,61 @@ from ..errors import InputError, one_line
 from ._app import app, command_budget, console, handle_errors, plain
 from .options import MaxMemory, TimeLimit
 
+#: ``--scene``: a named scene or a scene file.
+SceneOption = Annotated[
+    str, typer.Option(help="paper, greenhouse, random, row, peppers, cucumbers, apples, mixed, or a scene JSON file.")
+]
+
+#: ``--n-fruit``: fruit of a generated scene.
+NFruitOption = Annotated[
+    int | None,
+    typer.Option(help="Fruit in greenhouse (default 5-10), random and shape scenes (default 6; cucumbers 4), row (48)."),
+]
+
+#: ``--views``: named poses or a pose file.
+ViewsOption = Annotated[
+    str, typer.Option(help="paper, ring:N[:DEG], hemisphere:N[:DEG], row:N (along the row), or a pose file (.json/.yaml).")
+]
+
+#: ``--distance``: camera distance to the scene, metres.
+DistanceOption = Annotated[
+    float | None, typer.Option(help="Camera distance to the scene's target, metres (default 0.5; row scene 0.8).")
+]
+
+#: ``--row-length``: length of the row, metres.
+RowLengthOption = Annotated[float | None, typer.Option(help="Length of the row scene and of row:N views, metres (default 1.2).")]
+
+#: ``--image-size``: WIDTHxHEIGHT, pixels.
+ImageSizeOption = Annotated[
+    str | None, typer.Option(help="Image size WIDTHxHEIGHT in pixels (default 640x480; row scene 1280x720).")
+]
+
+#: ``--active``: views chosen by the next-best-view loop.
+ActiveOption = Annotated[
+    int | None, typer.Option(help="Choose N views with the next-best-view loop (cap:60 candidates) instead of --views.")
+]
+
 
 @app.command()
 @handle_errors
 def simulate(
     output: Annotated[Path, typer.Option("--output", "-o", help="Directory for session.json, truth.json, scene.json, images.")],
-    scene: Annotated[
-        str, typer.Option(help="paper, greenhouse, random, row, peppers, cucumbers, apples, mixed, or a scene JSON file.")
-    ] = "paper",
-    n_fruit: Annotated[
-        int | None,
-        typer.Option(help="Fruit in greenhouse (default 5-10), random and shape scenes (default 6; cucumbers 4), row (48)."),
-    ] = None,
-    views: Annotated[
-        str, typer.Option(help="paper, ring:N[:DEG], hemisphere:N[:DEG], row:N (along the row), or a pose file (.json/.yaml).")
-    ] = "paper",
-    distance: Annotated[
-        float | None, typer.Option(help="Camera distance to the scene's target, metres (default 0.5; row scene 0.8).")
-    ] = None,
-    row_length: Annotated[
-        float | None, typer.Option(help="Length of the row scene and of row:N views, metres (default 1.2).")
-    ] = None,
+    scene: SceneOption = "paper",
+    n_fruit: NFruitOption = None,
+    views: ViewsOption = "paper",
+    distance: DistanceOption = None,
+    row_length: RowLengthOption = None,
     noise: Annotated[float, typer.Option(help="Box noise std as a fraction of the box size (paper: 0.05).")] = 0.0,
     drop: Annotated[float, typer.Option(help="Probability of missing a detection (paper: 0.02).")] = 0.0,
     false_positives: Annotated[float, typer.Option(help="Expected false-positive boxes per image.")] = 0.0,
     pose_error_mm: Annotated[float, typer.Option(help="Std of the reported camera position error per axis, mm.")] = 0.0,
     pose_error_deg: Annotated[float, typer.Option(help="Std of the reported camera rotation error per axis, degrees.")] = 0.0,
     hfov_deg: Annotated[float | None, typer.Option(help="Horizontal field of view, degrees (default 69; row scene 90).")] = None,
-    image_size: Annotated[
-        str | None, typer.Option(help="Image size WIDTHxHEIGHT in pixels (default 640x480; row scene 1280x720).")
-    ] = None,
+    image_size: ImageSizeOption = None,
     supersample: Annotated[int, typer.Option(help="Sub-pixel rays per pixel and axis (box accuracy 1/N px).")] = 1,
     images: Annotated[bool, typer.Option("--images/--no-images", help="Write a PNG of each view.")] = True,
     seed: Annotated[int, typer.Option(help="Random seed (scene generation and noise).")] = 0,
-    active: Annotated[
-        int | None, typer.Option(help="Choose N views with the next-best-view loop (cap:60 candidates) instead of --views.")
-    ] = None,
+    active: ActiveOption = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,
 ) -> None:
@@ -59,52 +78,72 @@ def simulate(
     """
     import numpy as np
 
-    from ..figures.views import write_view_picture
-    from ..sim.noise import NoiseModel
     from ..sim.scenes import scene_target
-    from ..sim.simulate import write_simulation
-    from ..sim.viewpoints import PAPER_DISTANCE_M, ROW_DISTANCE_M, ROW_LENGTH_M, poses_by_name
+    from ..sim.viewpoints import poses_by_name
 
-    noise_model = NoiseModel.from_mm_deg(
-        box_sigma=noise,
-        drop_probability=drop,
-        false_positive_rate=false_positives,
-        pose_error_mm=pose_error_mm,
-        pose_error_deg=pose_error_deg,
-    )
+    noise_model = _noise_model(noise, drop, false_positives, pose_error_mm, pose_error_deg)
     _check_counts(n_fruit, seed, active)
     _check_out_dir(output, Path(scene), Path(views))
     rng = np.random.default_rng(seed)
     is_row = scene == "row"
-    if row_length is not None and not (is_row or views.strip().startswith("row:")):
-        raise InputError("--row-length: only for --scene row or --views row:N")
+    distance, length = _row_geometry(is_row, views, distance, row_length)
     camera = _camera(image_size, hfov_deg, is_row)
-    distance = distance if distance is not None else (ROW_DISTANCE_M if is_row else PAPER_DISTANCE_M)
-    length = ROW_LENGTH_M if row_length is None else row_length
     sc = _scene(scene, n_fruit, rng, camera, length)
-    if active is not None:
-        with command_budget(time_limit, max_memory):
-            _write_active(output, sc, camera, active, noise_model, rng)
-        return
-    poses = poses_by_name(views, scene_target(sc), distance=distance, row_length=length)
     with command_budget(time_limit, max_memory):
-        paths = write_simulation(
-            output,
-            sc,
-            camera,
-            poses,
-            noise=noise_model,
-            rng=rng,
-            supersample=supersample,
-            images=images,
-            workspace=_workspace(sc),
-            picture=write_view_picture,
-        )
+        if active is not None:
+            _write_active(output, sc, camera, active, noise_model, rng)
+            return
+        poses = poses_by_name(views, scene_target(sc), distance=distance, row_length=length)
+        _write_views(output, sc, camera, poses, noise_model, rng, supersample, images)
+
+
+def _write_views(
+    output: Path, sc: Any, camera: Any, poses: Any, noise_model: Any, rng: Any, supersample: int, images: bool
+) -> None:
+    """Simulate the views at ``poses`` and write the session, truth, scene and pictures; one line on the terminal."""
+    from ..figures.views import write_view_picture
+    from ..sim.simulate import write_simulation
+
+    paths = write_simulation(
+        output,
+        sc,
+        camera,
+        poses,
+        noise=noise_model,
+        rng=rng,
+        supersample=supersample,
+        images=images,
+        workspace=_workspace(sc),
+        picture=write_view_picture,
+    )
     console.print(
         f"simulated {len(sc.fruits)} fruit ({plain(sc.name)}) from {len(poses)} views; "
         f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
         highlight=False,
     )
+
+
+def _noise_model(box_sigma: float, drop: float, false_positives: float, pose_error_mm: float, pose_error_deg: float) -> Any:
+    """The simulated detector and pose noise of the options (pose errors in mm and degrees, as typed)."""
+    from ..sim.noise import NoiseModel
+
+    return NoiseModel.from_mm_deg(
+        box_sigma=box_sigma,
+        drop_probability=drop,
+        false_positive_rate=false_positives,
+        pose_error_mm=pose_error_mm,
+        pose_error_deg=pose_error_deg,
+    )
+
+
+def _row_geometry(is_row: bool, views: str, distance: float | None, row_length: float | None) -> tuple[float, float]:
+    """The camera distance and the row length, metres: the options, else the row scene's or the paper's defaults."""
+    from ..sim.viewpoints import PAPER_DISTANCE_M, ROW_DISTANCE_M, ROW_LENGTH_M
+
+    if row_length is not None and not (is_row or views.strip().startswith("row:")):
+        raise InputError("--row-length: only for --scene row or --views row:N")
+    distance = distance if distance is not None else (ROW_DISTANCE_M if is_row else PAPER_DISTANCE_M)
+    return distance, ROW_LENGTH_M if row_length is None else row_length
 
 
 def _check_counts(n_fruit: int | None, seed: int, active: int | None) -> None:

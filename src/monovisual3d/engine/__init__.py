@@ -40,6 +40,7 @@ def check_backend(backend: str, device: str | None = None, refine_to: float | No
     """
     import math
 
+    from ..checks import is_real
     from ..errors import InputError
 
     if backend not in BACKENDS:
@@ -49,7 +50,7 @@ def check_backend(backend: str, device: str | None = None, refine_to: float | No
     if device is not None and not (isinstance(device, str) and device.split(":")[0] in ("cpu", "cuda")):
         raise InputError(f"device: got {device!r}, expected 'cpu', 'cuda' or 'cuda:N'")
     if refine_to is not None:
-        if not (isinstance(refine_to, (int, float)) and math.isfinite(refine_to) and refine_to > 0):
+        if not (is_real(refine_to) and math.isfinite(refine_to) and refine_to > 0):
             raise InputError(f"refine_to: got {refine_to!r}, expected a positive number of metres")
         if refine_to > resolution:
             raise InputError(f"refine_to: {refine_to} m is coarser than resolution {resolution} m (the root level)")

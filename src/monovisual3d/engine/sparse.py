@@ -170,7 +170,7 @@ def refine(
 
     Notes
     -----
-    One loop over levels, kept whole (one unit of thought): the running lower bound ``best``, the
+    One unit of thought: one loop over levels, kept whole; the running lower bound ``best``, the
     candidates and the counters it updates are the branch-and-bound's state, and splitting the loop
     would pass them all back and forth.
     """

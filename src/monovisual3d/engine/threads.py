@@ -40,6 +40,7 @@ import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from ..checks import is_real
 from ..errors import InputError
 
 #: Work items (about nanoseconds of single-thread time) each thread must get: a call uses
@@ -70,11 +71,10 @@ def check_threads(threads: object) -> int | None:
     ...
     monovisual3d.errors.InputError: threads: got 0, expected a positive integer or None (automatic)
     """
-    import numbers
 
     if threads is None:
         return None
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Real) or not float(threads).is_integer() or threads < 1:
+    if not is_real(threads) or not float(threads).is_integer() or threads < 1:
         raise InputError(f"threads: got {threads!r}, expected a positive integer or None (automatic)")
     return int(threads)
 

@@ -16,11 +16,13 @@ from numpy.typing import NDArray
 
 from ..api import DEFAULT_METHOD, METHODS, localize
 from ..camera import Camera
+from ..checks import is_int
 from ..errors import InputError, InputWarning
 from ..figures.views import write_view_picture
 from ..metrics import Metrics, evaluate
 from ..result import Result
-from ..session import Session, load_session
+from ..session import Session
+from ..session.load import load_session
 from ..sim.noise import NoiseModel
 from ..sim.scene import Scene
 from ..sim.scenes import default_camera, greenhouse_scene, scene_target
@@ -99,7 +101,7 @@ def check_demo_options(output: str | Path = DEFAULT_OUTPUT, *, seed: int = 0, me
     """
     if method not in METHODS:
         raise InputError(f"--method (method): got {method!r}, expected one of {sorted(METHODS)}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+    if not is_int(seed) or seed < 0:
         raise InputError(f"--seed (seed): got {seed!r}, expected an integer >= 0")
     out = Path(output)
     if out.exists() and not out.is_dir():

@@ -24,8 +24,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import check_quaternion_xyzw, is_int, vector
 from ..errors import InputError
-from ..frames import check_quaternion_xyzw
 from .orientation import DEFAULT_UP, quaternion_xyzw_from_rotation, rotation_from_quaternion_xyzw, rotation_upright
 from .quadric import bbox_from_dual_conic, centre_and_shape_matrix, dual_quadric, projected_dual_conic, to_optical
 from .sphere import clip_boxes
@@ -182,7 +182,7 @@ def ellipsoid_contour_optical(
     p_optical : ndarray, shape (..., n, 3), metres, optical frame; NaN where the
         camera centre is inside the ellipsoid (no rim)
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 4:
+    if not is_int(n) or n < 4:
         raise InputError(f"n: got {n!r}, expected an integer >= 4 (rim points)")
     c, _ = centre_and_shape_matrix(centre_optical, semi_axes, R_optical_ellipsoid)
     s = np.broadcast_to(np.asarray(semi_axes, dtype=float), c.shape)
@@ -317,8 +317,8 @@ class Ellipsoid:
     quaternion_xyzw: NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        c = _vector3(self.centre_base, "centre_base")
-        s = _vector3(self.semi_axes, "semi_axes")
+        c = vector(self.centre_base, 3, "centre_base")
+        s = vector(self.semi_axes, 3, "semi_axes")
         if not np.all(s > 0):
             raise InputError(f"semi_axes: got {s.tolist()}, expected three positive lengths in metres")
         q = check_quaternion_xyzw(self.quaternion_xyzw, where="quaternion_xyzw")
@@ -395,14 +395,3 @@ class Ellipsoid:
             "quaternion_xyzw": [float(v) for v in self.quaternion_xyzw],
             "volume_m3": self.volume_m3,
         }
-
-
-# ---------------------------------------------------------------------- helpers
-def _vector3(value: Any, where: str) -> NDArray[np.float64]:
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        a = np.zeros(0)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InputError(f"{where}: expected three finite numbers (metres), got {value!r}")
-    return a.copy()

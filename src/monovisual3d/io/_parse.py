@@ -7,7 +7,6 @@ for malformed content.
 
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 from typing import Any
@@ -17,7 +16,7 @@ import yaml
 from numpy.typing import NDArray
 
 from .. import _structured
-from ..errors import InputError, excerpt
+from ..errors import InputError
 from ..limits import MAX_ABS_ANGLE_RAD, MAX_ABS_POSITION_M, MAX_ABS_STAMP_S, MAX_TABLE_ROWS
 
 read_text = _structured.read_text
@@ -84,80 +83,6 @@ def where_join(where: str, key: str | int) -> str:
     return f"{where}.{key}" if where else str(key)
 
 
-def as_float(value: Any, where: str) -> float:
-    """A finite float from a number (not a bool) or a numeric string."""
-    if isinstance(value, bool) or value is None:
-        raise InputError(f"{where}: expected a number, got {excerpt(value)}")
-    if isinstance(value, str):
-        try:
-            out = float(value.strip())
-        except ValueError:
-            raise InputError(f"{where}: expected a number, got {_short(value)}") from None
-    elif isinstance(value, (int, float, np.integer, np.floating)):
-        try:
-            out = float(value)
-        except OverflowError:
-            raise InputError(f"{where}: number too large") from None
-    else:
-        raise InputError(f"{where}: expected a number, got {_short(value)}")
-    if not math.isfinite(out):
-        raise InputError(f"{where}: got {out}, expected a finite number")
-    return out
-
-
-def as_int(value: Any, where: str, minimum: int | None = None) -> int:
-    """An integer from an int, an integral float or a numeric string."""
-    x = as_float(value, where)
-    if not x.is_integer() or abs(x) > 2**53:
-        raise InputError(f"{where}: expected an integer, got {_short(value)}")
-    out = int(x)
-    if minimum is not None and out < minimum:
-        raise InputError(f"{where}: got {out}, expected an integer >= {minimum}")
-    return out
-
-
-def as_array(value: Any, where: str, shape: tuple[int, ...] | None = None, size: int | None = None) -> NDArray[np.float64]:
-    """A finite float array from nested lists (or an array), optionally with a fixed shape or size."""
-    if isinstance(value, (str, bytes, dict)) or value is None or isinstance(value, bool):
-        raise InputError(f"{where}: expected a list of numbers, got {_short(value)}")
-    bad = _first_non_number(value)
-    if bad is not None:
-        raise InputError(f"{where}: expected a list of numbers, got {_short(bad)} in {_short(value)}")
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: expected a list of numbers, got {_short(value)}") from None
-    except OverflowError:
-        raise InputError(f"{where}: number too large in {_short(value)}") from None
-    if arr.dtype == object:
-        raise InputError(f"{where}: expected a list of numbers, got {_short(value)}")
-    if shape is not None and arr.shape != shape:
-        if arr.size == int(np.prod(shape)) and arr.ndim <= 1:
-            arr = arr.reshape(shape)
-        else:
-            raise InputError(f"{where}: expected shape {list(shape)}, got {list(arr.shape)}")
-    if size is not None and arr.size != size:
-        raise InputError(f"{where}: expected {size} numbers, got {arr.size}")
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{where}: contains NaN or infinity")
-    return arr
-
-
-def _first_non_number(value: Any) -> Any:
-    """The first element of nested lists that is not a number (booleans and numeric text are not), else None."""
-    stack = [value]
-    while stack:
-        v = stack.pop()
-        if isinstance(v, np.ndarray):
-            if v.dtype.kind not in "iuf":
-                return v
-        elif isinstance(v, (list, tuple)):
-            stack.extend(reversed(v))
-        elif isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
-            return v
-    return None
-
-
 def check_translations(T: NDArray[np.float64], where: str) -> None:
     """Reject transforms (shape (..., 4, 4)) whose translation exceeds :data:`MAX_ABS_POSITION_M`."""
     t = np.abs(np.asarray(T)[..., :3, 3])
@@ -182,18 +107,6 @@ def check_angles(values: Any, where: str) -> NDArray[np.float64]:
             f"{where}: angle {np.max(np.abs(arr)):.3g} rad, beyond {MAX_ABS_ANGLE_RAD:g} rad (degrees given as radians?)"
         )
     return arr
-
-
-def expect_mapping(value: Any, where: str) -> dict[str, Any]:
-    if not isinstance(value, dict):
-        raise InputError(f"{where}: expected a mapping (object), got {type(value).__name__}")
-    return value
-
-
-def expect_list(value: Any, where: str) -> list[Any]:
-    if not isinstance(value, list):
-        raise InputError(f"{where}: expected a list, got {type(value).__name__}")
-    return value
 
 
 def stamp_from_name(name: str) -> float | None:
@@ -221,7 +134,3 @@ def image_key(name: str) -> str:
     if dot and stem and not suffix.isdigit():
         return stem
     return base
-
-
-def _short(value: Any, n: int = 60) -> str:
-    return excerpt(value, n)

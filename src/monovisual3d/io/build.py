@@ -17,10 +17,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import as_float
 from ..errors import InputError, excerpt
 from ..frames import T_base_optical_from_T_base_cameralink
-from ..session import POSE_FRAMES, Workspace, session_from_dict, workspace_from_dict
-from ._parse import as_float, image_key
+from ..session import Workspace
+from ..session.load import POSE_FRAMES, session_from_dict, workspace_from_dict
+from ._parse import image_key
 from .calibration import read_calibration
 from .detections import ImageDetections, _detection_format, filter_detections, read_detections
 from .poses import (
@@ -56,6 +58,8 @@ def build_session(
     summary: ImportSummary | None = None,
 ) -> ImportResult:
     """Pair poses with detections and validate the result as a session.
+
+    One unit of thought: the public builder; its documented options make most of its length, the body only checks them and joins poses to detections.
 
     Parameters
     ----------
@@ -467,6 +471,8 @@ def import_session(
 ) -> ImportResult:
     """Read a calibration, poses and detections from files and build a validated session.
 
+    One unit of thought: the public importer; its documented options (one per input format) make most of its length, the body reads each input and calls :func:`build_session`.
+
     Parameters
     ----------
     camera : calibration file (see :func:`~monovisual3d.io.read_calibration`) or a Camera
@@ -514,9 +520,18 @@ def import_session(
         T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
     summary = _import_summary(camera, traj, det_source, size_note)
     return build_session(
-        cam, traj, frames, hand_eye=T_ee_camera, pose_frame=pose_frame, match=match, max_gap=max_gap, min_score=min_score,
-        labels=labels, workspace=workspace, summary=summary,
-    )  # fmt: skip
+        cam,
+        traj,
+        frames,
+        hand_eye=T_ee_camera,
+        pose_frame=pose_frame,
+        match=match,
+        max_gap=max_gap,
+        min_score=min_score,
+        labels=labels,
+        workspace=workspace,
+        summary=summary,
+    )
 
 
 __all__ = [

@@ -36,8 +36,9 @@ from typing import Any
 from numpy.typing import ArrayLike
 
 from ..camera import Camera, camera_from_dict
+from ..checks import expect_object
 from ..errors import InputError, excerpt
-from ._parse import expect_mapping, load_json, load_yaml, read_text
+from ._parse import load_json, load_yaml, read_text
 from .calibration_depthai import camera_from_depthai
 from .calibration_kalibr import camera_from_kalibr
 from .calibration_opencv import MATRIX_KEYS, camera_from_opencv_storage
@@ -59,6 +60,8 @@ def read_calibration(
     distortion_model: str | None = None,
 ) -> Camera:
     """Read a camera calibration from a file, a parsed dict or a CameraInfo message.
+
+    One unit of thought: the public reader; its documented options make most of its length, the body only dispatches to the format's reader.
 
     Parameters
     ----------
@@ -190,7 +193,7 @@ def calibration_format(data: Any, where: str = "calibration") -> str:
 
 # ---------------------------------------------------------------------- this project's format
 def _camera_from_monovisual3d(data: Any) -> Camera:
-    data = expect_mapping(data, "(top level)")
+    data = expect_object(data, "(top level)")
     if isinstance(data.get("camera"), dict):
         return camera_from_dict(data["camera"])
     return camera_from_dict(data)

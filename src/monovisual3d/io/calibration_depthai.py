@@ -9,8 +9,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera import Camera
+from ..checks import as_array, as_int, expect_object, is_int
 from ..errors import InputError, InputWarning, excerpt
-from ._parse import as_array, as_int, expect_mapping
 from .calibration_opencv import OPENCV_COEFF_NAMES, opencv_camera
 
 #: DepthAI camera sockets by name (CameraBoardSocket).
@@ -41,7 +41,7 @@ def camera_from_depthai(data: Any, socket: str | int | None = None) -> Camera:
     >>> cam.size
     (640, 480)
     """
-    data = expect_mapping(data, "(top level)")
+    data = expect_object(data, "(top level)")
     entries = data.get("cameraData")
     if not isinstance(entries, list) or not entries:
         raise InputError("cameraData: expected a non-empty list of [socket, calibration] pairs")
@@ -54,7 +54,7 @@ def camera_from_depthai(data: Any, socket: str | int | None = None) -> Camera:
     if number not in sockets:
         raise InputError(f"cameraData: no camera on socket {number}, the file has sockets {sorted(sockets)}")
     where = f"cameraData[socket {number}]"
-    cam = expect_mapping(sockets[number], where)
+    cam = expect_object(sockets[number], where)
     for k in ("intrinsicMatrix", "width", "height"):
         if k not in cam:
             raise InputError(f"{where}.{k}: missing field")
@@ -72,7 +72,7 @@ def _socket_number(socket: str | int | None, sockets: dict[int, Any]) -> int:
     """The socket asked for (number or name; default CAM_A, or the only one) among those of the file."""
     if socket is None:
         return 0 if 0 in sockets or len(sockets) > 1 else next(iter(sockets))
-    if isinstance(socket, int) and not isinstance(socket, bool):
+    if is_int(socket):
         return socket
     if str(socket).strip().isdigit():
         return int(str(socket).strip())

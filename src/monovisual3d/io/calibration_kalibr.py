@@ -6,8 +6,8 @@ import re
 from typing import Any
 
 from ..camera import Camera
+from ..checks import as_array, as_int, expect_object
 from ..errors import InputError, excerpt
-from ._parse import as_array, as_int, expect_mapping
 from .calibration_opencv import opencv_camera
 
 
@@ -26,7 +26,7 @@ def camera_from_kalibr(data: Any, camera_name: str | int | None = None) -> Camer
     >>> cam.distortion_model, cam.cx
     ('plumb_bob', 320.0)
     """
-    data = expect_mapping(data, "(top level)")
+    data = expect_object(data, "(top level)")
     cams = {str(k): v for k, v in data.items() if re.fullmatch(r"cam\d+", str(k))}
     if not cams:
         raise InputError("no camera entries (cam0, cam1, ...) in the Kalibr camchain")
@@ -45,7 +45,7 @@ def camera_from_kalibr(data: Any, camera_name: str | int | None = None) -> Camer
                     f"--camera-name (camera_name): no camera {excerpt(name)} in the camchain, expected one of {sorted(cams)}"
                 )
             name = by_topic[0]
-    cam = expect_mapping(cams[name], name)
+    cam = expect_object(cams[name], name)
     model = str(cam.get("camera_model", "pinhole"))
     if model != "pinhole":
         raise InputError(f"{name}.camera_model: {excerpt(model)} is not supported, expected 'pinhole'")

@@ -13,8 +13,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import as_array, as_int, expect_object
 from ..errors import InputError, excerpt
-from ._parse import as_array, as_int, expect_mapping
 from .image_size import size_pair
 
 #: Keys under which calibration files store the camera matrix.
@@ -48,7 +48,7 @@ def camera_from_opencv_storage(
     >>> cam.fx
     500.0
     """
-    data = expect_mapping(data, "(top level)")
+    data = expect_object(data, "(top level)")
     key = next((k for k in MATRIX_KEYS if k in data), None)
     if key is None:
         raise InputError(f"camera_matrix: missing field, expected one of {list(MATRIX_KEYS)}")

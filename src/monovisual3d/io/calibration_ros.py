@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 
 from ..camera import Camera
+from ..checks import as_array, as_int
 from ..errors import InputError
-from ._parse import as_array, as_int
 from .calibration_opencv import camera_from_opencv_storage, opencv_camera
 from .image_size import crop_camera
 

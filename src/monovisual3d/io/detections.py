@@ -19,22 +19,10 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import as_array, as_float, as_int, expect_list, expect_object
 from ..errors import InputError, excerpt
 from ..session import Detection
-from ._parse import (
-    as_array,
-    as_float,
-    as_int,
-    check_rows,
-    expect_list,
-    expect_mapping,
-    image_key,
-    load_json,
-    load_structured,
-    read_table_text,
-    read_text,
-    stamp_from_name,
-)
+from ._parse import check_rows, image_key, load_json, load_structured, read_table_text, read_text, stamp_from_name
 from .summary import ImportSummary
 
 DETECTION_FORMATS = ("yolo", "coco", "csv")
@@ -295,31 +283,12 @@ def read_coco(
     results = expect_list(results, f"{where}: annotations")
     check_rows(len(results), where, "annotations")
     names = load_class_names(class_names) if class_names is not None else None
-    by_id: dict[Any, ImageDetections] = {}
-    order: list[Any] = []
-    if image_list is not None:
-        for i, im in enumerate(expect_list(image_list, f"{where}: images")):
-            w_im = f"{where}: images[{i}]"
-            im = expect_mapping(im, w_im)
-            if "id" not in im:
-                raise InputError(f"{w_im}.id: missing field")
-            iid = _coco_id(im["id"], f"{w_im}.id")
-            if iid in by_id:
-                raise InputError(f"{w_im}.id: duplicate image id {excerpt(iid)}")
-            fname = im.get("file_name", str(iid))
-            if not isinstance(fname, str) or not fname:
-                raise InputError(f"{w_im}.file_name: expected a file name, got {excerpt(fname)}")
-            size = None
-            if im.get("width") is not None and im.get("height") is not None:
-                size = (as_int(im["width"], f"{w_im}.width", minimum=1), as_int(im["height"], f"{w_im}.height", minimum=1))
-            stamp = im.get("stamp", im.get("timestamp"))
-            stamp = as_float(stamp, f"{w_im}.stamp") if stamp is not None else stamp_from_name(fname)
-            by_id[iid] = ImageDetections(image=fname, stamp=stamp, image_size=size, source=where)
-            order.append(iid)
+    by_id = _coco_image_list(image_list, where) if image_list is not None else {}
+    order: list[Any] = list(by_id)
     dets: dict[Any, list[Detection]] = {k: [] for k in by_id}
     for j, r in enumerate(results):
         w_r = f"{where}: annotations[{j}]"
-        r = expect_mapping(r, w_r)
+        r = expect_object(r, w_r)
         for k in ("image_id", "bbox"):
             if k not in r:
                 raise InputError(f"{w_r}.{k}: missing field")
@@ -374,11 +343,34 @@ def _coco_detection(r: dict[str, Any], w_r: str, categories: dict[int, str], nam
     return Detection(np.asarray(box), score=score, label=label, mask=mask)
 
 
+def _coco_image_list(image_list: Any, where: str) -> dict[Any, ImageDetections]:
+    """The images of a COCO ``images`` list by id, in file order, still without detections."""
+    by_id: dict[Any, ImageDetections] = {}
+    for i, im in enumerate(expect_list(image_list, f"{where}: images")):
+        w_im = f"{where}: images[{i}]"
+        im = expect_object(im, w_im)
+        if "id" not in im:
+            raise InputError(f"{w_im}.id: missing field")
+        iid = _coco_id(im["id"], f"{w_im}.id")
+        if iid in by_id:
+            raise InputError(f"{w_im}.id: duplicate image id {excerpt(iid)}")
+        fname = im.get("file_name", str(iid))
+        if not isinstance(fname, str) or not fname:
+            raise InputError(f"{w_im}.file_name: expected a file name, got {excerpt(fname)}")
+        size = None
+        if im.get("width") is not None and im.get("height") is not None:
+            size = (as_int(im["width"], f"{w_im}.width", minimum=1), as_int(im["height"], f"{w_im}.height", minimum=1))
+        stamp = im.get("stamp", im.get("timestamp"))
+        stamp = as_float(stamp, f"{w_im}.stamp") if stamp is not None else stamp_from_name(fname)
+        by_id[iid] = ImageDetections(image=fname, stamp=stamp, image_size=size, source=where)
+    return by_id
+
+
 def _coco_categories(data: dict[str, Any], where: str) -> dict[int, str]:
     out: dict[int, str] = {}
     if data.get("categories") is not None:
         for i, c in enumerate(expect_list(data["categories"], f"{where}: categories")):
-            c = expect_mapping(c, f"{where}: categories[{i}]")
+            c = expect_object(c, f"{where}: categories[{i}]")
             if "id" in c and "name" in c:
                 out[as_int(c["id"], f"{where}: categories[{i}].id")] = _name(c["name"], f"{where}: categories[{i}].name")
     return out

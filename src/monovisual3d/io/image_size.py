@@ -8,8 +8,8 @@ from typing import Any
 from numpy.typing import ArrayLike
 
 from ..camera import Camera
+from ..checks import as_array, as_int
 from ..errors import InputError, excerpt
-from ._parse import as_array, as_int
 
 RESIZE_MODES = ("auto", "stretch", "crop")
 

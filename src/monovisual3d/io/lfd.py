@@ -31,7 +31,8 @@ from numpy.typing import NDArray
 from ..errors import InputError, one_line
 from ..geometry.ellipsoid import Ellipsoid
 from ..methods.quadric.dual import ellipsoid_from_dual_quadric
-from ..session import Session, session_from_dict
+from ..session import Session
+from ..session.load import session_from_dict
 
 #: Largest deviation of ``R R^T`` from the identity accepted in a pose (files store rotations to ~7 digits).
 ROTATION_TOL = 1e-3

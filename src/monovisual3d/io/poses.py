@@ -18,19 +18,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
+from ..checks import as_array, as_float, check_quaternion_xyzw, expect_object
 from ..errors import InputError, excerpt
-from ..frames import check_quaternion_xyzw, check_transform, transform_from_position_quaternion
-from ._parse import (
-    as_array,
-    as_float,
-    check_angles,
-    check_rows,
-    check_stamp,
-    check_translations,
-    expect_mapping,
-    load_structured,
-    read_table_text,
-)
+from ..frames import check_transform, transform_from_position_quaternion
+from ._parse import check_angles, check_rows, check_stamp, check_translations, load_structured, read_table_text
 from .detections import read_csv_table
 
 POSE_FORMATS = ("tum", "csv", "json")
@@ -280,7 +271,7 @@ def read_pose_json(source: str | Path | list[Any] | dict[str, Any], *, units: st
 
 
 def _pose_object(item: dict[str, Any], where: str) -> NDArray[np.float64]:
-    from ..session import pose_from_dict
+    from ..session.load import pose_from_dict
 
     return pose_from_dict(item, where)
 
@@ -320,7 +311,7 @@ def _hand_eye(data: Any) -> NDArray[np.float64]:
         if "T_ee_camera" in data:
             return _hand_eye(data["T_ee_camera"])
         if "transformation" in data:
-            t = expect_mapping(data["transformation"], "transformation")
+            t = expect_object(data["transformation"], "transformation")
             missing = [k for k in ("x", "y", "z", "qx", "qy", "qz", "qw") if k not in t]
             if missing:
                 raise InputError(f"transformation.{missing[0]}: missing field (easy_handeye format x y z qx qy qz qw)")
@@ -334,7 +325,7 @@ def _hand_eye(data: Any) -> NDArray[np.float64]:
             T[:3, :3] = as_array(data["rotation"], "rotation", shape=(3, 3))
             T[:3, 3] = as_array(data["translation"], "translation", size=3).ravel()
             return check_transform(T, where="rotation")
-        from ..session import pose_from_dict
+        from ..session.load import pose_from_dict
 
         return pose_from_dict(data, "(hand-eye)")
     return check_transform(as_array(data, "matrix"), where="matrix")
@@ -394,15 +385,7 @@ def interpolate_poses(
     st = np.asarray(stamps, dtype=float).ravel()
     Ts = np.asarray(T, dtype=float)
     q = np.asarray(query, dtype=float).ravel()
-    max_gap = as_float(max_gap, "--max-gap (max_gap)")
-    if max_gap < 0:
-        raise InputError(f"--max-gap (max_gap): got {max_gap}, expected seconds >= 0")
-    if st.size == 0 or Ts.shape != (st.size, 4, 4):
-        raise InputError(f"interpolate_poses: {st.size} stamps and poses of shape {Ts.shape}, expected (N, 4, 4)")
-    if np.any(np.diff(st) <= 0):
-        raise InputError("interpolate_poses: stamps must be strictly increasing")
-    if not (np.all(np.isfinite(st)) and np.all(np.isfinite(q))):
-        raise InputError("interpolate_poses: stamps must be finite")
+    max_gap = _check_pose_times(st, Ts, q, max_gap)
     n = st.size
     nxt = np.searchsorted(st, q, side="left")  # first sample >= t
     prv = np.searchsorted(st, q, side="right") - 1  # last sample <= t
@@ -425,6 +408,32 @@ def interpolate_poses(
     out[only_p] = Ts[prv[only_p]]
     out[only_n] = Ts[nxt[only_n]]
     ok = ok_p | ok_n
+    return out, ok, _rejection_reasons(q, st, dp, dn, ok, max_gap)
+
+
+def _check_pose_times(st: NDArray[np.float64], Ts: NDArray[np.float64], q: NDArray[np.float64], max_gap: Any) -> float:
+    """Refuse a negative ``max_gap``, poses that do not match the stamps, and unsorted or non-finite stamps; the gap, seconds."""
+    max_gap = as_float(max_gap, "--max-gap (max_gap)")
+    if max_gap < 0:
+        raise InputError(f"--max-gap (max_gap): got {max_gap}, expected seconds >= 0")
+    if st.size == 0 or Ts.shape != (st.size, 4, 4):
+        raise InputError(f"interpolate_poses: {st.size} stamps and poses of shape {Ts.shape}, expected (N, 4, 4)")
+    if np.any(np.diff(st) <= 0):
+        raise InputError("interpolate_poses: stamps must be strictly increasing")
+    if not (np.all(np.isfinite(st)) and np.all(np.isfinite(q))):
+        raise InputError("interpolate_poses: stamps must be finite")
+    return max_gap
+
+
+def _rejection_reasons(
+    q: NDArray[np.float64],
+    st: NDArray[np.float64],
+    dp: NDArray[np.float64],
+    dn: NDArray[np.float64],
+    ok: NDArray[np.bool_],
+    max_gap: float,
+) -> list[str | None]:
+    """Why each query time got no pose (None where it got one): outside the stamps, or in a gap wider than ``max_gap``."""
     reasons: list[str | None] = []
     for i in range(q.size):
         if ok[i]:
@@ -435,7 +444,7 @@ def interpolate_poses(
             reasons.append(f"{gap:.3g} s {side} pose, more than max_gap {max_gap:g} s")
         else:
             reasons.append(f"poses {dp[i]:.3g} s before and {dn[i]:.3g} s after, both more than max_gap {max_gap:g} s")
-    return out, ok, reasons
+    return reasons
 
 
 __all__ = [

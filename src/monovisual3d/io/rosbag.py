@@ -33,7 +33,8 @@ from ..camera import Camera
 from ..errors import InputError, InputWarning, excerpt
 from ..frames import T_base_optical_from_T_base_cameralink, transform_from_position_quaternion
 from ..limits import MAX_ABS_POSITION_M
-from ..session import POSE_FRAMES, Detection, Workspace
+from ..session import Detection, Workspace
+from ..session.load import POSE_FRAMES
 from .build import DEFAULT_MAX_GAP, assemble_session
 from .calibration import read_calibration
 from .calibration_ros import camera_from_camera_info
@@ -148,6 +149,8 @@ def read_bag(
     workspace: Workspace | dict[str, Any] | None = None,
 ) -> ImportResult:
     """Build a session from a ROS 1 or ROS 2 bag.
+
+    One unit of thought: the public bag reader; its documented options (topics, frames, timing) make most of its length, the body checks them and calls the bag's readers.
 
     Parameters
     ----------

@@ -91,16 +91,7 @@ def image_detections_from_result(result: Any, image: str | None = None, *, masks
         image = Path(str(path)).name if path else None
     where = f"ultralytics result for {image or 'an image'}"
     names = getattr(result, "names", None) or {}
-    size = None
-    shape = getattr(result, "orig_shape", None)
-    if shape is not None:
-        try:
-            h, w = (int(v) for v in tuple(shape)[:2])
-        except (TypeError, ValueError):
-            raise InputError(f"{where}: orig_shape {excerpt(shape)} is not (height, width)") from None
-        if h <= 0 or w <= 0:
-            raise InputError(f"{where}: orig_shape {excerpt(shape)} is not a positive (height, width)")
-        size = (w, h)
+    size = _image_size(getattr(result, "orig_shape", None), where)
     boxes = getattr(result, "boxes", None)
     if boxes is None:
         return ImageDetections(image=image, stamp=stamp_from_name(image) if image else None, image_size=size)
@@ -164,3 +155,16 @@ def _array(x: Any, where: str, n: int | None = None) -> NDArray[np.float64]:
 
 
 __all__ = ["detect_with_ultralytics", "image_detections_from_result", "load_yolo_model"]
+
+
+def _image_size(shape: Any, where: str) -> tuple[int, int] | None:
+    """``(width, height)`` from a result's ``orig_shape`` ``(height, width, ...)``, or None without one."""
+    if shape is None:
+        return None
+    try:
+        h, w = (int(v) for v in tuple(shape)[:2])
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: orig_shape {excerpt(shape)} is not (height, width)") from None
+    if h <= 0 or w <= 0:
+        raise InputError(f"{where}: orig_shape {excerpt(shape)} is not a positive (height, width)")
+    return (w, h)

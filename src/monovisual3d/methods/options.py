@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..checks import parse_bytes
 from ..engine.threads import check_threads
-from ..limits import parse_bytes
 
 __all__ = ["check_shared_options"]
 

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from ..checks import is_real
 from ..errors import InputError
 from ..frames import check_transform
 from ..limits import MAX_SIM_FALSE_POSITIVES, MAX_SIM_POSE_ERROR_DEG, MAX_SIM_POSE_ERROR_MM
@@ -112,14 +113,14 @@ class NoiseModel:
     def __post_init__(self) -> None:
         for name in ("box_sigma", "false_positive_rate", "pose_position_std", "pose_rotation_std"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= 0):
+            if not is_real(value) or not (math.isfinite(value) and value >= 0):
                 raise InputError(f"{_option(name)}: got {value!r}, expected a finite number >= 0")
             object.__setattr__(self, name, float(value))
         _check_at_most(self.false_positive_rate, MAX_SIM_FALSE_POSITIVES, "false_positive_rate")
         _check_at_most(self.pose_position_std, MAX_SIM_POSE_ERROR_MM / 1000.0, "pose_position_std")
         _check_at_most(self.pose_rotation_std, math.radians(MAX_SIM_POSE_ERROR_DEG), "pose_rotation_std")
         p = self.drop_probability
-        if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 <= p <= 1.0:
+        if not is_real(p) or not 0.0 <= p <= 1.0:
             raise InputError(f"{_option('drop_probability')}: got {p!r}, expected a probability in [0, 1]")
         object.__setattr__(self, "drop_probability", float(p))
         try:
@@ -153,7 +154,7 @@ class NoiseModel:
             ("pose_error_deg", pose_error_deg, MAX_SIM_POSE_ERROR_DEG),
         )
         for name, value, most in bounds:
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            if not (is_real(value) and math.isfinite(value) and value >= 0):
                 raise InputError(f"{_option(name)}: got {value!r}, expected a finite number >= 0")
             if value > most:
                 raise InputError(f"{_option(name)}: got {value:g}, more than the {most:g} accepted")

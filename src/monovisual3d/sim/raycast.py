@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import is_int
 from ..errors import InputError
 from ..frames import check_transform, invert_transform, transform_points
 from .scene import EllipsoidFruit, Leaf, Scene, Stem
@@ -142,7 +143,7 @@ def label_image(
         Fruit index (0..M-1), :data:`BACKGROUND` or :data:`OCCLUDER`.
     """
     s = _check_supersample(supersample)
-    if isinstance(tile, bool) or not (isinstance(tile, (int, np.integer)) and tile > 0):
+    if not (is_int(tile) and tile > 0):
         raise InputError(f"tile: got {tile!r}, expected a positive integer")
     geometry = _OpticalGeometry.from_scene(scene, T_base_optical)
     W, H = camera.width * s, camera.height * s
@@ -495,6 +496,6 @@ def _unit(v: ArrayLike, where: str) -> NDArray[np.float64]:
 
 
 def _check_supersample(supersample: int) -> int:
-    if isinstance(supersample, bool) or not isinstance(supersample, (int, np.integer)) or not 1 <= supersample <= 16:
+    if not is_int(supersample) or not 1 <= supersample <= 16:
         raise InputError(f"--supersample (supersample): got {supersample!r}, expected an integer from 1 to 16")
     return int(supersample)

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import is_int
 from ..errors import InputError
 from .scene import Scene, Sphere
 from .viewpoints import DEFAULT_TARGET, ROW_DISTANCE_M, ROW_LENGTH_M, row_poses
@@ -81,7 +82,7 @@ def row_scene(
     >>> len(s.fruits), bool(np.all(np.abs(s.centres[:, 1] - 0.0) + s.radii <= 0.6 + 1e-9))
     (20, True)
     """
-    if isinstance(n_fruit, bool) or not isinstance(n_fruit, (int, np.integer)) or n_fruit < 1:
+    if not is_int(n_fruit) or n_fruit < 1:
         raise InputError(f"n_fruit: got {n_fruit!r}, expected a positive integer")
     size = np.array([depth, length, height], dtype=float)
     for name, v in zip(("depth", "length", "height"), size.tolist()):

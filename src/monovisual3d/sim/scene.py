@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..checks import check_quaternion_xyzw, is_real, vector
 from ..errors import InputError
-from ..frames import check_quaternion_xyzw
 from ..geometry.ellipsoid import Ellipsoid, equivalent_radius
 from ..geometry.orientation import rotation_from_quaternion_xyzw
 
@@ -224,7 +224,7 @@ class Scene:
     @classmethod
     def load(cls, path: str | Path) -> Scene:
         """Read a scene file (JSON or YAML, :meth:`from_dict`'s format, as :meth:`save` writes it)."""
-        from ..session import read_structured_file
+        from .._structured import read_structured_file
 
         data = read_structured_file(path)  # its errors name the file already
         try:
@@ -248,15 +248,15 @@ def _fruit(o: Any, where: str) -> Fruit:
 def _ellipsoid_fruit(o: dict[str, Any], where: str) -> EllipsoidFruit:
     if "position" not in o:
         raise InputError(f"{where}.position: missing field, expected an ellipsoid fruit {ELLIPSOID_FIELDS}")
-    s = _vec(o["semi_axes"], 3, f"{where}.semi_axes")
+    s = vector(o["semi_axes"], 3, f"{where}.semi_axes")
     for i, v in enumerate(s):
         _positive(float(v), f"{where}.semi_axes[{i}]")
-    q = _vec(o.get("quaternion_xyzw", [0.0, 0.0, 0.0, 1.0]), 4, f"{where}.quaternion_xyzw")
+    q = vector(o.get("quaternion_xyzw", [0.0, 0.0, 0.0, 1.0]), 4, f"{where}.quaternion_xyzw")
     q = check_quaternion_xyzw(q, where=f"{where}.quaternion_xyzw")
     label = o.get("label", "fruit")
     if not isinstance(label, str):
         raise InputError(f"{where}.label: expected a string, got {label!r}")
-    return EllipsoidFruit(_vec(o["position"], 3, f"{where}.position"), s, q, label)
+    return EllipsoidFruit(vector(o["position"], 3, f"{where}.position"), s, q, label)
 
 
 def _sphere(o: Any, where: str) -> Sphere:
@@ -269,7 +269,7 @@ def _sphere(o: Any, where: str) -> Sphere:
     label = o.get("label", "tomato")
     if not isinstance(label, str):
         raise InputError(f"{where}.label: expected a string, got {label!r}")
-    return Sphere(_vec(o["position"], 3, f"{where}.position"), radius, label)
+    return Sphere(vector(o["position"], 3, f"{where}.position"), radius, label)
 
 
 def _occluder(o: Any, where: str) -> Occluder:
@@ -284,30 +284,20 @@ def _occluder(o: Any, where: str) -> Occluder:
             raise InputError(f"{where}.{k}: missing field, a {kind} needs {list(fields[kind])}")
     if kind == "leaf":
         hu, hv = (
-            _positive(float(v), f"{where}.half_size[{i}]") for i, v in enumerate(_vec(o["half_size"], 2, f"{where}.half_size"))
+            _positive(float(v), f"{where}.half_size[{i}]") for i, v in enumerate(vector(o["half_size"], 2, f"{where}.half_size"))
         )
         return Leaf(
-            _vec(o["centre"], 3, f"{where}.centre"),
-            _vec(o["axis_u"], 3, f"{where}.axis_u"),
-            _vec(o["axis_v"], 3, f"{where}.axis_v"),
+            vector(o["centre"], 3, f"{where}.centre"),
+            vector(o["axis_u"], 3, f"{where}.axis_u"),
+            vector(o["axis_v"], 3, f"{where}.axis_v"),
             (hu, hv),
         )
     return Stem(
-        _vec(o["start"], 3, f"{where}.start"), _vec(o["end"], 3, f"{where}.end"), _positive(o["radius"], f"{where}.radius")
+        vector(o["start"], 3, f"{where}.start"), vector(o["end"], 3, f"{where}.end"), _positive(o["radius"], f"{where}.radius")
     )
 
 
-def _vec(value: Any, n: int, where: str) -> NDArray[np.float64]:
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        a = np.zeros(0)
-    if isinstance(value, (str, bytes)) or a.shape != (n,) or not np.all(np.isfinite(a)):
-        raise InputError(f"{where}: expected {n} finite numbers (metres), got {value!r}")
-    return a
-
-
 def _positive(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (np.isfinite(value) and value > 0):
+    if not is_real(value) or not (np.isfinite(value) and value > 0):
         raise InputError(f"{where}: expected a positive number of metres, got {value!r}")
     return float(value)

@@ -55,6 +55,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
+from ..checks import is_int
 from ..errors import InputError
 from ..geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
 from ..geometry.orientation import rotation_upright
@@ -152,6 +153,8 @@ def random_scene(
 ) -> Scene:
     """Non-overlapping spheres with centres uniform in a box in front of the camera.
 
+    One unit of thought: the scene's documented parameters make most of its length; the body draws the fruit in one pass.
+
     Parameters
     ----------
     n_fruit : int, number of spheres
@@ -217,6 +220,8 @@ def greenhouse_scene(
     max_attempts: int = 50,
 ) -> Scene:
     """A tomato truss: fruit clustered along a stem, leaves partly occluding some of them.
+
+    One unit of thought: the scene's documented parameters make most of its length; the body draws the plants in one pass.
 
     Layout (metres, base frame, around ``target``): a vertical main stem
     (radius 6 mm) 8 cm behind the target; a truss stem (radius 3.5 mm) that
@@ -290,7 +295,7 @@ def _greenhouse_counts(
     if n > 12:
         raise InputError(f"n_fruit: got {n}, a truss holds at most 12 fruit here (use random_scene for more)")
     n_leaf = int(rng.integers(3, 7)) if n_leaves is None else n_leaves
-    if isinstance(n_leaf, bool) or not isinstance(n_leaf, (int, np.integer)) or n_leaf < 0:
+    if not is_int(n_leaf) or n_leaf < 0:
         raise InputError(f"n_leaves: got {n_leaves!r}, expected an integer >= 0")
     return n, int(n_leaf)
 
@@ -377,6 +382,8 @@ def shapes_scene(
     max_attempts: int = 200,
 ) -> Scene:
     """Non-spherical fruit (ellipsoids) in front of the camera, each visible in every view.
+
+    One unit of thought: the scene's documented parameters make most of its length; the body draws the fruit in one pass.
 
     Parameters
     ----------
@@ -565,7 +572,7 @@ def _target(target: ArrayLike) -> NDArray[np.float64]:
 
 
 def _count(n: int, where: str) -> int:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+    if not is_int(n) or n < 1:
         raise InputError(f"{where}: got {n!r}, expected a positive integer")
     return int(n)
 

@@ -28,8 +28,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from .. import limits
 from ..camera import Camera
+from ..checks import is_int
 from ..errors import InputError
-from ..session import Detection, Session, View, Workspace, load_session
+from ..session import Detection, Session, View, Workspace
+from ..session.load import load_session
 from .noise import NoiseModel
 from .raycast import BACKGROUND, OCCLUDER, Rendering, render
 from .scene import Scene
@@ -231,7 +233,7 @@ def check_sim_work(n_views: int, camera: Camera | None, supersample: int) -> Non
     :data:`~monovisual3d.limits.MAX_SIM_RAYS` rays, before any ray is cast (one-line :class:`InputError`)."""
     if n_views > limits.MAX_SIM_VIEWS:
         raise InputError(f"--views: {n_views} views, more than the {limits.MAX_SIM_VIEWS} a simulation may have")
-    if isinstance(supersample, bool) or not isinstance(supersample, (int, np.integer)) or supersample < 1:
+    if not is_int(supersample) or supersample < 1:
         return  # the renderer refuses it with its own message
     width, height = (camera or default_camera()).size
     rays = n_views * width * height * int(supersample) ** 2

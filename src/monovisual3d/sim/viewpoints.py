@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..checks import is_int, is_real, vector
 from ..errors import InputError
 from ..frames import check_transform, look_at
 from ..limits import MAX_SIM_VIEWS
@@ -78,7 +79,7 @@ def paper_poses(
     >>> P[:, :3, 3].round(3).tolist()
     [[0.1, 0.0, 0.45], [0.1, 0.2, 0.25], [0.1, -0.2, 0.65]]
     """
-    target = _vector3(target, "target")
+    target = vector(target, 3, "target")
     _check_positive(distance, "distance")
     if not (math.isfinite(offset) and offset >= 0):
         raise InputError(f"offset: got {offset!r}, expected a number >= 0 (metres)")
@@ -196,7 +197,7 @@ def poses_from_positions(positions: ArrayLike, target: ArrayLike = DEFAULT_TARGE
     P = np.asarray(positions, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)) or len(P) == 0:
         raise InputError(f"positions: expected a non-empty list of finite [x, y, z] (metres), got shape {P.shape}")
-    t = _vector3(target, "target")
+    t = vector(target, 3, "target")
     return np.stack([look_at(p, t) for p in P])
 
 
@@ -228,7 +229,8 @@ def load_poses(path: str | Path, target: ArrayLike = DEFAULT_TARGET) -> NDArray[
     -------
     T_base_optical : ndarray, shape (N, 4, 4)
     """
-    from ..session import _vector, pose_from_dict, read_structured_file
+    from .._structured import read_structured_file
+    from ..session.load import pose_from_dict
 
     data = read_structured_file(path)
     if isinstance(data, dict) and "poses" in data:
@@ -250,8 +252,8 @@ def load_poses(path: str | Path, target: ArrayLike = DEFAULT_TARGET) -> NDArray[
             if unknown:
                 raise InputError(f"{where}.{unknown[0]}: unknown field, expected position [+ target]")
             try:
-                p = _vector(item["position"], 3, f"poses[{i}].position")
-                t = _vector(item["target"], 3, f"poses[{i}].target") if "target" in item else _vector3(target, "target")
+                p = vector(item["position"], 3, f"poses[{i}].position")
+                t = vector(item["target"], 3, f"poses[{i}].target") if "target" in item else vector(target, 3, "target")
                 out.append(look_at(p, t))
             except InputError as exc:
                 raise InputError(f"{path}: {exc}") from None
@@ -282,7 +284,7 @@ def row_poses(
     >>> P[:, 1, 3].round(3).tolist(), P[0, :3, 2].round(6).tolist()
     ([0.6, 0.0, -0.6], [1.0, 0.0, 0.0])
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+    if not is_int(n) or n < 1:
         raise InputError(f"--views: got row:{n!r}, expected row:N with N >= 1 views")
     for name, v in (("--distance (distance)", distance), ("--row-length (length)", length)):
         if not (math.isfinite(v) and v > 0):
@@ -362,7 +364,7 @@ def _poses_on_sphere(
     target: ArrayLike, distance: float, view_direction: ArrayLike, polar: NDArray, azimuth: NDArray
 ) -> NDArray[np.float64]:
     """Cameras at ``distance`` from ``target``, ``polar`` radians off the axis, looking at the target."""
-    t = _vector3(target, "target")
+    t = vector(target, 3, "target")
     _check_positive(distance, "distance")
     axis = _unit(view_direction, "view_direction")
     frame = look_at(t - distance * axis, t)  # the axial view: its image right/down span the azimuth plane
@@ -375,15 +377,8 @@ def _poses_on_sphere(
     return np.stack(out)
 
 
-def _vector3(v: ArrayLike, where: str) -> NDArray[np.float64]:
-    a = np.asarray(v, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InputError(f"{where}: expected [x, y, z] finite (metres), got {v!r}")
-    return a
-
-
 def _unit(v: ArrayLike, where: str) -> NDArray[np.float64]:
-    a = _vector3(v, where)
+    a = vector(v, 3, where)
     n = float(np.linalg.norm(a))
     if n == 0:
         raise InputError(f"{where}: zero vector, expected a direction")
@@ -391,16 +386,16 @@ def _unit(v: ArrayLike, where: str) -> NDArray[np.float64]:
 
 
 def _check_positive(value: float, where: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+    if not is_real(value) or not (math.isfinite(value) and value > 0):
         raise InputError(f"{where}: got {value!r}, expected a positive number of metres")
 
 
 def _check_count(n: int, where: str) -> int:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+    if not is_int(n) or n < 1:
         raise InputError(f"{where}: got {n!r}, expected a positive integer")
     return int(n)
 
 
 def _check_angle(angle: float, where: str, max_value: float) -> None:
-    if not (isinstance(angle, (int, float)) and math.isfinite(angle) and 0 <= angle <= max_value + 1e-12):
+    if not (is_real(angle) and math.isfinite(angle) and 0 <= angle <= max_value + 1e-12):
         raise InputError(f"{where}: got {angle!r} rad, expected a value in [0, {max_value:.4g}] rad")

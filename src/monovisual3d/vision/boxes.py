@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..checks import is_int
 from ..errors import InputError
 
 
@@ -42,7 +43,7 @@ def boxes_from_label_image(
         raise InputError(f"labels: expected a (height, width) image, got shape {list(lab.shape)}")
     if not np.issubdtype(lab.dtype, np.integer):
         raise InputError(f"labels: expected integer labels, got dtype {lab.dtype}")
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
+    if not is_int(count) or count < 0:
         raise InputError(f"count: expected a non-negative integer, got {count!r}")
     boxes = np.full((int(count), 4), np.nan)
     pixels = np.zeros(int(count), dtype=np.int64)

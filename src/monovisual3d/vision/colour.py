@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._extras import require
+from ..checks import is_int
 from ..errors import InputError
 from ..session import Detection
 
@@ -70,7 +71,7 @@ class ColourDetectorConfig:
                 raise InputError(f"{name}: got {value}, expected a fraction in [0, 1]")
         for name in ("open_px", "close_px", "min_area_px"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            if not is_int(value) or value < 0:
                 raise InputError(f"{name}: got {value!r}, expected a non-negative integer (pixels)")
 
 

@@ -186,10 +186,21 @@ def _paper_experiment(cfg: ReproduceConfig, index: int) -> tuple[list[RunRecord]
                     objs = filt.estimate(centre=centre, keep_threshold=thr)
                     records.append(
                         record_run(
-                            experiment, "paper", kernel, centre, thr, order, seed, scene, objs,
-                            off_fruit_mass=mass, n_clustered=n_cells, skipped_views=skipped, seconds=secs,
+                            experiment,
+                            "paper",
+                            kernel,
+                            centre,
+                            thr,
+                            order,
+                            seed,
+                            scene,
+                            objs,
+                            off_fruit_mass=mass,
+                            n_clustered=n_cells,
+                            skipped_views=skipped,
+                            seconds=secs,
                         )
-                    )  # fmt: skip
+                    )
             steps.append(f"{experiment} {kernel} {''.join(map(str, order))}" + (f" seed {seed}" if seed is not None else ""))
         if cfg.bayes:
             objs, secs = _run_bayes(s)
@@ -211,10 +222,21 @@ def _ghost_scene(cfg: ReproduceConfig, n: int, i: int) -> tuple[list[RunRecord],
         objs = filt.estimate(centre="weighted")
         records.append(
             record_run(
-                "ghost", "paper", kernel, "weighted", cfg.keep_threshold, (0, 1, 2), scene_seed, sc, objs,
-                off_fruit_mass=mass, n_clustered=n_cells, skipped_views=skipped, seconds=secs,
+                "ghost",
+                "paper",
+                kernel,
+                "weighted",
+                cfg.keep_threshold,
+                (0, 1, 2),
+                scene_seed,
+                sc,
+                objs,
+                off_fruit_mass=mass,
+                n_clustered=n_cells,
+                skipped_views=skipped,
+                seconds=secs,
             )
-        )  # fmt: skip
+        )
     if cfg.bayes:
         objs, secs = _run_bayes(session)
         records.append(record_run("ghost", "bayes", "-", "-", math.nan, (0, 1, 2), scene_seed, sc, objs, seconds=secs))

@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..._structured import read_structured_file
+from ...checks import check_quaternion_xyzw, finite_number, vector
 from ...errors import InputError
-from ...frames import check_quaternion_xyzw
 from ...result import Result
-from ...session import _number, _vector, read_structured_file
 
 
 @dataclass(frozen=True)
@@ -63,15 +63,15 @@ def fruits_from_dict(data: Any) -> list[Fruit]:
             raise InputError(f"{where}: expected an object, got {type(o).__name__}")
         if "position" not in o:
             raise InputError(f"{where}.position: missing field, expected [x, y, z] in metres")
-        position = _vector(o["position"], 3, f"{where}.position")
-        score = _number(o.get("score", 0.0), f"{where}.score")
+        position = vector(o["position"], 3, f"{where}.position")
+        score = finite_number(o.get("score", 0.0), f"{where}.score")
         semi_axes, R = None, np.eye(3)
         if o.get("semi_axes") is not None:
-            semi_axes = _vector(o["semi_axes"], 3, f"{where}.semi_axes")
+            semi_axes = vector(o["semi_axes"], 3, f"{where}.semi_axes")
             if q := o.get("quaternion_xyzw"):
                 R = _rotation_from_quaternion_xyzw(check_quaternion_xyzw(q, where=f"{where}.quaternion_xyzw"))
         elif o.get("radius") is not None:
-            semi_axes = np.full(3, _number(o["radius"], f"{where}.radius"))
+            semi_axes = np.full(3, finite_number(o["radius"], f"{where}.radius"))
         if semi_axes is not None and not np.all(semi_axes > 0):
             name = "semi_axes" if o.get("semi_axes") is not None else "radius"
             raise InputError(f"{where}.{name}: expected positive metres, got {o[name]!r}")

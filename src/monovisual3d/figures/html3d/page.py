@@ -12,7 +12,8 @@ from typing import TYPE_CHECKING, Any
 from ..._extras import require
 from ...errors import InputError, InputWarning
 from ...result import Result
-from ...session import Session, load_session
+from ...session import Session
+from ...session.load import load_session
 from ...truth import ObjectSet, load_objects
 from .context import base_axes_traces, workspace_traces
 from .fruits import Fruit, load_fruits
@@ -41,7 +42,7 @@ def scene_figure(
 
     Parameters
     ----------
-    session : Session, or a session file / dict (:func:`~monovisual3d.session.load_session`)
+    session : Session, or a session file / dict (:func:`~monovisual3d.session.load.load_session`)
     result : Result, result file or dict, optional, the estimated fruit
     truth : ObjectSet, truth file or dict (``{"objects": [{"position": ..., "radius": ...}]}``), optional
     title : str, optional, default names the session and the counts

@@ -69,7 +69,7 @@ def select_boxes(session: Session, max_boxes: int = MAX_DRAWN_BOXES) -> BoxSelec
     Examples
     --------
     >>> from monovisual3d.examples import example_session_path
-    >>> from monovisual3d.session import load_session
+    >>> from monovisual3d import load_session
     >>> sel = select_boxes(load_session(example_session_path()), max_boxes=2)
     >>> sel.drawn, sel.thinned
     (2, True)

@@ -6,8 +6,9 @@ import math
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
+from ...checks import is_real
 from ...errors import InputError
-from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, MIN_SEARCH_RESOLUTION_M, is_real
+from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, MIN_SEARCH_RESOLUTION_M
 from ..options import check_shared_options
 from .sensor import SensorModel
 

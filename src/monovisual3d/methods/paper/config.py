@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ...checks import is_real
 from ...errors import InputError
 from ...limits import DEFAULT_KEEP_THRESHOLD, DEFAULT_MAX_BYTES, DEFAULT_REACH_M
 
@@ -61,11 +62,11 @@ class PaperConfig:
         # Validate every option up front: otherwise a bad centre/k/threshold only surfaces after the
         # whole filter has run, and not at all when no view has a detection.
         _check_resolution(self.resolution)
-        if not (isinstance(self.reach, (int, float)) and math.isfinite(self.reach) and self.reach > 0):
+        if not (is_real(self.reach) and math.isfinite(self.reach) and self.reach > 0):
             raise InputError(f"reach: got {self.reach!r}, expected a positive number of metres")
         if self.centre not in CENTRES:
             raise InputError(f"centre: got {self.centre!r}, expected one of {list(CENTRES)}")
-        if not (isinstance(self.keep_threshold, (int, float)) and 0.0 < self.keep_threshold <= 1.0):
+        if not (is_real(self.keep_threshold) and 0.0 < self.keep_threshold <= 1.0):
             raise InputError(f"keep_threshold: got {self.keep_threshold!r}, expected a value in (0, 1]")
         choose_k([1], self.k)
         from ...engine import check_backend

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from ...checks import is_int
 from ...errors import InputError
 from ...grid import VoxelGrid
 from ...limits import DEFAULT_KEEP_THRESHOLD, MAX_KMEANS_WORK
@@ -41,7 +42,7 @@ def choose_k(counts: Sequence[int], rule: str | int = "max") -> int:
     (3, 2, 5)
     """
     counts = [int(c) for c in counts if c > 0]
-    if isinstance(rule, (int, np.integer)) and not isinstance(rule, bool):
+    if is_int(rule):
         if rule < 1:
             raise InputError(f"k: got {rule}, expected a positive number of objects")
         return int(rule)

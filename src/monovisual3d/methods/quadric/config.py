@@ -5,8 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
+from ...checks import is_real
 from ...errors import InputError
-from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, is_real
+from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M
 from ..options import check_shared_options
 
 if TYPE_CHECKING:

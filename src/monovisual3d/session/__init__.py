@@ -1,0 +1,19 @@
+"""The session: camera, views (pose + detections) and optional workspace.
+
+A session is the input contract of :func:`monovisual3d.localize`. It is read from JSON or YAML (same
+structure), validated on load, and every problem is reported as one line that names the file, the JSON
+path and what was expected, for example ``session.json: views[3].pose.quaternion_xyzw: norm 0.71, expected 1``.
+
+- :mod:`.model`: the frozen dataclasses :class:`Session`, :class:`View`, :class:`Detection`, :class:`Workspace`
+  (core: every layer may use them);
+- :mod:`.load`: the loader, ``dict`` or file -> :class:`Session` (:func:`~.load.load_session`); it warns about
+  view geometry with :mod:`monovisual3d.geometry.baseline`, so it sits in the geometry layer.
+
+See ``docs/formats.md`` for the full description.
+"""
+
+from __future__ import annotations
+
+from .model import Detection, Session, View, Workspace
+
+__all__ = ["Detection", "Session", "View", "Workspace"]
