@@ -303,3 +303,19 @@ def test_markup_in_errors_and_session_keys_prints_literally(runner: CliRunner, m
     data["views"][0]["detections"][0]["[bold]"] = 1
     bad = _write(tmp_path / "detection-key.json", data)
     _one_line_error(runner.invoke(app, ["localize", str(bad)]), "views[0].detections[0].[bold]: unknown field")
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "expected"),
+    [
+        ("sessions.csv", b"session,status\nruns/a,ok\n", "this looks like a CSV table"),
+        ("fruit.parquet", b"PAR1\x15\x04\x15\xff\xfe", "this looks like a Parquet table"),
+        ("scene.png", b"\x89PNG\r\n\x1a\n\x00\xff\xfe", "this looks like an image"),
+    ],
+)
+def test_a_table_or_image_in_place_of_a_session_says_what_it_is(tmp_path, name, content, expected):
+    path = tmp_path / name
+    path.write_bytes(content)
+    res = CliRunner().invoke(app, ["localize", str(path)])
+    assert res.exit_code == 2
+    assert expected in res.stderr and len(res.stderr.strip().splitlines()) == 1

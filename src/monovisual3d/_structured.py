@@ -25,6 +25,7 @@ from typing import Any
 import yaml
 
 from .errors import InputError, excerpt, one_line
+from .file_kinds import kind_by_suffix
 from .limits import MAX_FILE_BYTES, MAX_NESTING, MAX_NODES, MAX_YAML_BYTES, MAX_YAML_NODES
 
 
@@ -77,7 +78,10 @@ def read_text(path: str | Path) -> str:
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise InputError(f"{name}: not UTF-8 text (invalid byte 0x{raw[exc.start]:02x} at offset {exc.start})") from None
+        hint = kind_by_suffix(str(path))
+        raise InputError(
+            f"{name}: " + (hint if hint else f"not UTF-8 text (invalid byte 0x{raw[exc.start]:02x} at offset {exc.start})")
+        ) from None
     if "\x00" in text:
         raise InputError(f"{name}: contains NUL bytes, expected a text file")
     return text
@@ -107,6 +111,9 @@ def load_json(text: str, source: str) -> Any:
     try:
         data = json.loads(text, object_pairs_hook=_pairs)
     except json.JSONDecodeError as exc:
+        hint = kind_by_suffix(source)
+        if hint:
+            raise InputError(f"{source}: not JSON: {hint}") from None
         raise InputError(f"{source}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
     except RecursionError:
         raise InputError(f"{source}: not valid JSON: nested deeper than {MAX_NESTING} levels") from None

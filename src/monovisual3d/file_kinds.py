@@ -110,3 +110,33 @@ def wrong_kind(data: Any, expected: str) -> str | None:
         return None
     found = next(k for k in KINDS if k.name == kind)
     return f"this is {found.what}, not {EXPECTED[expected]}; {found.where}"
+
+
+#: Files that are not JSON or YAML at all, by their suffix: what they are and where they go.
+SUFFIX_KINDS = {
+    ".csv": "a CSV table (batch writes fruit.csv and sessions.csv); read it with a spreadsheet or pandas",
+    ".parquet": "a Parquet table (written by batch); read it with pandas or pyarrow",
+    ".png": "an image; a session lists the detector's boxes, not the pictures (see monovisual3d import)",
+    ".jpg": "an image; a session lists the detector's boxes, not the pictures (see monovisual3d import)",
+    ".jpeg": "an image; a session lists the detector's boxes, not the pictures (see monovisual3d import)",
+    ".html": "a page written by view or demo; open it in a web browser",
+    ".npy": "a numpy array (the LfD layout: give its folder to monovisual3d import-lfd)",
+    ".bag": "a ROS bag; convert it with monovisual3d import-bag",
+    ".db3": "a ROS 2 bag file; convert its folder with monovisual3d import-bag",
+    ".mcap": "a ROS 2 bag file; convert its folder with monovisual3d import-bag",
+}
+
+
+def kind_by_suffix(name: str) -> str | None:
+    """What a file that failed to parse as JSON/YAML probably is, from its suffix (None when the suffix says nothing).
+
+    Examples
+    --------
+    >>> kind_by_suffix("results/fruit.parquet")
+    'this looks like a Parquet table (written by batch); read it with pandas or pyarrow'
+    >>> kind_by_suffix("session.json") is None
+    True
+    """
+    suffix = name[name.rfind(".") :].lower() if "." in name.rsplit("/", 1)[-1] else ""
+    what = SUFFIX_KINDS.get(suffix)
+    return None if what is None else f"this looks like {what}"

@@ -10,6 +10,7 @@ import hashlib
 import json
 import math
 import time
+import warnings as py_warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -190,11 +191,15 @@ def run_job(job: Job, localizer: Callable[..., Result] | None = None) -> tuple[d
     t0 = time.perf_counter()
     counts: dict[str, Any] = {}
     try:
-        session = session_from_dict(parse_structured_text(job.text, job.path), job.path)
-        counts = {"n_views": len(session.views), "n_detections": sum(len(v.detections) for v in session.views)}
-        result = localizer(session, method=job.method, **job.options)
+        # the session's warnings go into its row, not to the worker's stderr as raw Python warnings
+        with py_warnings.catch_warnings(record=True) as caught:
+            py_warnings.simplefilter("always")
+            session = session_from_dict(parse_structured_text(job.text, job.path), job.path)
+            counts = {"n_views": len(session.views), "n_detections": sum(len(v.detections) for v in session.views)}
+            result = localizer(session, method=job.method, **job.options)
         fruit = fruit_rows(job.session_id, result)
-        warnings = merge_reasons(list(result.warnings), incomplete_reasons(session, result))  # empty, boxes left over
+        raised = [str(w.message) for w in caught if str(w.message) not in result.warnings]
+        warnings = merge_reasons([*result.warnings, *raised], incomplete_reasons(session, result))  # empty, boxes left over
         evaluation: dict[str, Any] = {}
         if job.truth_text is not None:
             try:

@@ -12,7 +12,7 @@ from ._app import app, console, handle_errors, plain
 from .options import ResultsOutput, SpreadScheduler, SpreadWorkers, spread_flags
 
 bench_app = typer.Typer(
-    help="Benchmarks: accuracy of the methods on simulated scenes, speed, start-up, next-best-view and batch.",
+    help="Benchmarks: accuracy on simulated scenes, real data (LfD layout), dense rows (scale), speed, start-up, next-best-view and batch.",
     no_args_is_help=True,
     rich_markup_mode=None,
 )

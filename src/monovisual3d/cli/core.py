@@ -13,7 +13,7 @@ from rich.table import Table
 from ..errors import InputError, InputWarning
 from ..methods import DEFAULT_METHOD, METHODS
 from ._app import app, check_output, command_budget, console, handle_errors, json_text, plain, print_warning, write_output
-from .options import TimeLimit, method_config, translate_error, with_method_options
+from .options import MaxMemory, TimeLimit, method_config, translate_error, with_method_options
 
 if TYPE_CHECKING:
     from ..metrics import Metrics
@@ -198,6 +198,8 @@ def evaluate(
         float | None, typer.Option(help="Match gate in metres for recall/precision (default: true radius, >= 20 mm).")
     ] = None,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the metrics JSON here.")] = None,
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Compare estimates with ground truth (help: :data:`EVALUATE_HELP`)."""
     if gate is not None and not gate > 0:
@@ -205,6 +207,12 @@ def evaluate(
     if not math.isfinite(gate if gate is not None else 0.0):
         raise InputError(f"--gate: got {gate}, expected a finite distance in metres")
     check_output(output, estimates, truth)
+    with command_budget(time_limit, max_memory):
+        _evaluate_and_print(estimates, truth, gate, output)
+
+
+def _evaluate_and_print(estimates: Path, truth: Path, gate: float | None, output: Path | None) -> None:
+    """The body of ``evaluate`` after its checks: load both files, match, print and write the metrics."""
     from ..metrics import evaluate as evaluate_fn
     from ..truth import load_objects
 

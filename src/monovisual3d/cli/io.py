@@ -224,6 +224,8 @@ def import_lfd_cmd(
     image_size: Annotated[
         str | None, typer.Option("--image-size", help="Image size WxH (default: twice the principal point).")
     ] = None,
+    time_limit: TimeLimit = None,
+    max_memory: MaxMemory = None,
 ) -> None:
     """Build a session (and a truth file) from the LfD .npy layout; boxes pooled per view, sorted by x_min."""
     from ..io.lfd import read_lfd
@@ -232,9 +234,10 @@ def import_lfd_cmd(
     check_output(truth, folder, output)
     if truth is not None and output.resolve() == truth.resolve():
         raise InputError(f"{one_line(str(truth))}: also the --output file, choose another --truth")
-    session, truth_data = read_lfd(
-        folder, keep_association=keep_association, truth=truth is not None, image_size=_size(image_size)
-    )
+    with command_budget(time_limit, max_memory):
+        session, truth_data = read_lfd(
+            folder, keep_association=keep_association, truth=truth is not None, image_size=_size(image_size)
+        )
     write_output(output, session.to_json() + "\n")
     n_boxes = sum(len(v.detections) for v in session.views)
     how = "track ids from the columns" if keep_association else "pooled per view, sorted by x_min"

@@ -117,7 +117,7 @@ def _write_views(
         picture=write_view_picture,
     )
     console.print(
-        f"simulated {len(sc.fruits)} fruit ({plain(sc.name)}) from {len(poses)} views; "
+        f"simulated {len(sc.fruits)} fruit (scene {plain(sc.name)}) from {len(poses)} views; "
         f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
         highlight=False,
     )
@@ -185,7 +185,7 @@ def _write_active(output: Path, sc, camera, active: int, noise_model, rng) -> No
         raise InputError(f"--active: got {active}, expected a positive number of views")
     paths = write_active_simulation(output, sc, camera, active, noise=noise_model, rng=rng)
     console.print(
-        f"active loop: {active} views of {len(sc.fruits)} fruit ({plain(sc.name)}); "
+        f"active loop: {active} views of {len(sc.fruits)} fruit (scene {plain(sc.name)}); "
         f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
         highlight=False,
     )

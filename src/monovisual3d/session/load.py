@@ -212,7 +212,7 @@ def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> 
     if not np.array_equal(clipped, box):
         warnings.warn(
             InputWarning(
-                f"{prefix}{where}.bbox_xyxy: {box.tolist()} extends past the {W}x{H} image; clipped to {clipped.tolist()}"
+                f"{prefix}{where}.bbox_xyxy: {np.round(box, 2).tolist()} extends past the {W}x{H} image; clipped to {np.round(clipped, 2).tolist()}"
             ),
             stacklevel=4,
         )
