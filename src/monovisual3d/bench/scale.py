@@ -37,7 +37,7 @@ from ..sim.noise import NoiseModel
 from ..sim.row import row_camera, row_scene
 from ..sim.simulate import simulate
 from ..sim.viewpoints import row_poses
-from .speed import busy_core, machine_metadata
+from .timing import busy_core, machine_metadata
 
 #: Fruit counts of the fruit sweep and its number of views.
 FRUIT_COUNTS, SWEEP_VIEWS = (12, 24, 48, 96, 192), 5

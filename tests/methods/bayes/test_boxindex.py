@@ -126,7 +126,9 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
     total = np.round(rng.normal(size=(300, 5)), 1)  # rounded: many ties, the first one wins as in np.argmax
     total[rng.random(total.shape) < 0.3] = -np.inf
     n_assoc = rng.integers(0, 4, total.shape).astype(np.int32)
-    work = _Work(total, n_assoc, np.zeros((2, 300, 5), np.int16), np.ones(300, bool), total.copy(), np.zeros(300))
+    work = _Work(
+        total, n_assoc, np.zeros((2, 300, 5), np.int16), np.ones(300, bool), total.copy(), np.zeros(300), np.zeros(300, bool)
+    )
     work.update(np.arange(300), 2)
     for _ in range(20):
         rows = rng.random(300) > 0.3
@@ -137,3 +139,22 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
         changed = np.flatnonzero(rng.random(300) < 0.1)
         work.total[changed] = rng.normal(size=(len(changed), 5))
         work.update(changed, 2)
+
+
+def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes():
+    """Rescoring a stale hypothesis only when its bound reaches the look-ahead band is an exact skip."""
+    from monovisual3d.bench.scale import row_session
+    from monovisual3d.methods.bayes.config import BayesConfig
+    from monovisual3d.methods.bayes.extract import extract
+    from monovisual3d.methods.bayes.localizer import region_grid
+    from monovisual3d.methods.bayes.problem import build_problem
+    from monovisual3d.methods.bayes.search import search
+
+    session, _ = row_session(24, 4, 3)
+    problem = build_problem(session.camera, BayesConfig(use_masks=False), session.views)
+    hyp = search(problem, region_grid(problem.config, session.workspace, session.views[0]))
+    lazy, taken_lazy = extract(problem, hyp)
+    eager, taken_eager = extract(problem, hyp, lazy=False)
+    assert len(lazy) >= 20 and taken_lazy == taken_eager
+    assert [o.score for o in lazy] == [o.score for o in eager]
+    assert_array_equal(np.array([o.position for o in lazy]), np.array([o.position for o in eager]))
