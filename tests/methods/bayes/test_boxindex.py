@@ -158,3 +158,16 @@ def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes():
     assert len(lazy) >= 20 and taken_lazy == taken_eager
     assert [o.score for o in lazy] == [o.score for o in eager]
     assert_array_equal(np.array([o.position for o in lazy]), np.array([o.position for o in eager]))
+
+
+def test_too_many_boxes_in_a_view_are_refused_before_any_work():
+    from types import SimpleNamespace
+
+    from monovisual3d.errors import InputError
+    from monovisual3d.limits import MAX_BAYES_BOXES_PER_VIEW
+    from monovisual3d.methods.bayes.pipeline import check_work
+
+    views = [SimpleNamespace(boxes=np.zeros((n, 4)), index=i) for i, n in enumerate([3, MAX_BAYES_BOXES_PER_VIEW + 1])]
+    with pytest.raises(InputError, match=r"views\[1\]\.detections: .*limits\.MAX_BAYES_BOXES_PER_VIEW"):
+        check_work(SimpleNamespace(views=views))
+    check_work(SimpleNamespace(views=views[:1]))
