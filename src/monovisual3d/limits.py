@@ -114,3 +114,9 @@ MIN_SEARCH_RESOLUTION_M = 1e-3
 MAX_KMEANS_WORK = 50_000_000
 #: Most local worker processes a batch or a benchmark starts (``--workers``); each loads the package (~200 MB).
 MAX_LOCAL_WORKERS = 256
+#: Most boxes in one view the ``bayes`` search takes on (estimated before any work: a session beyond it is refused
+#: with a one-line error naming this limit). Its cost grows faster than the boxes (ghost intersections of the
+#: viewing cones of different objects): on this project's 2-core test machine, random boxes in 3 views took
+#: about 8 s of CPU at 100 per view and 23 s at 200; 1,000 per view did not finish in 300 s. A dense plant row
+#: (96 fruit from 0.8 m) has about 90 per view, so the limit is over three times real use.
+MAX_BAYES_BOXES_PER_VIEW = 300

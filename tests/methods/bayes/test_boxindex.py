@@ -126,7 +126,9 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
     total = np.round(rng.normal(size=(300, 5)), 1)  # rounded: many ties, the first one wins as in np.argmax
     total[rng.random(total.shape) < 0.3] = -np.inf
     n_assoc = rng.integers(0, 4, total.shape).astype(np.int32)
-    work = _Work(total, n_assoc, np.zeros((2, 300, 5), np.int16), np.ones(300, bool), total.copy(), np.zeros(300))
+    work = _Work(
+        total, n_assoc, np.zeros((2, 300, 5), np.int16), np.ones(300, bool), total.copy(), np.zeros(300), np.zeros(300, bool)
+    )
     work.update(np.arange(300), 2)
     for _ in range(20):
         rows = rng.random(300) > 0.3
@@ -137,3 +139,58 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
         changed = np.flatnonzero(rng.random(300) < 0.1)
         work.total[changed] = rng.normal(size=(len(changed), 5))
         work.update(changed, 2)
+
+
+def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes():
+    """Rescoring a stale hypothesis only when its bound reaches the look-ahead band is an exact skip."""
+    from monovisual3d.bench.scale import row_session
+    from monovisual3d.methods.bayes.config import BayesConfig
+    from monovisual3d.methods.bayes.extract import extract
+    from monovisual3d.methods.bayes.localizer import region_grid
+    from monovisual3d.methods.bayes.problem import build_problem
+    from monovisual3d.methods.bayes.search import search
+
+    session, _ = row_session(24, 4, 3)
+    problem = build_problem(session.camera, BayesConfig(use_masks=False), session.views)
+    hyp = search(problem, region_grid(problem.config, session.workspace, session.views[0]))
+    lazy, taken_lazy = extract(problem, hyp)
+    eager, taken_eager = extract(problem, hyp, lazy=False)
+    assert len(lazy) >= 20 and taken_lazy == taken_eager
+    assert [o.score for o in lazy] == [o.score for o in eager]
+    assert_array_equal(np.array([o.position for o in lazy]), np.array([o.position for o in eager]))
+
+
+def test_too_many_boxes_in_a_view_are_refused_before_any_work():
+    from types import SimpleNamespace
+
+    from monovisual3d.errors import InputError
+    from monovisual3d.limits import MAX_BAYES_BOXES_PER_VIEW
+    from monovisual3d.methods.bayes.pipeline import check_work
+
+    views = [SimpleNamespace(boxes=np.zeros((n, 4)), index=i) for i, n in enumerate([3, MAX_BAYES_BOXES_PER_VIEW + 1])]
+    with pytest.raises(InputError, match=r"views\[1\]\.detections: .*limits\.MAX_BAYES_BOXES_PER_VIEW"):
+        check_work(SimpleNamespace(views=views))
+    check_work(SimpleNamespace(views=views[:1]))
+
+
+def test_localize_refuses_a_thousand_boxes_per_view_in_one_line(tmp_path):
+    """The hostile session of the issue (1,000 boxes in each of 3 views) ends in one line with exit code 2."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from monovisual3d.cli import app
+    from monovisual3d.examples import example_session_path
+
+    data = json.loads(example_session_path().read_text())
+    rng = np.random.default_rng(0)
+    w, h = data["camera"]["width"], data["camera"]["height"]
+    for view in data["views"]:
+        xy = rng.uniform(0, [w - 40, h - 40], size=(1000, 2))
+        view["detections"] = [{"bbox_xyxy": [x, y, x + 30, y + 30]} for x, y in xy.tolist()]
+    path = tmp_path / "many.json"
+    path.write_text(json.dumps(data))
+    res = CliRunner().invoke(app, ["localize", str(path), "-q", "-o", str(tmp_path / "r.json")])
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert res.exit_code == 2 and len(lines) == 1, res.output
+    assert "1,000 boxes" in lines[0] and "limits.MAX_BAYES_BOXES_PER_VIEW" in lines[0]

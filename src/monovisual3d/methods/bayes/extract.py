@@ -5,7 +5,14 @@ is accepted when at least ``min_views`` views have a box associated to it and
 its refined score is at least ``accept`` nats. An accepted object takes its
 boxes (they join ``taken``) and the hypotheses that used them are rescored; a
 rejected one suppresses the hypotheses around it. Stop when the best
-remaining grid score is below ``accept - prune_slack``. The look-ahead refines
+remaining grid score is below ``accept - prune_slack``.
+
+The rescoring is lazy and exact: a hypothesis's score only falls as boxes are taken (the best
+remaining box of a view is never better than before, a miss is always there), so its last score
+is an upper bound. The hypotheses that used a taken box are marked stale and rescored only when
+their bound reaches the band the next step looks at (within ``lookahead_margin`` of the best);
+each is scored with the boxes taken by then, exactly as an eager rescoring would leave it, and
+most of the ghost hypotheses along the taken boxes' viewing cones are never scored again. The look-ahead refines
 up to ``lookahead`` distinct candidates whose grid score is within
 ``lookahead_margin`` of the best and keeps the best refined one.
 """
@@ -39,12 +46,19 @@ class _Work:
     active: NDArray[np.bool_]
     eligible: NDArray[np.float64]
     row_best: NDArray[np.float64]
+    stale: NDArray[np.bool_]
 
     @classmethod
     def start(cls, hyp: Hypotheses, min_views: int) -> _Work:
         total, n_assoc, assoc = hyp.scores
         work = cls(
-            total.copy(), n_assoc.copy(), assoc.copy(), np.ones(len(total), dtype=bool), total.copy(), np.zeros(len(total))
+            total.copy(),
+            n_assoc.copy(),
+            assoc.copy(),
+            np.ones(len(total), dtype=bool),
+            total.copy(),
+            np.zeros(len(total)),
+            np.zeros(len(total), dtype=bool),
         )
         work.update(np.arange(len(total)), min_views)
         return work
@@ -94,24 +108,45 @@ def _candidates(
 
 
 def _take(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, obj: DetectedObject) -> Taken:
-    """Give ``obj`` its boxes: suppress the cells around it and rescore the hypotheses that used its boxes."""
+    """Give ``obj`` its boxes: suppress the cells around it and mark stale the hypotheses that used its boxes."""
     new = boxes_of(problem, obj)
     taken = taken | new
     near = np.linalg.norm(hyp.centres_base - obj.position, axis=1) <= max(hyp.cell, 0.5 * float(obj.radius or 0))
     work.suppress(near)
-    affected = np.zeros(len(hyp.centres_base), dtype=bool)
-    for v, j in new:
-        affected |= (work.assoc[v] == j).any(axis=1)
-    if affected.any():
-        sub = np.flatnonzero(affected)
-        t, n, a = score_hypotheses(problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub], hyp.semi_up)
-        work.total[sub], work.n_assoc[sub], work.assoc[:, sub] = t, n, a
-        work.update(sub, problem.config.min_views)
+    live = np.flatnonzero(work.active & ~work.stale)  # a stale row is rescored anyway; its associations are old
+    for v in {v for v, _ in new}:
+        js = np.array([j for vv, j in new if vv == v])
+        hit = np.isin(work.assoc[v, live], js).any(axis=1)
+        work.stale[live[hit]] = True
     return taken
 
 
-def extract(problem: Problem, hyp: Hypotheses) -> tuple[list[DetectedObject], Taken]:
-    """Objects found greedily in ``hyp``, and the boxes they took."""
+def _refresh(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, lazy: bool = True) -> None:
+    """Rescore the stale rows whose bound lies within ``lookahead_margin`` of the best, until the band is fresh
+    (every stale row when not ``lazy``: the eager reference).
+
+    A stale row below the band cannot be the best nor a look-ahead candidate: its true score is at most its bound.
+    """
+    margin = problem.config.lookahead_margin if lazy else np.inf
+    while True:
+        best = float(work.row_best.max(initial=-np.inf))
+        if not np.isfinite(best):
+            return
+        sub = np.flatnonzero(work.stale & (work.row_best >= best - margin))
+        if len(sub) == 0:
+            return
+        t, n, a = score_hypotheses(problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub], hyp.semi_up)
+        work.total[sub], work.n_assoc[sub], work.assoc[:, sub] = t, n, a
+        work.stale[sub] = False
+        work.update(sub, problem.config.min_views)
+
+
+def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[DetectedObject], Taken]:
+    """Objects found greedily in ``hyp``, and the boxes they took.
+
+    ``lazy=False`` rescores every stale hypothesis after each taken object (the reference the lazy rescoring
+    is tested against: the same objects).
+    """
     cfg = problem.config
     work = _Work.start(hyp, cfg.min_views)
     objects: list[DetectedObject] = []
@@ -121,6 +156,7 @@ def extract(problem: Problem, hyp: Hypotheses) -> tuple[list[DetectedObject], Ta
     for _ in range(max_iter):
         if work.total.size == 0:
             break
+        _refresh(problem, hyp, work, taken, lazy)
         best = float(work.row_best.max())
         if not np.isfinite(best) or best < cfg.accept - cfg.prune_slack:
             break

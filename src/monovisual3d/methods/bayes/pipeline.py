@@ -19,8 +19,10 @@ from typing import Any
 
 import numpy as np
 
+from ...errors import InputError
 from ...frames import invert_transform
 from ...grid import VoxelGrid
+from ...limits import MAX_BAYES_BOXES_PER_VIEW
 from ...result import DetectedObject
 from .associate import steal_pass, swap_pass
 from .bundle import bundle_adjust, correction_transform
@@ -59,6 +61,7 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     cfg = problem.config
     if grid is None or len(problem.views) < cfg.min_views:
         return Estimate([])
+    check_work(problem)
     t0 = time.perf_counter()
     hyp = search(problem, grid)
     t1 = time.perf_counter()
@@ -81,6 +84,17 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     timing["shape"] = time.perf_counter() - t3
     objects.sort(key=lambda o: -o.score)
     return Estimate(objects, corrections, timing, hyp.stats())
+
+
+def check_work(problem: Problem) -> None:
+    """Refuse, before any work, a view with more boxes than :data:`~monovisual3d.limits.MAX_BAYES_BOXES_PER_VIEW`."""
+    most = max((len(vd.boxes) for vd in problem.views), default=0)
+    if most > MAX_BAYES_BOXES_PER_VIEW:
+        v = max(problem.views, key=lambda vd: len(vd.boxes)).index
+        raise InputError(
+            f"views[{v}].detections: {most:,} boxes, more than the {MAX_BAYES_BOXES_PER_VIEW:,} per view the bayes search takes "
+            "on (limits.MAX_BAYES_BOXES_PER_VIEW); thin the detections (e.g. a higher score threshold) or split the session"
+        )
 
 
 def bundle(problem: Problem, objects: list[DetectedObject]) -> tuple[list[DetectedObject], list[dict[str, Any]]]:
