@@ -120,3 +120,8 @@ MAX_LOCAL_WORKERS = 256
 #: about 8 s of CPU at 100 per view and 23 s at 200; 1,000 per view did not finish in 300 s. A dense plant row
 #: (96 fruit from 0.8 m) has about 90 per view, so the limit is over three times real use.
 MAX_BAYES_BOXES_PER_VIEW = 300
+#: Most views with boxes the ``bayes`` method takes in one session. Its search, extraction and refits grow with
+#: the views: on this project's 2-core machine a ring of views of the paper's six fruit took about 10 s at 50
+#: views, 14 s at 100 and 30 s (2.3 GB) at 200; 500 did not finish in 120 s. Robots use 3-20 views (the active
+#: loop stops by 20), so the limit is ten times real use.
+MAX_BAYES_VIEWS = 200

@@ -194,3 +194,16 @@ def test_localize_refuses_a_thousand_boxes_per_view_in_one_line(tmp_path):
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
     assert res.exit_code == 2 and len(lines) == 1, res.output
     assert "1,000 boxes" in lines[0] and "limits.MAX_BAYES_BOXES_PER_VIEW" in lines[0]
+
+
+def test_too_many_views_are_refused_before_any_work():
+    from types import SimpleNamespace
+
+    from monovisual3d.errors import InputError
+    from monovisual3d.limits import MAX_BAYES_VIEWS
+    from monovisual3d.methods.bayes.pipeline import check_work
+
+    views = [SimpleNamespace(boxes=np.zeros((2, 4)), index=i) for i in range(MAX_BAYES_VIEWS + 1)]
+    with pytest.raises(InputError, match=rf"views: {MAX_BAYES_VIEWS + 1} views with boxes, .*limits\.MAX_BAYES_VIEWS"):
+        check_work(SimpleNamespace(views=views))
+    check_work(SimpleNamespace(views=views[:MAX_BAYES_VIEWS]))

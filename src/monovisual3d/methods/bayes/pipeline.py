@@ -22,7 +22,7 @@ import numpy as np
 from ...errors import InputError
 from ...frames import invert_transform
 from ...grid import VoxelGrid
-from ...limits import MAX_BAYES_BOXES_PER_VIEW
+from ...limits import MAX_BAYES_BOXES_PER_VIEW, MAX_BAYES_VIEWS
 from ...result import DetectedObject
 from .associate import steal_pass, swap_pass
 from .bundle import bundle_adjust, correction_transform
@@ -87,7 +87,13 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
 
 
 def check_work(problem: Problem) -> None:
-    """Refuse, before any work, a view with more boxes than :data:`~monovisual3d.limits.MAX_BAYES_BOXES_PER_VIEW`."""
+    """Refuse, before any work, a view with more boxes than :data:`~monovisual3d.limits.MAX_BAYES_BOXES_PER_VIEW`
+    or more views with boxes than :data:`~monovisual3d.limits.MAX_BAYES_VIEWS`."""
+    if len(problem.views) > MAX_BAYES_VIEWS:
+        raise InputError(
+            f"views: {len(problem.views):,} views with boxes, more than the {MAX_BAYES_VIEWS:,} the bayes search takes on "
+            "(limits.MAX_BAYES_VIEWS); choose the views (e.g. every n-th) or split the session"
+        )
     most = max((len(vd.boxes) for vd in problem.views), default=0)
     if most > MAX_BAYES_BOXES_PER_VIEW:
         v = max(problem.views, key=lambda vd: len(vd.boxes)).index
