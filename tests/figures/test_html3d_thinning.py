@@ -18,7 +18,9 @@ from monovisual3d import load_session  # noqa: E402
 from monovisual3d.errors import InputWarning  # noqa: E402
 from monovisual3d.figures.html3d import MAX_DRAWN_BOXES, figure_json_from_html, select_boxes, write_scene_html  # noqa: E402
 
-N_BOXES = 10_000
+#: Boxes per view: the most a session may hold (limits.MAX_DETECTIONS_PER_VIEW), in each of three views.
+N_BOXES = 2_000
+N_VIEWS = 3
 #: The page holds plotly.js (about 4.6 MB) and at most MAX_DRAWN_BOXES boxes, cones and menu entries.
 MAX_PAGE_BYTES = 20_000_000
 
@@ -38,22 +40,22 @@ def many_boxes_session(n: int = N_BOXES, views: int = 1) -> dict[str, Any]:
 @pytest.fixture(scope="module")
 def big_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("big") / "session.json"
-    path.write_text(json.dumps(many_boxes_session()))
+    path.write_text(json.dumps(many_boxes_session(N_BOXES, N_VIEWS)))
     return path
 
 
-def test_ten_thousand_boxes_give_a_bounded_page_that_says_it_thinned(big_session: Path, tmp_path: Path) -> None:
-    with pytest.warns(InputWarning, match=r"session\.json: view: drew 2,000 of 10,000 boxes"):
+def test_six_thousand_boxes_give_a_bounded_page_that_says_it_thinned(big_session: Path, tmp_path: Path) -> None:
+    with pytest.warns(InputWarning, match=r"session\.json: view: drew 2,000 of 6,000 boxes"):
         page = write_scene_html(big_session, path=tmp_path / "scene.html")
     assert page.stat().st_size < MAX_PAGE_BYTES
     fig = figure_json_from_html(page.read_text())
     notes = [a["text"] for a in fig["layout"]["annotations"]]
-    assert any("drew 2,000 of 10,000 boxes" in n for n in notes)  # the page says so too
+    assert any("drew 2,000 of 6,000 boxes" in n for n in notes)  # the page says so too
     assert len(fig["layout"]["updatemenus"][0]["buttons"]) == 1 + MAX_DRAWN_BOXES
-    (boxes,) = [t for t in fig["data"] if t["meta"]["kind"] == "boxes"]
-    assert sum(v is None for v in boxes["x"]) == MAX_DRAWN_BOXES  # one None after each drawn outline
-    (cones,) = [t for t in fig["data"] if t["meta"]["kind"] == "cones"]
-    assert cones["meta"]["count"] == MAX_DRAWN_BOXES
+    boxes = [t for t in fig["data"] if t["meta"]["kind"] == "boxes"]
+    assert sum(v is None for t in boxes for v in t["x"]) == MAX_DRAWN_BOXES  # one None after each drawn outline
+    cones = [t for t in fig["data"] if t["meta"]["kind"] == "cones"]
+    assert sum(t["meta"]["count"] for t in cones) == MAX_DRAWN_BOXES
 
 
 def test_the_view_command_warns_on_the_console_and_exits_0(big_session: Path, tmp_path: Path) -> None:
@@ -63,7 +65,7 @@ def test_the_view_command_warns_on_the_console_and_exits_0(big_session: Path, tm
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr
     warning = [line for line in proc.stderr.splitlines() if line.startswith("warning:")]
-    assert len(warning) == 1 and "drew 2,000 of 10,000 boxes" in warning[0]
+    assert len(warning) == 1 and "drew 2,000 of 6,000 boxes" in warning[0]
     assert out.stat().st_size < MAX_PAGE_BYTES
 
 
