@@ -51,6 +51,8 @@ RUNS: dict[str, tuple[str, dict[str, Any], bool]] = {
     "quadric (tracks)": ("quadric", {}, True),
     "quadric (bayes)": ("quadric", {"association": "bayes", "size_range": SIZE_RANGE_M}, False),
 }
+#: Short names of :data:`RUNS` for ``--methods``: ``quadric`` is both quadric runs.
+RUN_ALIASES: dict[str, tuple[str, ...]] = {"quadric": ("quadric (tracks)", "quadric (bayes)")}
 #: LfD's figures on the Aldoma set, given the association (its public code; the issue and the set's README).
 LFD_PUBLISHED = {"all": {"mean_mm": 6.1}, "subsets": {"mean_mm": 12.5, "p90_mm": 21.0}}
 
@@ -173,9 +175,10 @@ def run_real(
     """
     from ..batch.spread import check_spread, spread_map
 
+    methods = tuple(run for m in methods for run in RUN_ALIASES.get(m, (m,)))
     unknown = sorted(set(methods) - set(RUNS))
     if unknown:
-        raise InputError(f"methods: unknown {unknown[0]!r}, expected some of {list(RUNS)}")
+        raise InputError(f"--methods: unknown {unknown[0]!r}, expected some of {[*RUNS, *RUN_ALIASES]}")
     check_spread(workers, scheduler)
     path = resolve_folder(folder)
     with warnings.catch_warnings():
