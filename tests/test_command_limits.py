@@ -203,7 +203,8 @@ def test_bayes_resolution_floor(tmp_path: Path) -> None:
     assert code == 2 and text.startswith("error: --option resolution: got 1e-09 m, finer than the 0.001 m accepted")
 
 
-def test_paper_kmeans_work_is_bounded(tmp_path: Path) -> None:
+def thousand_boxes_session(tmp_path: Path) -> Path:
+    """The hostile session of the dense-rows issue: 1,000 seeded random boxes in each of the example's 3 views."""
     data = json.loads(example_session_path().read_text())
     rng = np.random.default_rng(0)
     w, h = data["camera"]["width"], data["camera"]["height"]
@@ -212,6 +213,16 @@ def test_paper_kmeans_work_is_bounded(tmp_path: Path) -> None:
         view["detections"] = [{"bbox_xyxy": [x, y, x + 30, y + 30]} for x, y in xy.tolist()]
     path = tmp_path / "many.json"
     path.write_text(json.dumps(data))
+    return path
+
+
+def test_bayes_refuses_a_thousand_boxes_per_view_in_one_line(tmp_path: Path) -> None:
+    line = one_error("localize", str(thousand_boxes_session(tmp_path)), "-q")
+    assert "1,000 boxes" in line and "limits.MAX_BAYES_BOXES_PER_VIEW" in line
+
+
+def test_paper_kmeans_work_is_bounded(tmp_path: Path) -> None:
+    path = thousand_boxes_session(tmp_path)
     line = one_error("localize", str(path), "--method", "paper", "-q")
     assert line.startswith(f"error: {path}: --k: k-means of 1000 clusters over ")
     assert line.endswith("give a smaller --k, a coarser --resolution, or use --method bayes")

@@ -173,29 +173,6 @@ def test_too_many_boxes_in_a_view_are_refused_before_any_work():
     check_work(SimpleNamespace(views=views[:1]))
 
 
-def test_localize_refuses_a_thousand_boxes_per_view_in_one_line(tmp_path):
-    """The hostile session of the issue (1,000 boxes in each of 3 views) ends in one line with exit code 2."""
-    import json
-
-    from typer.testing import CliRunner
-
-    from monovisual3d.cli import app
-    from monovisual3d.examples import example_session_path
-
-    data = json.loads(example_session_path().read_text())
-    rng = np.random.default_rng(0)
-    w, h = data["camera"]["width"], data["camera"]["height"]
-    for view in data["views"]:
-        xy = rng.uniform(0, [w - 40, h - 40], size=(1000, 2))
-        view["detections"] = [{"bbox_xyxy": [x, y, x + 30, y + 30]} for x, y in xy.tolist()]
-    path = tmp_path / "many.json"
-    path.write_text(json.dumps(data))
-    res = CliRunner().invoke(app, ["localize", str(path), "-q", "-o", str(tmp_path / "r.json")])
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
-    assert res.exit_code == 2 and len(lines) == 1, res.output
-    assert "1,000 boxes" in lines[0] and "limits.MAX_BAYES_BOXES_PER_VIEW" in lines[0]
-
-
 def test_too_many_views_are_refused_before_any_work():
     from types import SimpleNamespace
 
