@@ -16,6 +16,15 @@ best score is below ``accept - prune_slack`` are dropped and the rest are split
 into 8 children, until the target resolution is reached. The cost grows with
 the volume of the viewing-cone intersections, not with the workspace.
 
+Explaining away starts in the search (:func:`box_dominated`): a hypothesis
+whose every box is also used by another hypothesis scoring ``dominance_margin``
+nats more is dropped. Whichever object takes those boxes takes this
+hypothesis's support with it, and until then the other is always preferred, so
+it could only matter if that other were rejected. In a dense row most cone
+crossings are such ghosts (two boxes of two different fruit, each box already
+the best-explained box of its own fruit), and the hypotheses kept grow with the
+fruit, not with the square of the boxes.
+
 Memory is bounded by ``max_memory``: the first level is made coarser (by powers
 of two, so the last level is still ``resolution``) until the workspace has at
 most :data:`MAX_FIRST_LEVEL_CELLS` cells. Levels coarser than ``search_start``
@@ -202,6 +211,45 @@ def _score_level(
     return rows[order], (best[0][order], best[1][order], best[2][:, order]), True
 
 
+def box_dominated(total: NDArray[np.float64], assoc: NDArray[np.int16], n_boxes: list[int], margin: float) -> NDArray[np.bool_]:
+    """Hypotheses whose every associated box is used by another hypothesis scoring more than ``margin`` above them.
+
+    Parameters
+    ----------
+    total : ndarray, shape (N, K), nats (-inf: not scored)
+    assoc : ndarray, shape (V, N, K), int16: associated box per view, -1 for none
+    n_boxes : list of int, length V: boxes per view
+    margin : float, nats (inf: nothing is dominated)
+
+    Returns
+    -------
+    ndarray, shape (N, K), bool; False for a hypothesis with no box
+
+    Examples
+    --------
+    >>> total = np.array([[20.0], [9.0], [15.0]])
+    >>> assoc = np.array([[[0], [0], [1]], [[0], [1], [1]]], dtype=np.int16)  # view 0 and view 1
+    >>> box_dominated(total, assoc, [2, 2], 10.0).ravel().tolist()
+    [False, False, False]
+    >>> box_dominated(total, assoc, [2, 2], 5.0).ravel().tolist()
+    [False, True, False]
+    """
+    flat = total.reshape(-1)
+    out = np.ones(flat.shape, dtype=bool)
+    used = np.zeros(flat.shape, dtype=bool)
+    if not math.isfinite(margin):
+        return np.zeros(total.shape, dtype=bool)
+    scored = np.isfinite(flat)
+    for v, n in enumerate(n_boxes):
+        a = assoc[v].reshape(-1)
+        use = np.flatnonzero((a >= 0) & scored)
+        best = np.full(n, -np.inf)
+        np.maximum.at(best, a[use], flat[use])  # the best score of any hypothesis using each box
+        out[use] &= flat[use] < best[a[use]] - margin
+        used[use] = True
+    return (out & used).reshape(total.shape)
+
+
 def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
     """Each row's kept radius bins, widened by ``bins`` on each side."""
     for _ in range(bins):
@@ -299,9 +347,11 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
             total, n_assoc, assoc, n_more = _score_deferred(problem, centres, cell, scores, sphere_bins, floor)
             mask, n_scored, deferred = mask | ~sphere_bins, n_scored + n_more, False
         # scores only fall as boxes are taken, so a hypothesis below the floor never matters again
+        n_boxes = [len(vd.boxes) for vd in problem.views]
         mask = (
             (total >= floor)
             & (n_assoc >= cfg.min_views)
+            & ~box_dominated(total, assoc, n_boxes, cfg.dominance_margin)
             & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack + cfg.elongation_cost)
         )
         good = mask.any(axis=1)
