@@ -1,18 +1,17 @@
-"""The box index of the ``bayes`` kernels (issue 22): it skips only boxes that cannot match, so scores are unchanged."""
+"""The tile index of the ``bayes`` kernels (issue 22): it skips only boxes outside the gate, so scores are the scan's."""
 
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from monovisual3d.camera import Camera
+from monovisual3d.errors import InputError
 from monovisual3d.frames import look_at, transform_points
 from monovisual3d.geometry.sphere import predict_sphere_boxes
 from monovisual3d.methods.bayes._kernels import score_hypotheses
-from monovisual3d.methods.bayes.boxindex import build_index, candidate_boxes, near_sigmas
+from monovisual3d.methods.bayes.boxindex import MIN_TILE_PX, build_index, candidate_boxes, tile_px
 from monovisual3d.methods.bayes.likelihood import SensorModel, box_scores, view_scores
 
 CAM = Camera.from_hfov(1280, 720, 90.0)
@@ -50,8 +49,10 @@ def _reference(T_ob, boxes, avail, centres, radii, model, blur):
 
 MODELS = {
     "default": SensorModel(),
-    "low floors (index off: every box scanned)": SensorModel(inward_floor=1.0, outward_floor=2.0),
+    "low floors": SensorModel(inward_floor=1.0, outward_floor=2.0),
     "strict": SensorModel(alpha=0.02, sigma0_px=0.5, inward_floor=5.0, outward_floor=9.0, match_bonus=12.0, p_miss=0.3),
+    "wide gate": SensorModel(gate_sigmas=20.0),
+    "no gate margin": SensorModel(gate_sigmas=0.0),
 }
 
 
@@ -72,34 +73,53 @@ def test_indexed_kernel_equals_the_scan_over_all_boxes(name, blur):
     assert np.count_nonzero(ref_assoc >= 0) > 100  # the case has matches to get right
 
 
-def test_every_box_that_beats_a_miss_is_a_candidate():
-    """The numpy twin of the compiled look-up: the boxes it leaves out all score below the miss term."""
+def test_every_box_inside_the_gate_is_a_candidate_once():
+    """The numpy twin of the compiled look-up: each box meeting the query rectangle is listed exactly once, the boxes
+    left out all lie outside the gate, and most boxes are never looked at."""
     model = SensorModel()
     rng = np.random.default_rng(5)
     T_ob, boxes = _dense_views(rng, n_boxes=150)
-    index = build_index(boxes, CAM.width, CAM.height, model)
+    index = build_index(boxes, CAM.width, CAM.height)
     centres = TARGET + rng.uniform([-0.2, -0.7, -0.4], [0.2, 0.7, 0.4], (150, 3))
     radii = np.geomspace(0.01, 0.08, 4)
-    n_left_out = 0
+    n_left_out = n_pairs = 0
     for v, (T, b) in enumerate(zip(T_ob, boxes)):
         pred, vis = predict_sphere_boxes(CAM, transform_points(T, centres), radii)
         for i, k in zip(*np.nonzero(vis)):
             p = pred[i, k]
-            sigma = (model.alpha * (p[2] - p[0]) + model.sigma0_px, model.alpha * (p[3] - p[1]) + model.sigma0_px)
-            cand = candidate_boxes(index, v, p, sigma, CAM.width, CAM.height, model.border_px)
+            sx, sy = (model.alpha * (p[2] - p[0]) + model.sigma0_px, model.alpha * (p[3] - p[1]) + model.sigma0_px)
+            g = model.gate_sigmas
+            query = np.array([p[0] - g * sx, p[1] - g * sy, p[2] + g * sx, p[3] + g * sy])
+            cand = candidate_boxes(index, v, query)
+            assert len(np.unique(cand)) == len(cand)
+            meets = (b[:, 0] <= query[2]) & (b[:, 2] >= query[0]) & (b[:, 1] <= query[3]) & (b[:, 3] >= query[1])
+            assert set(np.flatnonzero(meets)) <= set(cand.tolist())
             out = np.setdiff1d(np.arange(len(b)), cand)
-            scores = np.array([box_scores(p, b[j], model, CAM.width, CAM.height) for j in out])
-            assert np.all(scores < model.miss_term)
+            assert np.all(np.isneginf([box_scores(p, b[j], model, CAM.width, CAM.height) for j in out]))
             n_left_out += len(out)
-    assert n_left_out > 0.8 * sum(len(b) for b in boxes) * 150 * 4 / 2  # most boxes are never looked at
+            n_pairs += len(b)
+    assert n_left_out > 0.6 * n_pairs  # most boxes are never looked at
 
 
-def test_near_window_and_its_fallback():
-    assert near_sigmas(SensorModel()) == pytest.approx(np.sqrt((8 - np.log(0.1)) / 2), rel=1e-5)
-    assert near_sigmas(SensorModel(inward_floor=2.0)) == 0.0  # a far edge may cost less than G / 4: scan every box
-    index = build_index([np.array([[0.0, 0.0, 10.0, 10.0]])], 640, 480, SensorModel(inward_floor=2.0))
-    assert index.scan_all
-    assert_array_equal(candidate_boxes(index, 0, np.array([300.0, 300, 310, 310]), (1.0, 1.0), 640, 480, 1.0), [0])
+def test_gate_rejects_a_box_beside_the_prediction_and_keeps_an_occluded_one():
+    model = SensorModel()
+    pred = np.array([100.0, 100.0, 200.0, 200.0])
+    sigma = model.alpha * 100 + model.sigma0_px  # 6 px
+    beside = np.array([200.0 + 3 * sigma + 1, 100.0, 300.0, 200.0])  # wholly right of the widened prediction
+    touching = np.array([200.0 + 3 * sigma - 1, 100.0, 300.0, 200.0])
+    occluded = np.array([100.0, 150.0, 200.0, 200.0])  # the lower half of the silhouette
+    assert box_scores(pred, beside, model, 640, 480) == -np.inf
+    assert np.isfinite(box_scores(pred, touching, model, 640, 480))
+    assert box_scores(pred, occluded, model, 640, 480) > model.miss_term
+    # a box on the image border beside the prediction's far side is still judged by its other edges
+    assert box_scores(np.array([-50.0, 100, 50, 200]), np.array([0.0, 100, 48, 200]), model, 640, 480) > model.miss_term
+
+
+def test_tile_size_and_bad_gate():
+    assert tile_px(np.zeros((0, 4)), 640, 480) == MIN_TILE_PX
+    assert tile_px(np.array([[0.0, 0, 4, 4]]), 6400, 480) == 100.0  # at most 64 tiles across
+    with pytest.raises(InputError, match="gate_sigmas: got -1"):
+        SensorModel(gate_sigmas=-1)
 
 
 def test_views_without_boxes_and_all_boxes_taken():
@@ -114,8 +134,8 @@ def test_views_without_boxes_and_all_boxes_taken():
     ref = _reference(T_ob, boxes, avail, centres, radii, SensorModel(), 0.01)
     assert_array_equal(got[2], ref[2])
     assert_allclose(got[0], ref[0], rtol=1e-9, atol=1e-9)
-    index = build_index(boxes, CAM.width, CAM.height, SensorModel())
-    assert index.count[1] == 0 and dataclasses.asdict(index)["scan_all"] is False
+    index = build_index(boxes, CAM.width, CAM.height)
+    assert index.count[1] == 0 and len(candidate_boxes(index, 1, np.array([0.0, 0, 1280, 720]))) == 0
 
 
 def test_extraction_picks_the_hypothesis_a_full_argmax_picks():

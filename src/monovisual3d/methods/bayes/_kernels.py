@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from ...camera import Camera
 from ...engine._project import distort_xy  # the one compiled distortion (ids and coefficients of Camera.packed)
 from ...engine.threads import kernel_threads
-from .boxindex import SCAN_BELOW_BOXES, EdgeIndex, build_index
+from .boxindex import SCAN_BELOW_BOXES, TileIndex, build_index
 from .likelihood import SensorModel
 
 #: Single-thread cost of one hypothesis against one box of a scanned view in ``_score_kernel``, and of one
@@ -117,94 +117,82 @@ def _beats(s: float, j: int, best: float, found: int) -> bool:  # pragma: no cov
     return s > best or (s == best and found >= 0 and j < found)
 
 
-def _box_score(b, j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found):  # pragma: no cover
-    """Score of box ``b`` (4,) index ``j``, or -inf as soon as a partial sum shows it cannot beat ``best``."""
+def _box_score(b, j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, gate, best, found):  # pragma: no cover
+    """Score of box ``b`` (4,) index ``j``, or -inf outside the gate or as soon as a partial sum shows it cannot beat ``best``."""
     bx1, by1, bx2, by2 = b[0], b[1], b[2], b[3]
     d1 = bx1 - px1
     if bx1 <= border and d1 > 0:
         d1 = 0.0
-    s = bonus + _edge_ll(d1, sx, in_floor, out_floor)
-    if not _beats(s, j, best, found):  # the other edges can only lower the score
-        return -HUGE
     d3 = px2 - bx2
     if bx2 >= W - border and d3 > 0:
         d3 = 0.0
-    s += _edge_ll(d3, sx, in_floor, out_floor)
-    if not _beats(s, j, best, found):
-        return -HUGE
     d2 = by1 - py1
     if by1 <= border and d2 > 0:
         d2 = 0.0
-    s += _edge_ll(d2, sy, in_floor, out_floor)
-    if not _beats(s, j, best, found):
-        return -HUGE
     d4 = py2 - by2
     if by2 >= H - border and d4 > 0:
         d4 = 0.0
+    gx = (px2 - px1) + gate * sx
+    gy = (py2 - py1) + gate * sy
+    if d1 > gx or d3 > gx or d2 > gy or d4 > gy:  # the box lies beside the widened prediction (sensor.outside_gate)
+        return -HUGE
+    s = bonus + _edge_ll(d1, sx, in_floor, out_floor)
+    if not _beats(s, j, best, found):  # the other edges can only lower the score
+        return -HUGE
+    s += _edge_ll(d3, sx, in_floor, out_floor)
+    if not _beats(s, j, best, found):
+        return -HUGE
+    s += _edge_ll(d2, sy, in_floor, out_floor)
+    if not _beats(s, j, best, found):
+        return -HUGE
     return s + _edge_ll(d4, sy, in_floor, out_floor)
 
 
-def _lower_bound(values, origin, bucket, start, v, e, n, x):  # pragma: no cover - jitted
-    """First position in ``values[v, e, :n]`` (sorted) whose value is >= ``x``: from its bucket, then forward."""
-    if not (x > origin[v, e]):
-        return 0
-    b = int((x - origin[v, e]) / bucket[v, e])
-    if b >= start.shape[2]:
-        b = start.shape[2] - 1
-    pos = start[v, e, b]
-    while pos < n and values[v, e, pos] < x:
-        pos += 1
-    return pos
+def _query(index, v, qx1, qy1, qx2, qy2, out):  # pragma: no cover - jitted
+    """Boxes of view ``v`` listed in the tiles of the rectangle ``q`` (pixels), each once, written to ``out``; their number.
+
+    The twin of :func:`.boxindex.candidate_boxes`: a box is reported in the tile where its top-left tile and the
+    query's meet.
+    """
+    count, tile, n_cols, n_rows, start, entries, corner = index
+    t = tile[v]
+    nc, nr = n_cols[v], n_rows[v]
+    c1 = min(max(int(math.floor(qx1 / t)), 0), nc - 1) if qx1 > -HUGE else 0
+    c2 = min(max(int(math.floor(qx2 / t)), 0), nc - 1) if qx2 < HUGE else nc - 1
+    r1 = min(max(int(math.floor(qy1 / t)), 0), nr - 1) if qy1 > -HUGE else 0
+    r2 = min(max(int(math.floor(qy2 / t)), 0), nr - 1) if qy2 < HUGE else nr - 1
+    m = 0
+    for r in range(r1, max(r1, r2) + 1):
+        for c in range(c1, max(c1, c2) + 1):
+            k = r * nc + c
+            for pos in range(start[v, k], start[v, k + 1]):
+                j = entries[v, pos]
+                if c == max(corner[v, j, 0], c1) and r == max(corner[v, j, 1], r1):
+                    out[m] = j
+                    m += 1
+    return m
 
 
-def _best_box(v, boxes, available, index, px1, py1, px2, py2, sx, sy, cam, params):  # pragma: no cover - jitted
+def _best_box(v, boxes, available, cand, m, px1, py1, px2, py2, sx, sy, cam, params):  # pragma: no cover - jitted
     """The best available box of view ``v`` for one predicted box: (score, index), (miss, -1) when none beats a miss.
 
-    Scores only the boxes with an edge near the predicted one (:mod:`.boxindex`), in any order; the tie rule
-    of :func:`_beats` makes the result the scan's. A box met twice (two near edges) cannot replace itself.
-    The window of each edge is that of the best score so far, never narrower than that of the final best,
-    so every box that could be the final best is scored.
+    Scores the ``m`` boxes of ``cand`` (the tile look-up of :func:`_query`), or every box of the view when
+    ``m < 0``, in any order; the tie rule of :func:`_beats` makes the result the scan's.
     """
-    count, values, order, n_cens, cens, origin, bucket, start, near, scan_all = index
     W, H = cam[4], cam[5]
-    in_floor, out_floor, bonus, miss, border = params[2], params[3], params[4], params[5], params[6]
+    in_floor, out_floor, bonus, miss, border, gate = params[2], params[3], params[4], params[5], params[6], params[7]
     best = miss
     found = -1
-    n = count[v]
-    if scan_all or n <= SCAN_BELOW_BOXES:  # a short list is scanned faster than looked up
-        for j in range(n):
-            if available[v, j]:
-                s = _box_score(boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found)
-                if _beats(s, j, best, found):
-                    best = s
-                    found = j
-        return best, found
-    for e in range(4):
-        c = px1 if e == 0 else (py1 if e == 1 else (px2 if e == 2 else py2))
-        # a box that can still beat ``best`` has an edge within sqrt((bonus - best) / 2) sigmas (``near`` at a miss):
-        # the window narrows as better boxes are found, and a box it leaves out scores below ``best``
-        gap = bonus - best
-        h = near * math.sqrt(gap / (bonus - miss)) if gap > 0 else 0.0
-        h *= sx if e % 2 == 0 else sy
-        for pos in range(_lower_bound(values, origin, bucket, start, v, e, n, c - h), n):
-            if values[v, e, pos] > c + h:
-                break
-            j = order[v, e, pos]
-            if available[v, j]:
-                s = _box_score(boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found)
-                if _beats(s, j, best, found):
-                    best = s
-                    found = j
-        if (c < border) if e < 2 else (c > (W if e == 2 else H) - border):  # the predicted edge lies beyond the border
-            for pos in range(n_cens[v, e]):
-                j = cens[v, e, pos]
-                if available[v, j]:
-                    s = _box_score(
-                        boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, best, found
-                    )
-                    if _beats(s, j, best, found):
-                        best = s
-                        found = j
+    n = m if m >= 0 else boxes.shape[1]
+    for i in range(n):
+        j = cand[i] if m >= 0 else i
+        if available[v, j]:
+            s = _box_score(
+                boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, gate, best, found
+            )
+            if _beats(s, j, best, found):
+                best = s
+                found = j
     return best, found
 
 
@@ -232,9 +220,13 @@ def _score_kernel(
     K = radii.shape[0]
     V = T_ob.shape[0]
     fx, fy, cx, cy, W, H = cam[0], cam[1], cam[2], cam[3], cam[4], cam[5]
-    alpha, sigma0 = params[0], params[1]
+    alpha, sigma0, gate = params[0], params[1], params[7]
     fmax = fx if fx > fy else fy
+    count = index[0]
     for n in numba.prange(N):
+        pred = np.empty((K, 6))  # per shape bin in the current view: predicted box, sx, sy
+        seen = np.zeros(K, dtype=np.bool_)
+        cand = np.empty(max(boxes.shape[1], 1), dtype=np.int64)
         for kk in range(K):
             total[n, kk] = 0.0
             n_assoc[n, kk] = 0
@@ -249,15 +241,13 @@ def _score_kernel(
             zc = Z if Z > 1e-6 else 1e-6
             extra = fmax * blur_half_diagonal / zc
             extra2 = extra * extra + extra_const_px * extra_const_px
+            qx1, qy1, qx2, qy2 = HUGE, HUGE, -HUGE, -HUGE  # the union of the bins' gates: one look-up for all bins
             for kk in range(K):
-                if not mask[n, kk]:
-                    continue
-                r = radii[kk]
-                b = semi_up[kk]
-                if not _in_front(Z, r, b, up_opt[v, 2]):
+                seen[kk] = False
+                if not mask[n, kk] or not _in_front(Z, radii[kk], semi_up[kk], up_opt[v, 2]):
                     continue
                 px1, py1, px2, py2 = _spheroid_box_px(
-                    X, Y, Z, r, b, up_opt[v, 0], up_opt[v, 1], up_opt[v, 2], fx, fy, cx, cy, code, coeffs
+                    X, Y, Z, radii[kk], semi_up[kk], up_opt[v, 0], up_opt[v, 1], up_opt[v, 2], fx, fy, cx, cy, code, coeffs
                 )
                 if not (px2 > 0 and px1 < W and py2 > 0 and py1 < H):
                     continue
@@ -266,7 +256,24 @@ def _score_kernel(
                 if extra2 > 0:
                     sx = math.sqrt(sx * sx + extra2)
                     sy = math.sqrt(sy * sy + extra2)
-                best, found = _best_box(v, boxes, available, index, px1, py1, px2, py2, sx, sy, cam, params)
+                seen[kk] = True
+                pred[kk, 0], pred[kk, 1], pred[kk, 2], pred[kk, 3], pred[kk, 4], pred[kk, 5] = px1, py1, px2, py2, sx, sy
+                qx1 = min(qx1, px1 - gate * sx)
+                qy1 = min(qy1, py1 - gate * sy)
+                qx2 = max(qx2, px2 + gate * sx)
+                qy2 = max(qy2, py2 + gate * sy)
+            if qx2 < qx1:  # no bin in the image
+                continue
+            m = -1
+            if count[v] > SCAN_BELOW_BOXES:
+                m = _query(index, v, qx1, qy1, qx2, qy2, cand)
+            for kk in range(K):
+                if not seen[kk]:
+                    continue
+                best, found = _best_box(
+                    v, boxes, available, cand, m, pred[kk, 0], pred[kk, 1], pred[kk, 2], pred[kk, 3], pred[kk, 4], pred[kk, 5],
+                    cam, params,
+                )  # fmt: skip
                 total[n, kk] += best
                 if found >= 0:
                     n_assoc[n, kk] += 1
@@ -437,7 +444,7 @@ _sphere_box_px = numba.njit(cache=True, inline="always")(_sphere_box_px)
 _spheroid_box_px = numba.njit(cache=True, inline="always")(_spheroid_box_px)
 _in_front = numba.njit(cache=True, inline="always")(_in_front)
 _box_residuals_kernel = numba.njit(cache=True)(_box_residuals_kernel)
-_lower_bound = numba.njit(cache=True, inline="always")(_lower_bound)
+_query = numba.njit(cache=True, inline="always")(_query)
 _beats = numba.njit(cache=True, inline="always")(_beats)
 _box_score = numba.njit(cache=True, inline="always", fastmath=True)(_box_score)
 _best_box = numba.njit(cache=True, inline="always", fastmath=True)(_best_box)
@@ -467,9 +474,9 @@ def pack_views(
     return T, B, nb, A
 
 
-def score_work_ns(n_boxes: NDArray[np.int64], scan_all: bool = False) -> float:
+def score_work_ns(n_boxes: NDArray[np.int64]) -> float:
     """Estimated single-thread nanoseconds of ``_score_kernel`` per hypothesis for views of ``n_boxes`` boxes."""
-    scanned = (n_boxes <= SCAN_BELOW_BOXES) | scan_all
+    scanned = n_boxes <= SCAN_BELOW_BOXES
     return float(NS_PER_HYPOTHESIS_BOX * n_boxes[scanned].sum() + NS_PER_HYPOTHESIS_VIEW * np.count_nonzero(~scanned))
 
 
@@ -490,6 +497,7 @@ def model_params(model: SensorModel) -> NDArray[np.float64]:
             model.match_bonus,
             model.miss_term,
             model.border_px,
+            model.gate_sigmas,
         ]
     )
 
@@ -507,7 +515,7 @@ def score_hypotheses(
     mask: NDArray[np.bool_] | None = None,
     semi_up: NDArray[np.float64] | None = None,
     up_base: NDArray[np.float64] | None = None,
-    index: EdgeIndex | None = None,
+    index: TileIndex | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
     """Score every (centre, radius) hypothesis against all views.
 
@@ -536,7 +544,7 @@ def score_hypotheses(
     T, B, nb, A = pack_views(camera, T_optical_base, boxes, available)
     cam, code, coeffs = camera_arrays(camera)
     if index is None:
-        index = build_index(boxes, camera.width, camera.height, model)
+        index = build_index(boxes, camera.width, camera.height)
     total = np.empty((len(centres_base), len(radii)))
     n_assoc = np.empty((len(centres_base), len(radii)), dtype=np.int32)
     assoc = np.empty((len(boxes), len(centres_base), len(radii)), dtype=np.int16)
@@ -547,7 +555,7 @@ def score_hypotheses(
     semi_up = radii if semi_up is None else semi_up
     up = np.zeros(3) if up_base is None else np.asarray(up_base, dtype=float)
     up_opt = np.ascontiguousarray(T[:, :, :3] @ up)
-    with kernel_threads(int(total.size * score_work_ns(nb, index.scan_all))):
+    with kernel_threads(int(total.size * score_work_ns(nb))):
         _score_kernel(
             np.ascontiguousarray(centres_base, dtype=np.float64),
             np.ascontiguousarray(radii, dtype=np.float64),

@@ -1,25 +1,19 @@
-"""An index of each view's boxes by edge, so that a hypothesis meets only the boxes that can matter to it.
+"""An image-tile index of each view's boxes, so that a hypothesis meets only the boxes near its predicted box.
 
-A box scores ``match_bonus`` plus four edge terms against a predicted box
-(:mod:`.likelihood`); each term costs ``min(e^2 / 2, floor)`` nats, ``e`` the
-edge residual in units of the edge noise ``sigma``. A box matters only if it
-scores above the miss term, i.e. its four terms cost less than
-``G = match_bonus - log(p_miss)`` together. Call an edge *near* when
-``|e| <= E`` with ``E^2 / 2 = G / 4`` (:func:`near_sigmas`): a far edge costs
-more than ``G / 4`` (when both floors exceed ``G / 4``, as they do by default:
-3 and 6 nats against 2.6), so a box with four far edges scores below the miss
-term. Every box that can be associated therefore has at least one near edge.
+The sensor model gates association (:func:`.likelihood.box_scores`): a box can be an object's box only
+if it meets the object's predicted box widened by ``gate_sigmas`` edge-noise sigmas on every side
+(occlusion shrinks a box inside the silhouette, noise moves its edges by a few sigmas; a box wholly
+beside the prediction belongs to something else). So the boxes a hypothesis can take in a view are
+those intersecting one rectangle, and a two-dimensional look-up finds them.
 
-The index holds, per view and per edge (``x1, y1, x2, y2``), the boxes sorted by
-that edge's coordinate: a hypothesis looks up, by binary search, the boxes whose
-edge lies within ``E sigma`` of its predicted edge, four small ranges, and scores
-exactly those, as the scan over all boxes would. A censored edge (on the image
-border) scores 0 whenever the predicted edge lies beyond it, so the boxes with a
-censored edge are listed apart and looked at when the predicted edge crosses
-that border. The result is identical to the scan (``tests/methods/bayes/test_boxindex.py``
-checks it against the numpy reference); with floors at or below ``G / 4`` the
-index is not valid and the kernels scan every box (``scan_all``). A view with few boxes
-(:data:`SCAN_BELOW_BOXES`) is scanned too: for so few, the look-up costs more than it saves.
+The index cuts the image into square tiles of :func:`tile_px` pixels and lists, per tile, the boxes
+that overlap it (a box is listed in every tile it covers). A query rectangle visits its tiles and
+reports each box once: in the tile where the box's and the query's top-left tiles meet
+(``max`` of the two tile columns, and of the two rows). The compiled kernel asks once per
+hypothesis cell and view, with the union of the widened boxes of the cell's shape bins, and scores
+each bin against that short list. The result is the scan's over all boxes
+(``tests/methods/bayes/test_boxindex.py`` checks it against the numpy reference).
+A view with few boxes (:data:`SCAN_BELOW_BOXES`) is scanned: for so few, the look-up costs more than it saves.
 """
 
 from __future__ import annotations
@@ -30,143 +24,113 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .sensor import SensorModel
-
-#: Relative widening of the near window (rounding of the compiled sums).
-WINDOW_SLACK = 1e-6
-#: Width of the buckets that start a look-up in a sorted edge list, pixels (wider when the boxes spread further).
-BUCKET_PX = 8.0
-#: Buckets per view and edge at most.
-MAX_BUCKETS = 4096
 #: Views with at most this many boxes are scanned box by box (faster than the look-up for so few; same result).
-SCAN_BELOW_BOXES = 32
+SCAN_BELOW_BOXES = 16
+#: Smallest tile side, pixels (smaller tiles list a box many times for nothing).
+MIN_TILE_PX = 16.0
+#: Tiles per image side at most (the tile grows on larger images).
+MAX_TILES_PER_SIDE = 64
 
 
 @dataclass(frozen=True)
-class EdgeIndex:
-    """Per view and edge, the boxes sorted by that edge (see the module docstring).
+class TileIndex:
+    """Per view, the boxes overlapping each image tile (see the module docstring).
 
     Attributes
     ----------
     count : ndarray, shape (V,), int64: boxes per view
-    values : ndarray, shape (V, 4, Bmax), float64: the edge coordinate, sorted, pixels (first ``count[v]`` valid)
-    order : ndarray, shape (V, 4, Bmax), int64: the box index of each sorted value
-    n_censored : ndarray, shape (V, 4), int64: boxes with that edge on the image border
-    censored : ndarray, shape (V, 4, Bmax), int64: their indices (first ``n_censored[v, e]`` valid)
-    origin, bucket : ndarray, shape (V, 4), float64: the buckets of each sorted list start at ``origin`` and
-        are ``bucket`` pixels wide
-    start : ndarray, shape (V, 4, NB), int64: the first position in the sorted list at or after each bucket's start
-    near_sigmas : float, ``E``: half-width of the window in edge-noise units; 0 when ``scan_all``
-    scan_all : bool, the floors are too low for the index: score every box
+    tile : ndarray, shape (V,), float64: tile side, pixels
+    n_cols, n_rows : ndarray, shape (V,), int64: tiles across and down the image
+    start : ndarray, shape (V, T + 1), int64: the entries of tile ``t = row * n_cols + col`` of view ``v`` are
+        ``entries[v, start[v, t]:start[v, t + 1]]``
+    entries : ndarray, shape (V, M), int64: box indices
+    corner : ndarray, shape (V, Bmax, 2), int64: each box's top-left tile (column, row), clipped to the grid
     """
 
     count: NDArray[np.int64]
-    values: NDArray[np.float64]
-    order: NDArray[np.int64]
-    n_censored: NDArray[np.int64]
-    censored: NDArray[np.int64]
-    origin: NDArray[np.float64]
-    bucket: NDArray[np.float64]
+    tile: NDArray[np.float64]
+    n_cols: NDArray[np.int64]
+    n_rows: NDArray[np.int64]
     start: NDArray[np.int64]
-    near_sigmas: float
-    scan_all: bool
+    entries: NDArray[np.int64]
+    corner: NDArray[np.int64]
 
     def as_tuple(self) -> tuple:
-        """The arrays and numbers in the order the compiled kernels unpack them."""
-        return (
-            self.count, self.values, self.order, self.n_censored, self.censored, self.origin, self.bucket, self.start,
-            self.near_sigmas, self.scan_all,
-        )  # fmt: skip
+        """The arrays in the order the compiled kernels unpack them."""
+        return (self.count, self.tile, self.n_cols, self.n_rows, self.start, self.entries, self.corner)
 
 
-def near_sigmas(model: SensorModel) -> float:
-    """``E`` of the module docstring (edge-noise units), or 0 when a far edge may cost ``G / 4`` or less.
+def tile_px(boxes_xyxy: NDArray[np.float64], width: float, height: float) -> float:
+    """Tile side for one view's boxes (B, 4): their median larger side, at least :data:`MIN_TILE_PX` and at least
+    ``max(width, height) / MAX_TILES_PER_SIDE``.
+
+    A tile about one box across lists each box in about four tiles and a query in a few.
 
     Examples
     --------
-    >>> round(near_sigmas(SensorModel()), 3)  # G = 8 + log(10) nats, E = sqrt(G / 2)
-    2.27
+    >>> tile_px(np.array([[0.0, 0.0, 40.0, 30.0], [100.0, 100.0, 160.0, 200.0]]), 1280, 720)
+    70.0
     """
-    gap = model.match_bonus - model.miss_term
-    if gap <= 0:  # no box can beat a miss: any window is valid, the smallest is cheapest
-        return WINDOW_SLACK
-    quarter = gap / 4
-    if min(model.inward_floor, model.outward_floor) <= quarter * (1 + 10 * WINDOW_SLACK):
-        return 0.0
-    return math.sqrt(2 * quarter) * (1 + WINDOW_SLACK)
-
-
-def censored_edges(boxes_xyxy: NDArray[np.float64], width: float, height: float, border: float) -> NDArray[np.bool_]:
-    """Which edges of each box (B, 4) lie on the image border: ``x1, y1 <= border``, ``x2 >= width - border``, ..."""
     b = np.asarray(boxes_xyxy, dtype=np.float64).reshape(-1, 4)
-    return np.stack([b[:, 0] <= border, b[:, 1] <= border, b[:, 2] >= width - border, b[:, 3] >= height - border], axis=1)
+    typical = float(np.median(np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]))) if len(b) else 0.0
+    return max(MIN_TILE_PX, max(width, height) / MAX_TILES_PER_SIDE, typical if math.isfinite(typical) else 0.0)
 
 
-def build_index(boxes: list[NDArray[np.float64]], width: float, height: float, model: SensorModel) -> EdgeIndex:
-    """The index of each view's boxes (list of (B_v, 4) ``x1, y1, x2, y2`` pixels) for the sensor ``model``."""
+def _tile_span(
+    lo: NDArray[np.float64], hi: NDArray[np.float64], tile: float, n: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """First and last tile (clipped to ``0 .. n - 1``) of intervals ``[lo, hi]`` in pixels."""
+    first = np.clip(np.floor(lo / tile), 0, n - 1).astype(np.int64)
+    last = np.clip(np.floor(hi / tile), 0, n - 1).astype(np.int64)
+    return first, np.maximum(first, last)
+
+
+def build_index(boxes: list[NDArray[np.float64]], width: float, height: float) -> TileIndex:
+    """The index of each view's boxes (list of (B_v, 4) ``x1, y1, x2, y2`` pixels) in a ``width x height`` image."""
     V = len(boxes)
     count = np.array([len(b) for b in boxes], dtype=np.int64)
     bmax = max(int(count.max(initial=0)), 1)
-    values = np.full((V, 4, bmax), np.inf)
-    order = np.zeros((V, 4, bmax), dtype=np.int64)
-    n_cens = np.zeros((V, 4), dtype=np.int64)
-    cens = np.zeros((V, 4, bmax), dtype=np.int64)
-    origin = np.zeros((V, 4))
-    bucket = np.ones((V, 4))
-    starts: list[list[NDArray[np.int64]]] = [[np.zeros(1, dtype=np.int64)] * 4 for _ in range(V)]
+    tile, n_cols, n_rows = np.ones(V), np.ones(V, dtype=np.int64), np.ones(V, dtype=np.int64)
+    corner = np.zeros((V, bmax, 2), dtype=np.int64)
+    lists: list[list[NDArray[np.int64]]] = []
     for v, b in enumerate(boxes):
-        if count[v] == 0:
-            continue
         b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-        idx = np.argsort(b, axis=0, kind="stable").T  # (4, B)
-        order[v, :, : count[v]] = idx
-        values[v, :, : count[v]] = np.take_along_axis(b.T, idx, axis=1)
-        flags = censored_edges(b, width, height, float(model.border_px))
-        for e in range(4):
-            on_border = np.flatnonzero(flags[:, e])
-            n_cens[v, e] = len(on_border)
-            cens[v, e, : len(on_border)] = on_border
-            origin[v, e], bucket[v, e], starts[v][e] = _buckets(values[v, e, : count[v]])
-    start = np.zeros((V, 4, max(len(s) for row in starts for s in row)), dtype=np.int64)
-    for v in range(V):
-        for e in range(4):
-            start[v, e, : len(starts[v][e])] = starts[v][e]
-    E = near_sigmas(model)
-    return EdgeIndex(count, values, order, n_cens, cens, origin, bucket, start, E, E == 0.0)
+        tile[v] = tile_px(b, width, height)
+        n_cols[v], n_rows[v] = max(1, math.ceil(width / tile[v])), max(1, math.ceil(height / tile[v]))
+        c1, c2 = _tile_span(b[:, 0], b[:, 2], tile[v], int(n_cols[v]))
+        r1, r2 = _tile_span(b[:, 1], b[:, 3], tile[v], int(n_rows[v]))
+        corner[v, : len(b), 0], corner[v, : len(b), 1] = c1, r1
+        per_tile: list[list[int]] = [[] for _ in range(int(n_cols[v] * n_rows[v]))]
+        for j in range(len(b)):
+            for r in range(r1[j], r2[j] + 1):
+                for c in range(c1[j], c2[j] + 1):
+                    per_tile[r * n_cols[v] + c].append(j)
+        lists.append([np.array(t, dtype=np.int64) for t in per_tile])
+    n_tiles = max(len(t) for t in lists) if lists else 1
+    n_entries = max((sum(len(x) for x in t) for t in lists), default=1)
+    start = np.zeros((V, n_tiles + 1), dtype=np.int64)
+    entries = np.zeros((V, max(n_entries, 1)), dtype=np.int64)
+    for v, per_tile in enumerate(lists):
+        sizes = np.array([len(x) for x in per_tile], dtype=np.int64)
+        start[v, 1 : len(sizes) + 1] = np.cumsum(sizes)
+        start[v, len(sizes) + 1 :] = start[v, len(sizes)]
+        if sizes.sum():
+            entries[v, : sizes.sum()] = np.concatenate(per_tile)
+    return TileIndex(count, tile, n_cols, n_rows, start, entries, corner)
 
 
-def _buckets(sorted_values: NDArray[np.float64]) -> tuple[float, float, NDArray[np.int64]]:
-    """Origin, width and start positions of the buckets of one sorted list (a look-up starts at its bucket)."""
-    lo, hi = float(sorted_values[0]), float(sorted_values[-1])
-    width = max(BUCKET_PX, (hi - lo) / (MAX_BUCKETS - 1))
-    edges = lo + width * np.arange(int((hi - lo) / width) + 1)
-    return lo, width, np.searchsorted(sorted_values, edges, "left").astype(np.int64)
-
-
-def candidate_boxes(
-    index: EdgeIndex, v: int, pred_xyxy: NDArray[np.float64], sigma_xy: tuple[float, float], width: float, height: float,
-    border: float,
-) -> NDArray[np.int64]:  # fmt: skip
-    """The readable twin of the compiled look-up: sorted unique box indices of view ``v`` near ``pred_xyxy`` (4,).
-
-    ``sigma_xy``: the edge noise of the hypothesis in x and y, pixels. With ``scan_all``, every box.
-    """
-    n = int(index.count[v])
-    if index.scan_all:
-        return np.arange(n, dtype=np.int64)
+def candidate_boxes(index: TileIndex, v: int, query_xyxy: NDArray[np.float64]) -> NDArray[np.int64]:
+    """The readable twin of the compiled look-up: sorted box indices of view ``v`` listed in the tiles of the
+    rectangle ``query_xyxy`` (4,), pixels, once each (a superset of the boxes meeting it; the kernels then test
+    each against the gate)."""
+    tile, n_cols, n_rows = float(index.tile[v]), int(index.n_cols[v]), int(index.n_rows[v])
+    c1, c2 = (int(x[0]) for x in _tile_span(np.array([query_xyxy[0]]), np.array([query_xyxy[2]]), tile, n_cols))
+    r1, r2 = (int(x[0]) for x in _tile_span(np.array([query_xyxy[1]]), np.array([query_xyxy[3]]), tile, n_rows))
     out = []
-    for e in range(4):
-        h = index.near_sigmas * sigma_xy[e % 2]
-        vals = index.values[v, e, :n]
-        a, b = np.searchsorted(vals, pred_xyxy[e] - h, "left"), np.searchsorted(vals, pred_xyxy[e] + h, "right")
-        out.append(index.order[v, e, a:b])
-        if _beyond_border(e, pred_xyxy[e], width, height, border):
-            out.append(index.censored[v, e, : index.n_censored[v, e]])
-    return np.unique(np.concatenate(out)) if out else np.zeros(0, dtype=np.int64)
-
-
-def _beyond_border(e: int, pred_edge: float, width: float, height: float, border: float) -> bool:
-    """Whether a censored edge ``e`` can have a positive residual, i.e. the predicted edge lies beyond the border."""
-    if e < 2:
-        return pred_edge < border
-    return pred_edge > (width if e == 2 else height) - border
+    for r in range(r1, r2 + 1):
+        for c in range(c1, c2 + 1):
+            t = r * n_cols + c
+            for j in index.entries[v, index.start[v, t] : index.start[v, t + 1]]:
+                if c == max(index.corner[v, j, 0], c1) and r == max(index.corner[v, j, 1], r1):
+                    out.append(int(j))
+    return np.array(sorted(out), dtype=np.int64)

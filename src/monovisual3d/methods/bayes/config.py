@@ -77,6 +77,8 @@ class BayesConfig:
     match_bonus : float, sensor model: nats per matched box
     p_miss : float, sensor model: probability that a visible object has no box
     border_px : float, sensor model: box edges this close to the image border are censored (truncated)
+    gate_sigmas : float, sensor model: a box is associable only if it meets the predicted box widened by this many
+        edge-noise sigmas
     prune_slack : float, nats: at each search level, cells whose best score is below ``accept - prune_slack`` are dropped
     dominance_margin : float, nats: at each search level, a hypothesis whose every box is also used by another
         hypothesis scoring more than this above it is dropped (explained away before extraction; inf: never)
@@ -123,6 +125,7 @@ class BayesConfig:
     match_bonus: float = SensorModel.match_bonus
     p_miss: float = SensorModel.p_miss
     border_px: float = SensorModel.border_px
+    gate_sigmas: float = SensorModel.gate_sigmas
     prune_slack: float = 2.0
     dominance_margin: float = 10.0
     lookahead: int = 3

@@ -15,6 +15,9 @@ of the predicted silhouette at most ``outward_floor``. An observed edge on the
 image border is censored: it only says that the predicted edge is at or
 beyond the border, so only outward residuals count there.
 
+A box that misses the predicted box widened by ``gate_sigmas`` sigmas cannot be the object's
+(:func:`.sensor.outside_gate`): it scores ``-inf``.
+
 Per view, a hypothesis takes the best-matching box (max over boxes of
 ``match_bonus + sum of edge terms``) or, if none matches better, the miss
 term ``log(p_miss)``; a view in which the sphere is not predicted in the image
@@ -29,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
-from .sensor import SensorModel, box_edge_sigma_px, censored_edges, inward_edge_offsets
+from .sensor import SensorModel, box_edge_sigma_px, censored_edges, inward_edge_offsets, outside_gate
 
 __all__ = ["SensorModel", "box_scores", "edge_loglik", "edge_residuals", "pose_sigma_px", "view_scores"]
 
@@ -89,11 +92,17 @@ def edge_residuals(
         cell when the hypothesis stands for a whole cell rather than a point.
     """
     obs = np.asarray(obs, dtype=float)
+    return _censored_offsets(pred, obs, model, width, height) / box_edge_sigma_px(model, pred, extra_sigma_px)
+
+
+def _censored_offsets(
+    pred: NDArray[np.floating], obs: NDArray[np.floating], model: SensorModel, width: int, height: int
+) -> NDArray[np.float64]:
+    """:func:`.sensor.inward_edge_offsets`, pixels, with the edges on the image border clipped to <= 0 (only outward
+    residuals count there)."""
     d = inward_edge_offsets(pred, obs)
-    censored = censored_edges(obs, width, height, model.border_px)  # on the image border: only outward residuals count
-    if censored.any():
-        d = np.where(censored, np.minimum(d, 0.0), d)
-    return d / box_edge_sigma_px(model, pred, extra_sigma_px)
+    censored = censored_edges(obs, width, height, model.border_px)
+    return np.where(censored, np.minimum(d, 0.0), d) if censored.any() else d
 
 
 def edge_loglik(e: NDArray[np.floating], model: SensorModel) -> NDArray[np.float64]:
@@ -116,9 +125,13 @@ def box_scores(
     height: int,
     extra_sigma_px: NDArray[np.floating] | float = 0.0,
 ) -> NDArray[np.float64]:
-    """``match_bonus + sum of edge log-likelihoods`` of one observed box, shape pred.shape[:-1]."""
-    e = edge_residuals(pred, obs, model, width, height, extra_sigma_px)
-    return model.match_bonus + edge_loglik(e, model).sum(axis=-1)
+    """``match_bonus + sum of edge log-likelihoods`` of one observed box, shape pred.shape[:-1]; ``-inf`` where the
+    box lies outside the gate (:func:`.sensor.outside_gate`)."""
+    obs = np.asarray(obs, dtype=float)
+    sigma = box_edge_sigma_px(model, pred, extra_sigma_px)
+    d = _censored_offsets(pred, obs, model, width, height)
+    score = model.match_bonus + edge_loglik(d / sigma, model).sum(axis=-1)
+    return np.where(outside_gate(pred, d, sigma, model.gate_sigmas), -np.inf, score)
 
 
 def view_scores(

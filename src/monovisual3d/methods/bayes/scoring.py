@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from ...frames import transform_points
 from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
-from .boxindex import EdgeIndex, build_index
+from .boxindex import TileIndex, build_index
 from .likelihood import box_scores, pose_sigma_px, view_scores
 from .problem import Problem, Taken
 from .refine import Observation, Refined, refine_sphere, refine_spheroid
@@ -35,16 +35,16 @@ def pose_px(problem: Problem, depth: NDArray[np.floating] | float) -> NDArray[np
 
 #: Problems whose box index is kept (the last few: one estimate scores its problem thousands of times).
 INDEX_CACHE_SIZE = 4
-_INDEX_CACHE: list[tuple[Problem, EdgeIndex]] = []
+_INDEX_CACHE: list[tuple[Problem, TileIndex]] = []
 
 
-def box_index(problem: Problem) -> EdgeIndex:
+def box_index(problem: Problem) -> TileIndex:
     """The problem's box index (:func:`.boxindex.build_index`), built once per problem."""
     for p, index in _INDEX_CACHE:
         if p is problem:
             return index
     cam = problem.camera
-    index = build_index([vd.boxes for vd in problem.views], cam.width, cam.height, problem.model)
+    index = build_index([vd.boxes for vd in problem.views], cam.width, cam.height)
     _INDEX_CACHE.insert(0, (problem, index))
     del _INDEX_CACHE[INDEX_CACHE_SIZE:]
     return index

@@ -32,6 +32,8 @@ class SensorModel:
     match_bonus : float, nats: log-ratio of a perfectly matching box vs. no object
     p_miss : float, probability that a visible object yields no box (missed or hidden)
     border_px : float, an observed edge within this distance of the image border is censored
+    gate_sigmas : float, a box can be an object's box only if it meets the object's predicted box widened by
+        this many edge-noise sigmas on every side (:func:`outside_gate`)
     """
 
     alpha: float = 0.05
@@ -41,10 +43,13 @@ class SensorModel:
     match_bonus: float = 8.0
     p_miss: float = 0.1
     border_px: float = 1.0
+    gate_sigmas: float = 3.0
 
     def __post_init__(self) -> None:
         if not 0 < self.p_miss < 1:
             raise InputError(f"p_miss: got {self.p_miss}, expected a probability in (0, 1)")
+        if not self.gate_sigmas >= 0:
+            raise InputError(f"gate_sigmas: got {self.gate_sigmas}, expected a number of sigmas >= 0")
         if self.alpha < 0 or self.sigma0_px <= 0:
             raise InputError("alpha must be >= 0 and sigma0_px > 0")
 
@@ -107,6 +112,29 @@ def inward_edge_offsets(pred: NDArray[np.floating], obs: NDArray[np.floating]) -
         [obs[..., 0] - pred[..., 0], obs[..., 1] - pred[..., 1], pred[..., 2] - obs[..., 2], pred[..., 3] - obs[..., 3]],
         axis=-1,
     )
+
+
+def outside_gate(
+    pred: NDArray[np.floating], inward_px: NDArray[np.floating], sigma_px: NDArray[np.floating], gate_sigmas: float
+) -> NDArray[np.bool_]:
+    """Whether an observed box misses the predicted box widened by ``gate_sigmas`` sigmas, shape (...).
+
+    In residuals: an observed edge lies further inside the prediction than the prediction's own extent plus
+    ``gate_sigmas`` sigmas, i.e. the observed box lies wholly beyond the opposite predicted edge. Occlusion only
+    shrinks a box inside its object's silhouette and noise moves its edges by a few sigmas, so such a box is
+    not this object's (a box beside the prediction would otherwise still pay only the two edge floors).
+
+    Parameters
+    ----------
+    pred : ndarray, shape (..., 4), predicted ``bbox_xyxy``, pixels
+    inward_px : ndarray, shape (..., 4), :func:`inward_edge_offsets` (censored edges already clipped to <= 0), pixels
+    sigma_px : ndarray, shape (..., 4), edge noise, pixels (:func:`box_edge_sigma_px`)
+    gate_sigmas : float
+    """
+    import numpy as np
+
+    extent = np.stack([pred[..., 2] - pred[..., 0], pred[..., 3] - pred[..., 1]] * 2, axis=-1)
+    return np.any(inward_px > extent + gate_sigmas * sigma_px, axis=-1)
 
 
 def censored_edges(obs: NDArray[np.floating], width: int, height: int, border_px: float) -> NDArray[np.bool_]:
