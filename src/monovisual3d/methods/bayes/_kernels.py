@@ -25,9 +25,10 @@ from .boxindex import SCAN_BELOW_BOXES, TileIndex, build_index
 from .likelihood import SensorModel
 
 #: Single-thread cost of one hypothesis against one box of a scanned view in ``_score_kernel``, and of one
-#: hypothesis in a view looked up in the box index, nanoseconds (the thread count's work estimate, see
-#: :mod:`monovisual3d.engine.threads`; measured on plant rows of 48 boxes per view).
-NS_PER_HYPOTHESIS_BOX, NS_PER_HYPOTHESIS_VIEW = 20.0, 320.0
+#: hypothesis in a view looked up in the tile index, nanoseconds (the thread count's work estimate, see
+#: :mod:`monovisual3d.engine.threads`; measured on plant rows of 48 boxes per view: 210-290 ns single-threaded
+#: at load 4, against 450-540 ns for the former edge index whose idle figure was 320).
+NS_PER_HYPOTHESIS_BOX, NS_PER_HYPOTHESIS_VIEW = 20.0, 160.0
 #: Single-thread cost of one point in one view in ``_cone_kernel``, nanoseconds.
 NS_PER_POINT_VIEW = 20.0
 
