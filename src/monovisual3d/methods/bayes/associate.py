@@ -10,8 +10,6 @@ Both return new lists; the ``taken`` set is passed and returned explicitly.
 
 from __future__ import annotations
 
-from itertools import combinations
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -31,8 +29,12 @@ def _predicted_box(problem: Problem, v: int, o: DetectedObject) -> NDArray[np.fl
     return predict_spheroid_boxes(problem.camera, p_opt[None, :], [float(o.radius)], [b or float(o.radius)], up)[0][0, 0]
 
 
-def _overlap(a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
-    return bool(min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1]))
+def _overlapping(a: NDArray[np.float64], others: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Indices of the boxes ``others`` (M, 4) that overlap box ``a`` (4,) with a positive area."""
+    return np.flatnonzero(
+        (np.minimum(a[2], others[:, 2]) > np.maximum(a[0], others[:, 0]))
+        & (np.minimum(a[3], others[:, 3]) > np.maximum(a[1], others[:, 1]))
+    )
 
 
 #: Fits of :func:`fit_fixed` already made in a swap pass: (start position bytes, radius, semi-axis along up, association) -> fit.
@@ -81,6 +83,27 @@ def _try_swap(
     return new_a, new_b
 
 
+def _swap_view(problem: Problem, v: int, objects: list[DetectedObject], fits: _Fits) -> bool:
+    """One round of :func:`swap_pass` in view ``v``: the pairs in order, ``objects`` updated in place; whether any swapped."""
+    holders = [i for i, o in enumerate(objects) if problem.views[v].index in o.associations]
+    boxes = np.array([_predicted_box(problem, v, objects[i]) for i in holders]).reshape(-1, 4)  # once per object
+    changed = False
+    for pa, ia in enumerate(holders):
+        pb = pa
+        while len(later := _overlapping(boxes[pa], boxes[pb + 1 :])):  # the next overlapping partner, with boxes as they are now
+            pb += 1 + int(later[0])
+            ib = holders[pb]
+            if not swap_worth_fitting(problem, v, objects[ia], objects[ib], boxes[pa], boxes[pb]):
+                continue
+            swapped = _try_swap(problem, v, objects[ia], objects[ib], fits)
+            if swapped is None:
+                continue
+            objects[ia], objects[ib] = swapped
+            boxes[pa], boxes[pb] = _predicted_box(problem, v, swapped[0]), _predicted_box(problem, v, swapped[1])
+            changed = True
+    return changed
+
+
 def swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
     """Fix greedy association mistakes between fruit that overlap in a view (one hiding the other).
 
@@ -93,20 +116,8 @@ def swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedO
     fits: _Fits = {}
     for _ in range(2):
         changed = False
-        for v, vd in enumerate(problem.views):
-            holders = [i for i, o in enumerate(objects) if vd.index in o.associations]
-            boxes = {i: _predicted_box(problem, v, objects[i]) for i in holders}  # once per object, not per pair
-            for ia, ib in combinations(holders, 2):
-                if not _overlap(boxes[ia], boxes[ib]):
-                    continue
-                if not swap_worth_fitting(problem, v, objects[ia], objects[ib], boxes[ia], boxes[ib]):
-                    continue
-                swapped = _try_swap(problem, v, objects[ia], objects[ib], fits)
-                if swapped is None:
-                    continue
-                objects[ia], objects[ib] = swapped
-                boxes[ia], boxes[ib] = _predicted_box(problem, v, swapped[0]), _predicted_box(problem, v, swapped[1])
-                changed = True
+        for v in range(len(problem.views)):
+            changed |= _swap_view(problem, v, objects, fits)
         if not changed:
             break
     return objects
