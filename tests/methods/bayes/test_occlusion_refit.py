@@ -36,6 +36,10 @@ def test_occluded_edges_flags_only_edges_whose_extreme_point_a_nearer_silhouette
     assert occluded_edges(box, np.array([[35.0, 35.0, 75.0, 75.0]])).tolist() == [False] * 4
     assert occluded_edges(box, np.zeros((0, 4))).tolist() == [False] * 4
     assert occluded_edges(box, np.array([[-10.0, -10.0, 50.0, 50.0]])).tolist() == [True] * 4
+    # the right edge's extreme point (40, 20) lies 2 px inside the nearer silhouette: covered without a margin only
+    rim = np.array([[38.0, 0.0, 78.0, 40.0]])
+    assert occluded_edges(box, rim)[2]
+    assert not occluded_edges(box, rim, np.array([[3.0, 3.0]]))[2]
 
 
 def test_censored_edges_batched_equal_the_per_observation_ones():
@@ -75,7 +79,7 @@ def test_refit_with_the_cut_edge_censored_removes_the_occlusion_bias():
 
 
 def test_a_fruit_half_hidden_by_a_nearer_one_is_localised_better_with_the_refit(monkeypatch):
-    front, back = np.array([0.62, 0.0, 0.5]), np.array([0.72, 0.045, 0.5])
+    front, back = np.array([0.62, 0.0, 0.5]), np.array([0.72, 0.05, 0.5])
     scene = Scene((Sphere(front, 0.03), Sphere(back, 0.03)), (), "two")
     views = [look_at(TARGET + [-0.5, y, 0.02 * k], TARGET + [0, y, 0]) for k, y in enumerate((-0.1, -0.05, 0.0, 0.05))]
     ws = Workspace(np.array([0.45, -0.3, 0.3]), np.array([1.0, 0.3, 0.7]))
@@ -89,6 +93,6 @@ def test_a_fruit_half_hidden_by_a_nearer_one_is_localised_better_with_the_refit(
     with_refit = errors()
     monkeypatch.setattr(shapes, "occlusion_refit", lambda problem, objects: objects)
     without = errors()
-    assert with_refit[1] < without[1]
+    assert without[1] > 3e-3  # the hidden part of its boxes pulls the fit
     assert with_refit[1] < 1e-3
     assert abs(with_refit[0] - without[0]) < 0.2e-3

@@ -18,7 +18,7 @@ edges left out):
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ...errors import InputError
 from ...frames import invert_transform
@@ -28,12 +28,18 @@ from ...result import DetectedObject
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
 from .scoring import associations_list, observations
+from .sensor import box_edge_sigma_px
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
 MIN_VIEWS_FOR_ELLIPSOID = 4
 #: ``auto`` fits shapes when log(box aspect / sphere's predicted aspect) exceeds this, with one sign, in at least two
 #: boxes not cut by the image border (one truncated or occluded box does not make a fruit elongated).
 ROUNDNESS_THRESHOLD = 0.08
+
+#: The occlusion refit censors an edge when a nearer object's silhouette covers its extreme point by at least this
+#: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
+#: against the noise of the estimates, not a fitted one.
+OCCLUSION_MARGIN_SIGMAS = 2.0
 
 
 def _boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -109,10 +115,14 @@ def fit_shape(problem: Problem, obj: DetectedObject) -> DetectedObject:
     )  # fmt: skip
 
 
-def _predicted(problem: Problem, objects: list[DetectedObject], v: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Predicted boxes (N, 4), pixels, and centre depths (N,), metres, of the objects in view ``v``."""
+def _predicted(
+    problem: Problem, objects: list[DetectedObject], v: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Predicted boxes (N, 4), pixels, centre depths (N,), metres, and the std (N, 2), pixels, of each object's
+    projected centre along x and y in view ``v`` (its position covariance through the pinhole projection's
+    Jacobian; without a covariance, its box's edge noise)."""
     vd, cam, up = problem.views[v], problem.camera, problem.config.up_vector
-    boxes, depth = np.full((len(objects), 4), np.nan), np.full(len(objects), np.inf)
+    boxes, depth, std = np.full((len(objects), 4), np.nan), np.full(len(objects), np.inf), np.zeros((len(objects), 2))
     for i, o in enumerate(objects):
         p_opt = vd.T_optical_base[:3, :3] @ o.position + vd.T_optical_base[:3, 3]
         r = float(o.radius)  # type: ignore[arg-type]
@@ -122,10 +132,17 @@ def _predicted(problem: Problem, objects: list[DetectedObject], v: int) -> tuple
         else:
             boxes[i] = predict_spheroid_boxes(cam, p_opt[None], [r], [float(b)], vd.T_optical_base[:3, :3] @ up)[0][0, 0]
         depth[i] = p_opt[2]
-    return boxes, depth
+        if o.covariance is not None and p_opt[2] > 0:
+            x, y, z = p_opt
+            J = np.array([[cam.fx, 0.0, -cam.fx * x / z], [0.0, cam.fy, -cam.fy * y / z]]) / z
+            R = vd.T_optical_base[:3, :3]
+            std[i] = np.sqrt(np.maximum(np.diag(J @ R @ o.covariance @ R.T @ J.T), 0.0))
+        else:
+            std[i] = box_edge_sigma_px(problem.model, boxes[i])[:2]
+    return boxes, depth, std
 
 
-def occluded_edges(pred: NDArray[np.float64], nearer: NDArray[np.float64]) -> NDArray[np.bool_]:
+def occluded_edges(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin_px: ArrayLike = 0.0) -> NDArray[np.bool_]:
     """Edges ``x1, y1, x2, y2`` of an object's box that a nearer object hides, shape (4,).
 
     The edge of a convex silhouette's box is set by its extreme point on that side; the box is cut there
@@ -136,6 +153,9 @@ def occluded_edges(pred: NDArray[np.float64], nearer: NDArray[np.float64]) -> ND
     ----------
     pred : ndarray, shape (4,), the object's predicted box, pixels
     nearer : ndarray, shape (N, 4), predicted boxes of the objects nearer the camera, pixels
+    margin_px : float or ndarray, shape (N, 2), pixels: a point counts as covered only this far inside a nearer
+        silhouette (its half-width and half-height shrunk by it), so that the noise of the estimates does not
+        censor a full edge
 
     Examples
     --------
@@ -145,11 +165,12 @@ def occluded_edges(pred: NDArray[np.float64], nearer: NDArray[np.float64]) -> ND
     x1, y1, x2, y2 = pred
     cx, cy = (x1 + x2) / 2, (y1 + y2) / 2
     points = np.array([[x1, cy], [cx, y1], [x2, cy], [cx, y2]])  # the extreme points, edge by edge
-    n = nearer[np.all(np.isfinite(nearer), axis=1)]
+    ok = np.all(np.isfinite(nearer), axis=1)
+    n, m = nearer[ok], np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))[ok]
     if not len(n) or not np.all(np.isfinite(pred)):
         return np.zeros(4, dtype=bool)
     centre = (n[:, :2] + n[:, 2:]) / 2
-    half = np.maximum((n[:, 2:] - n[:, :2]) / 2, 1e-9)
+    half = np.maximum((n[:, 2:] - n[:, :2]) / 2 - m, 1e-9)
     inside = np.sum(((points[:, None, :] - centre[None]) / half[None]) ** 2, axis=2) < 1.0  # (4, N)
     return np.any(inside, axis=1)
 
@@ -160,7 +181,9 @@ def occlusion_refit(problem: Problem, objects: list[DetectedObject]) -> list[Det
     The refinement of the extraction takes an occluded box as a full one; its robust loss stops an edge
     cut by more than about three sigmas from pulling, but a smaller cut biases the fit. Here the other
     objects' predicted boxes say which edges a nearer object cuts (:func:`occluded_edges`), and the object
-    is refitted from its estimate with those edges censored, as edges on the image border are. Objects refined
+    is refitted from its estimate with those edges censored, as edges on the image border are; an edge counts as cut
+    only when the covering exceeds :data:`OCCLUSION_MARGIN_SIGMAS` times the uncertainty of the two objects' projected
+    centres (from their position covariances), so that chance overlaps of noisy estimates censor nothing. Objects refined
     jointly with the poses (``pose_corrected``) keep their joint solution.
     """
     cfg = problem.config
@@ -173,9 +196,10 @@ def occlusion_refit(problem: Problem, objects: list[DetectedObject]) -> list[Det
             continue
         obs: list[Observation] = []
         for ob, v in zip(observations(problem, assoc, o.position), [v for v, j in enumerate(assoc) if j >= 0]):
-            boxes, depth = preds[v]
-            nearer = boxes[(depth < depth[i]) & (np.arange(len(objects)) != i)]
-            ob.censored = occluded_edges(boxes[i], nearer)
+            boxes, depth, std = preds[v]
+            near = (depth < depth[i]) & (np.arange(len(objects)) != i)
+            margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
+            ob.censored = occluded_edges(boxes[i], boxes[near], margin)
             obs.append(ob)
         if not any(ob.censored.any() for ob in obs):  # type: ignore[union-attr]
             out.append(o)
