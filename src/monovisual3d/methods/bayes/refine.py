@@ -38,12 +38,16 @@ class Observation:
     extra_sigma_px : float, pixels, extra edge noise added in quadrature (e.g. the
         camera-pose uncertainty projected into the image, see
         :func:`monovisual3d.methods.bayes.likelihood.pose_sigma_px`); 0 by default
+    censored : ndarray of bool, shape (4,), or None: edges ``x1, y1, x2, y2`` known to be cut by a nearer
+        object (occlusion); like an edge on the image border, such an edge only says that the object reaches
+        at least that far, so only its outward residual counts. None: only the border's edges are censored
     """
 
     T_optical_base: NDArray[np.float64]
     bbox_xyxy: NDArray[np.float64]
     contour_uv: NDArray[np.float64] | None = None
     extra_sigma_px: float = 0.0
+    censored: NDArray[np.bool_] | None = None
 
 
 @dataclass
@@ -96,6 +100,8 @@ def observation_residuals(
         return mask_residuals(camera, p_optical, radius, observation.contour_uv, model, observation.extra_sigma_px)
     pred, _ = predict_sphere_boxes(camera, p_optical[None, :], np.array([radius]))
     e = edge_residuals(pred[0, 0], observation.bbox_xyxy, model, camera.width, camera.height, observation.extra_sigma_px)
+    if observation.censored is not None:
+        e = np.where(observation.censored, np.minimum(e, 0.0), e)  # the edge noise is positive: censor e as d
     return np.nan_to_num(e, nan=1e3)
 
 
@@ -132,6 +138,9 @@ class _BoxResiduals:
         self.extra = np.array([float(np.asarray(ob.extra_sigma_px)) for ob in observations])
         self.extra2 = self.extra**2
         self.censored = censored_edges(obs, camera.width, camera.height, model.border_px)
+        for m, ob in enumerate(observations):
+            if ob.censored is not None:
+                self.censored[m] |= np.asarray(ob.censored, dtype=bool)
 
     def batch(
         self, centres_base: NDArray[np.floating], radii: NDArray[np.floating], semi_up: NDArray[np.floating] | None = None

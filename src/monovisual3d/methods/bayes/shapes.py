@@ -2,7 +2,9 @@
 
 The search, extraction and association run with spheres and upright spheroids
 (``BayesConfig.elongations``), so a tall box is found and associated as what it
-is. This stage then refines the shape: it fits each object's associated boxes with the shape
+is. This stage first refits each object whose boxes a nearer object cuts, those edges censored
+(:func:`occlusion_refit`; the extraction's refinement took them as full edges), then refines the
+shape: it fits each object's associated boxes with the shape
 model (:func:`monovisual3d.geometry.fit.fit_shape_by_bic`, robust, truncated
 edges left out):
 
@@ -18,19 +20,28 @@ edges left out):
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ...errors import InputError
 from ...frames import invert_transform
 from ...geometry.sphere import predict_sphere_boxes
+from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
 from .problem import Problem
+from .refine import Observation, refine_sphere, refine_spheroid
+from .scoring import associations_list, observations
+from .sensor import box_edge_sigma_px
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
 MIN_VIEWS_FOR_ELLIPSOID = 4
 #: ``auto`` fits shapes when log(box aspect / sphere's predicted aspect) exceeds this, with one sign, in at least two
 #: boxes not cut by the image border (one truncated or occluded box does not make a fruit elongated).
 ROUNDNESS_THRESHOLD = 0.08
+
+#: The occlusion refit censors an edge when a nearer object's silhouette covers its extreme point by at least this
+#: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
+#: against the noise of the estimates, not a fitted one.
+OCCLUSION_MARGIN_SIGMAS = 2.0
 
 
 def _boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -106,6 +117,117 @@ def fit_shape(problem: Problem, obj: DetectedObject) -> DetectedObject:
     )  # fmt: skip
 
 
+def _predicted(
+    problem: Problem, objects: list[DetectedObject], v: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Predicted boxes (N, 4), pixels, centre depths (N,), metres, and the std (N, 2), pixels, of each object's
+    projected centre along x and y in view ``v`` (its position covariance through the pinhole projection's
+    Jacobian; without a covariance, its box's edge noise)."""
+    vd, cam, up = problem.views[v], problem.camera, problem.config.up_vector
+    boxes, depth, std = np.full((len(objects), 4), np.nan), np.full(len(objects), np.inf), np.zeros((len(objects), 2))
+    for i, o in enumerate(objects):
+        p_opt = vd.T_optical_base[:3, :3] @ o.position + vd.T_optical_base[:3, 3]
+        r = float(o.radius)  # type: ignore[arg-type]
+        b = o.extra.get("semi_up")
+        if b is None:
+            boxes[i] = predict_sphere_boxes(cam, p_opt[None], np.array([r]))[0][0, 0]
+        else:
+            boxes[i] = predict_spheroid_boxes(cam, p_opt[None], [r], [float(b)], vd.T_optical_base[:3, :3] @ up)[0][0, 0]
+        depth[i] = p_opt[2]
+        if o.covariance is not None and p_opt[2] > 0:
+            x, y, z = p_opt
+            J = np.array([[cam.fx, 0.0, -cam.fx * x / z], [0.0, cam.fy, -cam.fy * y / z]]) / z
+            R = vd.T_optical_base[:3, :3]
+            std[i] = np.sqrt(np.maximum(np.diag(J @ R @ o.covariance @ R.T @ J.T), 0.0))
+        else:
+            std[i] = box_edge_sigma_px(problem.model, boxes[i])[:2]
+    return boxes, depth, std
+
+
+def occluded_edges(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin_px: ArrayLike = 0.0) -> NDArray[np.bool_]:
+    """Edges ``x1, y1, x2, y2`` of an object's box that a nearer object hides, shape (4,).
+
+    The edge of a convex silhouette's box is set by its extreme point on that side; the box is cut there
+    when a nearer silhouette covers that point. Silhouettes are taken as the ellipses inscribed in the
+    predicted boxes (exact for a sphere seen on the optical axis, close to it in a usual field of view).
+
+    Parameters
+    ----------
+    pred : ndarray, shape (4,), the object's predicted box, pixels
+    nearer : ndarray, shape (N, 4), predicted boxes of the objects nearer the camera, pixels
+    margin_px : float or ndarray, shape (N, 2), pixels: a point counts as covered only this far inside a nearer
+        silhouette (its half-width and half-height shrunk by it), so that the noise of the estimates does not
+        censor a full edge
+
+    Examples
+    --------
+    >>> occluded_edges(np.array([10.0, 0, 50, 40]), np.array([[40.0, 5, 80, 30]])).tolist()
+    [False, False, True, False]
+    """
+    x1, y1, x2, y2 = pred
+    cx, cy = (x1 + x2) / 2, (y1 + y2) / 2
+    points = np.array([[x1, cy], [cx, y1], [x2, cy], [cx, y2]])  # the extreme points, edge by edge
+    ok = np.all(np.isfinite(nearer), axis=1)
+    n, m = nearer[ok], np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))[ok]
+    if not len(n) or not np.all(np.isfinite(pred)):
+        return np.zeros(4, dtype=bool)
+    centre = (n[:, :2] + n[:, 2:]) / 2
+    half = np.maximum((n[:, 2:] - n[:, :2]) / 2 - m, 1e-9)
+    inside = np.sum(((points[:, None, :] - centre[None]) / half[None]) ** 2, axis=2) < 1.0  # (4, N)
+    return np.any(inside, axis=1)
+
+
+def occlusion_refit(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+    """Refit each object whose boxes a nearer object cuts, those edges censored (only outward residuals count).
+
+    The refinement of the extraction takes an occluded box as a full one; its robust loss stops an edge
+    cut by more than about three sigmas from pulling, but a smaller cut biases the fit. Here the other
+    objects' predicted boxes say which edges a nearer object cuts (:func:`occluded_edges`), and the object
+    is refitted from its estimate with those edges censored, as edges on the image border are; an edge counts as cut
+    only when the covering exceeds :data:`OCCLUSION_MARGIN_SIGMAS` times the uncertainty of the two objects' projected
+    centres (from their position covariances), so that chance overlaps of noisy estimates censor nothing. Objects refined
+    jointly with the poses (``pose_corrected``) keep their joint solution.
+    """
+    cfg = problem.config
+    preds = [_predicted(problem, objects, v) for v in range(len(problem.views))]
+    out = []
+    for i, o in enumerate(objects):
+        assoc = associations_list(problem, o)
+        if o.extra.get("pose_corrected") or sum(a >= 0 for a in assoc) < cfg.min_views:
+            out.append(o)
+            continue
+        obs: list[Observation] = []
+        for ob, v in zip(observations(problem, assoc, o.position), [v for v, j in enumerate(assoc) if j >= 0]):
+            boxes, depth, std = preds[v]
+            near = (depth < depth[i]) & (np.arange(len(objects)) != i)
+            margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
+            ob.censored = occluded_edges(boxes[i], boxes[near], margin)
+            obs.append(ob)
+        if not any(ob.censored.any() for ob in obs):  # type: ignore[union-attr]
+            out.append(o)
+            continue
+        out.append(_refit(problem, o, obs))
+    return out
+
+
+def _refit(problem: Problem, o: DetectedObject, obs: list[Observation]) -> DetectedObject:
+    """``o`` refitted on ``obs`` from its estimate; ``o`` itself when the fit fails or leaves the radius range."""
+    cfg, r = problem.config, float(o.radius)  # type: ignore[arg-type]
+    b = o.extra.get("semi_up")
+    if b is None:
+        fit = refine_sphere(problem.camera, obs, o.position, r, problem.model, use_masks=cfg.use_masks)
+    else:
+        fit = refine_spheroid(problem.camera, obs, o.position, r, float(b), problem.model, cfg.up_vector)
+    sizes = [fit.radius] + ([] if fit.semi_up is None else [fit.semi_up])
+    if not (fit.success and all(cfg.radius_min * 0.5 <= s <= cfg.radius_max * 2 for s in sizes)):
+        return o
+    extra = {**o.extra, "radius_std": fit.radius_std if np.isfinite(fit.radius_std) else None}
+    if fit.semi_up is not None:
+        extra["semi_up"] = float(fit.semi_up)
+    cov = fit.covariance if np.all(np.isfinite(fit.covariance)) else None
+    return DetectedObject(fit.centre, o.score, float(fit.radius), cov, o.associations, o.n_cells, extra)
+
+
 def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
-    """Every object through :func:`fit_shape`."""
-    return [fit_shape(problem, o) for o in objects]
+    """Every object through :func:`occlusion_refit`, then :func:`fit_shape`."""
+    return [fit_shape(problem, o) for o in occlusion_refit(problem, objects)]
