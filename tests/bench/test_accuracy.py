@@ -3,12 +3,27 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
-from monovisual3d.bench.accuracy import check_targets, conditions, format_markdown, run_accuracy, save
+from monovisual3d.bench.accuracy import (
+    check_targets,
+    conditions,
+    crlb_rms_sq,
+    cut_crlb_rms_sq,
+    format_markdown,
+    run_accuracy,
+    save,
+)
 from monovisual3d.errors import InputError
+from monovisual3d.geometry.bounds import cut_edges
+from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
+from monovisual3d.sim.noise import NoiseModel
+from monovisual3d.sim.scenes import default_camera, greenhouse_scene, paper_scene
+from monovisual3d.sim.simulate import simulate_views
 
 
 @pytest.fixture(scope="module")
@@ -47,8 +62,9 @@ def test_conditions_cover_the_issue_list():
     by_name = {c.name: c for c in conditions()}
     assert by_name["greenhouse-clutter"].noise.false_positive_rate > 0
     assert by_name["greenhouse-noise"].noise.box_sigma > 0 and by_name["greenhouse-noise"].noise.false_positive_rate == 0
-    # the Cramer-Rao bound assumes unoccluded fruit and no clutter
-    assert {c.name for c in conditions() if c.crlb} == {"paper-noise", "shapes-noise"}
+    # the Cramer-Rao bound: from full boxes without occluders, from the cut visible boxes with them
+    assert {c.name for c in conditions() if c.crlb == "full"} == {"paper-noise", "shapes-noise"}
+    assert {c.name for c in conditions() if c.crlb == "cut"} == {"greenhouse-noise", "greenhouse-clutter"}
     assert {"shapes-clean", "shapes-noise", "shapes-occluded"} <= names
 
 
@@ -71,3 +87,34 @@ def test_cli_bench_accuracy_prints_the_table(tmp_path):
     assert json.loads(out.read_text())["results"]["n-fruit-1"]["methods"]["bayes"]["recall"] == 1.0
     bad = CliRunner().invoke(app, ["bench", "accuracy", "--methods", "nope"])
     assert bad.exit_code == 2 and "methods" in bad.output
+
+
+def test_cut_bound_equals_the_full_bound_without_occluders():
+    scene = paper_scene()
+    svs = simulate_views(scene, noise=NoiseModel.paper(), rng=3)
+    # the rendered boxes lie within a pixel of the exact ones, so the two bounds agree to about a percent
+    assert_allclose(cut_crlb_rms_sq(scene, svs, 0.05), crlb_rms_sq(scene, svs, 0.05), rtol=0.03)
+
+
+def test_false_positives_add_nothing_and_leaves_cut_edges():
+    scene = greenhouse_scene(rng=4)
+    svs = simulate_views(scene, noise=NoiseModel.paper(), rng=4)
+    bound = cut_crlb_rms_sq(scene, svs, 0.05)
+    assert len(bound) == len(scene.fruits) and np.all(np.isfinite(bound))
+    # false-positive boxes (source -1) appended to every view leave each fruit's bound as it was
+    fp = np.array([[10.0, 10.0, 60.0, 60.0], [300.0, 200.0, 340.0, 260.0], [500.0, 400.0, 600.0, 470.0]])
+    cluttered = [
+        replace(sv, boxes_xyxy=np.concatenate([sv.boxes_xyxy, fp]), source=np.concatenate([sv.source, [-1, -1, -1]]))
+        for sv in svs
+    ]
+    assert_allclose(cut_crlb_rms_sq(scene, cluttered, 0.05), bound, rtol=1e-12)
+    # the leaves cut some fruit's edges in this scene
+    cam = default_camera()
+    n_cut = 0
+    for f, fruit in enumerate(scene.fruits):
+        e = fruit.ellipsoid
+        for sv in svs:
+            if f in sv.source:
+                full = ellipsoid_bbox(cam, sv.T_base_optical_true, e.centre_base, e.semi_axes, e.rotation, clip=False)
+                n_cut += int(cut_edges(full, sv.rendering.boxes_xyxy[f]).sum())
+    assert n_cut > 0

@@ -13,6 +13,7 @@ from monovisual3d.geometry import Ellipsoid
 from monovisual3d.geometry.bounds import (
     box_edge_covariance,
     centre_crlb_rms_sq,
+    cut_edges,
     ellipsoid_box_jacobian,
     ellipsoid_crlb,
     shape_parameters,
@@ -82,6 +83,44 @@ def test_clipped_edges_carry_no_information() -> None:
     assert np.isnan(one.covariance).all()  # one view cannot fix seven parameters
 
 
+def test_cut_edges_are_those_inside_the_full_box() -> None:
+    full = np.array([[100.0, 50.0, 180.0, 250.0], [10.0, 20.0, 30.0, 40.0]])
+    seen = full + np.array([[1.0, 30.0, -1.0, 0.0], [0.0, 0.0, -5.0, -1.6]])
+    assert_allclose(cut_edges(full, seen), [[False, True, False, False], [False, False, True, True]])
+    assert not cut_edges(full, full).any()
+
+
+def test_an_occluded_edge_raises_the_bound() -> None:
+    P = paper_poses()
+    boxes, _ = ellipsoid_box_jacobian(CAM, P, CUCUMBER, "spheroid")
+    full = ellipsoid_crlb(CAM, P, CUCUMBER, 0.05, "spheroid")
+    # stating the full boxes as the noise's boxes and no cut edge changes nothing
+    same = ellipsoid_crlb(CAM, P, CUCUMBER, 0.05, "spheroid", censored=np.zeros((3, 4), bool), noise_boxes_xyxy=boxes)
+    assert_allclose(same.fisher, full.fisher, rtol=1e-12)
+    censored = np.zeros((3, 4), bool)
+    censored[1, 0] = True  # a leaf cuts the left edge in the second view
+    cut = ellipsoid_crlb(CAM, P, CUCUMBER, 0.05, "spheroid", censored=censored, noise_boxes_xyxy=boxes)
+    assert cut.centre_rms_sq > full.centre_rms_sq * (1 + 1e-3)
+    # the information lost is that of the cut edge: F_full - F_cut is positive semi-definite
+    assert np.linalg.eigvalsh(full.fisher - cut.fisher).min() > -1e-9 * np.abs(full.fisher).max()
+    # every edge of a view cut: the view is ignored
+    all_cut = np.zeros((3, 4), bool)
+    all_cut[2] = True
+    assert ellipsoid_crlb(CAM, P, CUCUMBER, 0.05, "spheroid", censored=all_cut).n_views == 2
+
+
+def test_smaller_visible_box_means_smaller_relative_noise() -> None:
+    P = paper_poses()
+    boxes, _ = ellipsoid_box_jacobian(CAM, P, CUCUMBER, "spheroid")
+    half = boxes.copy()
+    half[:, 0] = 0.5 * (boxes[:, 0] + boxes[:, 2])  # the left half hidden: the detector's box is half as wide
+    censored = np.zeros((3, 4), bool)
+    censored[:, 0] = True
+    wide = ellipsoid_crlb(CAM, P, CUCUMBER, 0.05, "spheroid", censored=censored, noise_boxes_xyxy=boxes)
+    narrow = ellipsoid_crlb(CAM, P, CUCUMBER, 0.05, "spheroid", censored=censored, noise_boxes_xyxy=half)
+    assert narrow.centre_rms_sq < wide.centre_rms_sq
+
+
 def test_edge_covariance_matches_the_simulator_noise() -> None:
     rng = np.random.default_rng(0)
     from monovisual3d.sim.noise import NoiseModel
@@ -99,3 +138,5 @@ def test_bad_input() -> None:
         ellipsoid_crlb(CAM, paper_poses(), CUCUMBER, 0.0)
     with pytest.raises(InputError, match="poses: got 1 pose lists for 2 objects"):
         centre_crlb_rms_sq(CAM, [CUCUMBER, CUCUMBER], [paper_poses()], 0.05)
+    with pytest.raises(InputError, match=r"censored, noise_boxes_xyxy: expected shape \(3, 4\)"):
+        ellipsoid_crlb(CAM, paper_poses(), CUCUMBER, 0.05, censored=np.zeros((2, 4), bool))

@@ -11,6 +11,15 @@ Fisher information of the parameters ``theta`` is ``sum_views J^T C^-1 J`` with
 the covariance of any unbiased estimator. Edges that the image border clips
 carry no information about the object and are left out (truncation).
 
+Occlusion (censoring): an edge of a box that an occluder (a leaf, another fruit)
+cuts lies where the occluder's outline crosses the object, a place the estimator
+does not know; we take it as an unknown nuisance value per cut edge, so the edge
+carries no information on the object and is left out, like a clipped one
+(``censored``, :func:`cut_edges`). The edge noise then scales with the box the
+detector reports (the visible one, ``noise_boxes_xyxy``), not with the full silhouette.
+False-positive boxes are no part of an object's boxes: with the true association
+they add nothing to its bound.
+
 Parameters of each model (``theta``, around the true object):
 
 - ``sphere``: centre (3), one size that moves all semi-axes together (1);
@@ -41,6 +50,9 @@ STEP_M = 1e-6
 STEP_RAD = 1e-6
 #: An edge within this many pixels of the image border counts as clipped.
 BORDER_PX = 0.5
+#: A visible-box edge more than this many pixels inside the full silhouette box is cut (occluded); the
+#: rendered box of whole pixels lies up to 1 px inside the exact one.
+CUT_PX = 1.5
 #: A parameter whose edges move by less than this (pixels per metre or radian, over all views) is not observable.
 BLIND_PX = 1e-3
 
@@ -183,6 +195,8 @@ def ellipsoid_crlb(
     edge_sigma_px: float = 0.0,
     up: ArrayLike = DEFAULT_UP,
     free_orientation: bool = False,
+    censored: ArrayLike | None = None,
+    noise_boxes_xyxy: ArrayLike | None = None,
 ) -> ShapeBound:
     """Cramer-Rao bound of an ellipsoid's parameters from its boxes in the given views.
 
@@ -196,6 +210,10 @@ def ellipsoid_crlb(
     edge_sigma_px : float, extra independent noise per edge, pixels
     up : array_like, shape (3,), the vertical
     free_orientation : bool, see the module docstring
+    censored : array_like of bool, shape (V, 4), optional
+        True for edges cut by an occluder (:func:`cut_edges`): left out, like edges the border clips
+    noise_boxes_xyxy : array_like, shape (V, 4), pixels, optional
+        The boxes the relative noise scales with (the visible boxes); default the full silhouette boxes
 
     Returns
     -------
@@ -214,11 +232,45 @@ def ellipsoid_crlb(
         raise InputError(f"box_sigma, edge_sigma_px: got {box_sigma!r}, {edge_sigma_px!r}, expected >= 0 and not both 0")
     names = shape_parameters(model, free_orientation=free_orientation)
     boxes, J = ellipsoid_box_jacobian(camera, T_base_optical, ellipsoid, model, up=up, free_orientation=free_orientation)
-    C = box_edge_covariance(boxes, box_sigma, edge_sigma_px)
+    C = box_edge_covariance(boxes if noise_boxes_xyxy is None else _check_vx4(noise_boxes_xyxy, boxes), box_sigma, edge_sigma_px)
     usable = _usable_edges(camera, boxes, J)
+    if censored is not None:
+        usable &= ~_check_vx4(censored, boxes).astype(bool)
     F, n_views = _fisher_information(J, C, usable)
     cov = _covariance_of_seen(F, J, usable) if n_views else np.full_like(F, np.nan)
     return ShapeBound(names, F, cov, n_views)
+
+
+def _check_vx4(values: ArrayLike, boxes: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``values`` as an array of the views' box shape (V, 4), or one clear error."""
+    v = np.asarray(values)
+    if v.shape != boxes.shape:
+        raise InputError(f"censored, noise_boxes_xyxy: expected shape {boxes.shape} (views, 4 edges), got {v.shape}")
+    return v
+
+
+def cut_edges(full_boxes_xyxy: ArrayLike, seen_boxes_xyxy: ArrayLike, tol_px: float = CUT_PX) -> NDArray[np.bool_]:
+    """Edges of the seen (visible) boxes that lie more than ``tol_px`` inside the full silhouette boxes.
+
+    Parameters
+    ----------
+    full_boxes_xyxy : array_like, shape (..., 4), pixels, the unoccluded silhouette boxes (unclipped)
+    seen_boxes_xyxy : array_like, shape (..., 4), pixels, the boxes of the visible pixels
+    tol_px : float, pixels
+
+    Returns
+    -------
+    ndarray of bool, shape (..., 4): True where an occluder or the image border cuts the edge
+
+    Examples
+    --------
+    >>> cut_edges([0.0, 0.0, 100.0, 50.0], [0.5, 20.0, 100.0, 50.0])
+    array([False,  True, False, False])
+    """
+    full = np.asarray(full_boxes_xyxy, dtype=float)
+    seen = np.asarray(seen_boxes_xyxy, dtype=float)
+    inside = np.concatenate([seen[..., :2] - full[..., :2], full[..., 2:] - seen[..., 2:]], axis=-1)
+    return inside > tol_px
 
 
 def _usable_edges(camera: Camera, boxes: NDArray[np.float64], J: NDArray[np.float64]) -> NDArray[np.bool_]:
