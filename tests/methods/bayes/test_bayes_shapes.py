@@ -12,8 +12,11 @@ from typer.testing import CliRunner
 import monovisual3d as mv
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError
-from monovisual3d.geometry.ellipsoid import Ellipsoid
+from monovisual3d.geometry.ellipsoid import Ellipsoid, rotation_upright
 from monovisual3d.methods.bayes import BayesConfig
+from monovisual3d.methods.bayes.problem import Problem, build_problem
+from monovisual3d.methods.bayes.shapes import ROUNDNESS_THRESHOLD, aspect_deviations, auto_shapes, looks_round
+from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.scenes import default_camera, paper_scene
 from monovisual3d.sim.simulate import simulate
@@ -40,6 +43,56 @@ def test_a_tall_box_from_three_views_is_one_spheroid():
     assert o.shape == "spheroid"
     assert np.linalg.norm(o.position - true.centre_base) < 1.5e-3
     assert_allclose(np.sort(o.semi_axes), [0.02, 0.02, 0.06], atol=2e-3)
+
+
+#: A 12 x 5 x 5 cm object on its side (a can, a box, a cucumber lying down), long axis horizontal.
+LYING = (0.06, 0.025, 0.025)
+
+
+@pytest.mark.parametrize("yaw", [1.0, 1.5, 2.0])
+def test_a_lying_object_from_three_views_is_an_ellipsoid(yaw):
+    # its boxes are wide where the views see it broadside, tall where they look along it: no upright model fits them
+    true = Ellipsoid.from_rotation([0.6, 0.0, 0.5], LYING, rotation_upright(yaw))
+    r = mv.localize(_session([true]))
+    assert len(r.objects) == 1
+    o = r.objects[0]
+    assert o.shape == "ellipsoid"
+    assert np.linalg.norm(o.position - true.centre_base) < 1e-3  # an upright spheroid lands 2.6-4.4 mm off
+    assert_allclose(np.sort(o.semi_axes), np.sort(LYING), atol=2e-3)
+
+
+def _object_at(e: Ellipsoid, radius: float) -> tuple[Problem, DetectedObject]:
+    """The problem of ``_session([e])`` and a sphere estimate of radius ``radius`` at ``e``'s centre holding its boxes."""
+    session = _session([e])
+    problem = build_problem(CAM, BayesConfig(), session.views)
+    return problem, DetectedObject(e.centre_base, 10.0, radius, associations={v: 0 for v in range(len(session.views))})
+
+
+def test_aspect_deviations_say_upright_lying_or_round():
+    problem, upright = _object_at(Ellipsoid.spheroid([0.6, 0.0, 0.5], 0.02, 0.06), 0.02)
+    d = aspect_deviations(problem, upright)
+    assert len(d) == 3 and np.all(d > ROUNDNESS_THRESHOLD) and not looks_round(problem, upright)
+    assert auto_shapes(d, 3) == ("sphere", "spheroid")  # taller than a sphere in every view: its outline is round
+    assert auto_shapes(d, 4) == ("sphere", "spheroid", "ellipsoid")
+    problem, lying = _object_at(Ellipsoid.from_rotation([0.6, 0.0, 0.5], LYING, rotation_upright(1.5)), 0.035)
+    d = aspect_deviations(problem, lying)
+    assert np.any(d < -ROUNDNESS_THRESHOLD) and not looks_round(problem, lying)
+    assert auto_shapes(d, 3) == ("sphere", "spheroid", "ellipsoid")
+    problem, ball = _object_at(Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03), 0.03)
+    assert_allclose(aspect_deviations(problem, ball), 0.0, atol=1e-9)
+    assert looks_round(problem, ball)
+
+
+def test_one_truncated_box_does_not_make_a_sphere_elongated():
+    session = _session([Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)])
+    views = list(session.views)
+    box = np.asarray(views[1].detections[0].bbox_xyxy, dtype=float)
+    box[2] -= 0.4 * (box[2] - box[0])  # a leaf hides 40 % of it in one view
+    views[1] = View(views[1].T_base_optical, (Detection(box),))
+    problem = build_problem(CAM, BayesConfig(), views)
+    obj = DetectedObject(np.array([0.6, 0.0, 0.5]), 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
+    assert np.sum(np.abs(aspect_deviations(problem, obj)) > ROUNDNESS_THRESHOLD) == 1
+    assert looks_round(problem, obj)
 
 
 def test_auto_keeps_the_paper_spheres_spheres():

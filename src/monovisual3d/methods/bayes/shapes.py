@@ -9,10 +9,16 @@ edges left out):
 - ``sphere``: the sphere estimate is kept (the shape fields are filled in);
 - ``spheroid`` / ``ellipsoid``: that model is fitted;
 - ``auto`` (default): round-looking objects stay spheres without a fit; an
-  object whose boxes are elongated the same way in every view (:func:`looks_round`) is
-  fitted as sphere, spheroid and (with at least
-  :data:`MIN_VIEWS_FOR_ELLIPSOID` views) ellipsoid, and the model with the
-  lowest BIC is kept.
+  object whose boxes are not square in two or more views (:func:`looks_round`) is
+  fitted as sphere, spheroid and (with at least :data:`MIN_VIEWS_FOR_ELLIPSOID`
+  views, or :data:`MIN_VIEWS_FOR_LYING` when it looks lying: :func:`auto_shapes`)
+  ellipsoid, and the model with the lowest BIC is kept.
+
+Lying objects (a can, a box or a cucumber on its side: the long axis horizontal) are
+the ``ellipsoid`` model (two horizontal semi-axes and a yaw). Their boxes are wide
+where the camera sees them broadside and tall where it looks along the long axis
+from above, so the sign of their elongation changes with the view; an upright
+object's does not.
 """
 
 from __future__ import annotations
@@ -28,9 +34,20 @@ from .problem import Problem
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
 MIN_VIEWS_FOR_ELLIPSOID = 4
-#: ``auto`` fits shapes when log(box aspect / sphere's predicted aspect) exceeds this, with one sign, in at least two
-#: boxes not cut by the image border (one truncated or occluded box does not make a fruit elongated).
+#: Views from which ``auto`` tries the ellipsoid for an object with a box wider than its sphere's: its horizontal
+#: extent exceeds its height, it lies (a can, a box, a cucumber on its side), and its horizontal outline is not
+#: the circle of an upright object. Three views give 12 box edges, each a plane tangent to the object, for the
+#: ellipsoid's 7 parameters (upright axis, two horizontal semi-axes, yaw; a lying 5 x 5 x 12 cm object from
+#: three views: tests/methods/bayes/test_bayes_shapes.py). An object taller than its sphere in every elongated
+#: box stands upright, and three views keep it a sphere or spheroid (its horizontal outline is round).
+MIN_VIEWS_FOR_LYING = 3
+#: ``auto`` fits shapes when |log(box aspect / sphere's predicted aspect)| exceeds this in at least
+#: :data:`MIN_ELONGATED_BOXES` boxes not cut by the image border.
 ROUNDNESS_THRESHOLD = 0.08
+#: Boxes that must be elongated before ``auto`` fits shapes: one truncated or occluded box does not make a fruit
+#: elongated. The sign is not required to agree: an upright object is elongated the same way in every view, a
+#: lying one wide broadside and tall end-on (see the module docstring).
+MIN_ELONGATED_BOXES = 2
 
 
 def _boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -42,8 +59,9 @@ def _boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], 
     return poses, boxes
 
 
-def looks_round(problem: Problem, obj: DetectedObject) -> bool:
-    """Whether the object's untruncated boxes have the aspect its sphere predicts (within the threshold)."""
+def aspect_deviations(problem: Problem, obj: DetectedObject) -> NDArray[np.float64]:
+    """``log(box aspect / aspect of the object's sphere's predicted box)`` of each associated box not cut by the image
+    border, shape (K,) (aspect: height / width; positive: taller than the sphere's box)."""
     cam, border = problem.camera, problem.model.border_px
     by_index = {vd.index: vd for vd in problem.views}
     deviations = []
@@ -57,10 +75,32 @@ def looks_round(problem: Problem, obj: DetectedObject) -> bool:
         if not np.all(np.isfinite([px1, py1, px2, py2])) or min(x2 - x1, y2 - y1) <= 0:
             continue
         deviations.append(np.log((y2 - y1) / (x2 - x1)) - np.log((py2 - py1) / (px2 - px1)))
-    # a non-round fruit is elongated the same way in every view; occlusion truncates one view's box at random
-    d = np.asarray(deviations)
-    consistent = len(d) >= 2 and (np.all(d > ROUNDNESS_THRESHOLD) or np.all(d < -ROUNDNESS_THRESHOLD))
-    return not consistent
+    return np.asarray(deviations, dtype=float)
+
+
+def looks_round(problem: Problem, obj: DetectedObject) -> bool:
+    """Whether the object's untruncated boxes have the aspect its sphere predicts: fewer than
+    :data:`MIN_ELONGATED_BOXES` of them deviate from it by more than :data:`ROUNDNESS_THRESHOLD`, of either sign."""
+    # an upright object deviates with one sign in every view, a lying one with the sign its azimuth gives;
+    # occlusion truncates one view's box at random
+    return int(np.sum(np.abs(aspect_deviations(problem, obj)) > ROUNDNESS_THRESHOLD)) < MIN_ELONGATED_BOXES
+
+
+def auto_shapes(deviations: NDArray[np.floating], n_views: int) -> tuple[str, ...]:
+    """The models ``auto`` compares for an object that does not look round, given its :func:`aspect_deviations`
+    and its number of views: sphere and spheroid; the ellipsoid too from :data:`MIN_VIEWS_FOR_ELLIPSOID` views, or
+    from :data:`MIN_VIEWS_FOR_LYING` when a box is wider than the sphere's (a lying object).
+
+    Examples
+    --------
+    >>> auto_shapes(np.array([0.3, 0.25, 0.4]), 3)  # taller in every view: upright
+    ('sphere', 'spheroid')
+    >>> auto_shapes(np.array([0.3, -0.2, 0.0]), 3)  # wider in one view: lying
+    ('sphere', 'spheroid', 'ellipsoid')
+    """
+    wide = bool(np.any(np.asarray(deviations, dtype=float) < -ROUNDNESS_THRESHOLD))
+    ellipsoid = n_views >= MIN_VIEWS_FOR_ELLIPSOID or (wide and n_views >= MIN_VIEWS_FOR_LYING)
+    return ("sphere", "spheroid") + (("ellipsoid",) if ellipsoid else ())
 
 
 def as_sphere(obj: DetectedObject) -> DetectedObject:
@@ -84,10 +124,7 @@ def fit_shape(problem: Problem, obj: DetectedObject) -> DetectedObject:
     poses, boxes = _boxes(problem, obj)
     if cfg.shape == "sphere" or len(boxes) < 2 or (cfg.shape == "auto" and looks_round(problem, obj)):
         return as_sphere(obj)
-    if cfg.shape == "auto":
-        shapes: tuple[str, ...] = ("sphere", "spheroid") + (("ellipsoid",) if len(boxes) >= MIN_VIEWS_FOR_ELLIPSOID else ())
-    else:
-        shapes = (cfg.shape,)
+    shapes = auto_shapes(aspect_deviations(problem, obj), len(boxes)) if cfg.shape == "auto" else (cfg.shape,)
     try:
         best, _ = fit_shape_by_bic(
             problem.camera, poses, boxes, shapes=shapes, up=cfg.up_vector, size_range=cfg.semi_axis_range,
