@@ -12,8 +12,11 @@ from typer.testing import CliRunner
 import monovisual3d as mv
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError
-from monovisual3d.geometry.ellipsoid import Ellipsoid
+from monovisual3d.geometry.ellipsoid import Ellipsoid, rotation_upright
 from monovisual3d.methods.bayes import BayesConfig
+from monovisual3d.methods.bayes.problem import Problem, build_problem
+from monovisual3d.methods.bayes.shapes import ROUNDNESS_THRESHOLD, aspect_deviations, elongated_one_way, fit_shape, looks_round
+from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.scenes import default_camera, paper_scene
 from monovisual3d.sim.simulate import simulate
@@ -40,6 +43,112 @@ def test_a_tall_box_from_three_views_is_one_spheroid():
     assert o.shape == "spheroid"
     assert np.linalg.norm(o.position - true.centre_base) < 1.5e-3
     assert_allclose(np.sort(o.semi_axes), [0.02, 0.02, 0.06], atol=2e-3)
+
+
+#: A 12 x 5 x 5 cm object on its side (a can, a box, a cucumber lying down), long axis horizontal.
+LYING = (0.06, 0.025, 0.025)
+
+
+@pytest.mark.parametrize("yaw", [1.0, 2.0])
+def test_a_lying_object_from_three_views_is_an_ellipsoid(yaw):
+    # the paper's views all see it wider than a sphere; an oblate upright spheroid leaves 2.6-2.9 mm of centre error,
+    # the ellipsoid none. (Seen exactly broadside from all three views, yaw 1.5, the spheroid's boxes stay within the
+    # sensor model's noise, the BIC keeps it, and it lands 4.4 mm off.)
+    true = Ellipsoid.from_rotation([0.6, 0.0, 0.5], LYING, rotation_upright(yaw))
+    r = mv.localize(_session([true]))
+    assert len(r.objects) == 1
+    o = r.objects[0]
+    assert o.shape == "ellipsoid"
+    assert np.linalg.norm(o.position - true.centre_base) < 1e-3
+    assert_allclose(np.sort(o.semi_axes), np.sort(LYING), atol=2e-3)
+
+
+def _object_at(e: Ellipsoid, radius: float) -> tuple[Problem, DetectedObject]:
+    """The problem of ``_session([e])`` and a sphere estimate of radius ``radius`` at ``e``'s centre holding its boxes."""
+    session = _session([e])
+    problem = build_problem(CAM, BayesConfig(), session.views)
+    return problem, DetectedObject(e.centre_base, 10.0, radius, associations={v: 0 for v in range(len(session.views))})
+
+
+def test_aspect_deviations_say_upright_lying_or_round():
+    problem, upright = _object_at(Ellipsoid.spheroid([0.6, 0.0, 0.5], 0.02, 0.06), 0.02)
+    d = aspect_deviations(problem, upright)
+    assert len(d) == 3 and np.all(d > ROUNDNESS_THRESHOLD) and not looks_round(problem, upright)
+    assert elongated_one_way(d)  # taller than a sphere in every view
+    problem, lying = _object_at(Ellipsoid.from_rotation([0.6, 0.0, 0.5], LYING, rotation_upright(0.5)), 0.035)
+    d = aspect_deviations(problem, lying)
+    assert np.any(d < -ROUNDNESS_THRESHOLD) and np.any(d > ROUNDNESS_THRESHOLD)  # wide in one view, tall in another
+    assert not looks_round(problem, lying) and not elongated_one_way(d)
+    assert fit_shape(problem, lying).shape == "ellipsoid"
+    problem, ball = _object_at(Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03), 0.03)
+    assert_allclose(aspect_deviations(problem, ball), 0.0, atol=1e-9)
+    assert looks_round(problem, ball)
+
+
+def _cut(session: Session, cuts: dict[int, tuple[int, float]]) -> list[View]:
+    """The views of ``session`` with box edge ``e`` of view ``v`` moved inward by ``f`` of the box size ({v: (e, f)})."""
+    views = list(session.views)
+    for v, (edge, fraction) in cuts.items():
+        box = np.asarray(views[v].detections[0].bbox_xyxy, dtype=float)
+        size = box[2 + edge % 2] - box[edge % 2]
+        box[edge] += fraction * size * (1 if edge < 2 else -1)
+        views[v] = View(views[v].T_base_optical, (Detection(box),))
+    return views
+
+
+def test_one_truncated_box_does_not_make_a_sphere_elongated():
+    views = _cut(_session([Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)]), {1: (2, 0.4)})  # a leaf hides 40 % in one view
+    problem = build_problem(CAM, BayesConfig(), views)
+    obj = DetectedObject(np.array([0.6, 0.0, 0.5]), 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
+    assert np.sum(np.abs(aspect_deviations(problem, obj)) > ROUNDNESS_THRESHOLD) == 1
+    assert looks_round(problem, obj)
+
+
+def test_a_sphere_cut_wide_in_one_view_and_tall_in_another_stays_a_sphere():
+    # leaves hide its top in view 0 and its right side in view 2: elongated both ways, as a lying object is, but
+    # the sensor model explains the two cut boxes as occlusion and no shape beats the sphere there
+    true = Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)
+    views = _cut(_session([true]), {0: (1, 0.35), 2: (2, 0.35)})
+    problem = build_problem(CAM, BayesConfig(), views)
+    obj = DetectedObject(true.centre_base, 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
+    d = aspect_deviations(problem, obj)
+    assert not looks_round(problem, obj) and not elongated_one_way(d)
+    o = fit_shape(problem, obj)
+    assert o.shape == "sphere"
+    assert_allclose(o.position, true.centre_base, atol=1e-12)  # the sphere estimate itself
+
+
+def test_lying_containers_from_three_views_are_found_where_they_are():
+    """12 x 5 x 5 cm on its side, three views over 120 degrees at 0.6 m, 1280 x 720, 2 % box noise, fresh seeds.
+
+    Before lying objects got the ellipsoid, 3 of these 20 came within 5 mm (median 33 mm): a sphere or an upright
+    spheroid fitted to a lying object's boxes lands off its centre. Seeds where the search finds no object (it
+    scores spheres and upright spheroids, whose boxes a lying object's wide box does not match) count as misses.
+    """
+    from monovisual3d.camera import Camera
+    from monovisual3d.frames import look_at
+    from monovisual3d.sim.noise import NoiseModel
+    from monovisual3d.sim.scene import EllipsoidFruit, Scene
+
+    cam, target = Camera.from_hfov(1280, 720, 69.0), np.array([0.6, 0.0, 0.3])
+    errors = []
+    for seed in range(20):
+        rng = np.random.default_rng(3000 + seed)
+        centre = target + rng.uniform(-0.02, 0.02, 3)
+        elevation = np.radians(rng.uniform(0.0, 30.0))
+        poses = np.array([
+            look_at(target + 0.6 * np.array([-np.cos(elevation) * np.cos(az), np.cos(elevation) * np.sin(az), np.sin(elevation)]),
+                    target + rng.uniform(-0.02, 0.02, 3))
+            for az in np.radians([-60.0, 0.0, 60.0])
+        ])  # fmt: skip
+        e = Ellipsoid.from_rotation(centre, LYING, rotation_upright(rng.uniform(0.0, np.pi)))
+        session, _ = simulate(Scene((EllipsoidFruit.from_ellipsoid(e),)), cam, poses, noise=NoiseModel(box_sigma=0.02), rng=rng,
+                              workspace=Workspace(target - 0.2, target + 0.2))  # fmt: skip
+        objects = mv.localize(session).objects
+        errors.append(min((np.linalg.norm(o.position - centre) for o in objects), default=np.inf))
+    errors = np.array(errors)
+    assert np.sum(errors < 0.005) >= 10, np.round(errors * 1e3, 1)
+    assert np.all(errors[np.isfinite(errors)] < 0.012), np.round(errors * 1e3, 1)
 
 
 def test_auto_keeps_the_paper_spheres_spheres():

@@ -11,32 +11,61 @@ edges left out):
 - ``sphere``: the sphere estimate is kept (the shape fields are filled in);
 - ``spheroid`` / ``ellipsoid``: that model is fitted;
 - ``auto`` (default): round-looking objects stay spheres without a fit; an
-  object whose boxes are elongated the same way in every view (:func:`looks_round`) is
-  fitted as sphere, spheroid and (with at least
-  :data:`MIN_VIEWS_FOR_ELLIPSOID` views) ellipsoid, and the model with the
-  lowest BIC is kept.
+  object whose boxes are elongated the same way in every view (an upright object) is
+  fitted as sphere, spheroid and (with at least :data:`MIN_VIEWS_FOR_ELLIPSOID`
+  views) ellipsoid, and the model with the lowest BIC is kept. An object whose
+  boxes are elongated both ways (:func:`looks_round`), or wider than its sphere's
+  in every view, is also fitted with the ellipsoid from :data:`MIN_VIEWS_FOR_LYING`
+  views, and that fit replaces its sphere (or its first fit) only when the sensor
+  model prefers it (:func:`beats`). An object taller than its sphere in every view
+  stands upright, round in plan, and keeps the first fit.
+
+Lying objects (a can, a box or a cucumber on its side: the long axis horizontal) are
+the ``ellipsoid`` model (two horizontal semi-axes and a yaw). Their boxes are wide
+where the camera sees them broadside and tall where it looks along the long axis
+from above, so the sign of their elongation changes with the view; an upright
+object's does not. An occluded sphere's boxes also change their aspect from view
+to view, at random: a box cut by a leaf is wide or tall. The two are told apart by
+the sensor model, which already explains a cut box (an edge inside the prediction
+costs at most ``inward_floor``): the fit must beat the sphere by the sensor model's
+Bayesian information criterion.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import InputError
 from ...frames import invert_transform
+from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
 from ...geometry.sphere import predict_sphere_boxes
 from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
+from .likelihood import box_scores
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
-from .scoring import associations_list, observations
+from .scoring import associations_list, observations, pose_px
 from .sensor import box_edge_sigma_px
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
 MIN_VIEWS_FOR_ELLIPSOID = 4
-#: ``auto`` fits shapes when log(box aspect / sphere's predicted aspect) exceeds this, with one sign, in at least two
-#: boxes not cut by the image border (one truncated or occluded box does not make a fruit elongated).
+#: Views from which ``auto`` also fits the ellipsoid (upright axis, two horizontal semi-axes, yaw: 7 parameters), the
+#: model of a lying object (a can, a box, a cucumber on its side), whose horizontal outline is not a circle. Three
+#: views give 12 box edges, each a plane tangent to the object (a lying 5 x 5 x 12 cm object from three views:
+#: tests/methods/bayes/test_bayes_shapes.py); the fit must then beat the first answer (:func:`beats`).
+MIN_VIEWS_FOR_LYING = 3
+#: ``auto`` fits shapes when |log(box aspect / sphere's predicted aspect)| exceeds this in at least
+#: :data:`MIN_ELONGATED_BOXES` boxes not cut by the image border.
 ROUNDNESS_THRESHOLD = 0.08
+#: Boxes that must be elongated before ``auto`` fits shapes: one truncated or occluded box does not make a fruit
+#: elongated. The sign is not required to agree: an upright object is elongated the same way in every view, a
+#: lying one wide broadside and tall end-on (see the module docstring).
+MIN_ELONGATED_BOXES = 2
+#: Parameters of a sphere: centre and radius.
+SPHERE_PARAMETERS = 4
 
 #: The occlusion refit censors an edge when a nearer object's silhouette covers its extreme point by at least this
 #: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
@@ -53,8 +82,9 @@ def _boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], 
     return poses, boxes
 
 
-def looks_round(problem: Problem, obj: DetectedObject) -> bool:
-    """Whether the object's untruncated boxes have the aspect its sphere predicts (within the threshold)."""
+def aspect_deviations(problem: Problem, obj: DetectedObject) -> NDArray[np.float64]:
+    """``log(box aspect / aspect of the object's sphere's predicted box)`` of each associated box not cut by the image
+    border, shape (K,) (aspect: height / width; positive: taller than the sphere's box)."""
     cam, border = problem.camera, problem.model.border_px
     by_index = {vd.index: vd for vd in problem.views}
     deviations = []
@@ -68,10 +98,45 @@ def looks_round(problem: Problem, obj: DetectedObject) -> bool:
         if not np.all(np.isfinite([px1, py1, px2, py2])) or min(x2 - x1, y2 - y1) <= 0:
             continue
         deviations.append(np.log((y2 - y1) / (x2 - x1)) - np.log((py2 - py1) / (px2 - px1)))
-    # a non-round fruit is elongated the same way in every view; occlusion truncates one view's box at random
-    d = np.asarray(deviations)
-    consistent = len(d) >= 2 and (np.all(d > ROUNDNESS_THRESHOLD) or np.all(d < -ROUNDNESS_THRESHOLD))
-    return not consistent
+    return np.asarray(deviations, dtype=float)
+
+
+def looks_round(problem: Problem, obj: DetectedObject) -> bool:
+    """Whether the object's untruncated boxes have the aspect its sphere predicts: fewer than
+    :data:`MIN_ELONGATED_BOXES` of them deviate from it by more than :data:`ROUNDNESS_THRESHOLD`, of either sign."""
+    return int(np.sum(np.abs(aspect_deviations(problem, obj)) > ROUNDNESS_THRESHOLD)) < MIN_ELONGATED_BOXES
+
+
+def elongated_one_way(deviations: NDArray[np.floating]) -> bool:
+    """Whether at least two boxes are elongated, all the same way (taller, or all wider, than the sphere's)."""
+    d = np.asarray(deviations, dtype=float)
+    return len(d) >= 2 and bool(np.all(d > ROUNDNESS_THRESHOLD) or np.all(d < -ROUNDNESS_THRESHOLD))
+
+
+def sensor_score(problem: Problem, poses: NDArray[np.float64], boxes: NDArray[np.float64], e: Ellipsoid) -> float:
+    """Log-likelihood ratio (nats) of the boxes (K, 4) seen from ``poses`` (K, 4, 4) given the ellipsoid ``e``:
+    the ``bayes`` sensor model's box scores (occlusion and truncation included), a miss at worst, summed."""
+    cam, model = problem.camera, problem.model
+    pred = ellipsoid_bbox(cam, poses, e.centre_base, e.semi_axes, e.rotation, clip=False)
+    T_optical_base = np.linalg.inv(poses)
+    depth = T_optical_base[:, 2, :3] @ e.centre_base + T_optical_base[:, 2, 3]
+    s = box_scores(pred, boxes, model, cam.width, cam.height, np.asarray(pose_px(problem, depth), dtype=float))
+    return float(np.sum(np.maximum(np.nan_to_num(s, nan=-np.inf), model.miss_term)))
+
+
+#: A shape answer of the stage: the object, its ellipsoid and its number of fitted parameters.
+Answer = tuple[DetectedObject, Ellipsoid, int]
+
+
+def beats(problem: Problem, obj: DetectedObject, new: Answer, old: Answer, n_edges: int) -> bool:
+    """Whether the answer ``new`` is preferred to ``old`` by the Bayesian information criterion of the sensor model
+    on ``obj``'s boxes: its log-likelihood ratio must exceed ``old``'s by more than ``ln(n_edges) / 2`` nats per
+    extra parameter (fewer parameters lower the bar). The criterion of
+    :func:`monovisual3d.geometry.fit.fit_shape_by_bic`, with the ``bayes`` sensor model (a cut box is occlusion
+    there, at most ``inward_floor`` per edge) in place of Gaussian edges."""
+    poses, boxes = _boxes(problem, obj)
+    gain = sensor_score(problem, poses, boxes, new[1]) - sensor_score(problem, poses, boxes, old[1])
+    return gain > 0.5 * (new[2] - old[2]) * math.log(max(n_edges, 1))
 
 
 def as_sphere(obj: DetectedObject) -> DetectedObject:
@@ -87,34 +152,73 @@ def as_sphere(obj: DetectedObject) -> DetectedObject:
     )  # fmt: skip
 
 
-def fit_shape(problem: Problem, obj: DetectedObject) -> DetectedObject:
-    """One object through the shape stage (see the module docstring)."""
+def _sphere_answer(obj: DetectedObject) -> Answer:
+    """:func:`as_sphere` as an :data:`Answer`: a sphere has 4 parameters."""
+    o = as_sphere(obj)
+    return o, Ellipsoid.sphere(o.position, float(o.radius)), SPHERE_PARAMETERS  # type: ignore[arg-type]
+
+
+def _fitted(problem: Problem, obj: DetectedObject, shapes: tuple[str, ...]) -> tuple[Answer, int] | None:
+    """The lowest-BIC fit of ``shapes`` to the object's boxes as an :data:`Answer` and the edges it used (None: too
+    few usable edges); under ``auto`` a sphere fit of an object the search found as a sphere gives the search's
+    sphere (its refinement, with masks and pose noise, is the better sphere estimate)."""
     from ...geometry.fit import fit_shape_by_bic
 
     cfg = problem.config
     poses, boxes = _boxes(problem, obj)
-    if cfg.shape == "sphere" or len(boxes) < 2 or (cfg.shape == "auto" and looks_round(problem, obj)):
-        return as_sphere(obj)
-    if cfg.shape == "auto":
-        shapes: tuple[str, ...] = ("sphere", "spheroid") + (("ellipsoid",) if len(boxes) >= MIN_VIEWS_FOR_ELLIPSOID else ())
-    else:
-        shapes = (cfg.shape,)
     try:
         best, _ = fit_shape_by_bic(
             problem.camera, poses, boxes, shapes=shapes, up=cfg.up_vector, size_range=cfg.semi_axis_range,
             box_sigma=problem.model.alpha, edge_sigma_px=problem.model.sigma0_px, border_px=problem.model.border_px,
             free_orientation=cfg.free_orientation,
         )  # fmt: skip
-    except InputError:  # too few usable edges for any model: keep the sphere
-        return as_sphere(obj)
+    except InputError:
+        return None
     if best.model == "sphere" and cfg.shape == "auto" and obj.extra.get("semi_up") is None:
-        return as_sphere(obj)  # the sphere refinement (masks, pose noise) is the better sphere estimate
+        return _sphere_answer(obj), best.n_edges
     e = best.ellipsoid
     extra = {**obj.extra, "shape_bic": float(best.bic), "shape_rms_px": float(best.rms_px)}
-    return DetectedObject.from_ellipsoid(
+    o = DetectedObject.from_ellipsoid(
         e.centre_base, e.semi_axes, e.quaternion_xyzw, obj.score, best.model,
         covariance=best.centre_covariance, associations=obj.associations, n_cells=obj.n_cells, extra=extra,
     )  # fmt: skip
+    return (o, e, best.n_parameters), best.n_edges
+
+
+def _upright_shapes(n_views: int) -> tuple[str, ...]:
+    """The models ``auto`` compares for an object elongated the same way in every view."""
+    return ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
+
+
+def _lying_shapes(n_views: int) -> tuple[str, ...]:
+    """The models ``auto`` compares for an object elongated both ways or wide (the ellipsoid from
+    :data:`MIN_VIEWS_FOR_LYING` views)."""
+    return ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_LYING else ())
+
+
+def fit_shape(problem: Problem, obj: DetectedObject) -> DetectedObject:
+    """One object through the shape stage (see the module docstring)."""
+    cfg = problem.config
+    n_views = len(obj.associations)
+    if cfg.shape == "sphere" or n_views < 2:
+        return as_sphere(obj)
+    if cfg.shape != "auto":
+        fit = _fitted(problem, obj, (cfg.shape,))
+        return as_sphere(obj) if fit is None else fit[0][0]
+    deviations = aspect_deviations(problem, obj)
+    if int(np.sum(np.abs(deviations) > ROUNDNESS_THRESHOLD)) < MIN_ELONGATED_BOXES:  # looks_round
+        return as_sphere(obj)
+    if elongated_one_way(deviations):
+        fit = _fitted(problem, obj, _upright_shapes(n_views))
+        if fit is None or np.all(deviations > 0) or _lying_shapes(n_views) == _upright_shapes(n_views):
+            return as_sphere(obj) if fit is None else fit[0][0]  # taller in every view: upright, round in plan
+        answer = fit[0]  # wider in every view: lying (seen from one side) or flat
+    else:  # elongated both ways: lying, or a sphere whose boxes are cut
+        answer = _sphere_answer(obj)
+    new = _fitted(problem, obj, _lying_shapes(n_views))
+    if new is None or not beats(problem, obj, new[0], answer, new[1]):
+        return answer[0]
+    return new[0][0]
 
 
 def _predicted(
