@@ -91,7 +91,7 @@ def test_a_fruit_half_hidden_by_a_nearer_one_is_localised_better_with_the_refit(
         return [float(np.min(np.linalg.norm(est - t, axis=1))) for t in (front, back)]
 
     with_refit = errors()
-    monkeypatch.setattr(shapes, "occlusion_refit", lambda problem, objects: objects)
+    monkeypatch.setattr(shapes, "occlusion_refit", lambda problem, objects, flags=None: objects)
     without = errors()
     assert without[1] > 3e-3  # the hidden part of its boxes pulls the fit
     assert with_refit[1] < 1e-3

@@ -82,13 +82,16 @@ def _boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], 
     return poses, boxes
 
 
-def aspect_deviations(problem: Problem, obj: DetectedObject) -> NDArray[np.float64]:
+def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> NDArray[np.float64]:
     """``log(box aspect / aspect of the object's sphere's predicted box)`` of each associated box not cut by the image
-    border, shape (K,) (aspect: height / width; positive: taller than the sphere's box)."""
+    border nor in the views ``cut`` (session view indices: a nearer object cuts the box there), shape (K,) (aspect:
+    height / width; positive: taller than the sphere's box). A cut box shows the cut, not the object's aspect."""
     cam, border = problem.camera, problem.model.border_px
     by_index = {vd.index: vd for vd in problem.views}
     deviations = []
     for v, j in obj.associations.items():
+        if v in cut:
+            continue
         vd = by_index[v]
         x1, y1, x2, y2 = vd.boxes[j]
         if x1 <= border or y1 <= border or x2 >= cam.width - border or y2 >= cam.height - border:
@@ -196,8 +199,9 @@ def _lying_shapes(n_views: int) -> tuple[str, ...]:
     return ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_LYING else ())
 
 
-def fit_shape(problem: Problem, obj: DetectedObject) -> DetectedObject:
-    """One object through the shape stage (see the module docstring)."""
+def fit_shape(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> DetectedObject:
+    """One object through the shape stage (see the module docstring); ``cut``: the session indices of the views where
+    a nearer object cuts its box (:func:`occlusion_flags`), left out of the roundness test."""
     cfg = problem.config
     n_views = len(obj.associations)
     if cfg.shape == "sphere" or n_views < 2:
@@ -205,7 +209,7 @@ def fit_shape(problem: Problem, obj: DetectedObject) -> DetectedObject:
     if cfg.shape != "auto":
         fit = _fitted(problem, obj, (cfg.shape,))
         return as_sphere(obj) if fit is None else fit[0][0]
-    deviations = aspect_deviations(problem, obj)
+    deviations = aspect_deviations(problem, obj, cut)
     if int(np.sum(np.abs(deviations) > ROUNDNESS_THRESHOLD)) < MIN_ELONGATED_BOXES:  # looks_round
         return as_sphere(obj)
     if elongated_one_way(deviations):
@@ -281,37 +285,49 @@ def occluded_edges(pred: NDArray[np.float64], nearer: NDArray[np.float64], margi
     return np.any(inside, axis=1)
 
 
-def occlusion_refit(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
-    """Refit each object whose boxes a nearer object cuts, those edges censored (only outward residuals count).
+def occlusion_flags(problem: Problem, objects: list[DetectedObject]) -> list[tuple[list[Observation], frozenset[int]] | None]:
+    """Per object, its observations with the edges a nearer object cuts flagged (``Observation.censored``) and the
+    session indices of the views where any edge is cut; None for an object refined jointly with the poses or seen in
+    fewer than ``min_views`` views.
 
-    The refinement of the extraction takes an occluded box as a full one; its robust loss stops an edge
-    cut by more than about three sigmas from pulling, but a smaller cut biases the fit. Here the other
-    objects' predicted boxes say which edges a nearer object cuts (:func:`occluded_edges`), and the object
-    is refitted from its estimate with those edges censored, as edges on the image border are; an edge counts as cut
-    only when the covering exceeds :data:`OCCLUSION_MARGIN_SIGMAS` times the uncertainty of the two objects' projected
-    centres (from their position covariances), so that chance overlaps of noisy estimates censor nothing. Objects refined
-    jointly with the poses (``pose_corrected``) keep their joint solution.
+    An edge counts as cut when a nearer object's predicted box covers the object's extreme point on that side by more
+    than :data:`OCCLUSION_MARGIN_SIGMAS` times the uncertainty of the two objects' projected centres (from their
+    position covariances), so that chance overlaps of noisy estimates cut nothing (:func:`occluded_edges`).
     """
     cfg = problem.config
     preds = [_predicted(problem, objects, v) for v in range(len(problem.views))]
-    out = []
+    out: list[tuple[list[Observation], frozenset[int]] | None] = []
     for i, o in enumerate(objects):
         assoc = associations_list(problem, o)
         if o.extra.get("pose_corrected") or sum(a >= 0 for a in assoc) < cfg.min_views:
-            out.append(o)
+            out.append(None)
             continue
-        obs: list[Observation] = []
+        obs, cut = [], set()
         for ob, v in zip(observations(problem, assoc, o.position), [v for v, j in enumerate(assoc) if j >= 0]):
             boxes, depth, std = preds[v]
             near = (depth < depth[i]) & (np.arange(len(objects)) != i)
             margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
             ob.censored = occluded_edges(boxes[i], boxes[near], margin)
+            if ob.censored.any():
+                cut.add(problem.views[v].index)
             obs.append(ob)
-        if not any(ob.censored.any() for ob in obs):  # type: ignore[union-attr]
-            out.append(o)
-            continue
-        out.append(_refit(problem, o, obs))
+        out.append((obs, frozenset(cut)))
     return out
+
+
+def occlusion_refit(
+    problem: Problem, objects: list[DetectedObject], flags: list[tuple[list[Observation], frozenset[int]] | None] | None = None
+) -> list[DetectedObject]:
+    """Refit each object whose boxes a nearer object cuts, those edges censored (only outward residuals count).
+
+    The refinement of the extraction takes an occluded box as a full one; its robust loss stops an edge
+    cut by more than about three sigmas from pulling, but a smaller cut biases the fit. Here the other
+    objects' predicted boxes say which edges a nearer object cuts (:func:`occlusion_flags`, computed here when
+    ``flags`` is None), and the object is refitted from its estimate with those edges censored, as edges on the
+    image border are. Objects refined jointly with the poses (``pose_corrected``) keep their joint solution.
+    """
+    flags = occlusion_flags(problem, objects) if flags is None else flags
+    return [o if f is None or not f[1] else _refit(problem, o, f[0]) for o, f in zip(objects, flags)]
 
 
 def _refit(problem: Problem, o: DetectedObject, obs: list[Observation]) -> DetectedObject:
@@ -333,5 +349,8 @@ def _refit(problem: Problem, o: DetectedObject, obs: list[Observation]) -> Detec
 
 
 def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
-    """Every object through :func:`occlusion_refit`, then :func:`fit_shape`."""
-    return [fit_shape(problem, o) for o in occlusion_refit(problem, objects)]
+    """Every object through :func:`occlusion_refit`, then :func:`fit_shape` (which leaves the boxes a nearer object
+    cuts out of its roundness test, as it does boxes the image border cuts)."""
+    flags = occlusion_flags(problem, objects)
+    refitted = occlusion_refit(problem, objects, flags)
+    return [fit_shape(problem, o, frozenset() if f is None else f[1]) for o, f in zip(refitted, flags)]
