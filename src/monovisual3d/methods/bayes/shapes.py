@@ -104,10 +104,10 @@ def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int]
     return np.asarray(deviations, dtype=float)
 
 
-def looks_round(problem: Problem, obj: DetectedObject) -> bool:
-    """Whether the object's untruncated boxes have the aspect its sphere predicts: fewer than
-    :data:`MIN_ELONGATED_BOXES` of them deviate from it by more than :data:`ROUNDNESS_THRESHOLD`, of either sign."""
-    return int(np.sum(np.abs(aspect_deviations(problem, obj)) > ROUNDNESS_THRESHOLD)) < MIN_ELONGATED_BOXES
+def looks_round(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> bool:
+    """Whether the object's untruncated boxes (leaving out the views ``cut``) have the aspect its sphere predicts: fewer
+    than :data:`MIN_ELONGATED_BOXES` of them deviate from it by more than :data:`ROUNDNESS_THRESHOLD`, of either sign."""
+    return int(np.sum(np.abs(aspect_deviations(problem, obj, cut)) > ROUNDNESS_THRESHOLD)) < MIN_ELONGATED_BOXES
 
 
 def elongated_one_way(deviations: NDArray[np.floating]) -> bool:
@@ -201,7 +201,8 @@ def _lying_shapes(n_views: int) -> tuple[str, ...]:
 
 def fit_shape(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> DetectedObject:
     """One object through the shape stage (see the module docstring); ``cut``: the session indices of the views where
-    a nearer object cuts its box (:func:`occlusion_flags`), left out of the roundness test."""
+    a nearer object cuts its box (:func:`occlusion_flags`). An object elongated both ways (a lying object, or a sphere
+    whose boxes are cut) whose every uncut box has its sphere's aspect stays a sphere without the lying fits."""
     cfg = problem.config
     n_views = len(obj.associations)
     if cfg.shape == "sphere" or n_views < 2:
@@ -209,7 +210,7 @@ def fit_shape(problem: Problem, obj: DetectedObject, cut: frozenset[int] = froze
     if cfg.shape != "auto":
         fit = _fitted(problem, obj, (cfg.shape,))
         return as_sphere(obj) if fit is None else fit[0][0]
-    deviations = aspect_deviations(problem, obj, cut)
+    deviations = aspect_deviations(problem, obj)
     if int(np.sum(np.abs(deviations) > ROUNDNESS_THRESHOLD)) < MIN_ELONGATED_BOXES:  # looks_round
         return as_sphere(obj)
     if elongated_one_way(deviations):
@@ -219,6 +220,9 @@ def fit_shape(problem: Problem, obj: DetectedObject, cut: frozenset[int] = froze
         answer = fit[0]  # wider in every view: lying (seen from one side) or flat
     else:  # elongated both ways: lying, or a sphere whose boxes are cut
         answer = _sphere_answer(obj)
+        uncut = aspect_deviations(problem, obj, cut) if cut else deviations
+        if cut and not (np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)):
+            return answer[0]  # the boxes nearer objects do not cut are not elongated both ways: the cuts made it look so
     new = _fitted(problem, obj, _lying_shapes(n_views))
     if new is None or not beats(problem, obj, new[0], answer, new[1]):
         return answer[0]
@@ -349,8 +353,8 @@ def _refit(problem: Problem, o: DetectedObject, obs: list[Observation]) -> Detec
 
 
 def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
-    """Every object through :func:`occlusion_refit`, then :func:`fit_shape` (which leaves the boxes a nearer object
-    cuts out of its roundness test, as it does boxes the image border cuts)."""
+    """Every object through :func:`occlusion_refit`, then :func:`fit_shape` (an object whose boxes look elongated both
+    ways only because nearer objects cut them stays a sphere)."""
     flags = occlusion_flags(problem, objects)
     refitted = occlusion_refit(problem, objects, flags)
     return [fit_shape(problem, o, frozenset() if f is None else f[1]) for o, f in zip(refitted, flags)]
