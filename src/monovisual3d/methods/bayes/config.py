@@ -60,6 +60,9 @@ class BayesConfig:
         hypotheses, e.g. "1,2.5": every second radius bin is also scored as upright spheroids of these elongations
         (bins longer along ``up`` than the largest semi-axis of size_range are left out), so a tall box (bottle, container, hanging
         cucumber) is explained from the start; "1" searches spheres only
+    lying_yaws : int, yaws (evenly over 180 degrees about ``up``) at which each elongated bin is also scored lying, its
+        long axis horizontal: a can, a box or a tray on its side, whose wide box neither a sphere nor an upright
+        spheroid explains (0: upright bins only). They are deferred and pruned as the upright bins are
     elongation_cost : float, nats: what an elongated hypothesis pays against a sphere (the Occam factor of its extra
         shape parameter), so chance alignments of false-positive boxes do not pass as elongated objects
     elongation_slack : float, nats: at each search level an elongated bin is refined further only where its box
@@ -111,6 +114,7 @@ class BayesConfig:
     radius_max: float = 0.08
     n_radii: int = 16
     elongations: tuple[float, ...] | str = (1.0, 2.5)
+    lying_yaws: int = 4
     elongation_cost: float = 2.0
     elongation_slack: float = 0.0
     reach: float = DEFAULT_REACH_M
@@ -151,10 +155,11 @@ class BayesConfig:
             if not (is_real(v) and float(v).is_integer() and v >= 1):
                 raise InputError(f"{name}: got {v!r}, expected an integer >= 1")
             object.__setattr__(self, name, int(v))
-        v = self.radius_margin_bins
-        if not (is_real(v) and float(v).is_integer() and v >= 0):
-            raise InputError(f"radius_margin_bins: got {v!r}, expected an integer >= 0")
-        object.__setattr__(self, "radius_margin_bins", int(v))
+        for name in ("radius_margin_bins", "lying_yaws"):
+            v = getattr(self, name)
+            if not (is_real(v) and float(v).is_integer() and v >= 0):
+                raise InputError(f"{name}: got {v!r}, expected an integer >= 0")
+            object.__setattr__(self, name, int(v))
         for name in ("radius_min", "radius_max", "resolution", "coarse_resolution", "reach"):
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v > 0):
@@ -262,11 +267,13 @@ class BayesConfig:
 
     @property
     def hypothesis_bins(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The search's shape bins: semi-axes across ``up`` and along it, each shape (K,), metres.
+        """The search's shape bins: semi-axes across their axis and along it, each shape (K,), metres.
 
         Every radius bin as a sphere, then every :data:`ELONGATED_RADIUS_STRIDE`-th radius bin with each
         elongation > 1, elongation-major (the radius bins of one elongation are neighbours, as :attr:`radii`),
-        leaving out elongated bins longer along ``up`` than the largest semi-axis (:attr:`semi_axis_range`).
+        leaving out elongated bins longer than the largest semi-axis (:attr:`semi_axis_range`): first upright
+        (axis ``up``), then the same bins lying at each of ``lying_yaws`` yaws, yaw-major (axes:
+        :attr:`hypothesis_axes`).
         """
         import numpy as np
 
@@ -275,7 +282,41 @@ class BayesConfig:
         longest = self.semi_axis_range[1] * (1 + 1e-9)
         across = [r if q == 1.0 else coarse[q * coarse <= longest] for q in self.elongations]
         along = [a * q for a, q in zip(across, self.elongations)]
-        return np.concatenate(across), np.concatenate(along)
+        across, along = np.concatenate(across), np.concatenate(along)
+        elongated = along != across
+        lying = self.lying_yaws if elongated.any() else 0
+        return (
+            np.concatenate([across] + [across[elongated]] * lying),
+            np.concatenate([along] + [along[elongated]] * lying),
+        )
+
+    @property
+    def lying_axes(self) -> NDArray[np.float64]:
+        """Long axes of the lying bins, shape (lying_yaws, 3), unit, base frame: horizontal (perpendicular to
+        ``up``), at yaws ``i * 180 / lying_yaws`` degrees from the horizontal direction nearest the base x axis
+        (the y axis when ``up`` is along x)."""
+        import numpy as np
+
+        up = self.up_vector
+        ref = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        e1 = ref - up * (ref @ up)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(up, e1)
+        yaw = np.pi * np.arange(self.lying_yaws) / max(self.lying_yaws, 1)
+        return np.cos(yaw)[:, None] * e1 + np.sin(yaw)[:, None] * e2
+
+    @property
+    def hypothesis_axes(self) -> NDArray[np.float64]:
+        """Symmetry axis of each bin of :attr:`hypothesis_bins`, shape (K, 3), unit, base frame: ``up`` for the
+        spheres and upright bins, :attr:`lying_axes` for the lying ones."""
+        import numpy as np
+
+        across, along = self.hypothesis_bins
+        axes = np.tile(self.up_vector, (len(across), 1))
+        n_lying = int(np.count_nonzero(along != across)) // (self.lying_yaws + 1) * self.lying_yaws
+        if n_lying:
+            axes[len(across) - n_lying :] = np.repeat(self.lying_axes, n_lying // self.lying_yaws, axis=0)
+        return axes
 
     def to_dict(self) -> dict[str, Any]:
         """The options as plain JSON values."""
