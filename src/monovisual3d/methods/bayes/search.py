@@ -56,6 +56,11 @@ MAX_FIRST_LEVEL_CELLS = 2_000_000
 DEPTH_GATE_SLACK = 2.0
 #: Cells whose cone counts are computed at once.
 CHUNK_CELLS = 1 << 20
+#: A box at least this much wider than tall (width / height) may be a lying object's: the first level scores the lying
+#: bins only in cells whose passing sphere bins use such a box. A lying 12 x 5 x 5 cm object seen within 30 degrees of
+#: broadside gives about 2, a sphere's box stays below 1.25 out to the corners of a 70 degree field of view, and an
+#: object seen along its long axis gives a near-square box that a sphere of its across-radius already explains.
+LYING_MIN_BOX_ASPECT = 1.3
 
 
 @dataclass(frozen=True)
@@ -288,19 +293,41 @@ def _plausible_shapes(
     return sphere[None, :] | (total >= best_sphere - slack)
 
 
+def lying_bins(problem: Problem) -> NDArray[np.bool_]:
+    """Which shape bins lie (their axis perpendicular to ``up``), shape (K,)."""
+    cfg = problem.config
+    radii, semi_up = cfg.hypothesis_bins
+    return (semi_up != radii) & (np.abs(cfg.hypothesis_axes @ cfg.up_vector) < 0.5)
+
+
+def _wide_box_cells(problem: Problem, scores: Scores, use: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Cells (N,) whose hypotheses ``use`` (N, K) associate a box at least :data:`LYING_MIN_BOX_ASPECT` wider than tall."""
+    _, _, assoc = scores
+    out = np.zeros(len(use), dtype=bool)
+    for v, vd in enumerate(problem.views):
+        b = vd.boxes.reshape(-1, 4)
+        wide = np.append((b[:, 2] - b[:, 0]) >= LYING_MIN_BOX_ASPECT * (b[:, 3] - b[:, 1]), False)  # index -1: no box
+        out |= (wide[assoc[v]] & use).any(axis=1)
+    return out
+
+
 def _score_deferred(
     problem: Problem, centres: NDArray[np.float64], cell: float, scores: Scores, sphere_bins: NDArray[np.bool_], floor: float
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16], int]:
-    """The first level's elongated bins, scored in the cells where a sphere bin reaches ``floor``; -inf elsewhere.
+    """The first level's elongated bins, scored in the cells where a sphere bin reaches ``floor`` (the lying bins
+    only where such a sphere bin uses a wide box, :func:`_wide_box_cells`); -inf elsewhere.
 
     Returns the level's merged scores and the number of hypotheses scored.
     """
     total, n_assoc, assoc = (a.copy() for a in scores)
-    rows = np.flatnonzero((total[:, sphere_bins] >= floor).any(axis=1))
+    passing = (total >= floor) & sphere_bins
+    rows = np.flatnonzero(passing.any(axis=1))
     if len(rows) == 0:
         return total, n_assoc, assoc, 0
     radii, semi_up = problem.config.hypothesis_bins
-    mask = np.broadcast_to(~sphere_bins, (len(rows), len(radii)))
+    lying = lying_bins(problem)
+    wide = _wide_box_cells(problem, (total[rows], n_assoc[rows], assoc[:, rows]), passing[rows])
+    mask = (~sphere_bins & ~lying)[None, :] | (lying[None, :] & wide[:, None])
     t, n, a = score_hypotheses(
         problem, frozenset(), centres[rows], radii, cell, np.ascontiguousarray(mask), semi_up, problem.config.hypothesis_axes
     )
