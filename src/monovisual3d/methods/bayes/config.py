@@ -62,7 +62,9 @@ class BayesConfig:
         cucumber) is explained from the start; "1" searches spheres only
     lying_yaws : int, yaws (evenly over 180 degrees about ``up``) at which each elongated bin is also scored lying, its
         long axis horizontal: a can, a box or a tray on its side, whose wide box neither a sphere nor an upright
-        spheroid explains (0: upright bins only). They are deferred and pruned as the upright bins are
+        spheroid explains (0: upright bins only). The first search level scores them only in cells whose passing sphere
+        bins use a box at least 1.3 times wider than tall (``search.LYING_MIN_BOX_ASPECT``); later levels prune them as
+        the upright bins are
     elongation_cost : float, nats: what an elongated hypothesis pays against a sphere (the Occam factor of its extra
         shape parameter), so chance alignments of false-positive boxes do not pass as elongated objects
     elongation_slack : float, nats: at each search level an elongated bin is refined further only where its box

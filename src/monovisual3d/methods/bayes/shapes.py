@@ -1,8 +1,8 @@
 """The shape stage: each object as a sphere, spheroid or ellipsoid (``BayesConfig.shape``).
 
-The search, extraction and association run with spheres and upright spheroids
-(``BayesConfig.elongations``), so a tall box is found and associated as what it
-is. This stage first refits each object whose boxes a nearer object cuts, those edges censored
+The search, extraction and association run with spheres and upright or lying spheroids
+(``BayesConfig.elongations``, ``BayesConfig.lying_yaws``), so a tall or wide box is found and
+associated as what it is. This stage first refits each object whose boxes a nearer object cuts, those edges censored
 (:func:`occlusion_refit`; the extraction's refinement took them as full edges), then refines the
 shape: it fits each object's associated boxes with the shape
 model (:func:`monovisual3d.geometry.fit.fit_shape_by_bic`, robust, truncated
