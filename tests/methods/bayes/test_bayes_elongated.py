@@ -254,6 +254,10 @@ def test_lying_yaws_option_builds_horizontal_bins_and_is_checked():
     assert_allclose(along[n_upright:], np.tile(along[cfg.n_radii : n_upright], 4))
     assert_allclose(BayesConfig(up="1,0,0").lying_axes @ [1.0, 0.0, 0.0], 0.0, atol=1e-12)
     assert len(BayesConfig(elongations=(1,), lying_yaws=4).hypothesis_bins[0]) == cfg.n_radii
+    across, along = BayesConfig(lying_elongations="3, 2").hypothesis_bins
+    assert_allclose(np.unique(np.round(along[n_upright:] / across[n_upright:], 9)), [2.0, 3.0])
+    with pytest.raises(InputError, match="lying_elongations: got .*expected numbers >= 1"):
+        BayesConfig(lying_elongations="0.5")
     for bad in (-1, 1.5, "x"):
         with pytest.raises(InputError, match="lying_yaws: got .*expected an integer >= 0"):
             BayesConfig(lying_yaws=bad)
