@@ -37,7 +37,8 @@ def predict_spheroid_boxes(
     p_optical : ndarray, shape (N, 3), centres, metres, optical frame
     radii : array_like, shape (K,), metres, semi-axis across ``up``
     semi_up : array_like, shape (K,), metres, semi-axis along ``up``
-    up_optical : array_like, shape (3,), unit, the symmetry axis in the optical frame
+    up_optical : array_like, shape (3,) or (K, 3), unit, the symmetry axis in the optical frame (one per bin: lying
+        bins have a horizontal axis)
 
     Returns
     -------
@@ -46,7 +47,7 @@ def predict_spheroid_boxes(
     """
     a = np.asarray(radii, dtype=float)[None, :]
     b = np.asarray(semi_up, dtype=float)[None, :]
-    u = np.asarray(up_optical, dtype=float)
+    u = np.asarray(up_optical, dtype=float).reshape(-1, 3).T[:, None, :]  # (3, 1, 1 or K)
     X, Y, Z = p_optical[:, 0:1], p_optical[:, 1:2], p_optical[:, 2:3]
     a2, d = a * a, b * b - a * a
     c11 = X * X - (a2 + d * u[0] * u[0])

@@ -201,7 +201,7 @@ def _score_kernel(
     centres,
     radii,
     semi_up,
-    up_opt,
+    axis_opt,
     mask,
     T_ob,
     boxes,
@@ -245,11 +245,10 @@ def _score_kernel(
             qx1, qy1, qx2, qy2 = HUGE, HUGE, -HUGE, -HUGE  # the union of the bins' gates: one look-up for all bins
             for kk in range(K):
                 seen[kk] = False
-                if not mask[n, kk] or not _in_front(Z, radii[kk], semi_up[kk], up_opt[v, 2]):
+                if not mask[n, kk] or not _in_front(Z, radii[kk], semi_up[kk], axis_opt[v, kk, 2]):
                     continue
-                px1, py1, px2, py2 = _spheroid_box_px(
-                    X, Y, Z, radii[kk], semi_up[kk], up_opt[v, 0], up_opt[v, 1], up_opt[v, 2], fx, fy, cx, cy, code, coeffs
-                )
+                ux, uy, uz = axis_opt[v, kk, 0], axis_opt[v, kk, 1], axis_opt[v, kk, 2]
+                px1, py1, px2, py2 = _spheroid_box_px(X, Y, Z, radii[kk], semi_up[kk], ux, uy, uz, fx, fy, cx, cy, code, coeffs)
                 if not (px2 > 0 and px1 < W and py2 > 0 and py1 < H):
                     continue
                 sx = alpha * (px2 - px1) + sigma0
@@ -520,8 +519,9 @@ def score_hypotheses(
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
     """Score every (centre, radius) hypothesis against all views.
 
-    With ``semi_up`` (K,) metres and the unit axis ``up_base`` (3,), base frame, bin ``k`` is an upright
-    spheroid with semi-axes ``radii[k]`` across and ``semi_up[k]`` along the axis (a sphere where they are equal).
+    With ``semi_up`` (K,) metres and the unit axis ``up_base`` (3,), or one per bin (K, 3), base frame, bin ``k`` is
+    a spheroid with semi-axes ``radii[k]`` across and ``semi_up[k]`` along its axis (a sphere where they are equal):
+    upright along ``up``, or lying with a horizontal axis.
 
     The edge noise of a hypothesis at depth ``Z`` in a view gets
     ``f * blur_half_diagonal / Z`` and ``extra_const_px`` (pixels) added in
@@ -555,13 +555,14 @@ def score_hypotheses(
         raise ValueError(f"mask: shape {mask.shape}, expected {total.shape} (centres, radii)")
     semi_up = radii if semi_up is None else semi_up
     up = np.zeros(3) if up_base is None else np.asarray(up_base, dtype=float)
-    up_opt = np.ascontiguousarray(T[:, :, :3] @ up)
+    axes = np.broadcast_to(up, (len(radii), 3))
+    axis_opt = np.ascontiguousarray(np.einsum("vij,kj->vki", T[:, :, :3], axes))  # (V, K, 3): each bin's axis per view
     with kernel_threads(int(total.size * score_work_ns(nb))):
         _score_kernel(
             np.ascontiguousarray(centres_base, dtype=np.float64),
             np.ascontiguousarray(radii, dtype=np.float64),
             np.ascontiguousarray(semi_up, dtype=np.float64),
-            up_opt,
+            axis_opt,
             np.ascontiguousarray(mask, dtype=np.bool_),
             T,
             B,

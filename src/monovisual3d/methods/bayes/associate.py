@@ -17,7 +17,7 @@ from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
 from .likelihood import box_scores
 from .problem import Problem, Taken
-from .scoring import associations_list, boxes_of, fit_fixed, pose_px, refine_and_check, semi_up_of
+from .scoring import associations_list, axis_of, boxes_of, fit_fixed, pose_px, refine_and_check, semi_up_of, spheroid_axis
 from .search import Hypotheses
 
 
@@ -25,7 +25,7 @@ def _predicted_box(problem: Problem, v: int, o: DetectedObject) -> NDArray[np.fl
     T = problem.views[v].T_optical_base
     p_opt = T[:3, :3] @ o.position + T[:3, 3]
     b = semi_up_of(o)
-    up = T[:3, :3] @ problem.config.up_vector
+    up = T[:3, :3] @ spheroid_axis(problem, axis_of(o))
     return predict_spheroid_boxes(problem.camera, p_opt[None, :], [float(o.radius)], [b or float(o.radius)], up)[0][0, 0]
 
 
@@ -37,16 +37,18 @@ def _overlapping(a: NDArray[np.float64], others: NDArray[np.float64]) -> NDArray
     )
 
 
-#: Fits of :func:`fit_fixed` already made in a swap pass: (start position bytes, radius, semi-axis along up, association) -> fit.
-_Fits = dict[tuple[bytes, float, float | None, tuple[int, ...]], "DetectedObject | None"]
+#: Fits of :func:`fit_fixed` already made in a swap pass: (start position bytes, radius, semi-axis along the axis (and the
+#: axis of a lying object), association) -> fit.
+_Fits = dict[tuple[bytes, float, float | tuple[float, ...] | None, tuple[int, ...]], "DetectedObject | None"]
 
 
 def _fit(problem: Problem, o: DetectedObject, assoc: list[int], fits: _Fits) -> DetectedObject | None:
     """``fit_fixed`` from ``o`` with ``assoc``, made once per pass (the pass's second round meets the same pairs)."""
-    semi_up = semi_up_of(o)
-    key = (np.asarray(o.position, dtype=np.float64).tobytes(), float(o.radius), semi_up, tuple(assoc))  # type: ignore[arg-type]
+    semi_up, axis = semi_up_of(o), axis_of(o)
+    shape = semi_up if axis is None else (semi_up, *axis.tolist())
+    key = (np.asarray(o.position, dtype=np.float64).tobytes(), float(o.radius), shape, tuple(assoc))  # type: ignore[arg-type]
     if key not in fits:
-        fits[key] = fit_fixed(problem, o.position, float(o.radius), assoc, semi_up)  # type: ignore[arg-type]
+        fits[key] = fit_fixed(problem, o.position, float(o.radius), assoc, semi_up, axis)  # type: ignore[arg-type]
     return fits[key]
 
 
@@ -136,19 +138,20 @@ def _steal_candidates(problem: Problem, hyp: Hypotheses, taken: Taken) -> NDArra
 
 def _try_steal(
     problem: Problem, objects: list[DetectedObject], taken: Taken, holder: dict[tuple[int, int], int], centre: NDArray[np.float64],
-    radius: float, wanted: list[int], semi_up: float | None = None,
+    radius: float, wanted: list[int], semi_up: float | None = None, axis: NDArray[np.float64] | None = None,
 ) -> tuple[DetectedObject, dict[int, DetectedObject]] | None:  # fmt: skip
     """The candidate refined with the boxes it wants (held ones released), and the holders refit without them."""
     cfg = problem.config
     stolen = {(v, j) for v, j in enumerate(wanted) if j >= 0 and (v, j) in holder}
-    new = refine_and_check(problem, taken - stolen, centre, radius, wanted, semi_up)
+    new = refine_and_check(problem, taken - stolen, centre, radius, wanted, semi_up, axis)
     if new is None:
         return None
     mine = boxes_of(problem, new)
     losers: dict[int, DetectedObject] = {}
     for i in sorted({holder[b] for b in mine if b in holder}):
         keep = [-1 if (v, j) in mine else j for v, j in enumerate(associations_list(problem, objects[i]))]
-        refit = fit_fixed(problem, objects[i].position, float(objects[i].radius), keep, semi_up_of(objects[i]))  # type: ignore[arg-type]
+        o = objects[i]
+        refit = fit_fixed(problem, o.position, float(o.radius), keep, semi_up_of(o), axis_of(o))  # type: ignore[arg-type]
         if refit is None or refit.score < cfg.accept:
             return None
         losers[i] = refit
@@ -189,7 +192,8 @@ def steal_pass(
         c, k = np.unravel_index(int(np.argmax(sc)), sc.shape)
         tried |= np.linalg.norm(centres - centres[c], axis=1) <= max(2 * hyp.cell, radii[k])
         wanted = [int(a) for a in assoc0[:, c, k]]
-        move = _try_steal(problem, objects, taken, holder, centres[c], float(radii[k]), wanted, hyp.bin_semi_up(int(k)))
+        b, u = hyp.bin_semi_up(int(k)), hyp.bin_axis(int(k))
+        move = _try_steal(problem, objects, taken, holder, centres[c], float(radii[k]), wanted, b, u)
         if move is None:
             continue
         new, losers = move

@@ -60,6 +60,13 @@ class BayesConfig:
         hypotheses, e.g. "1,2.5": every second radius bin is also scored as upright spheroids of these elongations
         (bins longer along ``up`` than the largest semi-axis of size_range are left out), so a tall box (bottle, container, hanging
         cucumber) is explained from the start; "1" searches spheres only
+    lying_yaws : int, yaws (evenly over 180 degrees about ``up``) at which each elongated bin is also scored lying, its
+        long axis horizontal: a can, a box or a tray on its side, whose wide box neither a sphere nor an upright
+        spheroid explains (0: upright bins only). The first search level scores them only in cells whose passing sphere
+        bins use a box at least 1.3 times wider than tall (``search.LYING_MIN_BOX_ASPECT``); later levels prune them as
+        the upright bins are
+    lying_elongations : tuple or str or None, ratios (> 1) of the long semi-axis to the across one of the lying bins,
+        e.g. "2,3" (None: those of ``elongations``)
     elongation_cost : float, nats: what an elongated hypothesis pays against a sphere (the Occam factor of its extra
         shape parameter), so chance alignments of false-positive boxes do not pass as elongated objects
     elongation_slack : float, nats: at each search level an elongated bin is refined further only where its box
@@ -111,6 +118,8 @@ class BayesConfig:
     radius_max: float = 0.08
     n_radii: int = 16
     elongations: tuple[float, ...] | str = (1.0, 2.5)
+    lying_yaws: int = 4
+    lying_elongations: tuple[float, ...] | str | None = None
     elongation_cost: float = 2.0
     elongation_slack: float = 0.0
     reach: float = DEFAULT_REACH_M
@@ -151,10 +160,11 @@ class BayesConfig:
             if not (is_real(v) and float(v).is_integer() and v >= 1):
                 raise InputError(f"{name}: got {v!r}, expected an integer >= 1")
             object.__setattr__(self, name, int(v))
-        v = self.radius_margin_bins
-        if not (is_real(v) and float(v).is_integer() and v >= 0):
-            raise InputError(f"radius_margin_bins: got {v!r}, expected an integer >= 0")
-        object.__setattr__(self, "radius_margin_bins", int(v))
+        for name in ("radius_margin_bins", "lying_yaws"):
+            v = getattr(self, name)
+            if not (is_real(v) and float(v).is_integer() and v >= 0):
+                raise InputError(f"{name}: got {v!r}, expected an integer >= 0")
+            object.__setattr__(self, name, int(v))
         for name in ("radius_min", "radius_max", "resolution", "coarse_resolution", "reach"):
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v > 0):
@@ -184,19 +194,22 @@ class BayesConfig:
         check_shared_options(self)
         self.sensor  # validates the sensor fields  # noqa: B018
 
-    def _check_elongations(self) -> None:
-        value = self.elongations
-        items: Any = value.split(",") if isinstance(value, str) else value
+    def _check_elongations(self, name: str = "elongations") -> None:
+        value = getattr(self, name)
+        if value is None and name == "lying_elongations":
+            return
+        items: Any = value.split(",") if isinstance(value, str) else (value,) if is_real(value) else value
         try:
             q = tuple(float(v) for v in items)
         except (TypeError, ValueError):
-            raise InputError(f"elongations: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,2,4") from None
+            raise InputError(f"{name}: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,2,4") from None
         if not q or not all(math.isfinite(v) and v >= 1 for v in q) or any(isinstance(v, bool) for v in items):
-            raise InputError(f"elongations: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,2,4")
-        object.__setattr__(self, "elongations", tuple(sorted(set(q))))
+            raise InputError(f"{name}: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,2,4")
+        object.__setattr__(self, name, tuple(sorted(set(q))))
 
     def _check_shape_fields(self) -> None:
         self._check_elongations()
+        self._check_elongations("lying_elongations")
         if self.shape not in SHAPES:
             raise InputError(f"shape: got {self.shape!r}, expected one of {list(SHAPES)}")
         import numpy as np
@@ -262,20 +275,62 @@ class BayesConfig:
 
     @property
     def hypothesis_bins(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The search's shape bins: semi-axes across ``up`` and along it, each shape (K,), metres.
+        """The search's shape bins: semi-axes across their axis and along it, each shape (K,), metres.
 
         Every radius bin as a sphere, then every :data:`ELONGATED_RADIUS_STRIDE`-th radius bin with each
         elongation > 1, elongation-major (the radius bins of one elongation are neighbours, as :attr:`radii`),
-        leaving out elongated bins longer along ``up`` than the largest semi-axis (:attr:`semi_axis_range`).
+        leaving out elongated bins longer than the largest semi-axis (:attr:`semi_axis_range`): first upright
+        (axis ``up``), then lying at each of ``lying_yaws`` yaws with the ``lying_elongations``, yaw-major (axes:
+        :attr:`hypothesis_axes`).
         """
+        across, along, _ = self._bins()
+        return across, along
+
+    @property
+    def hypothesis_axes(self) -> NDArray[np.float64]:
+        """Symmetry axis of each bin of :attr:`hypothesis_bins`, shape (K, 3), unit, base frame: ``up`` for the
+        spheres and upright bins, :attr:`lying_axes` for the lying ones."""
+        return self._bins()[2]
+
+    def _bins(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Semi-axes across and along, and the axis, of every shape bin: (K,), (K,), (K, 3)."""
         import numpy as np
 
         r = self.radii
         coarse = r[::ELONGATED_RADIUS_STRIDE]
         longest = self.semi_axis_range[1] * (1 + 1e-9)
-        across = [r if q == 1.0 else coarse[q * coarse <= longest] for q in self.elongations]
-        along = [a * q for a, q in zip(across, self.elongations)]
-        return np.concatenate(across), np.concatenate(along)
+
+        def elongated(qs: tuple[float, ...]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+            across = [coarse[q * coarse <= longest] for q in qs if q > 1.0]
+            along = [a * q for a, q in zip(across, [q for q in qs if q > 1.0])]
+            return np.concatenate([np.zeros(0)] + across), np.concatenate([np.zeros(0)] + along)
+
+        up_across, up_along = elongated(self.elongations)  # type: ignore[arg-type]
+        lying = self.elongations if self.lying_elongations is None else self.lying_elongations
+        lie_across, lie_along = elongated(lying if self.lying_yaws else ())  # type: ignore[arg-type]
+        n_yaws = self.lying_yaws if len(lie_across) else 0
+        spheres = r if 1.0 in self.elongations else np.zeros(0)  # type: ignore[operator]
+        across = np.concatenate([spheres, up_across] + [lie_across] * n_yaws)
+        along = np.concatenate([spheres, up_along] + [lie_along] * n_yaws)
+        axes = np.tile(self.up_vector, (len(across), 1))
+        if n_yaws:
+            axes[len(spheres) + len(up_across) :] = np.repeat(self.lying_axes, len(lie_across), axis=0)
+        return across, along, axes
+
+    @property
+    def lying_axes(self) -> NDArray[np.float64]:
+        """Long axes of the lying bins, shape (lying_yaws, 3), unit, base frame: horizontal (perpendicular to
+        ``up``), at yaws ``i * 180 / lying_yaws`` degrees from the horizontal direction nearest the base x axis
+        (the y axis when ``up`` is along x)."""
+        import numpy as np
+
+        up = self.up_vector
+        ref = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        e1 = ref - up * (ref @ up)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(up, e1)
+        yaw = np.pi * np.arange(self.lying_yaws) / max(self.lying_yaws, 1)
+        return np.cos(yaw)[:, None] * e1 + np.sin(yaw)[:, None] * e2
 
     def to_dict(self) -> dict[str, Any]:
         """The options as plain JSON values."""

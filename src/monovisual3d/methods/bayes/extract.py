@@ -98,9 +98,9 @@ def _candidates(
             break
         key = (c, k)
         if key not in cache:  # a cached result stays valid while its boxes are not taken
-            b = hyp.bin_semi_up(int(k))
-            _, assoc_h = score_one(problem, taken, centres[c], float(radii[k]), hyp.cell, b)
-            cache[key] = refine_and_check(problem, taken, centres[c], float(radii[k]), assoc_h, b)
+            b, u = hyp.bin_semi_up(int(k)), hyp.bin_axis(int(k))
+            _, assoc_h = score_one(problem, taken, centres[c], float(radii[k]), hyp.cell, b, u)
+            cache[key] = refine_and_check(problem, taken, centres[c], float(radii[k]), assoc_h, b, u)
         near = np.linalg.norm(centres - centres[c], axis=1) <= max(2 * hyp.cell, radii[k])
         trial[near] = False
         out.append((cache[key], near))
@@ -135,7 +135,9 @@ def _refresh(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, lazy:
         sub = np.flatnonzero(work.stale & (work.row_best >= best - margin))
         if len(sub) == 0:
             return
-        t, n, a = score_hypotheses(problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub], hyp.semi_up)
+        t, n, a = score_hypotheses(
+            problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub], hyp.semi_up, hyp.axes
+        )
         work.total[sub], work.n_assoc[sub], work.assoc[:, sub] = t, n, a
         work.stale[sub] = False
         work.update(sub, problem.config.min_views)

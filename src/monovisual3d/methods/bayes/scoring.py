@@ -58,6 +58,7 @@ def score_hypotheses(
     cell: float,
     mask: NDArray[np.bool_],
     semi_up: NDArray[np.float64] | None = None,
+    axes: NDArray[np.float64] | None = None,
 ) -> Scores:
     """Score the (cell, radius) hypotheses selected by ``mask`` with the boxes not in ``taken``.
 
@@ -67,6 +68,8 @@ def score_hypotheses(
     radii : ndarray, shape (K,), metres, semi-axis across ``up`` (the radius of a sphere)
     semi_up : ndarray, shape (K,), metres, optional: semi-axis along ``up`` (``BayesConfig.up``) of upright
         spheroid hypotheses (a sphere where it equals the radius; default: all spheres)
+    axes : ndarray, shape (K, 3), unit, base frame, optional: each bin's symmetry axis (default ``up``; a lying
+        bin's is horizontal), ``semi_up`` being the semi-axis along it
     cell : float, metres: the cell size; the cell's projected half-diagonal is added to the edge
         noise so a cell is scored as the region it stands for (0: a single point)
     mask : ndarray, shape (N, K), bool
@@ -95,11 +98,11 @@ def score_hypotheses(
             max(cam.fx, cam.fy) * cfg.pose_rotation_sigma,
             mask,
             semi_up,
-            cfg.up_vector,
+            cfg.up_vector if axes is None else axes,
             box_index(problem),
         )
     else:
-        scores = score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask, semi_up)
+        scores = score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask, semi_up, axes)
     if semi_up is not None and np.any(semi_up != radii):
         scores[0][:, semi_up != radii] -= cfg.elongation_cost
     return scores
@@ -123,17 +126,18 @@ def score_hypotheses_numpy(
     blur: float,
     mask: NDArray[np.bool_],
     semi_up: NDArray[np.float64] | None = None,
+    axes: NDArray[np.float64] | None = None,
 ) -> Scores:
     """The numpy reference of :func:`score_hypotheses` (``blur``: the cell's half-diagonal, metres)."""
     semi_up = radii if semi_up is None else semi_up
-    up = problem.config.up_vector
+    up = problem.config.up_vector if axes is None else np.asarray(axes, dtype=float)
     cam, n, k = problem.camera, len(centres_base), len(radii)
     total = np.zeros((n, k))
     n_assoc = np.zeros((n, k), dtype=np.int32)
     assoc = np.empty((len(problem.views), n, k), dtype=np.int16)
     for v, vd in enumerate(problem.views):
         p_opt = transform_points(vd.T_optical_base, centres_base)
-        pred, visible = predict_spheroid_boxes(cam, p_opt, radii, semi_up, vd.T_optical_base[:3, :3] @ up)
+        pred, visible = predict_spheroid_boxes(cam, p_opt, radii, semi_up, up @ vd.T_optical_base[:3, :3].T)
         extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
         if problem.config.poses_uncertain:
             extra = np.hypot(extra, pose_px(problem, p_opt[:, 2:3]))
@@ -146,12 +150,16 @@ def score_hypotheses_numpy(
 
 
 def score_one(
-    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, cell: float = 0.0, semi_up: float | None = None
-) -> tuple[float, list[int]]:
-    """Score (nats) and best available box per view (-1: none) of one sphere (an upright spheroid with
-    ``semi_up``); ``cell`` > 0 blurs it as a grid cell."""
+    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, cell: float = 0.0, semi_up: float | None = None,
+    axis: NDArray[np.float64] | None = None,
+) -> tuple[float, list[int]]:  # fmt: skip
+    """Score (nats) and best available box per view (-1: none) of one sphere (a spheroid with ``semi_up`` along
+    ``axis``, default ``up``); ``cell`` > 0 blurs it as a grid cell."""
     b = None if semi_up is None else np.array([semi_up])
-    total, _, assoc = score_hypotheses(problem, taken, centre[None, :], np.array([radius]), cell, np.ones((1, 1), dtype=bool), b)
+    axes = None if axis is None else np.asarray(axis, dtype=float)[None, :]
+    total, _, assoc = score_hypotheses(
+        problem, taken, centre[None, :], np.array([radius]), cell, np.ones((1, 1), dtype=bool), b, axes
+    )
     return float(total[0, 0]), [int(a) for a in assoc[:, 0, 0]]
 
 
@@ -174,22 +182,37 @@ def _radius_ok(problem: Problem, radius: float, semi_up: float | None = None) ->
 
 
 def semi_up_of(obj: DetectedObject) -> float | None:
-    """The semi-axis along ``up`` of an object found as an upright spheroid (metres); None for a sphere."""
+    """The semi-axis along its axis of an object found as a spheroid (metres); None for a sphere."""
     b = obj.extra.get("semi_up")
     return None if b is None else float(b)
 
 
+def axis_of(obj: DetectedObject) -> NDArray[np.float64] | None:
+    """The horizontal symmetry axis (3,), base frame, of an object found as a lying spheroid; None otherwise (``up``)."""
+    u = obj.extra.get("axis")
+    return None if u is None else np.asarray(u, dtype=float)
+
+
+def spheroid_axis(problem: Problem, axis: NDArray[np.float64] | None) -> NDArray[np.float64]:
+    """A spheroid's symmetry axis, base frame: ``axis``, or ``up`` when None."""
+    return problem.config.up_vector if axis is None else np.asarray(axis, dtype=float)
+
+
 def _refine(
-    problem: Problem, obs: Sequence[Observation], centre: NDArray[np.float64], radius: float, semi_up: float | None
-) -> Refined:
-    """A sphere through :func:`.refine.refine_sphere`, an upright spheroid (``semi_up``) through ``refine_spheroid``."""
+    problem: Problem, obs: Sequence[Observation], centre: NDArray[np.float64], radius: float, semi_up: float | None,
+    axis: NDArray[np.float64] | None = None,
+) -> Refined:  # fmt: skip
+    """A sphere through :func:`.refine.refine_sphere`, a spheroid (``semi_up`` along ``axis``, default ``up``)
+    through ``refine_spheroid``."""
     cfg = problem.config
     if semi_up is None:
         return refine_sphere(problem.camera, obs, centre, radius, problem.model, use_masks=cfg.use_masks)
-    return refine_spheroid(problem.camera, obs, centre, radius, semi_up, problem.model, cfg.up_vector)
+    return refine_spheroid(problem.camera, obs, centre, radius, semi_up, problem.model, spheroid_axis(problem, axis))
 
 
-def _object(problem: Problem, refined: object, score: float, assoc: Sequence[int], n_views: int) -> DetectedObject:
+def _object(
+    problem: Problem, refined: object, score: float, assoc: Sequence[int], n_views: int, axis: NDArray[np.float64] | None = None
+) -> DetectedObject:
     """The accepted object; an undetermined covariance (singular Gauss-Newton matrix, e.g. all views from one
     pose) is reported as None, never as NaN."""
     cov = refined.covariance  # type: ignore[attr-defined]
@@ -197,6 +220,8 @@ def _object(problem: Problem, refined: object, score: float, assoc: Sequence[int
     extra: dict[str, Any] = {"radius_std": radius_std if np.isfinite(radius_std) else None, "n_views": int(n_views)}
     if getattr(refined, "semi_up", None) is not None:
         extra["semi_up"] = float(refined.semi_up)  # type: ignore[attr-defined]
+        if axis is not None and abs(float(np.dot(axis, problem.config.up_vector))) < 1 - 1e-9:
+            extra["axis"] = [float(x) for x in axis]  # lying: the long axis, base frame
     return DetectedObject(
         position=refined.centre,  # type: ignore[attr-defined]
         score=score,
@@ -209,15 +234,15 @@ def _object(problem: Problem, refined: object, score: float, assoc: Sequence[int
 
 def refine_and_check(
     problem: Problem, taken: Taken, centre0: NDArray[np.float64], radius0: float, assoc0: Sequence[int],
-    semi_up0: float | None = None,
+    semi_up0: float | None = None, axis: NDArray[np.float64] | None = None,
 ) -> DetectedObject | None:  # fmt: skip
     """Refine a hypothesis, re-associating its boxes among those not ``taken``; None unless it is accepted.
 
     Accepted: at least ``min_views`` associated views, a plausible radius and a
-    score of at least ``accept`` nats. ``semi_up0``: the hypothesis is an upright spheroid.
+    score of at least ``accept`` nats. ``semi_up0``: the hypothesis is a spheroid, upright or along ``axis``.
     """
     cfg = problem.config
-    fit = _refine_associating(problem, taken, centre0, float(radius0), list(assoc0), semi_up=semi_up0)
+    fit = _refine_associating(problem, taken, centre0, float(radius0), list(assoc0), semi_up=semi_up0, axis=axis)
     if fit is not None and fit[1] < cfg.accept and sum(a >= 0 for a in fit[2]) > cfg.min_views:
         # A box cut by an unseen occluder can pull the least-squares fit off the position where the robust
         # score is best, and the object is then rejected although the other views agree. Refit without each
@@ -225,7 +250,7 @@ def refine_and_check(
         refined, _, assoc = fit
         for v in [v for v, a in enumerate(assoc) if a >= 0]:
             without = [-1 if u == v else a for u, a in enumerate(assoc)]
-            alt = _refine_associating(problem, taken, refined.centre, float(refined.radius), without, 1, refined.semi_up)
+            alt = _refine_associating(problem, taken, refined.centre, float(refined.radius), without, 1, refined.semi_up, axis)
             if alt is not None and alt[1] > fit[1]:
                 fit = alt
     if fit is None:
@@ -234,12 +259,12 @@ def refine_and_check(
     n_views = sum(a >= 0 for a in assoc)
     if n_views < cfg.min_views or score < cfg.accept:
         return None
-    return _object(problem, refined, score, assoc, n_views)
+    return _object(problem, refined, score, assoc, n_views, axis)
 
 
 def _refine_associating(
     problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, assoc: list[int], rounds: int = 3,
-    semi_up: float | None = None,
+    semi_up: float | None = None, axis: NDArray[np.float64] | None = None,
 ) -> tuple[Any, float, list[int]] | None:  # fmt: skip
     """Refine on the associated boxes, rescore (re-associating the free boxes) and repeat up to ``rounds`` times.
 
@@ -252,11 +277,11 @@ def _refine_associating(
         obs = observations(problem, assoc, centre)
         if len(obs) < cfg.min_views:
             return None
-        refined = _refine(problem, obs, centre, radius, semi_up)
+        refined = _refine(problem, obs, centre, radius, semi_up, axis)
         centre, radius, semi_up = refined.centre, refined.radius, refined.semi_up
         if not _radius_ok(problem, radius, semi_up):
             return None
-        score, new_assoc = score_one(problem, taken, centre, radius, 0.0, semi_up)
+        score, new_assoc = score_one(problem, taken, centre, radius, 0.0, semi_up, axis)
         if new_assoc == assoc:
             break
         assoc = new_assoc
@@ -264,21 +289,24 @@ def _refine_associating(
 
 
 def fit_fixed(
-    problem: Problem, centre0: NDArray[np.float64], radius0: float, assoc: Sequence[int], semi_up0: float | None = None
-) -> DetectedObject | None:
-    """Refine one object with a fixed association and score it with that association (None: no valid fit)."""
+    problem: Problem, centre0: NDArray[np.float64], radius0: float, assoc: Sequence[int], semi_up0: float | None = None,
+    axis: NDArray[np.float64] | None = None,
+) -> DetectedObject | None:  # fmt: skip
+    """Refine one object with a fixed association and score it with that association (None: no valid fit).
+
+    ``semi_up0``: a spheroid along ``axis`` (default ``up``)."""
     cfg, cam = problem.config, problem.camera
     obs = observations(problem, assoc, centre0)
     if len(obs) < cfg.min_views:
         return None
-    refined = _refine(problem, obs, centre0, radius0, semi_up0)
+    refined = _refine(problem, obs, centre0, radius0, semi_up0, axis)
     if not _radius_ok(problem, refined.radius, refined.semi_up):
         return None
     score = 0.0
     b = refined.radius if refined.semi_up is None else refined.semi_up
     for vd, j in zip(problem.views, assoc):
         p_opt = vd.T_optical_base[:3, :3] @ refined.centre + vd.T_optical_base[:3, 3]
-        R_up = vd.T_optical_base[:3, :3] @ cfg.up_vector
+        R_up = vd.T_optical_base[:3, :3] @ spheroid_axis(problem, axis)
         pred, visible = predict_spheroid_boxes(cam, p_opt[None, :], [refined.radius], [b], R_up)
         if not visible[0, 0]:
             continue
@@ -288,7 +316,7 @@ def fit_fixed(
             else -np.inf
         )
         score += max(float(s), problem.model.miss_term)
-    return _object(problem, refined, score - shape_cost(problem, refined.semi_up), assoc, len(obs))
+    return _object(problem, refined, score - shape_cost(problem, refined.semi_up), assoc, len(obs), axis)
 
 
 def associations_list(problem: Problem, obj: DetectedObject) -> list[int]:

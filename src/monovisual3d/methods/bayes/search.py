@@ -1,11 +1,16 @@
 """Coarse-to-fine search of the (cell, shape bin) hypotheses that can hold an object.
 
-A shape bin is a sphere (one of ``BayesConfig.radii``) or an upright spheroid
-(a radius times an elongation of ``BayesConfig.elongations`` along ``up``):
-``BayesConfig.hypothesis_bins``. Man-made containers, bottles and hanging
-fruit stand (or hang) along gravity, so an elongated object's box is
-explained by an upright spheroid from the first level; a sphere would only
-match it with two edges at their floors and score too low to be kept.
+A shape bin is a sphere (one of ``BayesConfig.radii``) or a spheroid
+(a radius times an elongation of ``BayesConfig.elongations`` along its axis):
+``BayesConfig.hypothesis_bins``, axes ``BayesConfig.hypothesis_axes``. Man-made
+containers, bottles and hanging fruit stand (or hang) along gravity, so an
+elongated object's box is explained by an upright spheroid from the first
+level; a sphere would only match it with two edges at their floors and score
+too low to be kept. An object lying on its side (a can, a box, a tray) has a
+wide box that neither explains: the lying bins (``BayesConfig.lying_yaws``
+horizontal axes) do. Elongated bins are scored at the first level only where a
+sphere bin passes, and dropped where a sphere explains the box better
+(:func:`_plausible_shapes`).
 
 A cell can hold an object only if, in at least ``min_views`` views, its
 centre projects inside one of the boxes, widened by half the box size on
@@ -51,6 +56,11 @@ MAX_FIRST_LEVEL_CELLS = 2_000_000
 DEPTH_GATE_SLACK = 2.0
 #: Cells whose cone counts are computed at once.
 CHUNK_CELLS = 1 << 20
+#: A box at least this much wider than tall (width / height) may be a lying object's: the first level scores the lying
+#: bins only in cells whose passing sphere bins use such a box. A lying 12 x 5 x 5 cm object seen within 30 degrees of
+#: broadside gives about 2, a sphere's box stays below 1.25 out to the corners of a 70 degree field of view, and an
+#: object seen along its long axis gives a near-square box that a sphere of its across-radius already explains.
+LYING_MIN_BOX_ASPECT = 1.3
 
 
 @dataclass(frozen=True)
@@ -67,7 +77,8 @@ class Hypotheses:
     n_scored : int, hypotheses scored over all levels
     start_cell : float, metres, cell size of the first level
     capped : bool, whether a level had more hypotheses than the budget and kept only the best cells
-    semi_up : ndarray, shape (K,), metres: the bins' semi-axis along ``up`` (equal to ``radii`` for spheres)
+    semi_up : ndarray, shape (K,), metres: the bins' semi-axis along their axis (equal to ``radii`` for spheres)
+    axes : ndarray, shape (K, 3), unit, base frame: the bins' symmetry axis (``up``; horizontal for lying bins)
     """
 
     centres_base: NDArray[np.float64]
@@ -79,12 +90,19 @@ class Hypotheses:
     start_cell: float
     capped: bool
     semi_up: NDArray[np.float64] | None = None
+    axes: NDArray[np.float64] | None = None
 
     def bin_semi_up(self, k: int) -> float | None:
-        """Semi-axis along ``up`` of bin ``k`` (metres), None for a sphere bin."""
+        """Semi-axis along its axis of bin ``k`` (metres), None for a sphere bin."""
         if self.semi_up is None or self.semi_up[k] == self.radii[k]:
             return None
         return float(self.semi_up[k])
+
+    def bin_axis(self, k: int) -> NDArray[np.float64] | None:
+        """Symmetry axis (3,), base frame, of the spheroid bin ``k``; None for a sphere bin or without ``axes``."""
+        if self.axes is None or self.bin_semi_up(k) is None:
+            return None
+        return self.axes[k]
 
     def stats(self) -> dict[str, float | int | bool]:
         return {
@@ -193,14 +211,15 @@ def _score_level(
     Returns the rows kept (indices into ``centres``), their scores and whether cells were dropped.
     """
     radii, semi_up = problem.config.hypothesis_bins
+    axes = problem.config.hypothesis_axes
     max_cells = max(1, cap // len(radii))
     if len(centres) <= max_cells:
-        return np.arange(len(centres)), score_hypotheses(problem, frozenset(), centres, radii, cell, mask, semi_up), False
+        return np.arange(len(centres)), score_hypotheses(problem, frozenset(), centres, radii, cell, mask, semi_up, axes), False
     rows = np.zeros(0, dtype=np.intp)
     best: Scores | None = None
     for start in range(0, len(centres), max_cells):
         idx = np.arange(start, min(start + max_cells, len(centres)))
-        sc = score_hypotheses(problem, frozenset(), centres[idx], radii, cell, mask[idx], semi_up)
+        sc = score_hypotheses(problem, frozenset(), centres[idx], radii, cell, mask[idx], semi_up, axes)
         if best is not None:
             idx = np.concatenate([rows, idx])
             sc = (np.concatenate([best[0], sc[0]]), np.concatenate([best[1], sc[1]]), np.concatenate([best[2], sc[2]], axis=1))
@@ -260,7 +279,7 @@ def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
 def _plausible_shapes(
     total: NDArray[np.float64], radii: NDArray[np.float64], semi_up: NDArray[np.float64], slack: float
 ) -> NDArray[np.bool_]:
-    """Which bins of each cell stay in the search: every sphere bin, and the elongated bins (upright spheroids)
+    """Which bins of each cell stay in the search: every sphere bin, and the elongated bins (upright or lying spheroids)
     scoring at least the cell's best sphere bin minus ``slack`` nats, shape (N, K) (the search passes
     ``elongation_slack + elongation_cost``: the box evidence is compared, not the prior).
 
@@ -274,20 +293,44 @@ def _plausible_shapes(
     return sphere[None, :] | (total >= best_sphere - slack)
 
 
+def lying_bins(problem: Problem) -> NDArray[np.bool_]:
+    """Which shape bins lie (their axis perpendicular to ``up``), shape (K,)."""
+    cfg = problem.config
+    radii, semi_up = cfg.hypothesis_bins
+    return (semi_up != radii) & (np.abs(cfg.hypothesis_axes @ cfg.up_vector) < 0.5)
+
+
+def _wide_box_cells(problem: Problem, scores: Scores, use: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Cells (N,) whose hypotheses ``use`` (N, K) associate a box at least :data:`LYING_MIN_BOX_ASPECT` wider than tall."""
+    _, _, assoc = scores
+    out = np.zeros(len(use), dtype=bool)
+    for v, vd in enumerate(problem.views):
+        b = vd.boxes.reshape(-1, 4)
+        wide = np.append((b[:, 2] - b[:, 0]) >= LYING_MIN_BOX_ASPECT * (b[:, 3] - b[:, 1]), False)  # index -1: no box
+        out |= (wide[assoc[v]] & use).any(axis=1)
+    return out
+
+
 def _score_deferred(
     problem: Problem, centres: NDArray[np.float64], cell: float, scores: Scores, sphere_bins: NDArray[np.bool_], floor: float
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16], int]:
-    """The first level's elongated bins, scored in the cells where a sphere bin reaches ``floor``; -inf elsewhere.
+    """The first level's elongated bins, scored in the cells where a sphere bin reaches ``floor`` (the lying bins
+    only where such a sphere bin uses a wide box, :func:`_wide_box_cells`); -inf elsewhere.
 
     Returns the level's merged scores and the number of hypotheses scored.
     """
     total, n_assoc, assoc = (a.copy() for a in scores)
-    rows = np.flatnonzero((total[:, sphere_bins] >= floor).any(axis=1))
+    passing = (total >= floor) & sphere_bins
+    rows = np.flatnonzero(passing.any(axis=1))
     if len(rows) == 0:
         return total, n_assoc, assoc, 0
     radii, semi_up = problem.config.hypothesis_bins
-    mask = np.broadcast_to(~sphere_bins, (len(rows), len(radii)))
-    t, n, a = score_hypotheses(problem, frozenset(), centres[rows], radii, cell, np.ascontiguousarray(mask), semi_up)
+    lying = lying_bins(problem)
+    wide = _wide_box_cells(problem, (total[rows], n_assoc[rows], assoc[:, rows]), passing[rows])
+    mask = (~sphere_bins & ~lying)[None, :] | (lying[None, :] & wide[:, None])
+    t, n, a = score_hypotheses(
+        problem, frozenset(), centres[rows], radii, cell, np.ascontiguousarray(mask), semi_up, problem.config.hypothesis_axes
+    )
     cols = np.flatnonzero(~sphere_bins)
     total[np.ix_(rows, cols)], n_assoc[np.ix_(rows, cols)] = t[:, cols], n[:, cols]
     assoc[:, rows[:, None], cols[None, :]] = a[:, :, cols]
@@ -358,7 +401,8 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
         centres_grid, centres, mask = centres_grid[good], centres[good], mask[good]
         scores = (total[good], n_assoc[good], assoc[:, good])
         if cell <= cfg.resolution * (1 + 1e-9) or len(centres) == 0:
-            return Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped, semi_up)
+            axes = cfg.hypothesis_axes
+            return Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped, semi_up, axes)
         # children inherit the radii their parent kept, widened (the parent's score is blurred in position, not radius)
         mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
         centres_grid = split_cells(centres_grid, cell)

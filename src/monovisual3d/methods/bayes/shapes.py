@@ -1,8 +1,8 @@
 """The shape stage: each object as a sphere, spheroid or ellipsoid (``BayesConfig.shape``).
 
-The search, extraction and association run with spheres and upright spheroids
-(``BayesConfig.elongations``), so a tall box is found and associated as what it
-is. This stage first refits each object whose boxes a nearer object cuts, those edges censored
+The search, extraction and association run with spheres and upright or lying spheroids
+(``BayesConfig.elongations``, ``BayesConfig.lying_yaws``), so a tall or wide box is found and
+associated as what it is. This stage first refits each object whose boxes a nearer object cuts, those edges censored
 (:func:`occlusion_refit`; the extraction's refinement took them as full edges), then refines the
 shape: it fits each object's associated boxes with the shape
 model (:func:`monovisual3d.geometry.fit.fit_shape_by_bic`, robust, truncated
@@ -47,7 +47,7 @@ from ...result import DetectedObject
 from .likelihood import box_scores
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
-from .scoring import associations_list, observations, pose_px
+from .scoring import associations_list, axis_of, observations, pose_px, spheroid_axis
 from .sensor import box_edge_sigma_px
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
@@ -235,7 +235,7 @@ def _predicted(
     """Predicted boxes (N, 4), pixels, centre depths (N,), metres, and the std (N, 2), pixels, of each object's
     projected centre along x and y in view ``v`` (its position covariance through the pinhole projection's
     Jacobian; without a covariance, its box's edge noise)."""
-    vd, cam, up = problem.views[v], problem.camera, problem.config.up_vector
+    vd, cam = problem.views[v], problem.camera
     boxes, depth, std = np.full((len(objects), 4), np.nan), np.full(len(objects), np.inf), np.zeros((len(objects), 2))
     for i, o in enumerate(objects):
         p_opt = vd.T_optical_base[:3, :3] @ o.position + vd.T_optical_base[:3, 3]
@@ -244,7 +244,8 @@ def _predicted(
         if b is None:
             boxes[i] = predict_sphere_boxes(cam, p_opt[None], np.array([r]))[0][0, 0]
         else:
-            boxes[i] = predict_spheroid_boxes(cam, p_opt[None], [r], [float(b)], vd.T_optical_base[:3, :3] @ up)[0][0, 0]
+            u = vd.T_optical_base[:3, :3] @ spheroid_axis(problem, axis_of(o))
+            boxes[i] = predict_spheroid_boxes(cam, p_opt[None], [r], [float(b)], u)[0][0, 0]
         depth[i] = p_opt[2]
         if o.covariance is not None and p_opt[2] > 0:
             x, y, z = p_opt
@@ -341,7 +342,7 @@ def _refit(problem: Problem, o: DetectedObject, obs: list[Observation]) -> Detec
     if b is None:
         fit = refine_sphere(problem.camera, obs, o.position, r, problem.model, use_masks=cfg.use_masks)
     else:
-        fit = refine_spheroid(problem.camera, obs, o.position, r, float(b), problem.model, cfg.up_vector)
+        fit = refine_spheroid(problem.camera, obs, o.position, r, float(b), problem.model, spheroid_axis(problem, axis_of(o)))
     sizes = [fit.radius] + ([] if fit.semi_up is None else [fit.semi_up])
     if not (fit.success and all(cfg.radius_min * 0.5 <= s <= cfg.radius_max * 2 for s in sizes)):
         return o
