@@ -61,6 +61,10 @@ CHUNK_CELLS = 1 << 20
 #: broadside gives about 2, a sphere's box stays below 1.25 out to the corners of a 70 degree field of view, and an
 #: object seen along its long axis gives a near-square box that a sphere of its across-radius already explains.
 LYING_MIN_BOX_ASPECT = 1.3
+#: Views with such a wide box a cell needs before its lying bins are scored: a lying object seen from two sides of its
+#: broadside is wide in both, a fruit a neighbour cuts in one view is wide in that one only (in a dense row, one in
+#: two fruit; their lying bins cost a quarter of the search there and explained nothing).
+MIN_WIDE_VIEWS = 2
 
 
 @dataclass(frozen=True)
@@ -301,14 +305,15 @@ def lying_bins(problem: Problem) -> NDArray[np.bool_]:
 
 
 def _wide_box_cells(problem: Problem, scores: Scores, use: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """Cells (N,) whose hypotheses ``use`` (N, K) associate a box at least :data:`LYING_MIN_BOX_ASPECT` wider than tall."""
+    """Cells (N,) where one of the hypotheses ``use`` (N, K) associates, in at least :data:`MIN_WIDE_VIEWS` views, a box
+    at least :data:`LYING_MIN_BOX_ASPECT` wider than tall."""
     _, _, assoc = scores
-    out = np.zeros(len(use), dtype=bool)
+    count = np.zeros(use.shape, dtype=np.int32)
     for v, vd in enumerate(problem.views):
         b = vd.boxes.reshape(-1, 4)
         wide = np.append((b[:, 2] - b[:, 0]) >= LYING_MIN_BOX_ASPECT * (b[:, 3] - b[:, 1]), False)  # index -1: no box
-        out |= (wide[assoc[v]] & use).any(axis=1)
-    return out
+        count += wide[assoc[v]] & use
+    return (count >= MIN_WIDE_VIEWS).any(axis=1)
 
 
 def _score_deferred(
