@@ -371,7 +371,10 @@ def _least_squares_from(
         # a convex-ish first pass finds the basin; a redescending loss then discounts the bad edges
         for stage_loss in dict.fromkeys((FIRST_PASS_LOSS, loss)):
             options = {"jac": jacobian, "loss": stage_loss, "f_scale": robust_scale, "x_scale": "jac"}
-            res = least_squares(residuals, theta0, **options)  # the unbounded solver is cheaper
+            # the unbounded solver is cheaper; a trial step far out overflows exp(log size), and the solver shrinks
+            # its step on a non-finite residual, so the overflow is expected, not an error
+            with np.errstate(over="ignore", invalid="ignore"):
+                res = least_squares(residuals, theta0, **options)
             if np.any(res.x < lower) or np.any(res.x > upper):  # a size left size_range: solve again within it
                 res = least_squares(residuals, theta0, bounds=(lower, upper), **options)
             theta0 = np.clip(res.x, lower + 1e-12, upper - 1e-12)
