@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from monovisual3d import load_session
 from monovisual3d.cli import app
 from monovisual3d.errors import InputError
-from monovisual3d.experiments.demo import run_demo
+from monovisual3d.experiments.demo import README_MEAN_ERROR_MM, run_demo
 from monovisual3d.truth import load_objects
 
 #: Bound on the demo's mean error (bayes, default seed 0, paper noise). Measured: 7.0 mm mean, 12.9 mm max, recall 1.0
@@ -97,5 +97,8 @@ def test_demo_rejects_bad_input(tmp_path: Path) -> None:
 def test_demo_quotes_its_seed_beside_the_readme_mean(demo_run: tuple[Path, object]) -> None:
     _, result = demo_run
     line = next(line for line in result.stdout.splitlines() if line.startswith("Found "))  # type: ignore[attr-defined]
-    assert re.search(r"mean error \d+\.\d mm on this seed \(0\); the README's 5\.78 mm is the mean over all fruit", line), line
+    readme = re.escape(f"{README_MEAN_ERROR_MM['bayes']:g}")  # equal to the README's row (test_examples_robot)
+    assert re.search(rf"mean error \d+\.\d mm on this seed \(0\); the README's {readme} mm is the mean over all fruit", line), (
+        line
+    )
     assert "seeds 0..19 of `monovisual3d bench accuracy`, condition greenhouse-noise" in line
