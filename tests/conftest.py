@@ -92,3 +92,15 @@ VALID_SESSION: dict[str, Any] = {
 def valid_session() -> dict[str, Any]:
     """A fresh deep copy of :data:`VALID_SESSION` that a test may mutate."""
     return copy.deepcopy(VALID_SESSION)
+
+
+@pytest.fixture(autouse=True)
+def _no_hard_exit_in_process(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A command run in this process (``CliRunner``) with ``--time-limit`` starts the watchdog that ends a stuck
+    command-line run with ``os._exit`` (:func:`monovisual3d.budget.time_limit`); here it would end pytest itself
+    when a loaded machine keeps the command in compiled code past the grace period (an uncached numba compile in a
+    clean clone). In-process, the soft limit (the ``TimeLimitExceeded`` the tests check) is all that may act;
+    commands run as subprocesses keep the hard exit."""
+    import monovisual3d.budget as budget
+
+    monkeypatch.setattr(budget, "_hard_stop", lambda message: None)
