@@ -146,10 +146,7 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
     total = np.round(rng.normal(size=(300, 5)), 1)  # rounded: many ties, the first one wins as in np.argmax
     total[rng.random(total.shape) < 0.3] = -np.inf
     n_assoc = rng.integers(0, 4, total.shape).astype(np.int32)
-    work = _Work(
-        total, n_assoc, np.zeros((2, 300, 5), np.int16), np.ones(300, bool), total.copy(), np.zeros(300), np.zeros(300, bool)
-    )
-    work.update(np.arange(300), 2)
+    work = _Work.from_scores(total, n_assoc, np.zeros((2, 300, 5), np.int16), 2)
     for _ in range(20):
         rows = rng.random(300) > 0.3
         c, k, s = work.best(rows)
@@ -159,6 +156,23 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
         changed = np.flatnonzero(rng.random(300) < 0.1)
         work.total[changed] = rng.normal(size=(len(changed), 5))
         work.update(changed, 2)
+
+
+def test_rows_using_a_box_are_those_a_scan_finds():
+    """The extraction's box index (starting associations plus the rows rescored since) finds exactly the rows whose
+    current association holds a box, as a scan over all rows does."""
+    from monovisual3d.methods.bayes.extract import _Work
+
+    rng = np.random.default_rng(11)
+    assoc = rng.integers(-1, 12, (3, 400, 6)).astype(np.int16)
+    work = _Work.from_scores(rng.normal(size=(400, 6)), np.full((400, 6), 3, np.int32), assoc, 2)
+    for _ in range(10):
+        changed = rng.random(400) < 0.1  # rows rescored: their associations move to other boxes
+        work.assoc[:, changed] = rng.integers(-1, 15, (3, int(changed.sum()), 6))
+        work.rescored |= changed
+        rows, v, boxes = rng.random(400) < 0.7, int(rng.integers(3)), rng.choice(15, 2, replace=False)
+        scan = np.flatnonzero(rows & np.isin(work.assoc[v], boxes).any(axis=1))
+        assert_array_equal(work.using(v, boxes, rows), scan)
 
 
 def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes():

@@ -37,7 +37,9 @@ class _Work:
     ``eligible`` is ``total`` where the row is active and the hypothesis has ``min_views`` associated
     views, else -inf; ``row_best`` its maximum per row. Both are updated only in the rows that change
     (suppressed or rescored), so finding the best hypothesis costs one pass over the rows, not over all
-    hypotheses.
+    hypotheses. ``users[v]`` indexes the starting associations of view ``v`` by box (the box numbers sorted, and
+    the row of each); with ``rescored`` (the rows whose associations changed since) it finds the rows that use a
+    box without a pass over all hypotheses.
     """
 
     total: NDArray[np.float64]
@@ -47,20 +49,31 @@ class _Work:
     eligible: NDArray[np.float64]
     row_best: NDArray[np.float64]
     stale: NDArray[np.bool_]
+    users: list[tuple[NDArray[np.int16], NDArray[np.intp]]]
+    rescored: NDArray[np.bool_]
 
     @classmethod
     def start(cls, hyp: Hypotheses, min_views: int) -> _Work:
-        total, n_assoc, assoc = hyp.scores
+        return cls.from_scores(*hyp.scores, min_views)
+
+    @classmethod
+    def from_scores(
+        cls, total: NDArray[np.float64], n_assoc: NDArray[np.int32], assoc: NDArray[np.int16], min_views: int
+    ) -> _Work:
+        """The working copy of the scores ``total`` (N, K), ``n_assoc`` (N, K) and ``assoc`` (V, N, K), all active."""
+        n = len(total)
         work = cls(
             total.copy(),
             n_assoc.copy(),
             assoc.copy(),
-            np.ones(len(total), dtype=bool),
+            np.ones(n, dtype=bool),
             total.copy(),
-            np.zeros(len(total)),
-            np.zeros(len(total), dtype=bool),
+            np.zeros(n),
+            np.zeros(n, dtype=bool),
+            [_box_users(a) for a in assoc],
+            np.zeros(n, dtype=bool),
         )
-        work.update(np.arange(len(total)), min_views)
+        work.update(np.arange(n), min_views)
         return work
 
     def update(self, rows: NDArray[np.intp], min_views: int) -> None:
@@ -68,6 +81,14 @@ class _Work:
         ok = self.active[rows, None] & (self.n_assoc[rows] >= min_views)
         self.eligible[rows] = np.where(ok, self.total[rows], -np.inf)
         self.row_best[rows] = self.eligible[rows].max(axis=1, initial=-np.inf)
+
+    def using(self, v: int, boxes: NDArray[np.intp], rows: NDArray[np.bool_]) -> NDArray[np.intp]:
+        """The rows among ``rows`` (N,) bool whose association in view ``v`` holds one of ``boxes``, sorted."""
+        js, row_of = self.users[v]
+        lo, hi = np.searchsorted(js, boxes, side="left"), np.searchsorted(js, boxes, side="right")
+        cand = np.concatenate([row_of[a:b] for a, b in zip(lo, hi)] + [np.flatnonzero(self.rescored)])
+        cand = np.unique(cand[rows[cand]])
+        return cand[np.isin(self.assoc[v, cand], boxes).any(axis=1)]
 
     def suppress(self, rows: NDArray[np.bool_]) -> None:
         """Deactivate the cells ``rows`` (N,) bool."""
@@ -82,6 +103,14 @@ class _Work:
             return c, 0, -np.inf
         k = int(np.argmax(self.eligible[c]))
         return c, k, float(self.eligible[c, k])
+
+
+def _box_users(assoc_v: NDArray[np.int16]) -> tuple[NDArray[np.int16], NDArray[np.intp]]:
+    """The boxes that the hypotheses ``assoc_v`` (N, K) of one view associate, sorted, and the row of each use."""
+    rows, _ = np.nonzero(assoc_v >= 0)
+    js = assoc_v[assoc_v >= 0]
+    order = np.argsort(js, kind="stable")
+    return js[order], rows[order]
 
 
 def _candidates(
@@ -113,11 +142,9 @@ def _take(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, obj: Det
     taken = taken | new
     near = np.linalg.norm(hyp.centres_base - obj.position, axis=1) <= max(hyp.cell, 0.5 * float(obj.radius or 0))
     work.suppress(near)
-    live = np.flatnonzero(work.active & ~work.stale)  # a stale row is rescored anyway; its associations are old
+    live = work.active & ~work.stale  # a stale row is rescored anyway; its associations are old
     for v in {v for v, _ in new}:
-        js = np.array([j for vv, j in new if vv == v])
-        hit = np.isin(work.assoc[v, live], js).any(axis=1)
-        work.stale[live[hit]] = True
+        work.stale[work.using(v, np.array([j for vv, j in new if vv == v]), live)] = True
     return taken
 
 
@@ -140,6 +167,7 @@ def _refresh(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, lazy:
         )
         work.total[sub], work.n_assoc[sub], work.assoc[:, sub] = t, n, a
         work.stale[sub] = False
+        work.rescored[sub] = True
         work.update(sub, problem.config.min_views)
 
 
