@@ -21,12 +21,16 @@ from .scoring import associations_list, axis_of, boxes_of, fit_fixed, pose_px, r
 from .search import Hypotheses
 
 
-def _predicted_box(problem: Problem, v: int, o: DetectedObject) -> NDArray[np.float64]:
+def _predicted_boxes(problem: Problem, v: int, objects: list[DetectedObject]) -> NDArray[np.float64]:
+    """The boxes (M, 4), pixels, that ``objects`` (M) predict in view ``v`` (each with its own shape)."""
     T = problem.views[v].T_optical_base
-    p_opt = T[:3, :3] @ o.position + T[:3, 3]
-    b = semi_up_of(o)
-    up = T[:3, :3] @ spheroid_axis(problem, axis_of(o))
-    return predict_spheroid_boxes(problem.camera, p_opt[None, :], [float(o.radius)], [b or float(o.radius)], up)[0][0, 0]
+    p_optical = np.array([o.position for o in objects], dtype=float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
+    radii = np.array([float(o.radius) for o in objects])
+    semi_up = np.array([semi_up_of(o) or float(o.radius) for o in objects])
+    up_optical = np.array([spheroid_axis(problem, axis_of(o)) for o in objects], dtype=float).reshape(-1, 3) @ T[:3, :3].T
+    boxes, _ = predict_spheroid_boxes(problem.camera, p_optical, radii, semi_up, up_optical)  # every centre x every shape
+    mine = np.arange(len(objects))
+    return boxes[mine, mine]
 
 
 def _overlapping(a: NDArray[np.float64], others: NDArray[np.float64]) -> NDArray[np.intp]:
@@ -53,23 +57,31 @@ def _fit(problem: Problem, o: DetectedObject, assoc: list[int], fits: _Fits) -> 
 
 
 def swap_worth_fitting(
-    problem: Problem, v: int, a: DetectedObject, b: DetectedObject, box_a: NDArray[np.float64], box_b: NDArray[np.float64]
-) -> bool:
-    """Whether swapping the boxes of objects ``a`` and ``b`` (predicted at ``box_a`` and ``box_b``) in view ``v``
-    loses less than ``match_bonus`` nats at their current positions (the gate before the two refits).
+    problem: Problem, v: int, a: DetectedObject, partners: list[DetectedObject], box_a: NDArray[np.float64],
+    partner_boxes: NDArray[np.float64],
+) -> NDArray[np.bool_]:  # fmt: skip
+    """Whether swapping the boxes of object ``a`` and each of ``partners`` (M) (predicted at ``box_a`` (4,) and
+    ``partner_boxes`` (M, 4)) in view ``v`` loses less than ``match_bonus`` nats at their current positions (the gate
+    before the two refits), shape (M,) bool.
 
     A refit moves each object by a fraction of its box to fit the other views too; a swap that already costs
     more than a whole box's match where the objects stand is not recovered by that (on the accuracy benchmark's
     scenes and dense rows no swap beyond the gate was ever kept, and the gate skips 95 % of the refits).
     """
     vd, cam, model = problem.views[v], problem.camera, problem.model
-    ja, jb = associations_list(problem, a)[v], associations_list(problem, b)[v]
-    depth = vd.T_optical_base[2, :3] @ np.stack([a.position, b.position]).T + vd.T_optical_base[2, 3]
-    pred = np.stack([box_a, box_a, box_b, box_b])  # a with its box, a with b's, b with its box, b with a's
-    obs = vd.boxes[[ja, jb, jb, ja]]
-    s = box_scores(pred, obs, model, cam.width, cam.height, np.repeat(pose_px(problem, depth), 2))
-    s = np.maximum(np.where(np.array([ja, jb, jb, ja]) >= 0, s, -np.inf), model.miss_term)
-    return bool(s[1] + s[3] >= s[0] + s[2] - model.match_bonus)
+    ja = associations_list(problem, a)[v]
+    jb = np.array([associations_list(problem, b)[v] for b in partners], dtype=np.intp)
+    positions = np.array([a.position] + [b.position for b in partners], dtype=float)
+    depth = positions @ vd.T_optical_base[2, :3] + vd.T_optical_base[2, 3]
+    sigma = np.broadcast_to(pose_px(problem, depth), depth.shape)
+    m = len(partners)
+    # per partner, 4 rows: a with its box, a with b's, b with its box, b with a's
+    pred = np.stack([np.broadcast_to(box_a, (m, 4)), np.broadcast_to(box_a, (m, 4)), partner_boxes, partner_boxes], axis=1)
+    which = np.stack([np.full(m, ja), jb, jb, np.full(m, ja)], axis=1)
+    px = np.stack([np.full(m, sigma[0]), np.full(m, sigma[0]), sigma[1:], sigma[1:]], axis=1)
+    s = box_scores(pred.reshape(-1, 4), vd.boxes[which.ravel()], model, cam.width, cam.height, px.ravel()).reshape(m, 4)
+    s = np.maximum(np.where(which >= 0, s, -np.inf), model.miss_term)
+    return s[:, 1] + s[:, 3] >= s[:, 0] + s[:, 2] - model.match_bonus
 
 
 def _try_swap(
@@ -88,20 +100,22 @@ def _try_swap(
 def _swap_view(problem: Problem, v: int, objects: list[DetectedObject], fits: _Fits) -> bool:
     """One round of :func:`swap_pass` in view ``v``: the pairs in order, ``objects`` updated in place; whether any swapped."""
     holders = [i for i, o in enumerate(objects) if problem.views[v].index in o.associations]
-    boxes = np.array([_predicted_box(problem, v, objects[i]) for i in holders]).reshape(-1, 4)  # once per object
+    boxes = _predicted_boxes(problem, v, [objects[i] for i in holders])
     changed = False
     for pa, ia in enumerate(holders):
         pb = pa
-        while len(later := _overlapping(boxes[pa], boxes[pb + 1 :])):  # the next overlapping partner, with boxes as they are now
-            pb += 1 + int(later[0])
+        # the next overlapping partner worth a refit, with the objects and boxes as they are now
+        while len(later := pb + 1 + _overlapping(boxes[pa], boxes[pb + 1 :])):
+            worth = swap_worth_fitting(problem, v, objects[ia], [objects[holders[q]] for q in later], boxes[pa], boxes[later])
+            if not worth.any():
+                break
+            pb = int(later[np.argmax(worth)])
             ib = holders[pb]
-            if not swap_worth_fitting(problem, v, objects[ia], objects[ib], boxes[pa], boxes[pb]):
-                continue
             swapped = _try_swap(problem, v, objects[ia], objects[ib], fits)
             if swapped is None:
                 continue
             objects[ia], objects[ib] = swapped
-            boxes[pa], boxes[pb] = _predicted_box(problem, v, swapped[0]), _predicted_box(problem, v, swapped[1])
+            boxes[[pa, pb]] = _predicted_boxes(problem, v, list(swapped))
             changed = True
     return changed
 
