@@ -251,3 +251,20 @@ def test_camera_from_dict_names_its_path() -> None:
     cam = camera_from_dict({"width": 640, "height": 480, "hfov_deg": 69.0, "distortion": {"coefficients": [0.1, 0, 0, 0]}})
     assert (cam.fx, cam.cx, cam.cy) == (Camera.from_hfov(640, 480, 69.0).fx, 320.0, 240.0)
     assert (cam.distortion_model, cam.distortion_coefficients) == ("plumb_bob", (0.1, 0.0, 0.0, 0.0))
+
+
+def test_distortion_gain_bounds_how_far_the_lens_stretches_a_move(rng: np.random.Generator) -> None:
+    """1 without distortion; with it, a small move anywhere in the image is stretched at most by the gain (and the
+    gain is nearly reached)."""
+    from dataclasses import replace
+
+    cam = Camera.from_hfov(1280, 720, 90.0)
+    assert cam.distortion_gain() == 1.0
+    for coefficients in [(0.15, 0.05, 0.0, 0.0, 0.0), (-0.25, 0.08, 0.001, -0.001, 0.0)]:
+        lens = replace(cam, distortion_model="plumb_bob", distortion_coefficients=coefficients)
+        gain = lens.distortion_gain()
+        xy = lens.undistort(lens.normalised_from_pixels(rng.uniform([0, 0], [1280, 720], (2000, 2))))
+        step = rng.normal(size=(2000, 2)) * 1e-5
+        stretch = np.linalg.norm(lens.distort(xy + step) - lens.distort(xy), axis=1) / np.linalg.norm(step, axis=1)
+        assert gain >= 1.0 and np.all(stretch <= gain * (1 + 1e-3))
+        assert stretch.max() >= 0.9 * gain or gain == 1.0

@@ -23,6 +23,7 @@ Distortion models (OpenCV's formulas on normalised coordinates):
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -54,6 +55,10 @@ DISTORTION_SIZES = {
 #: Integer id of each (canonical) distortion model in :class:`PackedCamera`: the one table every
 #: compiled kernel uses (numba engines, the ``bayes`` kernels, torch).
 DISTORTION_IDS = {"none": 0, "plumb_bob": 1, "rational_polynomial": 2, "equidistant": 3}
+
+
+#: Grid points per image side where :meth:`Camera.distortion_gain` samples the distortion's stretch.
+DISTORTION_GAIN_SAMPLES = 33
 
 
 class PackedCamera(NamedTuple):
@@ -307,10 +312,32 @@ class Camera:
         uv[..., 1] = self.fy * xy[..., 1] + self.cy
         return uv
 
+    def distortion_gain(self) -> float:
+        """The most the lens distortion stretches a small move anywhere in the image, at least 1 (1 without distortion).
+
+        The largest singular value of the Jacobian of :meth:`distort` (finite differences) over a grid of
+        :data:`DISTORTION_GAIN_SAMPLES` squared points of the image. A bound on a move in the pinhole image times this
+        bounds the move in the distorted one. Computed once per camera.
+        """
+        if self.distortion_model == "none" or not self.distortion_coefficients:
+            return 1.0
+        return _distortion_gain(self)
+
     def in_image(self, uv: NDArray[np.floating]) -> NDArray[np.bool_]:
         """True where ``uv`` (shape (..., 2)) lies inside ``[0, width] x [0, height]``."""
         u, v = uv[..., 0], uv[..., 1]
         return (u >= 0) & (u <= self.width) & (v >= 0) & (v <= self.height)
+
+
+@functools.lru_cache(maxsize=16)
+def _distortion_gain(camera: Camera) -> float:
+    """:meth:`Camera.distortion_gain` of a camera with distortion."""
+    n = DISTORTION_GAIN_SAMPLES
+    u, v = np.meshgrid(np.linspace(0, camera.width, n), np.linspace(0, camera.height, n))
+    xy = camera.undistort(camera.normalised_from_pixels(np.stack([u, v], axis=-1).reshape(-1, 2)))
+    step = 1e-6
+    jac = np.stack([(camera.distort(xy + step * e) - camera.distort(xy)) / step for e in np.eye(2)], axis=-1)
+    return float(max(1.0, np.nanmax(np.linalg.svd(jac, compute_uv=False)[:, 0])))
 
 
 # ---------------------------------------------------------------------- checks

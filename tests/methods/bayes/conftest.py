@@ -10,6 +10,7 @@ from numpy.testing import assert_allclose
 
 from monovisual3d.frames import transform_points
 from monovisual3d.methods.bayes.likelihood import view_scores
+from monovisual3d.methods.bayes.sensor import cell_shift_px, gate_widening_px
 
 
 def _check_against_reference(cam, T_ob, boxes, avail, centres, predict, model, blur, got) -> np.ndarray:
@@ -22,7 +23,8 @@ def _check_against_reference(cam, T_ob, boxes, avail, centres, predict, model, b
         p_opt = transform_points(T, centres)
         pred, vis = predict(p_opt, T)
         extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
-        llr, a_ref = view_scores(pred, vis, b, a, model, cam.width, cam.height, extra)
+        gate = gate_widening_px(model, pred, 0.0, cell_shift_px(cam, pred, p_opt[:, 2:3], blur))
+        llr, a_ref = view_scores(pred, vis, b, a, model, cam.width, cam.height, extra, gate)
         ref_total += llr
         ref_n += a_ref >= 0
         assert_allclose(assoc[v], a_ref)

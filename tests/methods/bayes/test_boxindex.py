@@ -13,6 +13,7 @@ from monovisual3d.geometry.sphere import predict_sphere_boxes
 from monovisual3d.methods.bayes._kernels import score_hypotheses
 from monovisual3d.methods.bayes.boxindex import MIN_TILE_PX, build_index, candidate_boxes, tile_px
 from monovisual3d.methods.bayes.likelihood import SensorModel, box_scores, view_scores
+from monovisual3d.methods.bayes.sensor import cell_shift_px, gate_widening_px
 
 CAM = Camera.from_hfov(1280, 720, 90.0)
 TARGET = np.array([0.6, 0.0, 0.45])
@@ -40,7 +41,8 @@ def _reference(T_ob, boxes, avail, centres, radii, model, blur):
         p_opt = transform_points(T, centres)
         pred, vis = predict_sphere_boxes(CAM, p_opt, radii)
         extra = max(CAM.fx, CAM.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
-        llr, a_ref = view_scores(pred, vis, b, a, model, CAM.width, CAM.height, extra)
+        gate = gate_widening_px(model, pred, 0.0, cell_shift_px(CAM, pred, p_opt[:, 2:3], blur))
+        llr, a_ref = view_scores(pred, vis, b, a, model, CAM.width, CAM.height, extra, gate)
         total += llr
         n_assoc += a_ref >= 0
         assoc.append(a_ref)

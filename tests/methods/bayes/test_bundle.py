@@ -22,6 +22,7 @@ from monovisual3d.methods.bayes._kernels import score_hypotheses
 from monovisual3d.methods.bayes.bundle import bundle_adjust, correction_transform, grouped_jacobian
 from monovisual3d.methods.bayes.likelihood import SensorModel, pose_sigma_px, view_scores
 from monovisual3d.methods.bayes.refine import Observation, refine_sphere
+from monovisual3d.methods.bayes.sensor import cell_shift_px, gate_widening_px
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_pose
 
@@ -89,13 +90,18 @@ def test_kernel_with_pose_noise_matches_the_numpy_reference():
     boxes = [sphere_bbox(CAM, T, CENTRES, RADII) for T in POSES]
     avail = [np.ones(len(b), bool) for b in boxes]
     model, blur = SensorModel(), 0.01
-    total, n_assoc, _ = score_hypotheses(CAM, Tob, boxes, avail, centres, radii, model, np.hypot(blur, SIGMA_P), CAM.fx * SIGMA_R)
+    total, n_assoc, _ = score_hypotheses(
+        CAM, Tob, boxes, avail, centres, radii, model, blur, CAM.fx * SIGMA_R, position_sigma=SIGMA_P
+    )
     ref = np.zeros_like(total)
     for T, b, a in zip(Tob, boxes, avail):
         p = transform_points(T, centres)
         pred, vis = predict_sphere_boxes(CAM, p, radii)
-        extra = np.hypot(CAM.fx * blur / p[:, 2:3], pose_sigma_px(CAM, p[:, 2:3], SIGMA_P, SIGMA_R))
-        ref += view_scores(pred, vis, b, a, model, CAM.width, CAM.height, extra)[0]
+        pose = pose_sigma_px(CAM, p[:, 2:3], SIGMA_P, SIGMA_R)
+        extra = np.hypot(CAM.fx * blur / p[:, 2:3], pose)
+        # the gate: 3 sigmas of the pose noise plus the cell's bounded shift (the cell blurs the score only)
+        gate = gate_widening_px(model, pred, pose, cell_shift_px(CAM, pred, p[:, 2:3], blur))
+        ref += view_scores(pred, vis, b, a, model, CAM.width, CAM.height, extra, gate)[0]
     assert_allclose(total, ref, atol=1e-6)
 
 

@@ -118,8 +118,11 @@ def _beats(s: float, j: int, best: float, found: int) -> bool:  # pragma: no cov
     return s > best or (s == best and found >= 0 and j < found)
 
 
-def _box_score(b, j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, gate, best, found):  # pragma: no cover
-    """Score of box ``b`` (4,) index ``j``, or -inf outside the gate or as soon as a partial sum shows it cannot beat ``best``."""
+def _box_score(
+    b, j, px1, py1, px2, py2, sx, sy, wx, wy, W, H, border, in_floor, out_floor, bonus, best, found
+):  # pragma: no cover
+    """Score of box ``b`` (4,) index ``j``, or -inf outside the gate (the prediction widened by ``wx``, ``wy`` pixels)
+    or as soon as a partial sum shows it cannot beat ``best``."""
     bx1, by1, bx2, by2 = b[0], b[1], b[2], b[3]
     d1 = bx1 - px1
     if bx1 <= border and d1 > 0:
@@ -133,8 +136,8 @@ def _box_score(b, j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_flo
     d4 = py2 - by2
     if by2 >= H - border and d4 > 0:
         d4 = 0.0
-    gx = (px2 - px1) + gate * sx
-    gy = (py2 - py1) + gate * sy
+    gx = (px2 - px1) + wx
+    gy = (py2 - py1) + wy
     if d1 > gx or d3 > gx or d2 > gy or d4 > gy:  # the box lies beside the widened prediction (sensor.outside_gate)
         return -HUGE
     s = bonus + _edge_ll(d1, sx, in_floor, out_floor)
@@ -174,14 +177,24 @@ def _query(index, v, qx1, qy1, qx2, qy2, out):  # pragma: no cover - jitted
     return m
 
 
-def _best_box(v, boxes, available, cand, m, px1, py1, px2, py2, sx, sy, cam, params):  # pragma: no cover - jitted
-    """The best available box of view ``v`` for one predicted box: (score, index), (miss, -1) when none beats a miss.
+def _cell_shift_px(fmax, half_diagonal, Z):  # pragma: no cover - jitted
+    """:func:`.sensor.cell_shift_px` (the on-axis factor): ``f * h / (Z - h)`` (``f``: the largest focal length times
+    the distortion's stretch), HUGE when the cell reaches the camera plane, 0 for a point."""
+    if half_diagonal == 0.0:
+        return 0.0
+    near = Z - half_diagonal
+    return fmax * half_diagonal / near if near > 1e-6 else HUGE
+
+
+def _best_box(v, boxes, available, cand, m, px1, py1, px2, py2, sx, sy, wx, wy, cam, params):  # pragma: no cover - jitted
+    """The best available box of view ``v`` for one predicted box (edge noise ``sx``, ``sy``, gate widening ``wx``, ``wy``,
+    pixels): (score, index), (miss, -1) when none beats a miss.
 
     Scores the ``m`` boxes of ``cand`` (the tile look-up of :func:`_query`), or every box of the view when
     ``m < 0``, in any order; the tie rule of :func:`_beats` makes the result the scan's.
     """
     W, H = cam[4], cam[5]
-    in_floor, out_floor, bonus, miss, border, gate = params[2], params[3], params[4], params[5], params[6], params[7]
+    in_floor, out_floor, bonus, miss, border = params[2], params[3], params[4], params[5], params[6]
     best = miss
     found = -1
     n = m if m >= 0 else boxes.shape[1]
@@ -189,7 +202,7 @@ def _best_box(v, boxes, available, cand, m, px1, py1, px2, py2, sx, sy, cam, par
         j = cand[i] if m >= 0 else i
         if available[v, j]:
             s = _box_score(
-                boxes[v, j], j, px1, py1, px2, py2, sx, sy, W, H, border, in_floor, out_floor, bonus, gate, best, found
+                boxes[v, j], j, px1, py1, px2, py2, sx, sy, wx, wy, W, H, border, in_floor, out_floor, bonus, best, found
             )
             if _beats(s, j, best, found):
                 best = s
@@ -211,7 +224,9 @@ def _score_kernel(
     code,
     coeffs,
     params,
-    blur_half_diagonal,
+    cell_half_diagonal,
+    distortion_gain,
+    position_sigma,
     extra_const_px,
     total,
     n_assoc,
@@ -225,7 +240,7 @@ def _score_kernel(
     fmax = fx if fx > fy else fy
     count = index[0]
     for n in numba.prange(N):
-        pred = np.empty((K, 6))  # per shape bin in the current view: predicted box, sx, sy
+        pred = np.empty((K, 8))  # per shape bin in the current view: predicted box, sx, sy, gate widening x, y
         seen = np.zeros(K, dtype=np.bool_)
         cand = np.empty(max(boxes.shape[1], 1), dtype=np.int64)
         for kk in range(K):
@@ -240,8 +255,11 @@ def _score_kernel(
             Y = T_ob[v, 1, 0] * centres[n, 0] + T_ob[v, 1, 1] * centres[n, 1] + T_ob[v, 1, 2] * centres[n, 2] + T_ob[v, 1, 3]
             Z = T_ob[v, 2, 0] * centres[n, 0] + T_ob[v, 2, 1] * centres[n, 1] + T_ob[v, 2, 2] * centres[n, 2] + T_ob[v, 2, 3]
             zc = Z if Z > 1e-6 else 1e-6
-            extra = fmax * blur_half_diagonal / zc
-            extra2 = extra * extra + extra_const_px * extra_const_px
+            eb = fmax * cell_half_diagonal / zc
+            ep = fmax * position_sigma / zc
+            gate2 = ep * ep + extra_const_px * extra_const_px  # noise of the gate: without the cell
+            extra2 = eb * eb + gate2  # noise of the score: the cell blurs it too
+            shift = _cell_shift_px(fmax * distortion_gain, cell_half_diagonal, Z)
             qx1, qy1, qx2, qy2 = HUGE, HUGE, -HUGE, -HUGE  # the union of the bins' gates: one look-up for all bins
             for kk in range(K):
                 seen[kk] = False
@@ -251,17 +269,26 @@ def _score_kernel(
                 px1, py1, px2, py2 = _spheroid_box_px(X, Y, Z, radii[kk], semi_up[kk], ux, uy, uz, fx, fy, cx, cy, code, coeffs)
                 if not (px2 > 0 and px1 < W and py2 > 0 and py1 < H):
                     continue
-                sx = alpha * (px2 - px1) + sigma0
-                sy = alpha * (py2 - py1) + sigma0
+                sx0 = alpha * (px2 - px1) + sigma0
+                sy0 = alpha * (py2 - py1) + sigma0
+                sx, sy, gsx, gsy = sx0, sy0, sx0, sy0
                 if extra2 > 0:
-                    sx = math.sqrt(sx * sx + extra2)
-                    sy = math.sqrt(sy * sy + extra2)
+                    sx = math.sqrt(sx0 * sx0 + extra2)
+                    sy = math.sqrt(sy0 * sy0 + extra2)
+                if gate2 > 0:
+                    gsx = math.sqrt(sx0 * sx0 + gate2)
+                    gsy = math.sqrt(sy0 * sy0 + gate2)
+                ex = max(abs(px1 - cx), abs(px2 - cx)) / fx
+                ey = max(abs(py1 - cy), abs(py2 - cy)) / fy
+                wx = gate * gsx + shift * math.sqrt(1.0 + ex * ex)
+                wy = gate * gsy + shift * math.sqrt(1.0 + ey * ey)
                 seen[kk] = True
-                pred[kk, 0], pred[kk, 1], pred[kk, 2], pred[kk, 3], pred[kk, 4], pred[kk, 5] = px1, py1, px2, py2, sx, sy
-                qx1 = min(qx1, px1 - gate * sx)
-                qy1 = min(qy1, py1 - gate * sy)
-                qx2 = max(qx2, px2 + gate * sx)
-                qy2 = max(qy2, py2 + gate * sy)
+                pred[kk, 0], pred[kk, 1], pred[kk, 2], pred[kk, 3] = px1, py1, px2, py2
+                pred[kk, 4], pred[kk, 5], pred[kk, 6], pred[kk, 7] = sx, sy, wx, wy
+                qx1 = min(qx1, px1 - wx)
+                qy1 = min(qy1, py1 - wy)
+                qx2 = max(qx2, px2 + wx)
+                qy2 = max(qy2, py2 + wy)
             if qx2 < qx1:  # no bin in the image
                 continue
             m = -1
@@ -272,7 +299,7 @@ def _score_kernel(
                     continue
                 best, found = _best_box(
                     v, boxes, available, cand, m, pred[kk, 0], pred[kk, 1], pred[kk, 2], pred[kk, 3], pred[kk, 4], pred[kk, 5],
-                    cam, params,
+                    pred[kk, 6], pred[kk, 7], cam, params,
                 )  # fmt: skip
                 total[n, kk] += best
                 if found >= 0:
@@ -445,6 +472,7 @@ _spheroid_box_px = numba.njit(cache=True, inline="always")(_spheroid_box_px)
 _in_front = numba.njit(cache=True, inline="always")(_in_front)
 _box_residuals_kernel = numba.njit(cache=True)(_box_residuals_kernel)
 _query = numba.njit(cache=True, inline="always")(_query)
+_cell_shift_px = numba.njit(cache=True, inline="always")(_cell_shift_px)
 _beats = numba.njit(cache=True, inline="always")(_beats)
 _box_score = numba.njit(cache=True, inline="always", fastmath=True)(_box_score)
 _best_box = numba.njit(cache=True, inline="always", fastmath=True)(_best_box)
@@ -510,12 +538,13 @@ def score_hypotheses(
     centres_base: NDArray[np.float64],
     radii: NDArray[np.float64],
     model: SensorModel,
-    blur_half_diagonal: float,
+    cell_half_diagonal: float,
     extra_const_px: float = 0.0,
     mask: NDArray[np.bool_] | None = None,
     semi_up: NDArray[np.float64] | None = None,
     up_base: NDArray[np.float64] | None = None,
     index: TileIndex | None = None,
+    position_sigma: float = 0.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]:
     """Score every (centre, radius) hypothesis against all views.
 
@@ -523,12 +552,12 @@ def score_hypotheses(
     a spheroid with semi-axes ``radii[k]`` across and ``semi_up[k]`` along its axis (a sphere where they are equal):
     upright along ``up``, or lying with a horizontal axis.
 
-    The edge noise of a hypothesis at depth ``Z`` in a view gets
-    ``f * blur_half_diagonal / Z`` and ``extra_const_px`` (pixels) added in
-    quadrature (``f = max(fx, fy)``): the projected size of the region a grid
-    cell stands for, and depth-independent terms such as the camera's
-    rotation uncertainty (a position uncertainty adds to ``blur_half_diagonal``
-    in quadrature, it scales with ``1 / Z`` the same way).
+    The edge noise of a hypothesis at depth ``Z`` in a view gets ``f * cell_half_diagonal / Z``,
+    ``f * position_sigma / Z`` and ``extra_const_px`` (pixels) added in quadrature (``f = max(fx, fy)``): the
+    projected size of the region a grid cell stands for, the camera's position uncertainty, and depth-independent
+    terms such as its rotation uncertainty. The association gate (:func:`.sensor.gate_widening_px`) widens the
+    prediction by ``gate_sigmas`` sigmas of the noise without the cell, plus the most the cell's points can move the
+    prediction's edges (:func:`.sensor.cell_shift_px`): a bounded shift, not a noise.
 
     ``mask`` (N, K) bool, optional, selects the hypotheses to score; the others
     get ``total = -inf``, ``n_assoc = 0`` and no association (the search uses
@@ -572,7 +601,9 @@ def score_hypotheses(
             code,
             coeffs,
             model_params(model),
-            float(blur_half_diagonal),
+            float(cell_half_diagonal),
+            camera.distortion_gain() if cell_half_diagonal > 0 else 1.0,
+            float(position_sigma),
             float(extra_const_px),
             total,
             n_assoc,

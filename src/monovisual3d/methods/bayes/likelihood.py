@@ -124,14 +124,17 @@ def box_scores(
     width: int,
     height: int,
     extra_sigma_px: NDArray[np.floating] | float = 0.0,
+    gate_px: NDArray[np.floating] | None = None,
 ) -> NDArray[np.float64]:
     """``match_bonus + sum of edge log-likelihoods`` of one observed box, shape pred.shape[:-1]; ``-inf`` where the
-    box lies outside the gate (:func:`.sensor.outside_gate`)."""
+    box lies outside the gate (:func:`.sensor.outside_gate`), the prediction widened by ``gate_px`` (..., 4) pixels
+    (default: ``gate_sigmas`` sigmas of the edge noise with ``extra_sigma_px``, :func:`.sensor.gate_widening_px`)."""
     obs = np.asarray(obs, dtype=float)
     sigma = box_edge_sigma_px(model, pred, extra_sigma_px)
     d = _censored_offsets(pred, obs, model, width, height)
     score = model.match_bonus + edge_loglik(d / sigma, model).sum(axis=-1)
-    return np.where(outside_gate(pred, d, sigma, model.gate_sigmas), -np.inf, score)
+    widening = model.gate_sigmas * sigma if gate_px is None else gate_px
+    return np.where(outside_gate(pred, d, widening), -np.inf, score)
 
 
 def view_scores(
@@ -143,6 +146,7 @@ def view_scores(
     width: int,
     height: int,
     extra_sigma_px: NDArray[np.floating] | float = 0.0,
+    gate_px: NDArray[np.floating] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Per-view log-likelihood ratio of every hypothesis and its associated box.
 
@@ -154,6 +158,7 @@ def view_scores(
     available : ndarray, shape (B,), bool: boxes not yet explained by an extracted object
     model : SensorModel
     extra_sigma_px : see :func:`edge_residuals`
+    gate_px : ndarray, shape (..., 4), optional, see :func:`box_scores`
 
     Returns
     -------
@@ -163,7 +168,7 @@ def view_scores(
     best = np.full(visible.shape, model.miss_term)
     assoc = np.full(visible.shape, -1, dtype=np.intp)
     for j in np.flatnonzero(available):
-        s = box_scores(pred, boxes_xyxy[j], model, width, height, extra_sigma_px)
+        s = box_scores(pred, boxes_xyxy[j], model, width, height, extra_sigma_px, gate_px)
         better = s > best
         best = np.where(better, s, best)
         assoc = np.where(better, j, assoc)

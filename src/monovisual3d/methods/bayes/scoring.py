@@ -19,6 +19,7 @@ from .boxindex import TileIndex, build_index
 from .likelihood import box_scores, pose_sigma_px, view_scores
 from .problem import Problem, Taken
 from .refine import Observation, Refined, refine_sphere, refine_spheroid
+from .sensor import cell_shift_px, gate_widening_px
 
 #: The scores of hypotheses: total (N, K) nats, -inf where not scored; views with an associated box (N, K);
 #: associated box per view (V, N, K), -1 for none.
@@ -94,12 +95,13 @@ def score_hypotheses(
             centres_base,
             radii,
             problem.model,
-            float(np.hypot(blur, cfg.pose_position_sigma)) if cfg.pose_position_sigma > 0 else blur,
+            blur,
             max(cam.fx, cam.fy) * cfg.pose_rotation_sigma,
             mask,
             semi_up,
             cfg.up_vector if axes is None else axes,
             box_index(problem),
+            cfg.pose_position_sigma,
         )
     else:
         scores = score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask, semi_up, axes)
@@ -138,10 +140,12 @@ def score_hypotheses_numpy(
     for v, vd in enumerate(problem.views):
         p_opt = transform_points(vd.T_optical_base, centres_base)
         pred, visible = predict_spheroid_boxes(cam, p_opt, radii, semi_up, up @ vd.T_optical_base[:3, :3].T)
-        extra = max(cam.fx, cam.fy) * blur / np.maximum(p_opt[:, 2:3], 1e-6)
-        if problem.config.poses_uncertain:
-            extra = np.hypot(extra, pose_px(problem, p_opt[:, 2:3]))
-        llr, a = view_scores(pred, visible, vd.boxes, available[v], problem.model, cam.width, cam.height, extra)
+        depth = p_opt[:, 2:3]
+        extra = max(cam.fx, cam.fy) * blur / np.maximum(depth, 1e-6)
+        noise = pose_px(problem, depth) if problem.config.poses_uncertain else 0.0
+        extra = np.hypot(extra, noise)
+        gate = gate_widening_px(problem.model, pred, noise, cell_shift_px(cam, pred, depth, blur))
+        llr, a = view_scores(pred, visible, vd.boxes, available[v], problem.model, cam.width, cam.height, extra, gate)
         total += llr
         n_assoc += a >= 0
         assoc[v] = a

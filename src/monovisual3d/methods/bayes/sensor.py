@@ -18,6 +18,8 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
+    from ...camera import Camera
+
 
 @dataclass(frozen=True)
 class SensorModel:
@@ -115,26 +117,66 @@ def inward_edge_offsets(pred: NDArray[np.floating], obs: NDArray[np.floating]) -
 
 
 def outside_gate(
-    pred: NDArray[np.floating], inward_px: NDArray[np.floating], sigma_px: NDArray[np.floating], gate_sigmas: float
+    pred: NDArray[np.floating], inward_px: NDArray[np.floating], widening_px: NDArray[np.floating]
 ) -> NDArray[np.bool_]:
-    """Whether an observed box misses the predicted box widened by ``gate_sigmas`` sigmas, shape (...).
+    """Whether an observed box misses the predicted box widened by ``widening_px`` on every side, shape (...).
 
-    In residuals: an observed edge lies further inside the prediction than the prediction's own extent plus
-    ``gate_sigmas`` sigmas, i.e. the observed box lies wholly beyond the opposite predicted edge. Occlusion only
-    shrinks a box inside its object's silhouette and noise moves its edges by a few sigmas, so such a box is
-    not this object's (a box beside the prediction would otherwise still pay only the two edge floors).
+    In residuals: an observed edge lies further inside the prediction than the prediction's own extent plus the
+    widening, i.e. the observed box lies wholly beyond the opposite predicted edge. Occlusion only shrinks a box
+    inside its object's silhouette and noise moves its edges by a few sigmas, so such a box is not this object's
+    (a box beside the prediction would otherwise still pay only the two edge floors).
 
     Parameters
     ----------
     pred : ndarray, shape (..., 4), predicted ``bbox_xyxy``, pixels
     inward_px : ndarray, shape (..., 4), :func:`inward_edge_offsets` (censored edges already clipped to <= 0), pixels
-    sigma_px : ndarray, shape (..., 4), edge noise, pixels (:func:`box_edge_sigma_px`)
-    gate_sigmas : float
+    widening_px : ndarray, shape (..., 4), :func:`gate_widening_px`, pixels
     """
     import numpy as np
 
     extent = np.stack([pred[..., 2] - pred[..., 0], pred[..., 3] - pred[..., 1]] * 2, axis=-1)
-    return np.any(inward_px > extent + gate_sigmas * sigma_px, axis=-1)
+    return np.any(inward_px > extent + widening_px, axis=-1)
+
+
+def cell_shift_px(
+    camera: Camera, pred: NDArray[np.floating], depth: NDArray[np.floating] | float, half_diagonal: float
+) -> NDArray[np.float64]:
+    """The most a point's moving anywhere inside a grid cell moves the edges of its predicted box, pixels, shape (..., 4).
+
+    A move ``d`` (``|d| <= h``, the cell's half-diagonal) of a point at depth ``Z`` moves an edge at normalised image
+    coordinate ``e`` by ``f (d_x - e d_z) / (Z + d_z)``, at most ``f h sqrt(1 + e^2) / (Z - h)`` (``f = max(fx, fy)``;
+    ``e`` the edge of the box further from the principal point on that axis), times the lens distortion's largest
+    stretch (:meth:`.Camera.distortion_gain`). Infinite when the cell reaches the camera plane, 0 for a point
+    (``h = 0``). ``tests/methods/bayes/test_sensor.py`` checks it against moved boxes.
+
+    Parameters
+    ----------
+    camera : Camera
+    pred : ndarray, shape (..., 4), predicted ``bbox_xyxy``, pixels
+    depth : ndarray broadcastable to ``pred.shape[:-1]``, or float, metres: the cell centre's optical z
+    half_diagonal : float, metres
+    """
+    import numpy as np
+
+    if half_diagonal == 0:
+        return np.zeros(np.shape(pred))
+    ex = np.maximum(np.abs(pred[..., 0] - camera.cx), np.abs(pred[..., 2] - camera.cx)) / camera.fx
+    ey = np.maximum(np.abs(pred[..., 1] - camera.cy), np.abs(pred[..., 3] - camera.cy)) / camera.fy
+    near = np.asarray(depth, dtype=float) - half_diagonal
+    with np.errstate(divide="ignore"):
+        f = max(camera.fx, camera.fy) * camera.distortion_gain()
+        scale = np.where(near > 1e-6, f * half_diagonal / np.maximum(near, 1e-6), np.inf)
+    sx, sy = scale * np.sqrt(1 + ex * ex), scale * np.sqrt(1 + ey * ey)
+    return np.stack([sx, sy, sx, sy], axis=-1)
+
+
+def gate_widening_px(
+    model: SensorModel, pred: NDArray[np.floating], noise_px: Any = 0.0, shift_px: Any = 0.0
+) -> NDArray[np.float64]:
+    """How far the gate reaches beyond each predicted edge, pixels, shape (..., 4): ``gate_sigmas`` edge-noise sigmas
+    (:func:`box_edge_sigma_px` with the extra noise ``noise_px``) plus the bounded shift ``shift_px`` (..., 4) of a
+    grid cell (:func:`cell_shift_px`; 0 for a point)."""
+    return model.gate_sigmas * box_edge_sigma_px(model, pred, noise_px) + shift_px
 
 
 def censored_edges(obs: NDArray[np.floating], width: int, height: int, border_px: float) -> NDArray[np.bool_]:
