@@ -161,20 +161,21 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
 
 
 def test_rows_using_a_box_are_those_a_scan_finds():
-    """The extraction's box index (starting associations plus the rows rescored since) finds exactly the rows whose
-    current association holds a box, as a scan over all rows does."""
+    """The extraction's box index (the starting associations, then those of the rows rescored, in merged runs) finds
+    exactly the rows whose current association holds a box, as a scan over all rows does."""
     from monovisual3d.methods.bayes.extract import _Work
 
     rng = np.random.default_rng(11)
     assoc = rng.integers(-1, 12, (3, 400, 6)).astype(np.int16)
     work = _Work.from_scores(rng.normal(size=(400, 6)), np.full((400, 6), 3, np.int32), assoc, 2)
-    for _ in range(10):
-        changed = rng.random(400) < 0.1  # rows rescored: their associations move to other boxes
-        work.assoc[:, changed] = rng.integers(-1, 15, (3, int(changed.sum()), 6))
-        work.rescored |= changed
+    for _ in range(30):
+        changed = np.flatnonzero(rng.random(400) < rng.choice([0.01, 0.1]))  # rows rescored: their boxes change
+        new = rng.integers(-1, 15, (3, len(changed), 6)).astype(np.int16)
+        work.rescore(changed, rng.normal(size=(len(changed), 6)), np.full((len(changed), 6), 3, np.int32), new, 2)
         rows, v, boxes = rng.random(400) < 0.7, int(rng.integers(3)), rng.choice(15, 2, replace=False)
         scan = np.flatnonzero(rows & np.isin(work.assoc[v], boxes).any(axis=1))
         assert_array_equal(work.using(v, boxes, rows), scan)
+    assert len(work.users[0].runs) < 8  # merged as they grow
 
 
 def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes():

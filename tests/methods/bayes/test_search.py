@@ -97,11 +97,13 @@ def test_swap_gate_passes_a_swapped_pair_and_stops_a_right_one():
     own = [int(np.argmin(np.abs(problem.views[v].boxes - p).sum(axis=1))) for p in pred]
     right = [DetectedObject(c, 20.0, r, None, {problem.views[v].index: j}) for c, r, j in zip(centres, radii, own)]
     mixed = [DetectedObject(c, 20.0, r, None, {problem.views[v].index: j}) for c, r, j in zip(centres, radii, own[::-1])]
-    assert_array_equal(swap_worth_fitting(problem, v, right[0], right[1:], pred[0], pred[1:]), [False])
-    assert_array_equal(swap_worth_fitting(problem, v, mixed[0], mixed[1:], pred[0], pred[1:]), [True])
-    # against several partners at once: each answer as alone
-    both = swap_worth_fitting(problem, v, mixed[0], [right[1], mixed[1]], pred[0], pred[[1, 1]])
-    assert_array_equal(both, [swap_worth_fitting(problem, v, mixed[0], [o], pred[0], pred[1:])[0] for o in (right[1], mixed[1])])
+    assert_array_equal(swap_worth_fitting(problem, v, right[:1], right[1:], pred[:1], pred[1:]), [False])
+    assert_array_equal(swap_worth_fitting(problem, v, mixed[:1], mixed[1:], pred[:1], pred[1:]), [True])
+    # several pairs at once: each answer as alone
+    both = swap_worth_fitting(problem, v, [mixed[0], mixed[0]], [right[1], mixed[1]], pred[[0, 0]], pred[[1, 1]])
+    assert_array_equal(
+        both, [swap_worth_fitting(problem, v, mixed[:1], [o], pred[:1], pred[1:])[0] for o in (right[1], mixed[1])]
+    )
 
 
 def test_predicted_boxes_of_many_objects_are_each_alone():

@@ -33,12 +33,21 @@ def _predicted_boxes(problem: Problem, v: int, objects: list[DetectedObject]) ->
     return boxes[mine, mine]
 
 
-def _overlapping(a: NDArray[np.float64], others: NDArray[np.float64]) -> NDArray[np.intp]:
-    """Indices of the boxes ``others`` (M, 4) that overlap box ``a`` (4,) with a positive area."""
-    return np.flatnonzero(
-        (np.minimum(a[2], others[:, 2]) > np.maximum(a[0], others[:, 0]))
-        & (np.minimum(a[3], others[:, 3]) > np.maximum(a[1], others[:, 1]))
+def _pair_gates(
+    problem: Problem, v: int, objects: list[DetectedObject], boxes: NDArray[np.float64], rows: NDArray[np.intp]
+) -> NDArray[np.bool_]:
+    """Which pairs (``rows[i]``, ``j``) of ``objects`` (M) are worth a swap refit in view ``v``, shape (len(rows), M):
+    their predicted ``boxes`` (M, 4) overlap with a positive area and :func:`swap_worth_fitting` says so."""
+    b = boxes
+    gate = (np.minimum(b[rows, None, 2], b[None, :, 2]) > np.maximum(b[rows, None, 0], b[None, :, 0])) & (
+        np.minimum(b[rows, None, 3], b[None, :, 3]) > np.maximum(b[rows, None, 1], b[None, :, 1])
     )
+    gate[np.arange(len(rows)), rows] = False
+    r, c = np.nonzero(gate)
+    if len(r):
+        first, second = [objects[i] for i in rows[r]], [objects[j] for j in c]
+        gate[r, c] = swap_worth_fitting(problem, v, first, second, boxes[rows[r]], boxes[c])
+    return gate
 
 
 #: Fits of :func:`fit_fixed` already made in a swap pass: (start position bytes, radius, semi-axis along the axis (and the
@@ -57,29 +66,29 @@ def _fit(problem: Problem, o: DetectedObject, assoc: list[int], fits: _Fits) -> 
 
 
 def swap_worth_fitting(
-    problem: Problem, v: int, a: DetectedObject, partners: list[DetectedObject], box_a: NDArray[np.float64],
-    partner_boxes: NDArray[np.float64],
+    problem: Problem, v: int, first: list[DetectedObject], second: list[DetectedObject], first_boxes: NDArray[np.float64],
+    second_boxes: NDArray[np.float64],
 ) -> NDArray[np.bool_]:  # fmt: skip
-    """Whether swapping the boxes of object ``a`` and each of ``partners`` (M) (predicted at ``box_a`` (4,) and
-    ``partner_boxes`` (M, 4)) in view ``v`` loses less than ``match_bonus`` nats at their current positions (the gate
-    before the two refits), shape (M,) bool.
+    """Whether swapping the boxes of objects ``first[p]`` and ``second[p]`` (P pairs, predicted at ``first_boxes`` and
+    ``second_boxes``, (P, 4)) in view ``v`` loses less than ``match_bonus`` nats at their current positions (the gate
+    before the two refits), shape (P,) bool.
 
     A refit moves each object by a fraction of its box to fit the other views too; a swap that already costs
     more than a whole box's match where the objects stand is not recovered by that (on the accuracy benchmark's
     scenes and dense rows no swap beyond the gate was ever kept, and the gate skips 95 % of the refits).
     """
     vd, cam, model = problem.views[v], problem.camera, problem.model
-    ja = associations_list(problem, a)[v]
-    jb = np.array([associations_list(problem, b)[v] for b in partners], dtype=np.intp)
-    positions = np.array([a.position] + [b.position for b in partners], dtype=float)
-    depth = positions @ vd.T_optical_base[2, :3] + vd.T_optical_base[2, 3]
-    sigma = np.broadcast_to(pose_px(problem, depth), depth.shape)
-    m = len(partners)
-    # per partner, 4 rows: a with its box, a with b's, b with its box, b with a's
-    pred = np.stack([np.broadcast_to(box_a, (m, 4)), np.broadcast_to(box_a, (m, 4)), partner_boxes, partner_boxes], axis=1)
-    which = np.stack([np.full(m, ja), jb, jb, np.full(m, ja)], axis=1)
-    px = np.stack([np.full(m, sigma[0]), np.full(m, sigma[0]), sigma[1:], sigma[1:]], axis=1)
-    s = box_scores(pred.reshape(-1, 4), vd.boxes[which.ravel()], model, cam.width, cam.height, px.ravel()).reshape(m, 4)
+    ja = np.array([associations_list(problem, a)[v] for a in first], dtype=np.intp)
+    jb = np.array([associations_list(problem, b)[v] for b in second], dtype=np.intp)
+    depth = [
+        np.array([o.position for o in objs], dtype=float).reshape(-1, 3) @ vd.T_optical_base[2, :3] for objs in (first, second)
+    ]
+    sa, sb = (np.broadcast_to(pose_px(problem, d + vd.T_optical_base[2, 3]), d.shape) for d in depth)
+    # per pair, 4 rows: a with its box, a with b's, b with its box, b with a's
+    pred = np.stack([first_boxes, first_boxes, second_boxes, second_boxes], axis=1)
+    which = np.stack([ja, jb, jb, ja], axis=1)
+    px = np.stack([sa, sa, sb, sb], axis=1)
+    s = box_scores(pred.reshape(-1, 4), vd.boxes[which.ravel()], model, cam.width, cam.height, px.ravel()).reshape(-1, 4)
     s = np.maximum(np.where(which >= 0, s, -np.inf), model.miss_term)
     return s[:, 1] + s[:, 3] >= s[:, 0] + s[:, 2] - model.match_bonus
 
@@ -100,22 +109,23 @@ def _try_swap(
 def _swap_view(problem: Problem, v: int, objects: list[DetectedObject], fits: _Fits) -> bool:
     """One round of :func:`swap_pass` in view ``v``: the pairs in order, ``objects`` updated in place; whether any swapped."""
     holders = [i for i, o in enumerate(objects) if problem.views[v].index in o.associations]
-    boxes = _predicted_boxes(problem, v, [objects[i] for i in holders])
+    held = [objects[i] for i in holders]
+    boxes = _predicted_boxes(problem, v, held)
+    gate = _pair_gates(problem, v, held, boxes, np.arange(len(held)))  # symmetric; updated where objects change
     changed = False
     for pa, ia in enumerate(holders):
         pb = pa
-        # the next overlapping partner worth a refit, with the objects and boxes as they are now
-        while len(later := pb + 1 + _overlapping(boxes[pa], boxes[pb + 1 :])):
-            worth = swap_worth_fitting(problem, v, objects[ia], [objects[holders[q]] for q in later], boxes[pa], boxes[later])
-            if not worth.any():
-                break
-            pb = int(later[np.argmax(worth)])
+        while len(later := np.flatnonzero(gate[pa, pb + 1 :])):  # the next partner worth a refit, as things are now
+            pb += 1 + int(later[0])
             ib = holders[pb]
             swapped = _try_swap(problem, v, objects[ia], objects[ib], fits)
             if swapped is None:
                 continue
-            objects[ia], objects[ib] = swapped
+            objects[ia], objects[ib] = held[pa], held[pb] = swapped
             boxes[[pa, pb]] = _predicted_boxes(problem, v, list(swapped))
+            moved = np.array([pa, pb])
+            gate[moved] = _pair_gates(problem, v, held, boxes, moved)
+            gate[:, moved] = gate[moved].T
             changed = True
     return changed
 

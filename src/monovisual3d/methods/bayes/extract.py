@@ -37,9 +37,8 @@ class _Work:
     ``eligible`` is ``total`` where the row is active and the hypothesis has ``min_views`` associated
     views, else -inf; ``row_best`` its maximum per row. Both are updated only in the rows that change
     (suppressed or rescored), so finding the best hypothesis costs one pass over the rows, not over all
-    hypotheses. ``users[v]`` indexes the starting associations of view ``v`` by box (the box numbers sorted, and
-    the row of each); with ``rescored`` (the rows whose associations changed since) it finds the rows that use a
-    box without a pass over all hypotheses.
+    hypotheses. ``users[v]`` indexes the associations of view ``v`` by box (:class:`_BoxUsers`), so that the rows
+    using a box are found without a pass over all hypotheses.
     """
 
     total: NDArray[np.float64]
@@ -49,8 +48,7 @@ class _Work:
     eligible: NDArray[np.float64]
     row_best: NDArray[np.float64]
     stale: NDArray[np.bool_]
-    users: list[tuple[NDArray[np.int16], NDArray[np.intp]]]
-    rescored: NDArray[np.bool_]
+    users: list[_BoxUsers]
 
     @classmethod
     def start(cls, hyp: Hypotheses, min_views: int) -> _Work:
@@ -70,8 +68,7 @@ class _Work:
             total.copy(),
             np.zeros(n),
             np.zeros(n, dtype=bool),
-            [_box_users(a) for a in assoc],
-            np.zeros(n, dtype=bool),
+            [_BoxUsers.of(a, np.arange(n)) for a in assoc],
         )
         work.update(np.arange(n), min_views)
         return work
@@ -82,11 +79,24 @@ class _Work:
         self.eligible[rows] = np.where(ok, self.total[rows], -np.inf)
         self.row_best[rows] = self.eligible[rows].max(axis=1, initial=-np.inf)
 
+    def rescore(
+        self,
+        rows: NDArray[np.intp],
+        total: NDArray[np.float64],
+        n_assoc: NDArray[np.int32],
+        assoc: NDArray[np.int16],
+        min_views: int,
+    ) -> None:
+        """New scores of the rows ``rows`` (M,): ``total`` and ``n_assoc`` (M, K), ``assoc`` (V, M, K); fresh now."""
+        self.total[rows], self.n_assoc[rows], self.assoc[:, rows] = total, n_assoc, assoc
+        self.stale[rows] = False
+        for users, a in zip(self.users, assoc):
+            users.add(a, rows)
+        self.update(rows, min_views)
+
     def using(self, v: int, boxes: NDArray[np.intp], rows: NDArray[np.bool_]) -> NDArray[np.intp]:
         """The rows among ``rows`` (N,) bool whose association in view ``v`` holds one of ``boxes``, sorted."""
-        js, row_of = self.users[v]
-        lo, hi = np.searchsorted(js, boxes, side="left"), np.searchsorted(js, boxes, side="right")
-        cand = np.concatenate([row_of[a:b] for a, b in zip(lo, hi)] + [np.flatnonzero(self.rescored)])
+        cand = self.users[v].rows(boxes)
         cand = np.unique(cand[rows[cand]])
         return cand[np.isin(self.assoc[v, cand], boxes).any(axis=1)]
 
@@ -105,12 +115,42 @@ class _Work:
         return c, k, float(self.eligible[c, k])
 
 
-def _box_users(assoc_v: NDArray[np.int16]) -> tuple[NDArray[np.int16], NDArray[np.intp]]:
-    """The boxes that the hypotheses ``assoc_v`` (N, K) of one view associate, sorted, and the row of each use."""
-    rows, _ = np.nonzero(assoc_v >= 0)
-    js = assoc_v[assoc_v >= 0]
-    order = np.argsort(js, kind="stable")
-    return js[order], rows[order]
+@dataclass
+class _BoxUsers:
+    """Which rows associate each box of one view: sorted runs of (box, row) pairs, the rows' associations as they were
+    when each run was added (a row rescored since has its new associations in a later run; :meth:`_Work.using` checks
+    the current ones). Adding a run merges it with the runs before it while they are not twice as long, so a look-up
+    searches a few runs and the merges cost ``O(n log n)`` over all the rescoring.
+    """
+
+    runs: list[tuple[NDArray[np.int16], NDArray[np.intp]]]
+
+    @classmethod
+    def of(cls, assoc_v: NDArray[np.int16], rows: NDArray[np.intp]) -> _BoxUsers:
+        """The index of the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,)."""
+        users = cls([])
+        users.add(assoc_v, rows)
+        return users
+
+    def add(self, assoc_v: NDArray[np.int16], rows: NDArray[np.intp]) -> None:
+        """Index the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,)."""
+        where, _ = np.nonzero(assoc_v >= 0)
+        js = assoc_v[assoc_v >= 0]
+        order = np.argsort(js, kind="stable")
+        self.runs.append((js[order], rows[where[order]]))
+        while len(self.runs) >= 2 and len(self.runs[-2][0]) <= 2 * len(self.runs[-1][0]):
+            (j1, r1), (j2, r2) = self.runs.pop(), self.runs.pop()
+            js, rs = np.concatenate([j2, j1]), np.concatenate([r2, r1])
+            order = np.argsort(js, kind="stable")
+            self.runs.append((js[order], rs[order]))
+
+    def rows(self, boxes: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Rows indexed with one of ``boxes`` (repeats possible; some no longer use it)."""
+        out = []
+        for js, rs in self.runs:
+            lo, hi = np.searchsorted(js, boxes, side="left"), np.searchsorted(js, boxes, side="right")
+            out += [rs[a:b] for a, b in zip(lo, hi)]
+        return np.concatenate(out) if out else np.zeros(0, dtype=np.intp)
 
 
 def _candidates(
@@ -165,10 +205,7 @@ def _refresh(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, lazy:
         t, n, a = score_hypotheses(
             problem, taken, hyp.centres_base[sub], hyp.radii, hyp.cell, hyp.mask[sub], hyp.semi_up, hyp.axes
         )
-        work.total[sub], work.n_assoc[sub], work.assoc[:, sub] = t, n, a
-        work.stale[sub] = False
-        work.rescored[sub] = True
-        work.update(sub, problem.config.min_views)
+        work.rescore(sub, t, n, a, problem.config.min_views)
 
 
 def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[DetectedObject], Taken]:
