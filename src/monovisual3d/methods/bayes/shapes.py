@@ -20,6 +20,13 @@ edges left out):
   model prefers it (:func:`beats`). An object taller than its sphere in every view
   stands upright, round in plan, and keeps the first fit.
 
+An object elongated one way is also fitted as an upright cylinder (and, with
+:data:`MIN_VIEWS_FOR_ELLIPSOID` views, a cuboid with a yaw): the exact boxes of a can, a bottle or a box
+(:mod:`monovisual3d.geometry.solids`). The ellipsoid models predict a container's boxes wrong where its top rim
+sticks out, seen from above, and that biases its centre down by about 3 mm (``benchmarks/solid_shape_bias.py``).
+A solid reports its centre as the position, its radius or half-sides as ``semi_axes`` with the shape of the
+ellipsoid of the same semi-axes (``spheroid``, ``ellipsoid``), and ``extra["solid"]`` (``cylinder``, ``cuboid``).
+
 Lying objects (a can, a box or a cucumber on its side: the long axis horizontal) are
 the ``ellipsoid`` model (two horizontal semi-axes and a yaw). Their boxes are wide
 where the camera sees them broadside and tall where it looks along the long axis
@@ -38,9 +45,11 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ...camera import Camera
 from ...errors import InputError
 from ...frames import invert_transform
 from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
+from ...geometry.solids import cuboid_bbox, cylinder_bbox
 from ...geometry.sphere import predict_sphere_boxes
 from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
@@ -66,6 +75,8 @@ ROUNDNESS_THRESHOLD = 0.08
 MIN_ELONGATED_BOXES = 2
 #: Parameters of a sphere: centre and radius.
 SPHERE_PARAMETERS = 4
+#: The shape a solid reports: that of the ellipsoid with the same semi-axes (its radius or half-sides).
+SOLID_SHAPES = {"cylinder": "spheroid", "cuboid": "ellipsoid"}
 
 #: The occlusion refit censors an edge when a nearer object's silhouette covers its extreme point by at least this
 #: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
@@ -116,11 +127,24 @@ def elongated_one_way(deviations: NDArray[np.floating]) -> bool:
     return len(d) >= 2 and bool(np.all(d > ROUNDNESS_THRESHOLD) or np.all(d < -ROUNDNESS_THRESHOLD))
 
 
-def sensor_score(problem: Problem, poses: NDArray[np.float64], boxes: NDArray[np.float64], e: Ellipsoid) -> float:
-    """Log-likelihood ratio (nats) of the boxes (K, 4) seen from ``poses`` (K, 4, 4) given the ellipsoid ``e``:
-    the ``bayes`` sensor model's box scores (occlusion and truncation included), a miss at worst, summed."""
+def solid_boxes(camera: Camera, poses: NDArray[np.float64], e: Ellipsoid, solid: str | None = None) -> NDArray[np.float64]:
+    """Unclipped boxes (K, 4), pixels, seen from ``poses`` (K, 4, 4) of the ellipsoid ``e``, or with ``solid``
+    (``cylinder``, ``cuboid``) of that solid with ``e``'s centre, semi-axes (radius or half-sides) and rotation."""
+    if solid == "cylinder":
+        return cylinder_bbox(camera, poses, e.centre_base, e.semi_axes[0], e.semi_axes[2], e.rotation)
+    if solid == "cuboid":
+        return cuboid_bbox(camera, poses, e.centre_base, e.semi_axes, e.rotation)
+    return ellipsoid_bbox(camera, poses, e.centre_base, e.semi_axes, e.rotation, clip=False)
+
+
+def sensor_score(
+    problem: Problem, poses: NDArray[np.float64], boxes: NDArray[np.float64], e: Ellipsoid, solid: str | None = None
+) -> float:
+    """Log-likelihood ratio (nats) of the boxes (K, 4) seen from ``poses`` (K, 4, 4) given the ellipsoid ``e`` (the
+    solid ``solid`` with its semi-axes, :func:`solid_boxes`): the ``bayes`` sensor model's box scores (occlusion and
+    truncation included), a miss at worst, summed."""
     cam, model = problem.camera, problem.model
-    pred = ellipsoid_bbox(cam, poses, e.centre_base, e.semi_axes, e.rotation, clip=False)
+    pred = solid_boxes(cam, poses, e, solid)
     T_optical_base = np.linalg.inv(poses)
     depth = T_optical_base[:, 2, :3] @ e.centre_base + T_optical_base[:, 2, 3]
     s = box_scores(pred, boxes, model, cam.width, cam.height, np.asarray(pose_px(problem, depth), dtype=float))
@@ -138,7 +162,8 @@ def beats(problem: Problem, obj: DetectedObject, new: Answer, old: Answer, n_edg
     :func:`monovisual3d.geometry.fit.fit_shape_by_bic`, with the ``bayes`` sensor model (a cut box is occlusion
     there, at most ``inward_floor`` per edge) in place of Gaussian edges."""
     poses, boxes = _boxes(problem, obj)
-    gain = sensor_score(problem, poses, boxes, new[1]) - sensor_score(problem, poses, boxes, old[1])
+    score_new = sensor_score(problem, poses, boxes, new[1], new[0].extra.get("solid"))
+    gain = score_new - sensor_score(problem, poses, boxes, old[1], old[0].extra.get("solid"))
     return gain > 0.5 * (new[2] - old[2]) * math.log(max(n_edges, 1))
 
 
@@ -180,17 +205,22 @@ def _fitted(problem: Problem, obj: DetectedObject, shapes: tuple[str, ...]) -> t
     if best.model == "sphere" and cfg.shape == "auto" and obj.extra.get("semi_up") is None:
         return _sphere_answer(obj), best.n_edges
     e = best.ellipsoid
-    extra = {**obj.extra, "shape_bic": float(best.bic), "shape_rms_px": float(best.rms_px)}
+    extra = {k: v for k, v in obj.extra.items() if k != "solid"}
+    extra.update(shape_bic=float(best.bic), shape_rms_px=float(best.rms_px))
+    shape = SOLID_SHAPES.get(best.model, best.model)
+    if shape != best.model:
+        extra["solid"] = best.model
     o = DetectedObject.from_ellipsoid(
-        e.centre_base, e.semi_axes, e.quaternion_xyzw, obj.score, best.model,
+        e.centre_base, e.semi_axes, e.quaternion_xyzw, obj.score, shape,
         covariance=best.centre_covariance, associations=obj.associations, n_cells=obj.n_cells, extra=extra,
     )  # fmt: skip
     return (o, e, best.n_parameters), best.n_edges
 
 
 def _upright_shapes(n_views: int) -> tuple[str, ...]:
-    """The models ``auto`` compares for an object elongated the same way in every view."""
-    return ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
+    """The models ``auto`` compares for an object elongated the same way in every view: the solids too (a can, a
+    bottle, a box stand upright)."""
+    return ("sphere", "spheroid", "cylinder") + (("ellipsoid", "cuboid") if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
 
 
 def _lying_shapes(n_views: int) -> tuple[str, ...]:
@@ -215,7 +245,7 @@ def fit_shape(problem: Problem, obj: DetectedObject, cut: frozenset[int] = froze
         return as_sphere(obj)
     if elongated_one_way(deviations):
         fit = _fitted(problem, obj, _upright_shapes(n_views))
-        if fit is None or np.all(deviations > 0) or _lying_shapes(n_views) == _upright_shapes(n_views):
+        if fit is None or np.all(deviations > 0) or set(_lying_shapes(n_views)) <= set(_upright_shapes(n_views)):
             return as_sphere(obj) if fit is None else fit[0][0]  # taller in every view: upright, round in plan
         answer = fit[0]  # wider in every view: lying (seen from one side) or flat
     else:  # elongated both ways: lying, or a sphere whose boxes are cut

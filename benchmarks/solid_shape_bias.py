@@ -1,0 +1,135 @@
+"""Centre bias of the default method on upright cylinders and cuboids (issue 20's containers), against ellipsoids.
+
+A detector's box around a solid is the bounding box of its silhouette. Every shape model of ``bayes`` predicts
+the box of an ellipsoid; this measures whether that biases the centre when the object is an upright cylinder
+(box = bounding box of its two projected rim circles, each the box of a flat ellipsoid: exact) or an upright
+cuboid with random yaw (box = bounding box of its 8 projected corners: exact), and compares with the ellipsoid
+with the same semi-axes (r, r, h / 2) (box in closed form, as the simulator's ``EllipsoidFruit``).
+
+One object near the optical axes (aim point within 2 cm of the centre), seen from 3 views over 120 degrees or
+8 views over 180 degrees of azimuth, each 0.5-0.7 m away and at ``ELEVATIONS_DEG`` above the horizontal (one
+elevation per run), 1280 x 720 (hfov 69 deg) or 640 x 480 (same hfov); boxes noiseless or with 2 % box noise
+(:func:`monovisual3d.sim.noise.perturb_boxes`). Default ``monovisual3d.localize``, fresh seeds.
+
+Printed per case: centre error mean and p90 (mm) and the mean error vector (mm) in the scene frame: ``away`` the
+horizontal component away from the cameras (they sit on the -x side on average), ``side`` across, ``up`` vertical.
+The mean error vector over seeds is the bias; the mean error includes the scatter.
+
+Usage: python benchmarks/solid_shape_bias.py [FIRST_SEED LAST_SEED [quick]]   (default 9000 9040)
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from collections.abc import Callable
+
+import numpy as np
+
+import monovisual3d as mv
+from monovisual3d.camera import Camera
+from monovisual3d.frames import look_at
+from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
+from monovisual3d.geometry.orientation import rotation_upright
+from monovisual3d.geometry.solids import cuboid_bbox, cylinder_bbox
+from monovisual3d.session import Detection, Session, View, Workspace
+from monovisual3d.sim.noise import perturb_boxes
+
+TARGET = np.array([0.6, 0.0, 0.3])
+CAMERAS = {"1280x720": Camera.from_hfov(1280, 720, 69.0), "640x480": Camera.from_hfov(640, 480, 69.0)}
+#: Azimuths of the views (degrees) for 3 and 8 views.
+AZIMUTHS_DEG = {3: np.linspace(-60.0, 60.0, 3), 8: np.linspace(-90.0, 90.0, 8)}
+ELEVATIONS_DEG = (0.0, 15.0, 30.0)
+DISTANCE_M = (0.5, 0.7)
+AIM_JITTER_M = 0.02
+BOX_SIGMAS = (0.0, 0.02)
+#: Objects: kind and (radius or half-side, half-height), metres.
+OBJECTS = {
+    "cylinder r25 h120": ("cylinder", 0.025, 0.06),
+    "cylinder r30 h100": ("cylinder", 0.030, 0.05),
+    "cuboid 50x50x120": ("cuboid", 0.025, 0.06),
+    "ellipsoid 25,25,60": ("ellipsoid", 0.025, 0.06),
+    "ellipsoid 30,30,50": ("ellipsoid", 0.030, 0.05),
+}
+
+
+def views(rng: np.random.Generator, n_views: int, elevation_deg: float, centre: np.ndarray) -> np.ndarray:
+    """Poses (K, 4, 4) on the -x side of the object, ``DISTANCE_M`` away, aimed within ``AIM_JITTER_M`` of it."""
+    e = np.radians(elevation_deg)
+    poses = []
+    for az in np.radians(AZIMUTHS_DEG[n_views]):
+        d = rng.uniform(*DISTANCE_M)
+        p = centre + d * np.array([-np.cos(e) * np.cos(az), np.cos(e) * np.sin(az), np.sin(e)])
+        poses.append(look_at(p, centre + rng.uniform(-AIM_JITTER_M, AIM_JITTER_M, 3)))
+    return np.array(poses)
+
+
+def object_boxes(
+    kind: str, r: float, h: float, rng: np.random.Generator
+) -> Callable[[Camera, np.ndarray, np.ndarray], np.ndarray]:
+    """The exact box function (camera, poses, centre) -> (K, 4) of one object (a cuboid draws its yaw from rng)."""
+    if kind == "cylinder":
+        return lambda cam, poses, c: cylinder_bbox(cam, poses, c, r, h, rotation_upright(0.0))
+    if kind == "cuboid":
+        yaw = rng.uniform(0.0, np.pi / 2)
+        return lambda cam, poses, c: cuboid_bbox(cam, poses, c, [r, r, h], rotation_upright(yaw))
+    return lambda cam, poses, c: ellipsoid_bbox(cam, poses, c, [r, r, h], rotation_upright(0.0), clip=False)
+
+
+def run_case(obj: str, cam_name: str, n_views: int, elevation: float, sigma: float, seeds: range) -> np.ndarray:
+    """Error vectors (S, 3), metres (NaN: no object found), over ``seeds``."""
+    kind, r, h = OBJECTS[obj]
+    cam = CAMERAS[cam_name]
+    out = np.full((len(seeds), 3), np.nan)
+    for i, seed in enumerate(seeds):
+        rng = np.random.default_rng(seed)
+        centre = TARGET + rng.uniform(-0.01, 0.01, 3)
+        poses = views(rng, n_views, elevation, centre)
+        boxes = object_boxes(kind, r, h, rng)(cam, poses, centre)
+        if sigma > 0:
+            boxes = perturb_boxes(boxes, sigma, rng)
+        session = Session(
+            cam,
+            tuple(View(T, (Detection(b),)) for T, b in zip(poses, boxes)),
+            Workspace(TARGET - 0.2, TARGET + 0.2),
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            est = mv.localize(session).positions.reshape(-1, 3)
+        if len(est):
+            out[i] = est[np.argmin(np.linalg.norm(est - centre, axis=1))] - centre
+    return out
+
+
+def summary(err: np.ndarray) -> str:
+    """One line: mean, p90, missed, and the mean error vector (away, side, up), mm."""
+    ok = np.all(np.isfinite(err), axis=1)
+    e = err[ok] * 1e3
+    n = np.linalg.norm(e, axis=1)
+    if not len(n):
+        return f"all {len(err)} missed"
+    away, side, up = e[:, 0].mean(), e[:, 1].mean(), e[:, 2].mean()
+    return (
+        f"mean {n.mean():5.1f}  p90 {np.percentile(n, 90):5.1f}  missed {np.sum(~ok):2d}  "
+        f"bias away {away:+5.1f} side {side:+5.1f} up {up:+5.1f}"
+    )
+
+
+def main(first: int, last: int, quick: bool) -> None:
+    seeds = range(first, last)
+    cams = ("1280x720",) if quick else tuple(CAMERAS)
+    for cam_name in cams:
+        for n_views in (3, 8):
+            for sigma in BOX_SIGMAS:
+                for elevation in ELEVATIONS_DEG:
+                    for obj in OBJECTS:
+                        err = run_case(obj, cam_name, n_views, elevation, sigma, seeds)
+                        print(
+                            f"{cam_name} {n_views} views noise {sigma:.2f} elev {elevation:4.0f}  {obj:20s} {summary(err)}",
+                            flush=True,
+                        )
+
+
+if __name__ == "__main__":
+    first, last = (int(sys.argv[1]), int(sys.argv[2])) if len(sys.argv) > 2 else (9000, 9040)
+    main(first, last, len(sys.argv) > 3 and sys.argv[3] == "quick")
