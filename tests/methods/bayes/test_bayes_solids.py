@@ -12,10 +12,12 @@ import monovisual3d as mv
 from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
-from monovisual3d.geometry.fit import fit_ellipsoid_to_boxes
+from monovisual3d.geometry.fit import fit_ellipsoid_to_boxes, fit_shape_by_bic
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox, cylinder_bbox
+from monovisual3d.methods.bayes.shapes import SOLID_EVIDENCE_NATS, _solid_only_if_clear, solid_evidence
 from monovisual3d.session import Detection, Session, View, Workspace
+from monovisual3d.sim.noise import perturb_boxes
 
 CAM = Camera.from_hfov(1280, 720, 69.0)
 TARGET = np.array([0.6, 0.0, 0.3])
@@ -88,3 +90,26 @@ def test_a_sphere_is_not_fitted_as_a_solid():
     objects = _localize(poses, ellipsoid_bbox(CAM, poses, TARGET, [0.03] * 3, np.eye(3), clip=False))
     assert len(objects) == 1
     assert objects[0].shape == "sphere" and "solid" not in objects[0].extra
+
+
+def test_solid_evidence_is_decisive_on_exact_boxes_and_small_on_noisy_ones():
+    rng = np.random.default_rng(8)
+    poses = _poses(rng, 3, 25.0)
+    shapes = ("spheroid", "cylinder")
+    exact = {
+        "cylinder": cylinder_bbox(CAM, poses, TARGET, R_M, H_M, rotation_upright(0.0)),
+        "spheroid": ellipsoid_bbox(CAM, poses, TARGET, [R_M, R_M, H_M], rotation_upright(0.0), clip=False),
+    }
+    for kind, boxes in exact.items():
+        _, fits = fit_shape_by_bic(CAM, poses, boxes, shapes=shapes, box_sigma=0.05)
+        evidence = solid_evidence(fits["cylinder"], fits["spheroid"])
+        assert (evidence > 100.0) if kind == "cylinder" else (evidence < -100.0)
+        assert _solid_only_if_clear(fits["cylinder"], fits).model == kind
+    # 2 % box noise (about 4 px an edge here) hides the difference (about 1 px): the evidence is of the order of a nat
+    evidence = []
+    for seed in range(10):
+        noisy = perturb_boxes(exact["spheroid"], 0.02, np.random.default_rng(100 + seed))
+        _, fits = fit_shape_by_bic(CAM, poses, noisy, shapes=shapes, box_sigma=0.05)
+        evidence.append(solid_evidence(fits["cylinder"], fits["spheroid"]))
+    assert np.all(np.abs(evidence) < 10.0)
+    assert np.mean(np.array(evidence) > SOLID_EVIDENCE_NATS) <= 0.3
