@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -72,6 +72,7 @@ class EllipsoidFit:
     centre_covariance : ndarray, shape (3, 3), m^2, base frame: Gauss-Newton covariance of the
         centre under the edge noise model (NaN when singular)
     residuals_px : ndarray, shape (E,), predicted minus observed edge of every used edge, pixels
+    sigma_px : ndarray, shape (E,), the noise std of each used edge, pixels (``residuals_px / sigma_px``: normalised)
     chi2 : float, sum of squared normalised residuals of the used edges
     cost : float, the robust cost minimised
     n_edges : int, edges used
@@ -89,6 +90,7 @@ class EllipsoidFit:
     n_edges: int
     n_views: int
     success: bool
+    sigma_px: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
     @property
     def n_parameters(self) -> int:
@@ -284,6 +286,7 @@ def fit_ellipsoid_to_boxes(
         names=names,
         centre_covariance=_centre_covariance(best.jac),
         residuals_px=r * sigma,
+        sigma_px=sigma,
         chi2=float(np.sum(r * r)),
         cost=float(best.cost),
         n_edges=int(used.sum()),

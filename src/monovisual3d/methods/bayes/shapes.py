@@ -90,6 +90,8 @@ SOLID_SHAPES = {"cylinder": "spheroid", "cuboid": "ellipsoid"}
 #: at 1 nat about 10 %, and the summed centre error of both kinds is lowest or within 0.05 mm of it; exact boxes
 #: still pick the right model every time.
 SOLID_EVIDENCE_NATS = 1.0
+#: Edges either fit misses by this many sensor sigmas (``alpha``) or more are outliers, left out of the evidence.
+OUTLIER_SIGMAS = 3.0
 
 #: The occlusion refit censors an edge when a nearer object's silhouette covers its extreme point by at least this
 #: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
@@ -238,11 +240,18 @@ def solid_evidence(solid: EllipsoidFit, other: EllipsoidFit) -> float:
     The edge noise of the sensor model (``alpha``) is a bound for poor detectors, under which a solid and an
     ellipsoid of the same size are within a fraction of a sigma of each other on every edge: there, the plain
     BIC picks either at random. With the noise taken from the fits themselves, near-perfect boxes of a cylinder
-    speak for it by hundreds of nats, noisy ones by about nothing."""
-    e = max(solid.n_edges, 1)
+    speak for it by hundreds of nats, noisy ones by about nothing. Edges either fit misses by
+    :data:`OUTLIER_SIGMAS` sensor sigmas or more (a leaf's cut, a merged false positive: the robust fits let them go)
+    are left out, so that they do not make the evidence; with no more edges left than parameters it is ``-inf``."""
+    rs, ro = solid.residuals_px / solid.sigma_px, other.residuals_px / other.sigma_px  # the same edges, normalised
+    inlier = (np.abs(rs) < OUTLIER_SIGMAS) & (np.abs(ro) < OUTLIER_SIGMAS)
+    e = int(inlier.sum())
+    if e <= max(solid.n_parameters, other.n_parameters):
+        return -math.inf
     tiny = 1e-12  # chi2 of an exact fit: the evidence stays finite
+    chi2_solid, chi2_other = float(np.sum(rs[inlier] ** 2)), float(np.sum(ro[inlier] ** 2))
     return 0.5 * (
-        e * math.log((other.chi2 + tiny) / (solid.chi2 + tiny)) + (other.n_parameters - solid.n_parameters) * math.log(e)
+        e * math.log((chi2_other + tiny) / (chi2_solid + tiny)) + (other.n_parameters - solid.n_parameters) * math.log(e)
     )
 
 
