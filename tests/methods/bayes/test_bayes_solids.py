@@ -3,18 +3,23 @@ is not pulled down as an ellipsoid's is; ellipsoids and spheres keep their model
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose
+from typer.testing import CliRunner
 
 import monovisual3d as mv
 from monovisual3d.camera import Camera
+from monovisual3d.cli import app
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
 from monovisual3d.geometry.fit import fit_ellipsoid_to_boxes, fit_shape_by_bic
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox, cylinder_bbox
+from monovisual3d.methods.bayes import BayesConfig
 from monovisual3d.methods.bayes.shapes import SOLID_EVIDENCE_NATS, _solid_only_if_clear, solid_evidence
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_boxes
@@ -35,11 +40,11 @@ def _poses(rng: np.random.Generator, n_views: int, elevation_deg: float) -> np.n
     return np.array(out)
 
 
-def _localize(poses: np.ndarray, boxes: np.ndarray) -> list:
+def _localize(poses: np.ndarray, boxes: np.ndarray, solids: bool = True) -> list:
     session = Session(CAM, tuple(View(T, (Detection(b),)) for T, b in zip(poses, boxes)), Workspace(TARGET - 0.2, TARGET + 0.2))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return mv.localize(session).objects
+        return mv.localize(session, solids=solids).objects
 
 
 def test_an_upright_cylinder_is_found_at_its_centre():
@@ -113,3 +118,28 @@ def test_solid_evidence_is_decisive_on_exact_boxes_and_small_on_noisy_ones():
         evidence.append(solid_evidence(fits["cylinder"], fits["spheroid"]))
     assert np.all(np.abs(evidence) < 10.0)
     assert np.mean(np.array(evidence) > SOLID_EVIDENCE_NATS) <= 0.3
+
+
+def test_solids_are_off_by_default():
+    rng = np.random.default_rng(9)
+    poses = _poses(rng, 3, 25.0)
+    objects = _localize(poses, cylinder_bbox(CAM, poses, TARGET, R_M, H_M, rotation_upright(0.0)), solids=False)
+    assert len(objects) == 1 and "solid" not in objects[0].extra
+    assert BayesConfig().solids is False
+    with pytest.raises(ValueError, match="solids"):
+        BayesConfig(solids="yes")
+
+
+def test_the_cli_has_the_solids_flag(tmp_path):
+    rng = np.random.default_rng(10)
+    poses = _poses(rng, 3, 25.0)
+    boxes = cylinder_bbox(CAM, poses, TARGET, R_M, H_M, rotation_upright(0.0))
+    session = Session(CAM, tuple(View(T, (Detection(b),)) for T, b in zip(poses, boxes)), Workspace(TARGET - 0.2, TARGET + 0.2))
+    path = tmp_path / "session.json"
+    path.write_text(json.dumps(session.to_dict()))
+    out = tmp_path / "objects.json"
+    result = CliRunner().invoke(app, ["localize", str(path), "--solids", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    objects = json.loads(out.read_text())["objects"]
+    assert len(objects) == 1 and objects[0]["solid"] == "cylinder"
+    assert_allclose(objects[0]["position"], TARGET, atol=3e-4)

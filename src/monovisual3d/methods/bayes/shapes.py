@@ -20,7 +20,7 @@ edges left out):
   model prefers it (:func:`beats`). An object taller than its sphere in every view
   stands upright, round in plan, and keeps the first fit.
 
-An object elongated one way is also fitted as an upright cylinder (and, with
+With ``BayesConfig.solids``, an object elongated one way is also fitted as an upright cylinder (and, with
 :data:`MIN_VIEWS_FOR_ELLIPSOID` views, a cuboid with a yaw): the exact boxes of a can, a bottle or a box
 (:mod:`monovisual3d.geometry.solids`). The ellipsoid models predict a container's boxes wrong where its top rim
 sticks out, seen from above, and that biases its centre down by about 3 mm (``benchmarks/solid_shape_bias.py``).
@@ -28,6 +28,8 @@ The solid is kept only when the boxes clearly prefer it to the best ellipsoid mo
 estimated from the fits (:func:`solid_evidence`, :data:`SOLID_EVIDENCE_NATS`): under noisy boxes the two are
 equally good and fruit stay ellipsoids. A solid reports its centre as the position, its radius or half-sides as ``semi_axes`` with the shape of the
 ellipsoid of the same semi-axes (``spheroid``, ``ellipsoid``), and ``extra["solid"]`` (``cylinder``, ``cuboid``).
+It is off by default: on the real Aldoma set (``monovisual3d bench real``) the one object it changes, a bottle (its
+neck narrows like an ellipsoid's top), moves 3 mm further from its ground-truth ellipsoid's centre.
 
 Lying objects (a can, a box or a cucumber on its side: the long axis horizontal) are
 the ``ellipsoid`` model (two horizontal semi-axes and a yaw). Their boxes are wide
@@ -266,10 +268,13 @@ def _solid_only_if_clear(best: EllipsoidFit, fits: dict[str, EllipsoidFit]) -> E
     return best if solid_evidence(best, other) > SOLID_EVIDENCE_NATS else other
 
 
-def _upright_shapes(n_views: int) -> tuple[str, ...]:
-    """The models ``auto`` compares for an object elongated the same way in every view: the solids too (a can, a
-    bottle, a box stand upright)."""
-    return ("sphere", "spheroid", "cylinder") + (("ellipsoid", "cuboid") if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
+def _upright_shapes(n_views: int, solids: bool = False) -> tuple[str, ...]:
+    """The models ``auto`` compares for an object elongated the same way in every view; with ``solids``
+    (``BayesConfig.solids``) the upright solids too (a can, a bottle, a box)."""
+    ellipsoids = ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
+    if not solids:
+        return ellipsoids
+    return ellipsoids + ("cylinder",) + (("cuboid",) if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
 
 
 def _lying_shapes(n_views: int) -> tuple[str, ...]:
@@ -293,8 +298,9 @@ def fit_shape(problem: Problem, obj: DetectedObject, cut: frozenset[int] = froze
     if int(np.sum(np.abs(deviations) > ROUNDNESS_THRESHOLD)) < MIN_ELONGATED_BOXES:  # looks_round
         return as_sphere(obj)
     if elongated_one_way(deviations):
-        fit = _fitted(problem, obj, _upright_shapes(n_views))
-        if fit is None or np.all(deviations > 0) or set(_lying_shapes(n_views)) <= set(_upright_shapes(n_views)):
+        upright = _upright_shapes(n_views, cfg.solids)
+        fit = _fitted(problem, obj, upright)
+        if fit is None or np.all(deviations > 0) or set(_lying_shapes(n_views)) <= set(upright):
             return as_sphere(obj) if fit is None else fit[0][0]  # taller in every view: upright, round in plan
         answer = fit[0]  # wider in every view: lying (seen from one side) or flat
     else:  # elongated both ways: lying, or a sphere whose boxes are cut
