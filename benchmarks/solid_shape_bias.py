@@ -59,7 +59,7 @@ AZIMUTHS_DEG = {3: np.linspace(-60.0, 60.0, 3), 8: np.linspace(-90.0, 90.0, 8)}
 ELEVATIONS_DEG = (0.0, 15.0, 30.0)
 DISTANCE_M = (0.5, 0.7)
 AIM_JITTER_M = 0.02
-BOX_SIGMAS = (0.0, 0.02)
+BOX_SIGMAS = (0.0, 0.005, 0.02)
 #: Objects: kind and (radius or half-side, half-height), metres.
 OBJECTS = {
     "cylinder r25 h120": ("cylinder", 0.025, 0.06),

@@ -21,13 +21,14 @@ edges left out):
   stands upright, round in plan, and keeps the first fit.
 
 With ``BayesConfig.solids``, an object elongated one way is also fitted as an upright cylinder (and, with
-:data:`MIN_VIEWS_FOR_ELLIPSOID` views, a cuboid with a yaw): the exact boxes of a can, a bottle or a box
+:data:`MIN_VIEWS_FOR_CUBOID` views, a cuboid with a yaw): the exact boxes of a can, a bottle or a box
 (:mod:`monovisual3d.geometry.solids`). The ellipsoid models predict a container's boxes wrong where its top rim
 sticks out, seen from above, and that biases its centre down by about 3 mm (``benchmarks/solid_shape_bias.py``).
 The solid is kept only when the boxes clearly prefer it to the best ellipsoid model, with the edge noise
 estimated from the fits (:func:`solid_evidence`, :data:`SOLID_EVIDENCE_NATS`): under noisy boxes the two are
-equally good and fruit stay ellipsoids. A solid reports its centre as the position, its radius or half-sides as ``semi_axes`` with the shape of the
-ellipsoid of the same semi-axes (``spheroid``, ``ellipsoid``), and ``extra["solid"]`` (``cylinder``, ``cuboid``).
+equally good and fruit stay ellipsoids. A solid reports its centre as the position, its radius or half-sides as
+``semi_axes`` with the shape of the ellipsoid of the same semi-axes (``spheroid``, ``ellipsoid``), and
+``extra["solid"]`` (``cylinder``, ``cuboid``).
 It is off by default: on the real Aldoma set (``monovisual3d bench real``) the one object it changes, a bottle (its
 neck narrows like an ellipsoid's top), moves 3 mm further from its ground-truth ellipsoid's centre.
 
@@ -81,6 +82,11 @@ ROUNDNESS_THRESHOLD = 0.08
 #: elongated. The sign is not required to agree: an upright object is elongated the same way in every view, a
 #: lying one wide broadside and tall end-on (see the module docstring).
 MIN_ELONGATED_BOXES = 2
+#: Views from which ``solids`` also fits the yawed cuboid (7 parameters, as the ellipsoid; a square box's width changes
+#: with the yaw from view to view, a cylinder's does not). From 3 views it is weakly determined and kept only with
+#: clear evidence (:func:`solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
+#: to 2.4-2.5 mm with exact boxes (benchmarks/solid_shape_bias.py).
+MIN_VIEWS_FOR_CUBOID = 3
 #: Parameters of a sphere: centre and radius.
 SPHERE_PARAMETERS = 4
 #: The shape a solid reports: that of the ellipsoid with the same semi-axes (its radius or half-sides).
@@ -274,7 +280,7 @@ def _upright_shapes(n_views: int, solids: bool = False) -> tuple[str, ...]:
     ellipsoids = ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
     if not solids:
         return ellipsoids
-    return ellipsoids + ("cylinder",) + (("cuboid",) if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
+    return ellipsoids + ("cylinder",) + (("cuboid",) if n_views >= MIN_VIEWS_FOR_CUBOID else ())
 
 
 def _lying_shapes(n_views: int) -> tuple[str, ...]:
