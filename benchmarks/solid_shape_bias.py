@@ -38,7 +38,9 @@ What it showed (seeds 9000-9039, 1280 x 720; 640 x 480 gives the same to 0.1 mm)
 
 Usage: python benchmarks/solid_shape_bias.py [FIRST_SEED LAST_SEED] [--quick] [--solids]   (default seeds 9000 9040;
 --quick: 1280 x 720 only, the 640 x 480 rows are the same to 0.1 mm: the noise is relative to the box;
---solids: ``localize(session, solids=True)``, the upright cylinder and cuboid models of the shape stage)
+--solids: ``localize(session, solids=True)``, the upright cylinder and cuboid models of the shape stage;
+--evidence: the sweep that chose ``SOLID_EVIDENCE_NATS`` (:func:`evidence_sweep`; seeds 9000 9060 for the numbers quoted
+there))
 """
 
 from __future__ import annotations
@@ -53,8 +55,11 @@ import monovisual3d as mv
 from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
+from monovisual3d.geometry.fit import fit_shape_by_bic
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox, cylinder_bbox
+from monovisual3d.methods.bayes.sensor import SensorModel
+from monovisual3d.methods.bayes.shapes import solid_evidence
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_boxes
 
@@ -66,6 +71,9 @@ ELEVATIONS_DEG = (0.0, 15.0, 30.0)
 DISTANCE_M = (0.5, 0.7)
 AIM_JITTER_M = 0.02
 BOX_SIGMAS = (0.0, 0.005, 0.02)
+#: Box noise levels and evidence thresholds (nats) of ``--evidence``.
+EVIDENCE_SIGMAS = (0.003, 0.01, 0.02)
+EVIDENCE_THRESHOLDS = (0.0, 1.0, 2.0, 3.0)
 #: Objects: kind and (radius or half-side, half-height), metres.
 OBJECTS = {
     "cylinder r25 h120": ("cylinder", 0.025, 0.06),
@@ -140,6 +148,38 @@ def summary(err: np.ndarray) -> str:
     )
 
 
+def evidence_sweep(seeds: range) -> None:
+    """How ``SOLID_EVIDENCE_NATS`` was chosen: cylinder-against-spheroid fits (the shape stage's noise model) to each
+    kind's boxes, elevation uniform in 0-30 degrees; per evidence threshold, how often the cylinder is kept and the
+    mean |vertical error| (mm) of the kept fit."""
+    cam = CAMERAS["1280x720"]
+    for n_views in (3, 8):
+        for sigma in EVIDENCE_SIGMAS:
+            for kind in ("cylinder", "ellipsoid"):
+                evidence, dz = [], []
+                for seed in seeds:
+                    rng = np.random.default_rng(seed)
+                    centre = TARGET + rng.uniform(-0.01, 0.01, 3)
+                    poses = views(rng, n_views, rng.uniform(0.0, 30.0), centre)
+                    boxes = perturb_boxes(object_boxes(kind, 0.025, 0.06, rng)(cam, poses, centre), sigma, rng)
+                    _, fits = fit_shape_by_bic(
+                        cam,
+                        poses,
+                        boxes,
+                        shapes=("spheroid", "cylinder"),
+                        box_sigma=SensorModel.alpha,
+                        edge_sigma_px=SensorModel.sigma0_px,
+                    )
+                    evidence.append(solid_evidence(fits["cylinder"], fits["spheroid"]))
+                    dz.append([(fits[m].ellipsoid.centre_base - centre)[2] * 1e3 for m in ("spheroid", "cylinder")])
+                ev, z = np.array(evidence), np.array(dz)
+                cells = []
+                for t in EVIDENCE_THRESHOLDS:
+                    kept = np.where(ev > t, z[:, 1], z[:, 0])
+                    cells.append(f"{t:.0f} nat: cylinder {np.mean(ev > t):4.2f}, |dz| {np.abs(kept).mean():4.2f}")
+                print(f"{n_views} views noise {sigma:.3f} {kind:9s} " + "; ".join(cells), flush=True)
+
+
 def main(first: int, last: int, quick: bool, solids: bool) -> None:
     seeds = range(first, last)
     cams = ("1280x720",) if quick else tuple(CAMERAS)
@@ -161,5 +201,9 @@ if __name__ == "__main__":
     parser.add_argument("last", type=int, nargs="?", default=9040)
     parser.add_argument("--quick", action="store_true", help="1280 x 720 only")
     parser.add_argument("--solids", action="store_true", help="localize with solids=True (BayesConfig.solids)")
+    parser.add_argument("--evidence", action="store_true", help="the evidence threshold sweep (evidence_sweep) instead")
     args = parser.parse_args()
-    main(args.first, args.last, args.quick, args.solids)
+    if args.evidence:
+        evidence_sweep(range(args.first, args.last))
+    else:
+        main(args.first, args.last, args.quick, args.solids)

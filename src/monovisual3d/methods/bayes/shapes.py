@@ -93,10 +93,10 @@ SPHERE_PARAMETERS = 4
 SOLID_SHAPES = {"cylinder": "spheroid", "cuboid": "ellipsoid"}
 #: Evidence (nats, :func:`solid_evidence`) a solid needs over the best ellipsoid model: prior odds of e : 1 for the
 #: ellipsoids, the models of fruit. Chosen on cylinder-against-spheroid fits to simulated upright 5 x 5 x 12 cm
-#: cylinders and spheroids (the views of benchmarks/solid_shape_bias.py, 3 and 8 views, 0.3-2 % box noise, seeds
-#: 9000-9059): at 0 nats (the plain choice) noisy spheroids come out as cylinders about 40 % of the time, 1-2 mm high;
-#: at 1 nat about 10 %, and the summed centre error of both kinds is lowest or within 0.05 mm of it; exact boxes
-#: still pick the right model every time.
+#: cylinders and spheroids (``python benchmarks/solid_shape_bias.py 9000 9060 --evidence``: 3 and 8 views, 0.3-2 % box
+#: noise): at 0 nats (the plain choice) spheroids with 1-2 % noise come out as cylinders 25-45 % of the time, 1-2 mm
+#: high; at 1 nat 7-13 %, and the summed vertical error of both kinds is the lowest of 0-3 nats, or within 0.07 mm of
+#: it; exact boxes still pick the right model every time.
 SOLID_EVIDENCE_NATS = 1.0
 #: Edges either fit misses by this many sensor sigmas (``alpha``) or more are outliers, left out of the evidence.
 OUTLIER_SIGMAS = 3.0
