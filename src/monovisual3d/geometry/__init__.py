@@ -3,10 +3,11 @@
 - :mod:`.sphere`: the sphere's exact box, the ``bayes`` likelihood's box model and the algebraic pinhole box;
 - :mod:`.spheroid`: the box of an upright spheroid in closed form (the ``bayes`` search's elongated hypotheses);
 - :mod:`.ellipsoid`: the :class:`Ellipsoid`, closed-form and contour-sampled boxes, silhouette, volume;
+- :mod:`.solids`: the exact boxes of upright cylinders (their two rim circles) and cuboids (their corners);
 - :mod:`.quadric`: the dual quadric, the projected dual conic and the box of a conic;
 - :mod:`.orientation`: the "upright" rotation and quaternions;
 - :mod:`.bounds`: the Cramer-Rao bound of the box-edge model for ellipsoids;
-- :mod:`.fit`: a least-squares fit of a sphere, spheroid or ellipsoid to associated boxes.
+- :mod:`.fit`: a least-squares fit of a sphere, spheroid, ellipsoid, cylinder or cuboid to associated boxes.
 
 The compiled kernels are tested against these. Names load on first use (the fit needs scipy).
 """
@@ -46,6 +47,10 @@ _LAZY = {
     "sphere_bbox": "sphere",
     "sphere_bbox_optical": "sphere",
     "predict_spheroid_boxes": "spheroid",
+    "SOLIDS": "solids",
+    "circle_bbox_optical": "solids",
+    "cuboid_bbox": "solids",
+    "cylinder_bbox": "solids",
 }
 
 __all__ = sorted(_LAZY)

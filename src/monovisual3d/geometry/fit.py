@@ -17,13 +17,17 @@ bounded by ``size_range``):
   ``up``); with ``free_orientation`` two tilts of the symmetry axis;
 - ``ellipsoid``: centre, ``a, b`` (horizontal), ``c`` (along ``up``), yaw about ``up``; with
   ``free_orientation`` a full rotation instead of the yaw.
+
+The solids of :mod:`.solids` (exact boxes of a cylinder's rims, of a cuboid's corners) take the parameters of the
+ellipsoid with the same semi-axes: ``cylinder`` those of the ``spheroid`` (radius ``a``, half-height ``c``),
+``cuboid`` those of the ``ellipsoid`` (half-sides ``a, b, c``, yaw).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -34,6 +38,7 @@ from ..camera import Camera
 from ..errors import InputError
 from .ellipsoid import SHAPES, Ellipsoid, ellipsoid_bbox
 from .orientation import DEFAULT_UP, check_up, rotation_upright
+from .solids import SOLIDS, cuboid_bbox, cylinder_bbox, union_boxes
 
 if TYPE_CHECKING:
     from ..session import View
@@ -61,11 +66,13 @@ class EllipsoidFit:
     Attributes
     ----------
     ellipsoid : Ellipsoid, the fitted object (semi-axes ``a, b`` horizontal, ``c`` along ``up`` before any tilt)
-    model : str, ``sphere``, ``spheroid`` or ``ellipsoid``
+    model : str, ``sphere``, ``spheroid``, ``ellipsoid``, ``cylinder`` or ``cuboid`` (``ellipsoid`` holds a solid's
+        centre, semi-axes (radius or half-sides) and rotation)
     names : tuple of str, the fitted parameters
     centre_covariance : ndarray, shape (3, 3), m^2, base frame: Gauss-Newton covariance of the
         centre under the edge noise model (NaN when singular)
     residuals_px : ndarray, shape (E,), predicted minus observed edge of every used edge, pixels
+    sigma_px : ndarray, shape (E,), the noise std of each used edge, pixels (``residuals_px / sigma_px``: normalised)
     chi2 : float, sum of squared normalised residuals of the used edges
     cost : float, the robust cost minimised
     n_edges : int, edges used
@@ -83,6 +90,7 @@ class EllipsoidFit:
     n_edges: int
     n_views: int
     success: bool
+    sigma_px: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
     @property
     def n_parameters(self) -> int:
@@ -100,12 +108,12 @@ class EllipsoidFit:
 
 def fit_parameters(model: str, *, free_orientation: bool = False) -> tuple[str, ...]:
     """Names of the parameters fitted for a model (sizes as natural logarithms of metres)."""
-    if model not in SHAPES:
-        raise InputError(f"shape: got {model!r}, expected one of {list(SHAPES)}")
+    if model not in SHAPES + SOLIDS:
+        raise InputError(f"shape: got {model!r}, expected one of {list(SHAPES + SOLIDS)}")
     names = ["x", "y", "z"]
     if model == "sphere":
         return (*names, "log_r")
-    if model == "spheroid":
+    if model in ("spheroid", "cylinder"):
         return (*names, "log_a", "log_c", *(("tilt_1", "tilt_2") if free_orientation else ()))
     return (*names, "log_a", "log_b", "log_c", *(("rx", "ry", "rz") if free_orientation else ("yaw",)))
 
@@ -129,7 +137,7 @@ def _decode(
     if model == "sphere":
         s = np.repeat(np.exp(p[..., 3:4]), 3, axis=-1)
         return c, s, np.broadcast_to(np.eye(3), lead + (3, 3))
-    if model == "spheroid":
+    if model in ("spheroid", "cylinder"):
         s = np.exp(p[..., [3, 3, 4]])
         if not free_orientation:
             return c, s, np.broadcast_to(R0, lead + (3, 3))
@@ -278,6 +286,7 @@ def fit_ellipsoid_to_boxes(
         names=names,
         centre_covariance=_centre_covariance(best.jac),
         residuals_px=r * sigma,
+        sigma_px=sigma,
         chi2=float(np.sum(r * r)),
         cost=float(best.cost),
         n_edges=int(used.sum()),
@@ -333,10 +342,7 @@ def _edge_residuals(
     def normalised(thetas: NDArray[np.float64]) -> NDArray[np.float64]:
         """Normalised residuals (N, E) of parameter vectors (N, P), all boxes in one batched call."""
         c, s, R = _decode(thetas, shape, u, R0, free_orientation)
-        if boxes_of is not None:
-            pred = boxes_of(c, s, R)[:, used]
-        else:
-            pred = ellipsoid_bbox(camera, T, c[:, None], s[:, None], R[:, None], clip=False)[:, used]
+        pred = _predicted_boxes(camera, T, boxes_of, shape, c, s, R)[:, used]
         r = (pred - observed) / sigma
         return np.where(np.isfinite(r), r, UNDEFINED_RESIDUAL)
 
@@ -349,6 +355,29 @@ def _edge_residuals(
         return ((r[: len(theta)] - r[len(theta) :]) / (2 * h[:, None])).T
 
     return residuals, jacobian
+
+
+def _predicted_boxes(
+    camera: Camera,
+    T: NDArray[np.float64],
+    boxes_of: PinholeBoxes | None,
+    shape: str,
+    c: NDArray[np.float64],
+    s: NDArray[np.float64],
+    R: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Unclipped boxes (N, V, 4), pixels, of N objects (centres (N, 3), semi-axes (N, 3), rotations (N, 3, 3)) of the
+    model ``shape`` in the V views ``T``; ``boxes_of``: the views' pinhole ellipsoid boxes (None with distortion)."""
+    if shape == "cylinder" and boxes_of is not None:  # the rims: flat ellipsoids, semi-axes (r, r, 0)
+        rim, flat = s[:, 2:3] * R[:, :, 2], s * np.array([1.0, 1.0, 0.0])
+        return union_boxes(boxes_of(c - rim, flat, R), boxes_of(c + rim, flat, R))
+    if shape == "cylinder":
+        return cylinder_bbox(camera, T, c[:, None], s[:, None, 0], s[:, None, 2], R[:, None])
+    if shape == "cuboid":
+        return cuboid_bbox(camera, T, c[:, None], s[:, None], R[:, None])
+    if boxes_of is not None:
+        return boxes_of(c, s, R)
+    return ellipsoid_bbox(camera, T, c[:, None], s[:, None], R[:, None], clip=False)
 
 
 def _least_squares_from(
@@ -429,7 +458,7 @@ def fit_shape_by_bic(
         try:
             fits[shape] = fit_ellipsoid_to_boxes(camera, T_base_optical, boxes_xyxy, shape=shape, **options)
         except InputError as exc:
-            if shape not in SHAPES:
+            if shape not in SHAPES + SOLIDS:
                 raise
             first_error = first_error or exc
     if not fits:
@@ -497,7 +526,7 @@ def _starts(
         centre, horizontal, vertical = _triangulate(camera, T, b, lo, hi)
     if shape == "sphere":
         return [np.r_[centre, math.log(math.sqrt(horizontal * vertical))]]
-    if shape == "spheroid":
+    if shape in ("spheroid", "cylinder"):
         return [np.r_[centre, math.log(horizontal), math.log(vertical), [0.0, 0.0] if free_orientation else []]]
     a, bb = math.log(horizontal * 1.1), math.log(horizontal / 1.1)
     out = []

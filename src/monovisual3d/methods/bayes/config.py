@@ -107,6 +107,9 @@ class BayesConfig:
     up : tuple or str, base frame vertical of the upright spheroid/ellipsoid models, e.g. "0,0,1"
     free_orientation : bool, fit the spheroid/ellipsoid orientation freely instead of upright plus yaw (needs views
         that constrain it, e.g. 4 or more around the fruit)
+    solids : bool, with shape auto also fit upright cylinders and cuboids (cans, bottles, boxes, containers: their exact
+        boxes) and keep one when the boxes clearly prefer it; ellipsoids put such an object's centre about 3 mm low
+        when seen from above
     backend : str, numba (fused compiled kernels) or numpy (the readable reference)
     threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
     max_memory : int or str, bytes (or text such as 2GiB): memory budget of the call
@@ -149,6 +152,7 @@ class BayesConfig:
     size_range: tuple[float, float] | str | None = None
     up: tuple[float, float, float] | str = (0.0, 0.0, 1.0)
     free_orientation: bool = False
+    solids: bool = False
     backend: str = "numba"
     threads: int | None = None
     max_memory: int | str = DEFAULT_MAX_BYTES
@@ -186,7 +190,7 @@ class BayesConfig:
             raise InputError(f"accept: got {self.accept!r}, expected a finite number of nats")
         if self.min_views < 2:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
-        for name in ("use_masks", "swap", "steal", "free_orientation"):
+        for name in ("use_masks", "swap", "steal", "free_orientation", "solids"):
             if not (isinstance(getattr(self, name), bool) or type(getattr(self, name)).__name__ == "bool_"):
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
         if self.backend not in BACKENDS:
