@@ -292,7 +292,10 @@ def _lying_shapes(n_views: int) -> tuple[str, ...]:
 def fit_shape(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> DetectedObject:
     """One object through the shape stage (see the module docstring); ``cut``: the session indices of the views where
     a nearer object cuts its box (:func:`occlusion_flags`). An object elongated both ways (a lying object, or a sphere
-    whose boxes are cut) whose every uncut box has its sphere's aspect stays a sphere without the lying fits."""
+    whose boxes are cut) whose every uncut box has its sphere's aspect stays a sphere without the lying fits; one
+    elongated one way whose boxes are cut takes the fitted shape only when that beats the sphere under the sensor
+    model (:func:`beats`), which scores a cut box as occluded (in a dense row, neighbours cut a fruit's boxes to tall
+    slivers that a small near spheroid fits)."""
     cfg = problem.config
     n_views = len(obj.associations)
     if cfg.shape == "sphere" or n_views < 2:
@@ -306,6 +309,8 @@ def fit_shape(problem: Problem, obj: DetectedObject, cut: frozenset[int] = froze
     if elongated_one_way(deviations):
         upright = _upright_shapes(n_views, cfg.solids)
         fit = _fitted(problem, obj, upright)
+        if fit is not None and cut and not beats(problem, obj, fit[0], _sphere_answer(obj), fit[1]):
+            return as_sphere(obj)  # nearer objects cut its boxes, which the sensor model explains as well as the fit does
         if fit is None or np.all(deviations > 0) or set(_lying_shapes(n_views)) <= set(upright):
             return as_sphere(obj) if fit is None else fit[0][0]  # taller in every view: upright, round in plan
         answer = fit[0]  # wider in every view: lying (seen from one side) or flat
