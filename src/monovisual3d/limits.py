@@ -118,8 +118,8 @@ MAX_LOCAL_WORKERS = 256
 #: with a one-line error naming this limit). Random boxes are its worst case: every triple of them that meets in
 #: space is an object (30 x 30 px boxes in the example's 3 views: 95 objects at 100 per view, 1,067 at 1,000). On
 #: this project's 2-core test machine (2026-12-02, tile index) they took 3.8 s at 100 per view, 10 s at 200, 17 s
-#: at 300 and 159 s at 1,000. A dense plant row (96 fruit from 0.8 m) has about 90 per view (1.2-1.5 s), so the
-#: limit is over three times real use.
+#: at 300 and 159 s at 1,000; 10-80 px random boxes, 44 s at 300 (220 objects). A dense plant row (96 fruit from
+#: 0.8 m) has about 90 per view (1.1-1.4 s), so the limit is over three times real use.
 MAX_BAYES_BOXES_PER_VIEW = 300
 #: Most views with boxes the ``bayes`` method takes in one session. Its search, extraction and refits grow with
 #: the views: on this project's 2-core machine a ring of views of the paper's six fruit took about 10 s at 50
