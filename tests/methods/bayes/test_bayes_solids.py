@@ -120,12 +120,13 @@ def test_solid_evidence_is_decisive_on_exact_boxes_and_small_on_noisy_ones():
     assert np.mean(np.array(evidence) > SOLID_EVIDENCE_NATS) <= 0.3
 
 
-def test_solids_are_off_by_default():
+def test_solids_are_on_by_default_and_can_be_turned_off():
     rng = np.random.default_rng(9)
     poses = _poses(rng, 3, 25.0)
-    objects = _localize(poses, cylinder_bbox(CAM, poses, TARGET, R_M, H_M, rotation_upright(0.0)), solids=False)
+    boxes = cylinder_bbox(CAM, poses, TARGET, R_M, H_M, rotation_upright(0.0))
+    assert BayesConfig().solids is True
+    objects = _localize(poses, boxes, solids=False)
     assert len(objects) == 1 and "solid" not in objects[0].extra
-    assert BayesConfig().solids is False
     with pytest.raises(ValueError, match="solids"):
         BayesConfig(solids="yes")
 
@@ -138,8 +139,11 @@ def test_the_cli_has_the_solids_flag(tmp_path):
     path = tmp_path / "session.json"
     path.write_text(json.dumps(session.to_dict()))
     out = tmp_path / "objects.json"
-    result = CliRunner().invoke(app, ["localize", str(path), "--solids", "-o", str(out)])
+    result = CliRunner().invoke(app, ["localize", str(path), "-o", str(out)])  # on by default
     assert result.exit_code == 0, result.output
     objects = json.loads(out.read_text())["objects"]
     assert len(objects) == 1 and objects[0]["solid"] == "cylinder"
     assert_allclose(objects[0]["position"], TARGET, atol=3e-4)
+    result = CliRunner().invoke(app, ["localize", str(path), "--no-solids", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "solid" not in json.loads(out.read_text())["objects"][0]

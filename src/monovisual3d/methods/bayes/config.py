@@ -108,8 +108,8 @@ class BayesConfig:
     free_orientation : bool, fit the spheroid/ellipsoid orientation freely instead of upright plus yaw (needs views
         that constrain it, e.g. 4 or more around the fruit)
     solids : bool, with shape auto also fit upright cylinders and cuboids (cans, bottles, boxes, containers: their exact
-        boxes) and keep one when the boxes clearly prefer it; ellipsoids put such an object's centre about 3 mm low
-        when seen from above
+        boxes) and keep one when the boxes clearly prefer it (default on); ellipsoids put such an object's centre about
+        3 mm low when seen from above
     backend : str, numba (fused compiled kernels) or numpy (the readable reference)
     threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
     max_memory : int or str, bytes (or text such as 2GiB): memory budget of the call
@@ -152,7 +152,7 @@ class BayesConfig:
     size_range: tuple[float, float] | str | None = None
     up: tuple[float, float, float] | str = (0.0, 0.0, 1.0)
     free_orientation: bool = False
-    solids: bool = False
+    solids: bool = True
     backend: str = "numba"
     threads: int | None = None
     max_memory: int | str = DEFAULT_MAX_BYTES
