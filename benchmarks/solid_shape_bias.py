@@ -1,4 +1,4 @@
-"""Centre bias of the default method on upright cylinders and cuboids (issue 20's containers), against ellipsoids.
+"""Centre bias of the ellipsoid models of `bayes` on upright cylinders and cuboids (issue 20's containers), against ellipsoids.
 
 A detector's box around a solid is the bounding box of its silhouette. Every shape model of ``bayes`` predicts
 the box of an ellipsoid; this measures whether that biases the centre when the object is an upright cylinder
@@ -9,13 +9,13 @@ with the same semi-axes (r, r, h / 2) (box in closed form, as the simulator's ``
 One object near the optical axes (aim point within 2 cm of the centre), seen from 3 views over 120 degrees or
 8 views over 180 degrees of azimuth, each 0.5-0.7 m away and at ``ELEVATIONS_DEG`` above the horizontal (one
 elevation per run), 1280 x 720 (hfov 69 deg) or 640 x 480 (same hfov); boxes noiseless or with 2 % box noise
-(:func:`monovisual3d.sim.noise.perturb_boxes`). Default ``monovisual3d.localize``, fresh seeds.
+(:func:`monovisual3d.sim.noise.perturb_boxes`). ``monovisual3d.localize`` with ``solids=False`` (the ellipsoid models only) unless ``--solids``, fresh seeds.
 
 Printed per case: centre error mean and p90 (mm) and the mean error vector (mm) in the scene frame: ``away`` the
 horizontal component away from the cameras (they sit on the -x side on average), ``side`` across, ``up`` vertical.
 The mean error vector over seeds is the bias; the mean error includes the scatter.
 
-What it showed (seeds 9000-9039, 1280 x 720; 640 x 480 gives the same to 0.1 mm), default ``localize``:
+What it showed (seeds 9000-9039, 1280 x 720; 640 x 480 gives the same to 0.1 mm), ``localize`` without the solids:
 
 - a systematic VERTICAL bias on the solids, none on the ellipsoids: the centre comes out low by 2.5-2.8 mm for both
   cylinders and 3.2-3.5 mm for the cuboid at 15 and 30 degrees elevation, 0 at 0 degrees (side-on, the ellipsoid's
@@ -33,8 +33,8 @@ What it showed (seeds 9000-9039, 1280 x 720; 640 x 480 gives the same to 0.1 mm)
   8 views, cylinders 2.4-2.7 -> 1.7-2.3 mm, cuboid 3.4-3.6 -> 1.2-1.3 mm, ellipsoids 0.9-1.0 -> 1.0-1.1 mm; 3 views,
   cylinders 2.8-3.1 -> 2.7-2.9 mm, cuboid 3.6-3.9 -> 3.2-3.4 mm, ellipsoids 1.7 -> 1.7-1.8 mm.
   The real Aldoma set (``monovisual3d bench real``, ``solids=True``): only one object changes, a bottle fitted as a
-  cylinder, 15.1 -> 18.3 mm from its ground-truth ellipsoid's centre with all 8 views; hence ``solids`` is off by
-  default.
+  cylinder, 15.1 -> 18.3 mm from its ground-truth ellipsoid's centre with all 8 views; ``solids`` is on by
+  default all the same (docs/real.md says why).
 
 Usage: python benchmarks/solid_shape_bias.py [FIRST_SEED LAST_SEED] [--quick] [--solids]   (default seeds 9000 9040;
 --quick: 1280 x 720 only, the 640 x 480 rows are the same to 0.1 mm: the noise is relative to the box;
