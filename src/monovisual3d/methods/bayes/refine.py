@@ -5,6 +5,8 @@ normalised box-edge residuals of :mod:`.likelihood`, with a redescending loss
 that matches the sensor model: ``rho(z) = -2 log((exp(-z/2) + eps) / (1 + eps))``
 with ``eps = exp(-inward_floor)``. Near zero it is the ordinary square; an
 edge more than ~3 sigma off (occluded, truncated) stops pulling the estimate.
+With ``floors`` (:func:`one_sided_residuals`) the floor depends on the residual's sign: the shape stage's final
+sphere refit lets an edge inside the prediction (occlusion only shrinks a box) stop pulling sooner than one outside.
 """
 
 from __future__ import annotations
@@ -233,7 +235,8 @@ def one_sided_residuals(e: NDArray[np.floating], inward_floor: float, outward_fl
     are the redescending loss of the module docstring with the floor ``inward_floor`` for ``e > 0`` and
     ``outward_floor`` otherwise: ``sign(e) sqrt(rho(e^2))``. Plain least squares on these minimises a mixture
     likelihood per edge, a Gaussian plus a flat tail whose level (``exp(-floor)`` of the peak) is the prior odds of a
-    cut inward and of an outlier outward; near 0 they are ``e`` itself."""
+    cut inward and of an outlier outward; near 0 they are ``e / sqrt(1 + exp(-floor))``, as scipy's robust loss
+    scales them."""
     e = np.asarray(e, dtype=float)
     eps = np.where(e > 0, math.exp(-inward_floor), math.exp(-outward_floor))
     rho = -2.0 * (np.log(np.exp(-0.5 * e * e) + eps) - np.log1p(eps))
@@ -250,7 +253,7 @@ class _OneSidedResiduals(_SphereResiduals):
         model: SensorModel,
         floors: tuple[float, float],
         use_masks: bool = True,
-    ) -> None:  # noqa: E501
+    ) -> None:
         super().__init__(camera, observations, model, use_masks)
         self.floors = floors
 
