@@ -107,7 +107,8 @@ def main(argv: list[str]) -> None:
     print("|---|---:|---:|---:|---:|---:|---:|")
     for name, r in rows.items():
         print(
-            f"| {name} | {r['rms_mm']:.2f} | {r['bound_mm']:.2f} | {r['ratio']:.3f} | {r['lo']:.2f}-{r['hi']:.2f} | {r['recall']:.3f} |"
+            f"| {name} | {r['rms_mm']:.2f} | {r['bound_mm']:.2f} | {r['ratio']:.3f} | {r['lo']:.2f}-{r['hi']:.2f} | "
+            f"{r['trimmed']:.3f} ({r['gross']}) | {r['recall']:.3f} |"
         )
 
 
