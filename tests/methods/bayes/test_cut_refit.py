@@ -92,3 +92,15 @@ def test_one_sided_residuals_square_to_the_robust_loss_with_the_floor_of_their_s
     assert_allclose(one_sided_residuals(small, 2.0, 6.0), small / np.sqrt(1 + np.exp([-6.0, -2.0])), rtol=1e-6)
     # an edge far inside costs at most its floor (2 nats: r^2 / 2), one far outside up to 6
     assert_allclose(one_sided_residuals(np.array([50.0, -50.0]), 2.0, 6.0) ** 2 / 2, [2.0, 6.0], rtol=0.1)
+
+
+def test_a_sphere_seen_in_two_views_keeps_the_symmetric_fit(monkeypatch):
+    """From two views the 8 edges barely fix the 4 parameters: no edge can be told a cut (MIN_VIEWS_ONE_SIDED)."""
+    c, r = np.array([0.71, 0.02, 0.48]), 0.03
+    boxes = [sphere_bbox(CAM, T, c[None], r)[0] for T in _poses()[::3]]
+    boxes[1][2] -= 0.16 * (boxes[1][2] - boxes[1][0])
+    session = Session(CAM, tuple(View(T, (Detection(b, label="fruit"),)) for T, b in zip(_poses()[::3], boxes)))
+    a = mv.localize(session, method="bayes", use_masks=False).objects[0].position
+    monkeypatch.setattr(shapes, "CUT_INWARD_FLOOR", None)
+    b = mv.localize(session, method="bayes", use_masks=False).objects[0].position
+    assert_allclose(a, b, atol=1e-12)
