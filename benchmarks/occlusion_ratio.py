@@ -9,8 +9,36 @@ Usage::
 
     PYTHONPATH=src python benchmarks/occlusion_ratio.py [FIRST LAST]   # seeds FIRST..LAST-1, default 1000 1040
 
-Prints, per condition, the RMS error (mm), the RMS bound (mm), their ratio, and a 90 % bootstrap interval of
-the ratio over seeds (2000 resamples of the seeds, seeded).
+Prints first how far the true boxes' edges lie from the full silhouette box, inside and outside (occlusion only
+shrinks a box), then, per condition, the RMS error (mm), the RMS bound (mm), their ratio, a 90 % bootstrap interval
+of the ratio over seeds (2000 resamples of the seeds, seeded), the ratio without matched errors over 20 mm
+(association failures, which dominate the clutter RMS on some seed sets) and their count, and the recall.
+
+What was tried (issue 20: leaf occlusion and false positives <= 1.15x their bounds), the shape stage's final sphere
+refit, ``ratio`` (``trimmed``), before -> after:
+
+- iterative censoring: after the fit, each edge more than ``c`` sensor sigmas inside its prediction censored (only
+  its outward residual counts), refit until the censored set is stable. Tuning seeds 2000-2029, noise / clutter:
+  c = 1.5: 1.209 / 1.165 trimmed, c = 2: 1.200 / 1.155, none: 1.207 / 1.161. The fit takes a third of a cut, so only
+  cuts over about 3 sigmas are caught, and the robust loss already ignores most of those: not kept.
+- a one-sided loss (a Gaussian plus a flat tail inward, an occluder's cut; the floor 6 nats outward), the inward floor
+  swept on seeds 2000-2029 (see ``shapes.CUT_INWARD_FLOOR``): 1.5 nats kept (1.153 / 1.132 trimmed). On two-view
+  fruit it moved two clutter fruit past 20 mm (seeds 3000-3039), so it needs 3 views (``shapes.MIN_VIEWS_ONE_SIDED``).
+
+Kept (one-sided loss, 3+ views), evaluated on seeds chosen before (``ratio``, ``trimmed``):
+
+=================  ===============================  ===============================
+seeds              greenhouse-noise                 greenhouse-clutter
+=================  ===============================  ===============================
+0-19 (benchmark)   1.312 -> 1.258                   1.259 -> 1.248
+1000-1039          1.194 -> 1.169 (1.067 -> 1.039)  6.871 -> 6.872 (1.090 -> 1.098)
+3000-3039          1.241 -> 1.201 (1.135 -> 1.123)  3.512 -> 3.502 (1.171 -> 1.141)
+4000-4039 (last)   1.219 -> 1.184 (1.146 -> 1.132)  3.606 -> 3.601 (1.074 -> 1.047)
+=================  ===============================  ===============================
+
+Leaf occlusion gains 2-4 % on every seed set; clutter about 1 % where it moves at all (its RMS is set by a few
+association failures, 5-7 per 40 seeds, over 20 mm, which the final fit cannot mend). The 1.15x target is met on
+some seed sets, not reliably.
 """
 
 from __future__ import annotations
