@@ -5,10 +5,13 @@ normalised box-edge residuals of :mod:`.likelihood`, with a redescending loss
 that matches the sensor model: ``rho(z) = -2 log((exp(-z/2) + eps) / (1 + eps))``
 with ``eps = exp(-inward_floor)``. Near zero it is the ordinary square; an
 edge more than ~3 sigma off (occluded, truncated) stops pulling the estimate.
+With ``floors`` (:func:`one_sided_residuals`) the floor depends on the residual's sign: the shape stage's final
+sphere refit lets an edge inside the prediction (occlusion only shrinks a box) stop pulling sooner than one outside.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -227,6 +230,37 @@ class _SphereResiduals:
         return ((f[1:] - f[0]) / h[:, None]).T
 
 
+def one_sided_residuals(e: NDArray[np.floating], inward_floor: float, outward_floor: float) -> NDArray[np.float64]:
+    """Normalised residuals ``e`` (positive: the observed edge inside the prediction) mapped so that their squares
+    are the redescending loss of the module docstring with the floor ``inward_floor`` for ``e > 0`` and
+    ``outward_floor`` otherwise: ``sign(e) sqrt(rho(e^2))``. Plain least squares on these minimises a mixture
+    likelihood per edge, a Gaussian plus a flat tail whose level (``exp(-floor)`` of the peak) is the prior odds of a
+    cut inward and of an outlier outward; near 0 they are ``e / sqrt(1 + exp(-floor))``, as scipy's robust loss
+    scales them."""
+    e = np.asarray(e, dtype=float)
+    eps = np.where(e > 0, math.exp(-inward_floor), math.exp(-outward_floor))
+    rho = -2.0 * (np.log(np.exp(-0.5 * e * e) + eps) - np.log1p(eps))
+    return np.sign(e) * np.sqrt(np.maximum(rho, 0.0))
+
+
+class _OneSidedResiduals(_SphereResiduals):
+    """:class:`_SphereResiduals` through :func:`one_sided_residuals` (fitted with a plain squared loss)."""
+
+    def __init__(
+        self,
+        camera: Camera,
+        observations: Sequence[Observation],
+        model: SensorModel,
+        floors: tuple[float, float],
+        use_masks: bool = True,
+    ) -> None:
+        super().__init__(camera, observations, model, use_masks)
+        self.floors = floors
+
+    def batch(self, centres_base: NDArray[np.floating], radii: NDArray[np.floating]) -> NDArray[np.float64]:
+        return one_sided_residuals(super().batch(centres_base, radii), *self.floors)
+
+
 #: scipy's relative step for ``jac="2-point"``: sqrt of the float64 machine epsilon.
 _FD_REL_STEP = float(np.sqrt(np.finfo(float).eps))
 
@@ -243,8 +277,12 @@ def refine_sphere(
     model: SensorModel,
     *,
     use_masks: bool = True,
+    floors: tuple[float, float] | None = None,
 ) -> Refined:
     """Refine centre and radius from at least two associated observations.
+
+    ``floors`` ``(inward, outward)``, nats: the loss's floor by the residual's sign (:func:`one_sided_residuals`);
+    None: ``inward_floor`` on both sides.
 
     Returns
     -------
@@ -256,12 +294,15 @@ def refine_sphere(
     """
     x0 = np.concatenate([np.asarray(centre0, dtype=float), [np.log(max(radius0, 1e-4))]])
     # residuals and the forward-difference Jacobian in batched numpy passes
-    fun = _SphereResiduals(camera, observations, model, use_masks)
+    if floors is None:
+        fun = _SphereResiduals(camera, observations, model, use_masks)
+    else:
+        fun = _OneSidedResiduals(camera, observations, model, floors, use_masks)
     sol = least_squares(
         fun,
         x0,
         jac=fun.jacobian,
-        loss=robust_loss(model.inward_floor),
+        loss=robust_loss(model.inward_floor) if floors is None else "linear",
         method="trf",
         x_scale=np.array([0.01, 0.01, 0.01, 0.1]),
         max_nfev=MAX_NFEV,  # bounded: near-degenerate views (depth unconstrained) otherwise wander for 400 evaluations
