@@ -22,7 +22,7 @@ refit, ``ratio`` (``trimmed``), before -> after:
   c = 1.5: 1.209 / 1.165 trimmed, c = 2: 1.200 / 1.155, none: 1.207 / 1.161. The fit takes a third of a cut, so only
   cuts over about 3 sigmas are caught, and the robust loss already ignores most of those: not kept.
 - a one-sided loss (a Gaussian plus a flat tail inward, an occluder's cut; the floor 6 nats outward), the inward floor
-  swept on seeds 2000-2029 (see ``shapes.CUT_INWARD_FLOOR``): 1.5 nats kept (1.153 / 1.132 trimmed). On two-view
+  swept on seeds 2000-2029 (see ``BayesConfig.cut_inward_floor``): 1.5 nats kept (1.153 / 1.132 trimmed). On two-view
   fruit it moved two clutter fruit past 20 mm (seeds 3000-3039), so it needs 3 views (``shapes.MIN_VIEWS_ONE_SIDED``).
 
 Kept (one-sided loss, 3+ views), evaluated on seeds chosen before (``ratio``, ``trimmed``):

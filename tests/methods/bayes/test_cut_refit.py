@@ -11,7 +11,6 @@ from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
 from monovisual3d.geometry.sphere import sphere_bbox
-from monovisual3d.methods.bayes import shapes
 from monovisual3d.methods.bayes.refine import one_sided_residuals, robust_loss
 from monovisual3d.session import Detection, Session, View
 from monovisual3d.sim.noise import NoiseModel
@@ -26,8 +25,8 @@ def _poses():
     return [look_at(TARGET + [-0.5, y, 0.03 * k], TARGET) for k, y in enumerate((-0.12, -0.04, 0.04, 0.12))]
 
 
-def _error(session, centre):
-    res = mv.localize(session, method="bayes", use_masks=False)
+def _error(session, centre, **options):
+    res = mv.localize(session, method="bayes", use_masks=False, **options)
     assert len(res.objects) == 1
     return float(np.linalg.norm(res.objects[0].position - centre))
 
@@ -36,28 +35,25 @@ def _session(boxes):
     return Session(CAM, tuple(View(T, (Detection(b, label="fruit"),)) for T, b in zip(_poses(), boxes)))
 
 
-def test_a_leaf_cut_of_two_to_four_sigmas_pulls_the_sphere_less(monkeypatch):
+def test_a_leaf_cut_of_two_to_four_sigmas_pulls_the_sphere_less():
     c, r = np.array([0.71, 0.02, 0.48]), 0.03
     rng = np.random.default_rng(5)
     exact = [sphere_bbox(CAM, T, c[None], r)[0] + rng.normal(0.0, 0.3, 4) for T in _poses()]
     for frac in (0.13, 0.16, 0.2):  # a leaf cuts the right edge of one box by about 2.3, 2.8 and 3.5 sensor sigmas
         boxes = [b.copy() for b in exact]
         boxes[1][2] -= frac * (boxes[1][2] - boxes[1][0])
-        monkeypatch.setattr(shapes, "CUT_INWARD_FLOOR", 1.5)
-        one_sided = _error(_session(boxes), c)
-        monkeypatch.setattr(shapes, "CUT_INWARD_FLOOR", None)  # the refinement's symmetric loss
-        symmetric = _error(_session(boxes), c)
+        one_sided = _error(_session(boxes), c, cut_inward_floor=1.5)
+        symmetric = _error(_session(boxes), c, one_sided_refit=False)  # the refinement's symmetric loss
         assert symmetric > 1.5e-3  # the symmetric loss still follows the cut
         assert one_sided < 0.85 * symmetric
 
 
-def test_uncut_boxes_give_nearly_the_same_estimate_with_either_loss(monkeypatch):
+def test_uncut_boxes_give_nearly_the_same_estimate_with_either_loss():
     c, r = np.array([0.69, -0.02, 0.51]), 0.035
     rng = np.random.default_rng(8)
     boxes = [sphere_bbox(CAM, T, c[None], r)[0] + rng.normal(0.0, 0.5, 4) for T in _poses()]
     a = mv.localize(_session(boxes), method="bayes", use_masks=False).objects[0].position
-    monkeypatch.setattr(shapes, "CUT_INWARD_FLOOR", None)
-    b = mv.localize(_session(boxes), method="bayes", use_masks=False).objects[0].position
+    b = mv.localize(_session(boxes), method="bayes", use_masks=False, one_sided_refit=False).objects[0].position
     assert_allclose(a, b, atol=0.2e-3)  # both about 3 mm off (depth from a 24 cm baseline); the loss moves it < 0.2 mm
 
 
@@ -94,13 +90,27 @@ def test_one_sided_residuals_square_to_the_robust_loss_with_the_floor_of_their_s
     assert_allclose(one_sided_residuals(np.array([50.0, -50.0]), 2.0, 6.0) ** 2 / 2, [2.0, 6.0], rtol=0.1)
 
 
-def test_a_sphere_seen_in_two_views_keeps_the_symmetric_fit(monkeypatch):
+def test_a_sphere_seen_in_two_views_keeps_the_symmetric_fit():
     """From two views the 8 edges barely fix the 4 parameters: no edge can be told a cut (MIN_VIEWS_ONE_SIDED)."""
     c, r = np.array([0.71, 0.02, 0.48]), 0.03
     boxes = [sphere_bbox(CAM, T, c[None], r)[0] for T in _poses()[::3]]
     boxes[1][2] -= 0.16 * (boxes[1][2] - boxes[1][0])
     session = Session(CAM, tuple(View(T, (Detection(b, label="fruit"),)) for T, b in zip(_poses()[::3], boxes)))
     a = mv.localize(session, method="bayes", use_masks=False).objects[0].position
-    monkeypatch.setattr(shapes, "CUT_INWARD_FLOOR", None)
-    b = mv.localize(session, method="bayes", use_masks=False).objects[0].position
+    b = mv.localize(session, method="bayes", use_masks=False, one_sided_refit=False).objects[0].position
     assert_allclose(a, b, atol=1e-12)
+
+
+def test_the_one_sided_refit_options_are_checked_and_on_the_cli():
+    import pytest
+
+    from monovisual3d.cli.options import option_specs
+    from monovisual3d.errors import InputError
+    from monovisual3d.methods.bayes import BayesConfig
+
+    with pytest.raises(InputError, match="cut_inward_floor"):
+        BayesConfig(cut_inward_floor=0.0)
+    with pytest.raises(InputError, match="one_sided_refit"):
+        BayesConfig(one_sided_refit="yes")
+    flags = {s.flag for s in option_specs()}
+    assert {"--cut-inward-floor", "--one-sided-refit"} <= flags

@@ -110,6 +110,11 @@ class BayesConfig:
     solids : bool, with shape auto also fit upright cylinders and cuboids (cans, bottles, boxes, containers: their exact
         boxes) and keep one when the boxes clearly prefer it (default on); ellipsoids put such an object's centre about
         3 mm low when seen from above
+    one_sided_refit : bool, the final refit of a sphere seen in 3 or more views scores an edge inside its prediction
+        (occlusion only shrinks a box: a leaf's cut) with a flat tail after ``cut_inward_floor`` nats, one outside with
+        ``outward_floor`` (off: the extraction's symmetric loss, ``inward_floor`` on both sides)
+    cut_inward_floor : float, nats, the inward floor of ``one_sided_refit`` (chosen on simulated greenhouse seeds
+        2000-2029, not the benchmark's: see ``methods/bayes/shapes.py``)
     backend : str, numba (fused compiled kernels) or numpy (the readable reference)
     threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
     max_memory : int or str, bytes (or text such as 2GiB): memory budget of the call
@@ -153,6 +158,8 @@ class BayesConfig:
     up: tuple[float, float, float] | str = (0.0, 0.0, 1.0)
     free_orientation: bool = False
     solids: bool = True
+    one_sided_refit: bool = True
+    cut_inward_floor: float = 1.5
     backend: str = "numba"
     threads: int | None = None
     max_memory: int | str = DEFAULT_MAX_BYTES
@@ -190,7 +197,9 @@ class BayesConfig:
             raise InputError(f"accept: got {self.accept!r}, expected a finite number of nats")
         if self.min_views < 2:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
-        for name in ("use_masks", "swap", "steal", "free_orientation", "solids"):
+        if not (is_real(self.cut_inward_floor) and math.isfinite(self.cut_inward_floor) and self.cut_inward_floor > 0):
+            raise InputError(f"cut_inward_floor: got {self.cut_inward_floor!r}, expected a positive number of nats")
+        for name in ("use_masks", "swap", "steal", "free_orientation", "solids", "one_sided_refit"):
             if not (isinstance(getattr(self, name), bool) or type(getattr(self, name)).__name__ == "bool_"):
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
         if self.backend not in BACKENDS:

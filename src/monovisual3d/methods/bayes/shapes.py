@@ -106,7 +106,8 @@ OUTLIER_SIGMAS = 3.0
 #: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
 #: against the noise of the estimates, not a fitted one.
 OCCLUSION_MARGIN_SIGMAS = 2.0
-#: The inward floor (nats) of the loss of the final sphere refit (:func:`one_sided_refit`), the outward one staying the
+#: Why ``BayesConfig.cut_inward_floor`` is 1.5 nats: the inward floor of the loss of the final sphere refit
+#: (:func:`one_sided_refit`), the outward one staying the
 #: sensor model's ``outward_floor`` (6): the per-edge likelihood is a mixture of the Gaussian edge noise and a flat tail
 #: ``exp(-floor)`` of its peak, an occluder's cut inward. Occlusion only shrinks a box (``benchmarks/occlusion_ratio.py``
 #: prints it: in the simulated greenhouse 7 % of the true boxes' edges lie more than 2 sigmas inside the silhouette box,
@@ -117,8 +118,7 @@ OCCLUSION_MARGIN_SIGMAS = 2.0
 #: the fit leaves more than 2 sigmas inside gave 1.16 / 1.14 (alone 1.20 / 1.16) and is not done. The measured rate of
 #: cuts (12 % of edges, spread over 0.4-5 sigmas) gives a tail of about 2.7 nats; the lower floor also covers the noise
 #: the simulator adds to a cut edge. The cost where nothing is occluded: paper-noise 0.942 -> 0.946 of its bound
-#: (benchmark seeds), its radius error 0.58 -> 0.75 mm (inward noise edges count less). None: the symmetric loss.
-CUT_INWARD_FLOOR: float | None = 1.5
+#: (benchmark seeds), its radius error 0.58 -> 0.75 mm (inward noise edges count less).
 #: Views a sphere needs for :func:`one_sided_refit`: from two, its 8 edges barely determine its 4 parameters, and an
 #: edge cannot be told a cut from noise by the others; letting inward edges go there moves the depth (in simulated
 #: clutter, seeds 3000-3039, two two-view fruit went from 13 and 18 mm to 24 mm off).
@@ -451,7 +451,7 @@ def occlusion_refit(
     out = []
     for o, f in zip(objects, flags):
         one_sided = f is not None and len(f[0]) >= MIN_VIEWS_ONE_SIDED and o.extra.get("semi_up") is None
-        if one_sided and not problem.config.use_masks:
+        if one_sided and problem.config.one_sided_refit and not problem.config.use_masks:
             out.append(one_sided_refit(problem, o, f[0]))
         else:
             out.append(o if f is None or not f[1] else _refit(problem, o, f[0]))
@@ -461,15 +461,14 @@ def occlusion_refit(
 def one_sided_refit(problem: Problem, o: DetectedObject, obs: list[Observation]) -> DetectedObject:
     """The sphere ``o`` refitted on its box observations ``obs`` (edges a nearer object cuts censored, from
     :func:`occlusion_flags`) with a loss that tells a cut from noise by its side: an edge inside the prediction costs
-    at most :data:`CUT_INWARD_FLOOR` nats, one outside at most the sensor model's ``outward_floor``
+    at most ``BayesConfig.cut_inward_floor`` nats, one outside at most the sensor model's ``outward_floor``
     (:func:`.refine.one_sided_residuals`).
 
     Occlusion (a leaf, an undetected object) only shrinks a box; the refinement of the extraction scores inward and
     outward misses alike (``inward_floor``, 3 nats, both sides), so an edge a leaf cuts by two or three sigmas still
     pulls the sphere inward. ``o`` itself when the fit fails or leaves the radius range.
     """
-    floors = None if CUT_INWARD_FLOOR is None else (float(CUT_INWARD_FLOOR), problem.model.outward_floor)
-    return _refit(problem, o, obs, floors)
+    return _refit(problem, o, obs, (problem.config.cut_inward_floor, problem.model.outward_floor))
 
 
 def _refit(
