@@ -89,8 +89,6 @@ class BayesConfig:
     prune_slack : float, nats: at each search level, cells whose best score is below ``accept - prune_slack`` are dropped
     dominance_margin : float, nats: at each search level, a hypothesis whose every box is also used by another
         hypothesis scoring more than this above it is dropped (explained away before extraction; inf: never)
-    first_dominance_margin : float, nats: the same at the first scored level (cells of ``search_start``), whose
-        blurred scores differ less from cell to cell (see :mod:`monovisual3d.methods.bayes.search`)
     lookahead : int, at each extraction step refine up to this many distinct candidates near the best grid score and
         keep the best refined one (1 = plain greedy); the steal pass also tries this many
     lookahead_margin : float, nats: candidates of the look-ahead score within this of the best
@@ -147,7 +145,6 @@ class BayesConfig:
     gate_sigmas: float = SensorModel.gate_sigmas
     prune_slack: float = 2.0
     dominance_margin: float = 10.0
-    first_dominance_margin: float = 6.0
     lookahead: int = 3
     lookahead_margin: float = 4.0
     max_hypotheses: int = 8_000_000
@@ -194,10 +191,8 @@ class BayesConfig:
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
-        for name in ("dominance_margin", "first_dominance_margin"):
-            value = getattr(self, name)
-            if not (is_real(value) and value >= 0):
-                raise InputError(f"{name}: got {value!r}, expected a number of nats >= 0 (inf: never)")
+        if not (is_real(self.dominance_margin) and self.dominance_margin >= 0):
+            raise InputError(f"dominance_margin: got {self.dominance_margin!r}, expected a number of nats >= 0 (inf: never)")
         if not (is_real(self.accept) and math.isfinite(self.accept)):
             raise InputError(f"accept: got {self.accept!r}, expected a finite number of nats")
         if self.min_views < 2:

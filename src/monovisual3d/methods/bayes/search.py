@@ -30,16 +30,6 @@ crossings are such ghosts (two boxes of two different fruit, each box already
 the best-explained box of its own fruit), and the hypotheses kept grow with the
 fruit, not with the square of the boxes.
 
-The first scored level (cells of ``search_start``) drops with a smaller margin,
-``first_dominance_margin`` (6 nats): its children are most of the search's
-work, and in a dense row most of them descend from such crossings. The two
-margins are measured, not derived: 6 nats at the first level leaves every value
-of ``bench accuracy`` and the objects of 12-96-fruit rows as they were
-(``BayesConfig().dominance_margin`` there scores 30 % more hypotheses on a
-96-fruit row), while 6 nats at the later levels, where the scores are sharper,
-loses fruit (recall 0.976 -> 0.970 in greenhouse-clutter, 1.000 -> 0.983 in
-shapes-noise, 1.000 -> 0.980 with 10 fruit).
-
 Memory is bounded by ``max_memory``: the first level is made coarser (by powers
 of two, so the last level is still ``resolution``) until the workspace has at
 most :data:`MAX_FIRST_LEVEL_CELLS` cells. Levels coarser than ``search_start``
@@ -390,7 +380,6 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
     mask = np.ones((len(centres_grid), len(radii)), dtype=bool) & (sphere_bins if deferred else True)
     floor = cfg.accept - cfg.prune_slack
     n_scored, counted = 0, True  # the cells from _cone_levels are already cone-checked at this size
-    margin = cfg.first_dominance_margin
     while True:
         centres = centres_grid @ R.T + t
         if not counted:
@@ -410,7 +399,7 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
         mask = (
             (total >= floor)
             & (n_assoc >= cfg.min_views)
-            & ~box_dominated(total, assoc, n_boxes, margin)
+            & ~box_dominated(total, assoc, n_boxes, cfg.dominance_margin)
             & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack + cfg.elongation_cost)
         )
         good = mask.any(axis=1)
@@ -423,4 +412,3 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
         mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
         centres_grid = split_cells(centres_grid, cell)
         cell /= 2
-        margin = cfg.dominance_margin
