@@ -20,6 +20,7 @@ from monovisual3d.methods.bayes.shapes import (
     ROUNDNESS_THRESHOLD,
     _fitted,
     aspect_deviations,
+    consistently_elongated,
     elongated_one_way,
     fit_shape,
     looks_round,
@@ -128,25 +129,47 @@ def test_a_sphere_cut_wide_in_one_view_and_tall_in_another_stays_a_sphere():
 
 
 def test_a_sphere_cut_to_tall_slivers_by_neighbours_or_leaves_stays_a_sphere():
-    """In a dense row nearer fruit, in a greenhouse leaves, cut a fruit's boxes on the side in every view: the boxes
-    are tall, and an upright spheroid fits them (9 mm off here). With those views flagged as cut by nearer objects
-    (occlusion_flags), or with edges far inside the sphere's prediction (possibly_cut: an occluder the search does not
-    see), the fitted shape must beat the sphere under the sensor model, which scores the cut edges as occlusion: it
-    does not, and the fruit stays the sphere. (Cuts of 20 % or less still give the spheroid: within the edge noise,
-    the sensor model cannot tell.)"""
+    """In a dense row nearer fruit, in a greenhouse leaves, cut a fruit's boxes on the side: the boxes are tall, and an
+    upright spheroid fits them (9 mm off here). With those views flagged as cut by nearer objects (occlusion_flags),
+    or with an edge far inside the sphere's prediction (possibly_cut: an occluder the search does not see) and boxes
+    elongated unlike each other (a cut changes only the boxes it cuts), the fitted shape must beat the sphere under the
+    sensor model, which scores the cut edges as occlusion: it does not, and the fruit stays the sphere. (Cuts of 20 %
+    or less still give the spheroid: within the edge noise, the sensor model cannot tell.)"""
     true = Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)
-    views = _cut(_session([true]), {0: (0, 0.3), 1: (2, 0.3), 2: (0, 0.3)})  # 30 % of the width hidden, one side
-    problem = build_problem(CAM, BayesConfig(), views)
     obj = DetectedObject(true.centre_base, 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
-    assert elongated_one_way(aspect_deviations(problem, obj))
-    assert possibly_cut(problem, obj)
+    alike = _cut(_session([true]), {0: (0, 0.3), 1: (2, 0.3), 2: (0, 0.3)})  # 30 % of the width hidden, one side
+    problem = build_problem(CAM, BayesConfig(), alike)
+    assert elongated_one_way(aspect_deviations(problem, obj)) and possibly_cut(problem, obj)
     # the sensor model's test is what keeps the sphere: the best fit alone takes the slivers at face value
     best = _fitted(problem, obj, ("sphere", "spheroid"))
     assert best is not None and best[0][0].shape == "spheroid"
-    for cut in (frozenset({0, 1, 2}), frozenset()):
-        o = fit_shape(problem, obj, cut=cut)
-        assert o.shape == "sphere"
-        assert_allclose(o.position, true.centre_base, atol=1e-12)
+    o = fit_shape(problem, obj, cut=frozenset({0, 1, 2}))
+    assert o.shape == "sphere"
+    assert_allclose(o.position, true.centre_base, atol=1e-12)
+    # unflagged, cuts alike in every view look like an upright object's boxes, and the fit is taken
+    assert fit_shape(problem, obj).shape == "spheroid"
+    # a leaf's cuts differ from view to view: unflagged, the sensor model's test applies
+    unlike = build_problem(CAM, BayesConfig(), _cut(_session([true]), {0: (0, 0.6), 1: (2, 0.25), 2: (0, 0.25)}))
+    d = aspect_deviations(unlike, obj)
+    assert elongated_one_way(d) and not consistently_elongated(d) and possibly_cut(unlike, obj)
+    assert _fitted(unlike, obj, ("sphere", "spheroid"))[0][0].shape == "spheroid"  # type: ignore[index]
+    o = fit_shape(unlike, obj)
+    assert o.shape == "sphere"
+    assert_allclose(o.position, true.centre_base, atol=1e-12)
+
+
+def test_a_cucumber_found_as_a_large_sphere_takes_its_shape():
+    """A tall object the search found as a sphere of its height: the boxes lie far inside that sphere's on both sides
+    (possibly_cut), which the sensor model would explain as occlusion nearly as well as the fitted shape explains them.
+    But they are elongated alike in every view, as an object is and cuts are not (consistently_elongated): the fit is
+    taken without that test."""
+    true = Ellipsoid.spheroid([0.6, 0.0, 0.5], 0.021, 0.09)
+    problem, obj = _object_at(true, 0.08)
+    d = aspect_deviations(problem, obj)
+    assert possibly_cut(problem, obj) and consistently_elongated(d)
+    o = fit_shape(problem, obj)
+    assert o.shape == "spheroid"
+    assert_allclose(o.position, true.centre_base, atol=2e-3)
 
 
 def test_an_uncut_upright_object_is_not_taken_as_possibly_cut():
