@@ -62,37 +62,49 @@ def row_session(n_fruit: int, n_views: int, seed: int):  # noqa: ANN201 - (Sessi
     return session, scene
 
 
-def run_case(n_fruit: int, n_views: int, seeds: Sequence[int], repeats: int) -> dict[str, Any]:
-    """One (fruit, views) case over ``seeds``: time, errors, recall, precision, boxes per view."""
-    times, cpu, errors, n_truth, tp, n_est, boxes = [], [], [], 0, 0, 0, []
-    for seed in seeds:
-        session, scene = row_session(n_fruit, n_views, seed)
-        boxes.append(float(np.mean([len(v.detections) for v in session.views])))
-        per_seed, cpu_seed = [], []
-        for _ in range(repeats):
-            c0 = time.process_time()
-            res = localize(session, **OPTIONS)
-            cpu_seed.append(time.process_time() - c0)
-            per_seed.append(float(res.timing_s["total"]))
-        times.append(statistics.median(per_seed))
-        cpu.append(statistics.median(cpu_seed))
-        est = np.array([o.position for o in res.objects]).reshape(-1, 3)
-        m = evaluate(est, scene.centres, truth_radii=scene.radii)
-        pairs = m.euclidean_mean * m.true_positives if m.true_positives else 0.0
-        errors.append((pairs, m.true_positives))
-        n_truth, tp, n_est = n_truth + m.n_truth, tp + m.true_positives, n_est + m.n_estimates
-    matched = sum(k for _, k in errors)
-    return {
-        "fruit": n_fruit,
-        "views": n_views,
-        "boxes_per_view": statistics.mean(boxes),
-        "time_s": statistics.median(times),
-        "time_s_per_seed": times,
-        "cpu_s": statistics.median(cpu),
-        "mean_mm": 1e3 * sum(e for e, _ in errors) / matched if matched else None,
-        "recall": tp / n_truth if n_truth else None,
-        "precision": tp / n_est if n_est else None,
-    }
+def run_cases(
+    cases: Sequence[tuple[int, int]], seeds: Sequence[int], repeats: int, say: Callable[[str], None]
+) -> list[dict[str, Any]]:
+    """The (fruit, views) ``cases`` over ``seeds``: time, errors, recall, precision, boxes per view, one dict per case.
+
+    Each case and seed is timed ``repeats`` times, in rounds: every round times every case once per seed, so that a
+    slow spell of a shared machine falls on all cases alike (the growth factor divides the times of two of them).
+    """
+    sessions = [[row_session(n, v, seed) for seed in seeds] for n, v in cases]
+    times = [[[] for _ in seeds] for _ in cases]
+    cpu = [[[] for _ in seeds] for _ in cases]
+    last: list[list[Any]] = [[None] * len(seeds) for _ in cases]
+    for r in range(repeats):
+        for c, (n, v) in enumerate(cases):
+            say(f"{n} fruit x {v} views" + (f" (round {r + 1} of {repeats})" if repeats > 1 else ""))
+            for k, (session, _) in enumerate(sessions[c]):
+                c0 = time.process_time()
+                last[c][k] = localize(session, **OPTIONS)
+                cpu[c][k].append(time.process_time() - c0)
+                times[c][k].append(float(last[c][k].timing_s["total"]))
+    rows = []
+    for c, (n, v) in enumerate(cases):
+        per_seed = [statistics.median(t) for t in times[c]]
+        errors, n_truth, tp, n_est = 0.0, 0, 0, 0
+        for (_, scene), res in zip(sessions[c], last[c]):
+            est = np.array([o.position for o in res.objects]).reshape(-1, 3)
+            m = evaluate(est, scene.centres, truth_radii=scene.radii)
+            errors += m.euclidean_mean * m.true_positives if m.true_positives else 0.0
+            n_truth, tp, n_est = n_truth + m.n_truth, tp + m.true_positives, n_est + m.n_estimates
+        rows.append(
+            {
+                "fruit": n,
+                "views": v,
+                "boxes_per_view": statistics.mean(np.mean([len(vw.detections) for vw in s.views]) for s, _ in sessions[c]),
+                "time_s": statistics.median(per_seed),
+                "time_s_per_seed": per_seed,
+                "cpu_s": statistics.median(statistics.median(t) for t in cpu[c]),
+                "mean_mm": 1e3 * errors / tp if tp else None,
+                "recall": tp / n_truth if n_truth else None,
+                "precision": tp / n_est if n_est else None,
+            }
+        )
+    return rows
 
 
 def run_scale(
@@ -123,9 +135,8 @@ def run_scale(
     rows: list[dict[str, Any]] = []
     for load in ("idle", "busy one core") if busy else ("idle",):
         with busy_core(load != "idle"):
-            for sweep, n, v in cases:
-                say(f"{load}: {n} fruit x {v} views")
-                rows.append({"sweep": sweep, "load": load, **run_case(n, v, seeds, repeats)})
+            measured = run_cases([(n, v) for _, n, v in cases], seeds, repeats, lambda msg, ld=load: say(f"{ld}: {msg}"))
+        rows += [{"sweep": sweep, "load": load, **row} for (sweep, _, _), row in zip(cases, measured)]
     return {"meta": meta, "rows": rows, "growth": growth(rows)}
 
 

@@ -178,7 +178,9 @@ def scale(
     fruit: Annotated[str, typer.Option(help="Fruit counts of the fruit sweep (5 views), comma separated.")] = "12,24,48,96,192",
     views: Annotated[str, typer.Option(help="View counts of the view sweep (48 fruit), comma separated.")] = "3,5,8",
     seeds: Annotated[str, typer.Option(help="Scene seeds, comma separated (the time is the median over them).")] = "0,1,2",
-    repeats: Annotated[int, typer.Option(min=1, help="Timed calls per scene (their median is its time).")] = 1,
+    repeats: Annotated[
+        int, typer.Option(min=1, help="Timed calls per scene (their median is its time), made in rounds over all cases.")
+    ] = 1,
     busy: Annotated[bool, typer.Option("--busy/--idle-only", help="Also run with a busy-loop process on one core.")] = True,
     output: ResultsOutput = None,
     figure: Annotated[Path | None, typer.Option(help="Write a log-log figure of time against boxes here (PNG).")] = None,
