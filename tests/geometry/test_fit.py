@@ -180,3 +180,21 @@ def test_bic_keeps_the_paper_spheres_spheres() -> None:
     assert best.model == "sphere" and set(fits) == {"sphere"}
     with pytest.raises(InputError, match="cannot fix the 5 parameters of a spheroid"):
         fit_shape_by_bic(CAM, P[:1], b, shapes=("spheroid", "ellipsoid"))
+
+
+def test_censored_edges_are_left_out_of_the_fit():
+    """An edge cut by an occluder, flagged as censored, no longer pulls the fit: the cut box's other edges and the
+    other views fix the spheroid exactly; a flag array of the wrong shape is refused."""
+    cam, poses = default_camera(), paper_poses()
+    true = Ellipsoid.spheroid([0.6, 0.02, 0.45], 0.022, 0.06)
+    boxes = true.bbox(cam, poses)
+    boxes[1, 2] -= 0.4 * (boxes[1, 2] - boxes[1, 0])  # a nearer object hides the right 40 % in view 1
+    censored = np.zeros(boxes.shape, dtype=bool)
+    censored[1, 2] = True
+    fit = fit_ellipsoid_to_boxes(cam, poses, boxes, shape="spheroid", censored=censored)
+    assert fit.n_edges == boxes.size - 1
+    assert_allclose(fit.ellipsoid.centre_base, true.centre_base, atol=1e-5)
+    cut = fit_ellipsoid_to_boxes(cam, poses, boxes, shape="spheroid", loss="linear")
+    assert np.linalg.norm(cut.ellipsoid.centre_base - true.centre_base) > 1e-3  # taken at face value, it pulls
+    with pytest.raises(InputError, match=r"^censored: got shape \(3,\), expected \(3, 4\)"):
+        fit_ellipsoid_to_boxes(cam, poses, boxes, shape="spheroid", censored=np.zeros(3, dtype=bool))

@@ -238,6 +238,7 @@ def fit_ellipsoid_to_boxes(
     robust_scale: float = 2.0,
     border_px: float = DEFAULT_BORDER_PX,
     initial: Ellipsoid | None = None,
+    censored: ArrayLike | None = None,
 ) -> EllipsoidFit:
     """Fit a sphere, spheroid or ellipsoid to one object's boxes in K views.
 
@@ -257,6 +258,8 @@ def fit_ellipsoid_to_boxes(
     border_px : float, observed edges this close to the image border are truncated and left out
     initial : Ellipsoid, optional starting point (default: centre triangulated from the box centres,
         sizes from the box sizes)
+    censored : array_like, shape (K, 4), bool, optional: edges known to be cut (a nearer object hides the object
+        there), left out as truncated ones are
 
     Returns
     -------
@@ -274,7 +277,9 @@ def fit_ellipsoid_to_boxes(
     names = fit_parameters(shape, free_orientation=free_orientation)
     u = check_up(up)
     lo, hi = _size_range(size_range)
-    T, b, used, sigma = _usable_edges(camera, T_base_optical, boxes_xyxy, names, shape, box_sigma, edge_sigma_px, border_px)
+    T, b, used, sigma = _usable_edges(
+        camera, T_base_optical, boxes_xyxy, names, shape, box_sigma, edge_sigma_px, border_px, censored
+    )
     residuals, jacobian = _edge_residuals(camera, T, used, b[used], sigma, shape, u, free_orientation)
     starts = _starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
     best = _least_squares_from(starts, residuals, jacobian, names, lo, hi, loss, robust_scale)
@@ -304,8 +309,9 @@ def _usable_edges(
     box_sigma: float,
     edge_sigma_px: float,
     border_px: float,
+    censored: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
-    """Poses (K, 4, 4), boxes (K, 4), the mask (K, 4) of edges used (finite, off the image border)
+    """Poses (K, 4, 4), boxes (K, 4), the mask (K, 4) of edges used (finite, off the image border, not ``censored``)
     and the noise sigma (E,) of each used edge, pixels; checks there are enough edges for ``names``."""
     if not (box_sigma >= 0 and edge_sigma_px >= 0 and box_sigma + edge_sigma_px > 0):
         raise InputError(f"box_sigma, edge_sigma_px: got {box_sigma!r}, {edge_sigma_px!r}, expected >= 0 and not both 0")
@@ -315,6 +321,11 @@ def _usable_edges(
         raise InputError(f"boxes_xyxy: got {len(b)} boxes for {len(T)} poses, expected one box per view")
     size = np.array([camera.width, camera.height], dtype=float)
     used = np.isfinite(b) & np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
+    if censored is not None:
+        cut = np.asarray(censored, dtype=bool)
+        if cut.shape != b.shape:
+            raise InputError(f"censored: got shape {cut.shape}, expected {b.shape} (one flag per box edge)")
+        used &= ~cut
     n_edges = int(used.sum())
     if n_edges < len(names):
         raise InputError(

@@ -1,0 +1,134 @@
+"""Two upright containers side by side, their boxes overlapping in every view: all 8 views and all 56 three-view subsets.
+
+Issue 20's hidden robot-arm scenes, simulated with the exact boxes of solids: two upright containers (cuboids
+50 x 50 x 120 mm with random yaws, or cylinders of radius 25 mm and height 120 mm) 57 mm apart, 8 views over 180
+degrees of azimuth, 0.5-0.7 m away, aimed within 2 cm of the pair, 1280 x 720 (hfov 69 deg), at one elevation
+(the poses of ``solid_shape_bias.py``). Each box is the object's whole silhouette box (as an annotator draws it),
+with box noise (:func:`monovisual3d.sim.noise.perturb_boxes`). The default method localises the pair from all 8
+views and from every 3 of them; each true container is paired with an estimate (Hungarian), missed beyond 30 mm.
+
+Printed per case: 8-view mean and max error (mm) and misses; the subsets' mean, median, p90 (mm) and misses; the
+objects reported per run.
+
+What it showed (2026-12-02, seeds 500-504 and 510-514, the default ``localize``; "before": the shape fits taking
+every edge at face value, "after": leaving out an edge whose whole side a nearer container covers,
+``shapes.covered_sides``):
+
+=================  =====  =====  ===================  ===============================================
+object, boxes      noise  elev.  8 views mean / max   3-view subsets mean / median / p90, missed
+=================  =====  =====  ===================  ===============================================
+cylinder, whole    0.5 %  20     0.5 / 2.2 mm         1.1 / 0.6 / 2.7 mm, 0 of 560 (before: 2.6 p90)
+cuboid, whole      0.5 %  20     0.4 / 0.6 mm         3.0 / 3.2 / 4.7 mm, 0 (before: 2.6 / 3.0 / 3.9)
+cylinder, whole    2 %    30     1.8 / 4.2 mm         3.2 / 3.0 / 5.5 mm, 0 (before: 3.1 / 2.9 / 5.4)
+cuboid, whole      2 %    30     1.5 / 2.7 mm         4.3 / 4.1 / 7.3 mm, 0 (before: 3.9 / 3.6 / 6.8)
+cylinder, visible  0.5 %  0      0.4 / 0.9 mm         1.3 / 0.7 / 2.9 mm, 0 (before: 1.5 / 1.6 mm on 8
+                                 (before 1.5 / 1.6)   views; 5.5 / 2.2 / 16.4 mm, 2 missed)
+cuboid, visible    0.5 %  0      1.3 / 3.1 mm         7.2 / 3.9 / 19.3 mm, **70 of 560 missed** (before:
+                                 (before 5.8 / 8.9)   10.8 / 7.2 / 24.4 mm, 88 missed)
+=================  =====  =====  ===================  ===============================================
+
+Two objects are reported in every run. A cuboid's yaw is weakly fixed by three views (its centre 2.4-2.7 mm off
+alone, ``solid_shape_bias.py``), which sets the subsets' error with whole boxes; leaving out covered sides costs
+those a little (the predicted boxes of two estimates overlap more than the objects do). Seen side-on with the
+farther box cut, cuboids are the open failure: in 70 of 560 object-subsets the farther one ends more than 30 mm off
+(a sphere from the search that no shape fit mends), against issue 20's 1 % target for the hidden scenes.
+
+Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEED LAST_SEED] [ELEVATION_DEG] [--visible]
+(default: cuboid 0.005 500 505 20; ``--visible``: the farther container's box ends where the nearer one hides it,
+as a detector of visible parts draws it, :func:`visible_boxes`).
+"""
+
+import itertools
+import sys
+import warnings
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from solid_shape_bias import CAMERAS, TARGET, object_boxes, views
+
+import monovisual3d as mv
+from monovisual3d.session import Detection, Session, View, Workspace
+from monovisual3d.sim.noise import perturb_boxes
+
+#: Half-sides (cuboid) or radius (cylinder) and half-height, metres; centre spacing, metres.
+HALF_WIDTH_M, HALF_HEIGHT_M, SPACING_M = 0.025, 0.06, 0.057
+#: An estimate further than this from its container does not count as finding it (metres).
+FOUND_M = 0.03
+N_VIEWS, SUBSET = 8, 3
+
+
+def errors_mm(estimates: np.ndarray, centres: np.ndarray) -> list[float]:
+    """Per true centre, the distance (mm) to its Hungarian-paired estimate, NaN when missed."""
+    out = [float("nan")] * len(centres)
+    if len(estimates):
+        d = np.linalg.norm(estimates[:, None] - centres[None], axis=2)
+        for i, j in zip(*linear_sum_assignment(d)):
+            if d[i, j] < FOUND_M:
+                out[j] = 1e3 * d[i, j]
+    return out
+
+
+def visible_boxes(boxes: np.ndarray, depths: np.ndarray) -> np.ndarray:
+    """The boxes (views, 2, 4) a detector of visible parts draws: where the nearer object's box spans the farther one's
+    height and overlaps it from one side, the farther box ends at the nearer box's edge (upright boxes hide upright
+    boxes by vertical strips; a farther box wholly behind keeps its box: its visible strips still span it)."""
+    out = boxes.copy()
+    for k in range(len(boxes)):
+        near, far = (0, 1) if depths[k, 0] < depths[k, 1] else (1, 0)
+        n, f = boxes[k, near], out[k, far]
+        if n[1] > f[1] or n[3] < f[3]:
+            continue  # the nearer box does not span the farther one's height: every edge stays visible
+        if n[0] <= f[0] < n[2] < f[2]:
+            f[0] = n[2]  # hidden on its left
+        elif f[0] < n[0] < f[2] <= n[2]:
+            f[2] = n[0]  # hidden on its right
+    return out
+
+
+def main(kind: str, sigma: float, seeds: range, elevation: float, visible: bool = False) -> None:
+    cam = CAMERAS["1280x720"]
+    all_views: list[float] = []
+    subsets: list[float] = []
+    counts: list[int] = []
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        middle = TARGET + rng.uniform(-0.01, 0.01, 3)
+        centres = np.array([middle - [0.0, SPACING_M / 2, 0.0], middle + [0.0, SPACING_M / 2, 0.0]])
+        poses = views(rng, N_VIEWS, elevation, middle)
+        box_fns = [object_boxes(kind, HALF_WIDTH_M, HALF_HEIGHT_M, rng) for _ in centres]
+        boxes = np.stack([f(cam, poses, c) for f, c in zip(box_fns, centres)], axis=1)  # (views, objects, 4)
+        if visible:
+            T_optical_base = np.linalg.inv(poses)
+            depths = np.einsum("kj,nj->kn", T_optical_base[:, 2, :3], centres) + T_optical_base[:, 2, 3:4]
+            boxes = visible_boxes(boxes, depths)
+        if sigma > 0:
+            boxes = perturb_boxes(boxes.reshape(-1, 4), sigma, rng).reshape(boxes.shape)
+        for subset in itertools.chain([tuple(range(N_VIEWS))], itertools.combinations(range(N_VIEWS), SUBSET)):
+            session = Session(
+                cam,
+                tuple(View(poses[k], tuple(Detection(b) for b in boxes[k])) for k in subset),
+                Workspace(TARGET - 0.2, TARGET + 0.2),
+            )
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                result = mv.localize(session)
+            (all_views if len(subset) == N_VIEWS else subsets).extend(errors_mm(result.positions.reshape(-1, 3), centres))
+            counts.append(len(result.objects))
+    a, s = np.array(all_views), np.array(subsets)
+    print(
+        f"{kind}{' visible' if visible else ''} noise {sigma:g} elevation {elevation:g}: 8 views mean {np.nanmean(a):.1f} max {np.nanmax(a):.1f} mm, "
+        f"missed {int(np.isnan(a).sum())}/{len(a)} | 3-view subsets mean {np.nanmean(s):.1f} median "
+        f"{np.nanmedian(s):.1f} p90 {np.nanpercentile(s, 90):.1f} mm, missed {int(np.isnan(s).sum())}/{len(s)} | "
+        f"objects per run {np.mean(counts):.2f}"
+    )
+
+
+if __name__ == "__main__":
+    args = [a for a in sys.argv[1:] if a != "--visible"]
+    main(
+        args[0] if args else "cuboid",
+        float(args[1]) if len(args) > 1 else 0.005,
+        range(int(args[2]), int(args[3])) if len(args) > 3 else range(500, 505),
+        float(args[4]) if len(args) > 4 else 20.0,
+        "--visible" in sys.argv[1:],
+    )
