@@ -12,7 +12,7 @@ objects reported per run.
 
 What it showed (2026-12-02, seeds 500-504 and 510-514, the default ``localize``; "before": the shape fits taking
 every edge at face value, "after": leaving out an edge whose whole side a nearer container covers,
-``shapes.covered_sides``):
+``occlusion.covered_sides``):
 
 =================  =====  =====  ===================  ===============================================
 object, boxes      noise  elev.  8 views mean / max   3-view subsets mean / median / p90, missed

@@ -152,7 +152,7 @@ def test_the_cli_has_the_solids_flag(tmp_path):
 def test_two_containers_side_by_side_seen_side_on_keep_their_centres():
     """Two upright cylinders 57 mm apart seen from the side (camera at their height): in the views where one hides
     part of the other, the farther box ends at the nearer box's edge, as a detector of visible parts draws it. The
-    shape fit leaves out the edge the nearer container covers along its whole side (shapes.covered_sides); taking it
+    shape fit leaves out the edge the nearer container covers along its whole side (occlusion.covered_sides); taking it
     at face value put the farther container 12-20 mm off in most such three-view sets."""
     centres = TARGET + np.array([[0.0, -0.0285, 0.0], [0.0, 0.0285, 0.0]])
     errors = []

@@ -1,0 +1,154 @@
+"""Which box edges a nearer object hides: the occlusion flags of the shape stage.
+
+An object's box edge is cut where a nearer object covers it. :func:`occluded_edges` asks whether a nearer
+silhouette covers the extreme point that sets the edge (a round fruit's outline), :func:`covered_sides` whether a
+nearer box covers the whole side (a tall object's edge stays while any part of its side shows);
+:func:`occlusion_flags` applies either to every object of a result, from the objects' predicted boxes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ...geometry.sphere import predict_sphere_boxes
+from ...geometry.spheroid import predict_spheroid_boxes
+from ...result import DetectedObject
+from .problem import Problem
+from .refine import Observation
+from .scoring import associations_list, axis_of, observations, spheroid_axis
+from .sensor import box_edge_sigma_px
+
+#: The occlusion refit censors an edge when a nearer object's silhouette covers its extreme point by at least this
+#: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
+#: against the noise of the estimates, not a fitted one.
+OCCLUSION_MARGIN_SIGMAS = 2.0
+
+
+def _predicted(
+    problem: Problem, objects: list[DetectedObject], v: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Predicted boxes (N, 4), pixels, centre depths (N,), metres, and the std (N, 2), pixels, of each object's
+    projected centre along x and y in view ``v`` (its position covariance through the pinhole projection's
+    Jacobian; without a covariance, its box's edge noise)."""
+    vd, cam = problem.views[v], problem.camera
+    boxes, depth, std = np.full((len(objects), 4), np.nan), np.full(len(objects), np.inf), np.zeros((len(objects), 2))
+    for i, o in enumerate(objects):
+        p_opt = vd.T_optical_base[:3, :3] @ o.position + vd.T_optical_base[:3, 3]
+        r = float(o.radius)  # type: ignore[arg-type]
+        b = o.extra.get("semi_up")
+        if b is None:
+            boxes[i] = predict_sphere_boxes(cam, p_opt[None], np.array([r]))[0][0, 0]
+        else:
+            u = vd.T_optical_base[:3, :3] @ spheroid_axis(problem, axis_of(o))
+            boxes[i] = predict_spheroid_boxes(cam, p_opt[None], [r], [float(b)], u)[0][0, 0]
+        depth[i] = p_opt[2]
+        if o.covariance is not None and p_opt[2] > 0:
+            x, y, z = p_opt
+            J = np.array([[cam.fx, 0.0, -cam.fx * x / z], [0.0, cam.fy, -cam.fy * y / z]]) / z
+            R = vd.T_optical_base[:3, :3]
+            std[i] = np.sqrt(np.maximum(np.diag(J @ R @ o.covariance @ R.T @ J.T), 0.0))
+        else:
+            std[i] = box_edge_sigma_px(problem.model, boxes[i])[:2]
+    return boxes, depth, std
+
+
+def occluded_edges(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin_px: ArrayLike = 0.0) -> NDArray[np.bool_]:
+    """Edges ``x1, y1, x2, y2`` of an object's box that a nearer object hides, shape (4,).
+
+    The edge of a convex silhouette's box is set by its extreme point on that side; the box is cut there
+    when a nearer silhouette covers that point. Silhouettes are taken as the ellipses inscribed in the
+    predicted boxes (exact for a sphere seen on the optical axis, close to it in a usual field of view).
+
+    Parameters
+    ----------
+    pred : ndarray, shape (4,), the object's predicted box, pixels
+    nearer : ndarray, shape (N, 4), predicted boxes of the objects nearer the camera, pixels
+    margin_px : float or ndarray, shape (N, 2), pixels: a point counts as covered only this far inside a nearer
+        silhouette (its half-width and half-height shrunk by it), so that the noise of the estimates does not
+        censor a full edge
+
+    Examples
+    --------
+    >>> occluded_edges(np.array([10.0, 0, 50, 40]), np.array([[40.0, 5, 80, 30]])).tolist()
+    [False, False, True, False]
+    """
+    x1, y1, x2, y2 = pred
+    cx, cy = (x1 + x2) / 2, (y1 + y2) / 2
+    points = np.array([[x1, cy], [cx, y1], [x2, cy], [cx, y2]])  # the extreme points, edge by edge
+    ok = np.all(np.isfinite(nearer), axis=1)
+    n, m = nearer[ok], np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))[ok]
+    if not len(n) or not np.all(np.isfinite(pred)):
+        return np.zeros(4, dtype=bool)
+    centre = (n[:, :2] + n[:, 2:]) / 2
+    half = np.maximum((n[:, 2:] - n[:, :2]) / 2 - m, 1e-9)
+    inside = np.sum(((points[:, None, :] - centre[None]) / half[None]) ** 2, axis=2) < 1.0  # (4, N)
+    return np.any(inside, axis=1)
+
+
+def covered_sides(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin_px: ArrayLike = 0.0) -> NDArray[np.bool_]:
+    """Edges ``x1, y1, x2, y2`` of an object's box along which a nearer box covers the whole side, shape (4,).
+
+    The stricter test of :func:`occluded_edges` for the shape fits: a tall object's box edge is set by a whole side
+    of its outline, not one extreme point, and stays where it is while any part of that side shows (a farther
+    container's top above a nearer one). A nearer box (N, 4), shrunk by ``margin_px`` ((N, 2) or scalar, pixels),
+    must reach across the edge, and span the box's whole extent along it to within the margin.
+
+    Examples
+    --------
+    >>> covered_sides(np.array([100.0, 50, 160, 200]), np.array([[150.0, 40, 230, 210]])).tolist()
+    [False, False, True, False]
+    >>> covered_sides(np.array([100.0, 50, 160, 200]), np.array([[150.0, 60, 230, 210]])).tolist()  # its top shows
+    [False, False, False, False]
+    """
+    x1, y1, x2, y2 = pred
+    ok = np.all(np.isfinite(nearer), axis=1)
+    n, m = nearer[ok], np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))[ok]
+    if not len(n) or not np.all(np.isfinite(pred)):
+        return np.zeros(4, dtype=bool)
+    nx1, ny1, nx2, ny2 = n[:, 0] + m[:, 0], n[:, 1] + m[:, 1], n[:, 2] - m[:, 0], n[:, 3] - m[:, 1]
+    # spanning is judged with the margin the other way: a side sticking out by less than the noise is not seen
+    spans_y = (n[:, 1] - m[:, 1] <= y1) & (n[:, 3] + m[:, 1] >= y2)
+    spans_x = (n[:, 0] - m[:, 0] <= x1) & (n[:, 2] + m[:, 0] >= x2)
+    return np.array(
+        [
+            np.any(spans_y & (nx1 < x1) & (nx2 > x1)),
+            np.any(spans_x & (ny1 < y1) & (ny2 > y1)),
+            np.any(spans_y & (nx1 < x2) & (nx2 > x2)),
+            np.any(spans_x & (ny1 < y2) & (ny2 > y2)),
+        ]
+    )
+
+
+def occlusion_flags(
+    problem: Problem, objects: list[DetectedObject], trusted: list[bool] | None = None, whole_sides: bool = False
+) -> list[tuple[list[Observation], frozenset[int]] | None]:
+    """Per object, its observations with the edges a nearer object cuts flagged (``Observation.censored``) and the
+    session indices of the views where any edge is cut; None for an object refined jointly with the poses or seen in
+    fewer than ``min_views`` views.
+
+    An edge counts as cut when a nearer object's predicted box covers the object's extreme point on that side by more
+    than :data:`OCCLUSION_MARGIN_SIGMAS` times the uncertainty of the two objects' projected centres (from their
+    position covariances), so that chance overlaps of noisy estimates cut nothing (:func:`occluded_edges`).
+    """
+    cfg = problem.config
+    preds = [_predicted(problem, objects, v) for v in range(len(problem.views))]
+    out: list[tuple[list[Observation], frozenset[int]] | None] = []
+    for i, o in enumerate(objects):
+        assoc = associations_list(problem, o)
+        if o.extra.get("pose_corrected") or sum(a >= 0 for a in assoc) < cfg.min_views:
+            out.append(None)
+            continue
+        obs, cut = [], set()
+        for ob, v in zip(observations(problem, assoc, o.position), [v for v, j in enumerate(assoc) if j >= 0]):
+            boxes, depth, std = preds[v]
+            near = (depth < depth[i]) & (np.arange(len(objects)) != i)
+            if trusted is not None:
+                near &= np.asarray(trusted, dtype=bool)
+            margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
+            ob.censored = (covered_sides if whole_sides else occluded_edges)(boxes[i], boxes[near], margin)
+            if ob.censored.any():
+                cut.add(problem.views[v].index)
+            obs.append(ob)
+        out.append((obs, frozenset(cut)))
+    return out
