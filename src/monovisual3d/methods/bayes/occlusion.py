@@ -120,8 +120,21 @@ def covered_sides(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin
     )
 
 
+#: Per view: the objects' predicted boxes (N, 4), centre depths (N,) and projected-centre stds (N, 2) (``_predicted``).
+Predicted = list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
+
+
+def predicted_views(problem: Problem, objects: list[DetectedObject]) -> Predicted:
+    """What :func:`occlusion_flags` needs of every view, computed once for several calls on the same objects."""
+    return [_predicted(problem, objects, v) for v in range(len(problem.views))]
+
+
 def occlusion_flags(
-    problem: Problem, objects: list[DetectedObject], trusted: list[bool] | None = None, whole_sides: bool = False
+    problem: Problem,
+    objects: list[DetectedObject],
+    trusted: list[bool] | None = None,
+    whole_sides: bool = False,
+    predicted: Predicted | None = None,
 ) -> list[tuple[list[Observation], frozenset[int]] | None]:
     """Per object, its observations with the edges a nearer object cuts flagged (``Observation.censored``) and the
     session indices of the views where any edge is cut; None for an object refined jointly with the poses or seen in
@@ -129,10 +142,12 @@ def occlusion_flags(
 
     An edge counts as cut when a nearer object's predicted box covers the object's extreme point on that side by more
     than :data:`OCCLUSION_MARGIN_SIGMAS` times the uncertainty of the two objects' projected centres (from their
-    position covariances), so that chance overlaps of noisy estimates cut nothing (:func:`occluded_edges`).
+    position covariances), so that chance overlaps of noisy estimates cut nothing (:func:`occluded_edges`); with
+    ``whole_sides``, when it covers the whole side (:func:`covered_sides`). Only the nearer objects marked ``trusted``
+    count (default: all). ``predicted``: :func:`predicted_views` of ``objects``, when already computed.
     """
     cfg = problem.config
-    preds = [_predicted(problem, objects, v) for v in range(len(problem.views))]
+    preds = predicted_views(problem, objects) if predicted is None else predicted
     out: list[tuple[list[Observation], frozenset[int]] | None] = []
     for i, o in enumerate(objects):
         assoc = associations_list(problem, o)

@@ -61,7 +61,7 @@ from ...geometry.solids import SOLIDS, cuboid_bbox, cylinder_bbox
 from ...geometry.sphere import predict_sphere_boxes
 from ...result import DetectedObject
 from .likelihood import box_scores
-from .occlusion import occlusion_flags
+from .occlusion import occlusion_flags, predicted_views
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
 from .scoring import axis_of, pose_px, semi_up_of, spheroid_axis
@@ -482,10 +482,11 @@ def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
     The sphere refit keeps the looser test of one extreme point (:func:`.occlusion.occluded_edges`): a tall object's edge stays
     while any part of its side shows (a farther container's top above the nearer one), and the looser test, there,
     cost the cuboids seen from 20 degrees above (subsets' p90 3.9 -> 6.5 mm)."""
-    flags = occlusion_flags(problem, objects)
+    predicted = predicted_views(problem, objects)
+    flags = occlusion_flags(problem, objects, predicted=predicted)
     refitted = occlusion_refit(problem, objects, flags)
     trusted = [semi_up_of(o) is not None or looks_round(problem, o) for o in objects]
-    shape_flags = occlusion_flags(problem, objects, trusted, whole_sides=True)
+    shape_flags = occlusion_flags(problem, objects, trusted, whole_sides=True, predicted=predicted)
     out = []
     for o, f in zip(refitted, shape_flags):
         censored = None if f is None else np.array([ob.censored for ob in f[0]], dtype=bool).reshape(-1, 4)
