@@ -142,9 +142,12 @@ def occlusion_flags(
 
     An edge counts as cut when a nearer object's predicted box covers the object's extreme point on that side by more
     than :data:`OCCLUSION_MARGIN_SIGMAS` times the uncertainty of the two objects' projected centres (from their
-    position covariances), so that chance overlaps of noisy estimates cut nothing (:func:`occluded_edges`); with
-    ``whole_sides``, when it covers the whole side (:func:`covered_sides`). Only the nearer objects marked ``trusted``
-    count (default: all). ``predicted``: :func:`predicted_views` of ``objects``, when already computed.
+    position covariances), so that chance overlaps of noisy estimates cut nothing (:func:`occluded_edges`). With
+    ``whole_sides`` only the edges whose whole side it covers are flagged (:func:`covered_sides`: the edges a shape fit
+    must leave out), while the views are those where either test flags an edge (where the box's aspect is not the
+    object's).
+    Only the nearer objects marked ``trusted`` count (default: all). ``predicted``: :func:`predicted_views` of
+    ``objects``, when already computed.
     """
     cfg = problem.config
     preds = predicted_views(problem, objects) if predicted is None else predicted
@@ -161,8 +164,9 @@ def occlusion_flags(
             if trusted is not None:
                 near &= np.asarray(trusted, dtype=bool)
             margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
-            ob.censored = (covered_sides if whole_sides else occluded_edges)(boxes[i], boxes[near], margin)
-            if ob.censored.any():
+            shifted = occluded_edges(boxes[i], boxes[near], margin)
+            ob.censored = covered_sides(boxes[i], boxes[near], margin) if whole_sides else shifted
+            if shifted.any() or ob.censored.any():
                 cut.add(problem.views[v].index)
             obs.append(ob)
         out.append((obs, frozenset(cut)))
