@@ -23,6 +23,9 @@ from .sensor import box_edge_sigma_px
 #: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
 #: against the noise of the estimates, not a fitted one.
 OCCLUSION_MARGIN_SIGMAS = 2.0
+#: An observed edge ends at an occluder when it lies within this many edge-noise sigmas (plus the occluder's
+#: uncertainty) of the occluder's facing edge (:func:`ends_at_occluder`).
+EDGE_AT_OCCLUDER_SIGMAS = 3.0
 
 
 def _predicted(
@@ -120,6 +123,34 @@ def covered_sides(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin
     )
 
 
+def ends_at_occluder(
+    observed: NDArray[np.float64], nearer: NDArray[np.float64], margin_px: ArrayLike, sigma_px: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """Edges ``x1, y1, x2, y2`` of an observed box that lie where a nearer box (N, 4) begins, shape (4,): within
+    ``margin_px`` ((N, 2) or scalar, the nearer box's uncertainty) plus :data:`EDGE_AT_OCCLUDER_SIGMAS` times the edge
+    noise ``sigma_px`` (4,) of the facing edge (the left edge of a box to the nearer one's right edge, and so on).
+
+    A detector of visible parts ends a box where the occluder begins; an edge well inside the occluder's box is the
+    object's own edge drawn through the occluder (an amodal box, as an annotator draws it), and carries its position.
+
+    Examples
+    --------
+    >>> sigma = np.full(4, 2.0)
+    >>> ends_at_occluder(np.array([100.0, 50, 150, 200]), np.array([[150.0, 40, 230, 210]]), 0.0, sigma).tolist()
+    [False, False, True, False]
+    >>> ends_at_occluder(np.array([100.0, 50, 190, 200]), np.array([[150.0, 40, 230, 210]]), 0.0, sigma).tolist()
+    [False, False, False, False]
+    """
+    ok = np.all(np.isfinite(nearer), axis=1)
+    n = nearer[ok]
+    m = np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))[ok]
+    if not len(n) or not np.all(np.isfinite(observed)):
+        return np.zeros(4, dtype=bool)
+    tol = m[:, [0, 1, 0, 1]] + EDGE_AT_OCCLUDER_SIGMAS * np.asarray(sigma_px, dtype=float)[None, :]
+    facing = n[:, [2, 3, 0, 1]]  # the nearer box's edge facing each edge of the observed box
+    return np.any(np.abs(facing - np.asarray(observed, dtype=float)[None, :]) <= tol, axis=0)
+
+
 #: Per view: the objects' predicted boxes (N, 4), centre depths (N,) and projected-centre stds (N, 2) (``_predicted``).
 Predicted = list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
 
@@ -151,6 +182,7 @@ def occlusion_flags(
     """
     cfg = problem.config
     preds = predicted_views(problem, objects) if predicted is None else predicted
+    elongated = np.array([o.extra.get("semi_up") is not None for o in objects], dtype=bool)
     out: list[tuple[list[Observation], frozenset[int]] | None] = []
     for i, o in enumerate(objects):
         assoc = associations_list(problem, o)
@@ -165,7 +197,18 @@ def occlusion_flags(
                 near &= np.asarray(trusted, dtype=bool)
             margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
             shifted = occluded_edges(boxes[i], boxes[near], margin)
-            ob.censored = covered_sides(boxes[i], boxes[near], margin) if whole_sides else shifted
+            if whole_sides:
+                # an elongated occluder's side is straight along the side it covers: a box of the visible part ends
+                # at its box's edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge
+                # lies anywhere inside its box)
+                straight = elongated[near]
+                sigma = box_edge_sigma_px(problem.model, ob.bbox_xyxy)
+                ob.censored = covered_sides(boxes[i], boxes[near][~straight], margin[~straight]) | (
+                    covered_sides(boxes[i], boxes[near][straight], margin[straight])
+                    & ends_at_occluder(ob.bbox_xyxy, boxes[near][straight], margin[straight], sigma)
+                )
+            else:
+                ob.censored = shifted
             if shifted.any() or ob.censored.any():
                 cut.add(problem.views[v].index)
             obs.append(ob)
