@@ -30,6 +30,7 @@ from .extract import extract
 from .problem import Problem
 from .refine import Observation
 from .search import search
+from .shape_swap import shape_swap_pass
 from .shapes import shape_stage
 
 #: A joint (pose-corrected) radius outside ``[radius_min / f, f * radius_max]`` with this ``f`` means the bundle
@@ -81,6 +82,8 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
         timing["bundle"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     objects = shape_stage(problem, objects)
+    if cfg.swap and cfg.shape == "auto":
+        objects = shape_swap_pass(problem, objects)
     timing["shape"] = time.perf_counter() - t3
     objects.sort(key=lambda o: -o.score)
     return Estimate(objects, corrections, timing, hyp.stats())

@@ -143,7 +143,7 @@ HIDDEN_CUT_SIGMAS = 3.0
 MIN_VIEWS_ONE_SIDED = 3
 
 
-def _boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def object_boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The object's poses ``T_base_optical`` (K, 4, 4) and associated boxes (K, 4)."""
     by_index = {vd.index: vd for vd in problem.views}
     items = sorted(obj.associations.items())
@@ -221,7 +221,7 @@ def consistently_elongated(deviations: NDArray[np.floating]) -> bool:
 def possibly_cut(problem: Problem, obj: DetectedObject) -> bool:
     """Whether an edge of the object's boxes (not at the image border) lies more than :data:`HIDDEN_CUT_SIGMAS` edge
     sigmas inside its sphere's predicted box: an occluder the search does not see (a leaf) may have cut it there."""
-    poses, boxes = _boxes(problem, obj)
+    poses, boxes = object_boxes(problem, obj)
     o = as_sphere(obj)
     pred = solid_boxes(problem.camera, poses, Ellipsoid.sphere(o.position, float(o.radius)))  # type: ignore[arg-type]
     cam, border = problem.camera, problem.model.border_px
@@ -265,7 +265,7 @@ def beats(problem: Problem, obj: DetectedObject, new: Answer, old: Answer, n_edg
     extra parameter (fewer parameters lower the bar). The criterion of
     :func:`monovisual3d.geometry.fit.fit_shape_by_bic`, with the ``bayes`` sensor model (a cut box is occlusion
     there, at most ``inward_floor`` per edge) in place of Gaussian edges."""
-    poses, boxes = _boxes(problem, obj)
+    poses, boxes = object_boxes(problem, obj)
     score_new = sensor_score(problem, poses, boxes, new[1], new[0].extra.get("solid"))
     gain = score_new - sensor_score(problem, poses, boxes, old[1], old[0].extra.get("solid"))
     return gain > 0.5 * (new[2] - old[2]) * math.log(max(n_edges, 1))
@@ -291,16 +291,20 @@ def _sphere_answer(obj: DetectedObject) -> Answer:
 
 
 def _fitted(
-    problem: Problem, obj: DetectedObject, shapes: tuple[str, ...], censored: NDArray[np.bool_] | None = None
+    problem: Problem,
+    obj: DetectedObject,
+    shapes: tuple[str, ...],
+    censored: NDArray[np.bool_] | None = None,
+    search_sphere: bool = True,
 ) -> tuple[Answer, int] | None:
     """The lowest-BIC fit of ``shapes`` to the object's boxes as an :data:`Answer` and the edges it used (None: too
     few usable edges), leaving out the ``censored`` edges (K, 4) (cut by nearer objects; in the order of
-    :func:`_boxes`); under ``auto`` a sphere fit of an object the search found as a sphere gives the search's
-    sphere (its refinement, with masks and pose noise, is the better sphere estimate)."""
+    :func:`object_boxes`); under ``auto`` a sphere fit of an object the search found as a sphere gives the search's
+    sphere (its refinement, with masks and pose noise, is the better sphere estimate) unless not ``search_sphere``."""
     from ...geometry.fit import fit_shape_by_bic
 
     cfg = problem.config
-    poses, boxes = _boxes(problem, obj)
+    poses, boxes = object_boxes(problem, obj)
     try:
         best, fits = fit_shape_by_bic(
             problem.camera, poses, boxes, shapes=shapes, up=cfg.up_vector, size_range=cfg.semi_axis_range,
@@ -310,7 +314,7 @@ def _fitted(
     except InputError:
         return None
     best = _solid_only_if_clear(best, fits)
-    if best.model == "sphere" and cfg.shape == "auto" and obj.extra.get("semi_up") is None:
+    if search_sphere and best.model == "sphere" and cfg.shape == "auto" and obj.extra.get("semi_up") is None:
         return _sphere_answer(obj), best.n_edges
     e = best.ellipsoid
     extra = {k: v for k, v in obj.extra.items() if k != "solid"}
@@ -323,6 +327,40 @@ def _fitted(
         covariance=best.centre_covariance, associations=obj.associations, n_cells=obj.n_cells, extra=extra,
     )  # fmt: skip
     return (o, e, best.n_parameters), best.n_edges
+
+
+def fitted_answer(
+    problem: Problem,
+    obj: DetectedObject,
+    censored: NDArray[np.bool_] | None = None,
+    shapes: tuple[str, ...] | None = None,
+) -> tuple[Answer, int] | None:
+    """The lowest-BIC fit of ``shapes`` (default: every model ``auto`` may fit, upright and lying, the solids with
+    ``BayesConfig.solids``) to the object's boxes as an :data:`Answer` with the edges it used (a sphere fitted, not
+    the search's), the ``censored`` edges (K, 4) left out; None: too few usable edges."""
+    if shapes is None:
+        n_views = len(obj.associations)
+        shapes = tuple(dict.fromkeys(_upright_shapes(n_views, problem.config.solids) + _lying_shapes(n_views)))
+    return _fitted(problem, obj, shapes, censored, search_sphere=False)
+
+
+def shape_value(
+    problem: Problem, obj: DetectedObject, answer: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
+) -> float:
+    """The sensor model's log-likelihood ratio (nats) of the object's boxes given ``answer``, less ``ln(n_edges) / 2``
+    per parameter: the Bayesian information criterion of :func:`beats`, as a value to compare associations by.
+
+    ``hidden_to`` (K, 4), pixels, NaN where an edge is seen: an edge a nearer object hides, whose true place lies
+    between the observed edge and this coordinate (the far side of the nearer box); a prediction there costs nothing,
+    one beyond it is scored from it."""
+    poses, boxes = object_boxes(problem, obj)
+    if hidden_to is not None and np.isfinite(hidden_to).any():
+        pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
+        lo = np.maximum(np.minimum(pred[:, :2], boxes[:, :2]), hidden_to[:, :2])  # nan-propagating: seen edges stay
+        hi = np.minimum(np.maximum(pred[:, 2:], boxes[:, 2:]), hidden_to[:, 2:])
+        boxes = np.where(np.isfinite(hidden_to), np.concatenate([lo, hi], axis=1), boxes)
+    score = sensor_score(problem, poses, boxes, answer[1], answer[0].extra.get("solid"))
+    return score - 0.5 * answer[2] * math.log(max(n_edges, 1))
 
 
 def solid_evidence(solid: EllipsoidFit, other: EllipsoidFit) -> float:
