@@ -95,7 +95,9 @@ class BayesConfig:
     max_hypotheses : int, cap on the (cell, radius) hypotheses scored at one search level (the memory budget may lower it;
         the best-scoring cells are kept)
     radius_margin_bins : int, radius bins a child cell inherits on each side of those its parent kept
-    swap : bool, after extraction, swap the boxes of overlapping objects in a view when that fits both better
+    swap : bool, after extraction, swap the boxes of overlapping objects in a view when that fits both better; after the
+        shape stage (``shape`` auto), trade a view's boxes between, or refit, two objects side by side, one of them tall,
+        when the shape models prefer it (:mod:`.shape_swap`)
     steal : bool, after extraction, give a fruit back the box a neighbour took when the neighbour can do without it
     pose_sigma_mm : float, millimetres, stated 1-sigma error of each view's camera position per axis (0: exact)
     pose_sigma_deg : float, degrees, stated 1-sigma error of each view's camera rotation per axis (0: exact)
