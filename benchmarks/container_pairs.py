@@ -50,7 +50,7 @@ those a little (the predicted boxes of two estimates overlap more than the objec
 
 Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEED LAST_SEED] [ELEVATION_DEG] [--visible]
 (default: cuboid 0.005 500 505 20; ``--visible``: the farther container's box ends where the nearer one hides it,
-as a detector of visible parts draws it, :func:`visible_boxes`).
+as a detector of visible parts draws it, :func:`monovisual3d.sim.noise.visible_part_boxes`).
 """
 
 import itertools
@@ -63,7 +63,7 @@ from solid_shape_bias import CAMERAS, TARGET, object_boxes, views
 
 import monovisual3d as mv
 from monovisual3d.session import Detection, Session, View, Workspace
-from monovisual3d.sim.noise import perturb_boxes
+from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes
 
 #: Half-sides (cuboid) or radius (cylinder) and half-height, metres; centre spacing, metres.
 HALF_WIDTH_M, HALF_HEIGHT_M, SPACING_M = 0.025, 0.06, 0.057
@@ -83,23 +83,6 @@ def errors_mm(estimates: np.ndarray, centres: np.ndarray) -> list[float]:
     return out
 
 
-def visible_boxes(boxes: np.ndarray, depths: np.ndarray) -> np.ndarray:
-    """The boxes (views, 2, 4) a detector of visible parts draws: where the nearer object's box spans the farther one's
-    height and overlaps it from one side, the farther box ends at the nearer box's edge (upright boxes hide upright
-    boxes by vertical strips; a farther box wholly behind keeps its box: its visible strips still span it)."""
-    out = boxes.copy()
-    for k in range(len(boxes)):
-        near, far = (0, 1) if depths[k, 0] < depths[k, 1] else (1, 0)
-        n, f = boxes[k, near], out[k, far]
-        if n[1] > f[1] or n[3] < f[3]:
-            continue  # the nearer box does not span the farther one's height: every edge stays visible
-        if n[0] <= f[0] < n[2] < f[2]:
-            f[0] = n[2]  # hidden on its left
-        elif f[0] < n[0] < f[2] <= n[2]:
-            f[2] = n[0]  # hidden on its right
-    return out
-
-
 def main(kind: str, sigma: float, seeds: range, elevation: float, visible: bool = False) -> None:
     cam = CAMERAS["1280x720"]
     all_views: list[float] = []
@@ -115,7 +98,7 @@ def main(kind: str, sigma: float, seeds: range, elevation: float, visible: bool 
         if visible:
             T_optical_base = np.linalg.inv(poses)
             depths = np.einsum("kj,nj->kn", T_optical_base[:, 2, :3], centres) + T_optical_base[:, 2, 3:4]
-            boxes = visible_boxes(boxes, depths)
+            boxes = visible_part_boxes(boxes, depths)
         if sigma > 0:
             boxes = perturb_boxes(boxes.reshape(-1, 4), sigma, rng).reshape(boxes.shape)
         for subset in itertools.chain([tuple(range(N_VIEWS))], itertools.combinations(range(N_VIEWS), SUBSET)):

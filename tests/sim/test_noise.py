@@ -18,6 +18,7 @@ from monovisual3d.sim.noise import (
     false_positive_boxes,
     perturb_boxes,
     perturb_pose,
+    visible_part_boxes,
 )
 
 N = 40_000
@@ -144,6 +145,25 @@ def test_clip_boxes_to_image():
     b, ok = clip_boxes_to_image([[-10, -5, 20, 30], [700, 10, 800, 50], [5, 5, 5.5, 20]], 640, 480)
     assert_array_equal(b[0], [0, 0, 20, 30])
     assert_array_equal(ok, [True, False, False])
+
+
+def test_visible_part_boxes_end_where_a_nearer_box_begins():
+    near = [100.0, 50, 200, 300]
+    boxes = np.array(
+        [
+            [near, [150.0, 60, 260, 290]],  # the farther one hidden on its left
+            [near, [50.0, 60, 150, 290]],  # on its right
+            [near, [120.0, 60, 180, 290]],  # wholly behind: its strips still span it
+            [near, [150.0, 30, 260, 290]],  # its top shows above the nearer one: its box stays whole
+        ]
+    )
+    out = visible_part_boxes(boxes, np.tile([0.5, 0.6], (4, 1)))
+    assert_array_equal(out[:, 0], boxes[:, 0])  # the nearer box is never cut
+    assert_array_equal(out[:, 1], [[200, 60, 260, 290], [50, 60, 100, 290], [120, 60, 180, 290], [150, 30, 260, 290]])
+    swapped = visible_part_boxes(boxes, np.tile([0.6, 0.5], (4, 1)))  # now the first is the farther one
+    assert_array_equal(swapped[0, 0], [100, 50, 200, 300])  # it is taller: its top and bottom show
+    with pytest.raises(ValueError, match=r"expected shapes \(K, N, 4\) and \(K, N\)"):
+        visible_part_boxes(boxes, np.zeros(4))
 
 
 @pytest.mark.parametrize(

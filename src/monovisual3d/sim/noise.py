@@ -352,6 +352,46 @@ def clip_boxes_to_image(
     return b, ok
 
 
+def visible_part_boxes(boxes_xyxy: ArrayLike, depths: ArrayLike) -> NDArray[np.float64]:
+    """The boxes a detector of visible parts draws around upright objects side by side, which hide each other by
+    vertical strips: where a nearer object's whole box spans a farther box's height and overlaps it from one side,
+    the farther box ends at the nearer box's edge; a farther box wholly behind keeps its box (its visible strips
+    still span it), and so does one whose top or bottom shows.
+
+    Parameters
+    ----------
+    boxes_xyxy : array_like, shape (K, N, 4), pixels: the whole boxes of N objects in K views
+    depths : array_like, shape (K, N), metres: each object's depth along each view's optical axis
+
+    Returns
+    -------
+    ndarray, shape (K, N, 4): the boxes of the visible parts
+
+    Examples
+    --------
+    >>> boxes = np.array([[[100.0, 50, 200, 300], [150.0, 60, 260, 290]]])
+    >>> visible_part_boxes(boxes, np.array([[0.5, 0.6]]))[0, 1].tolist()  # the farther one, hidden on its left
+    [200.0, 60.0, 260.0, 290.0]
+    """
+    whole = np.asarray(boxes_xyxy, dtype=float)
+    d = np.asarray(depths, dtype=float)
+    if whole.ndim != 3 or whole.shape[2] != 4 or d.shape != whole.shape[:2]:
+        raise InputError(f"boxes_xyxy and depths: expected shapes (K, N, 4) and (K, N), got {whole.shape} and {d.shape}")
+    out = whole.copy()
+    for k in range(len(whole)):
+        for far in range(whole.shape[1]):
+            f = out[k, far]
+            for near in np.flatnonzero(d[k] < d[k, far]):
+                n = whole[k, near]
+                if n[1] > f[1] or n[3] < f[3]:
+                    continue  # the nearer box does not span the farther one's height: its edges stay visible
+                if n[0] <= f[0] < n[2] < f[2]:
+                    f[0] = n[2]  # hidden on its left
+                elif f[0] < n[0] < f[2] <= n[2]:
+                    f[2] = n[0]  # hidden on its right
+    return out
+
+
 def _check_boxes(boxes_xyxy: ArrayLike) -> NDArray[np.float64]:
     b = np.asarray(boxes_xyxy, dtype=float)
     if b.size == 0:

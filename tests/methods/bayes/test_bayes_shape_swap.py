@@ -20,7 +20,7 @@ from monovisual3d.methods.bayes.shape_swap import boxes_meet, is_tall
 from monovisual3d.methods.bayes.shapes import SPHERE_PARAMETERS, shape_value
 from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, Session, View, Workspace
-from monovisual3d.sim.noise import perturb_boxes
+from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes
 
 CAM = Camera.from_hfov(1280, 720, 69.0)
 TARGET = np.array([0.6, 0.0, 0.3])
@@ -72,22 +72,6 @@ def test_only_upright_elongated_objects_are_tall():
     assert not is_tall(obj("ellipsoid", [0.06, 0.025, 0.025]))  # lying
 
 
-def _visible_part_boxes(poses: np.ndarray, yaws: np.ndarray) -> np.ndarray:
-    """Boxes (K, 2, 4) of the two containers' visible parts: the farther box ends where the nearer one begins."""
-    boxes = np.stack([cuboid_bbox(CAM, poses, c, HALF_SIDES_M, rotation_upright(y)) for c, y in zip(CENTRES, yaws)], axis=1)
-    T_optical_base = np.linalg.inv(poses)
-    depth = np.einsum("kj,nj->kn", T_optical_base[:, 2, :3], CENTRES) + T_optical_base[:, 2, 3:4]
-    for k in range(len(poses)):
-        near, far = np.argsort(depth[k])
-        n, f = boxes[k, near], boxes[k, far]
-        if n[1] <= f[1] and n[3] >= f[3]:
-            if n[0] <= f[0] < n[2] < f[2]:
-                f[0] = n[2]
-            elif f[0] < n[0] < f[2] <= n[2]:
-                f[2] = n[0]
-    return boxes
-
-
 @pytest.mark.parametrize("azimuths_deg", [(-116.0, 116.0, 141.0), (-167.0, 116.0, 141.0)])
 def test_two_box_containers_seen_side_on_with_visible_part_boxes_keep_their_centres(azimuths_deg):
     """Two upright 50 x 50 x 120 mm boxes 57 mm apart, seen from their height, three views, boxes of the visible parts,
@@ -101,7 +85,11 @@ def test_two_box_containers_seen_side_on_with_visible_part_boxes_keep_their_cent
             p = TARGET + rng.uniform(0.5, 0.7) * np.array([np.cos(az), np.sin(az), 0.0])
             poses.append(look_at(p, TARGET + rng.uniform(-0.01, 0.01, 3)))
         poses = np.array(poses)
-        boxes = _visible_part_boxes(poses, rng.uniform(0.0, np.pi / 2, 2))
+        yaws = rng.uniform(0.0, np.pi / 2, 2)
+        whole = np.stack([cuboid_bbox(CAM, poses, c, HALF_SIDES_M, rotation_upright(y)) for c, y in zip(CENTRES, yaws)], axis=1)
+        T_optical_base = np.linalg.inv(poses)
+        depths = np.einsum("kj,nj->kn", T_optical_base[:, 2, :3], CENTRES) + T_optical_base[:, 2, 3:4]
+        boxes = visible_part_boxes(whole, depths)
         boxes = perturb_boxes(boxes.reshape(-1, 4), 0.005, rng).reshape(boxes.shape)
         views = tuple(View(T, tuple(Detection(b) for b in bs)) for T, bs in zip(poses, boxes))
         with warnings.catch_warnings():

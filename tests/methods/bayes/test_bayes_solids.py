@@ -22,7 +22,7 @@ from monovisual3d.geometry.solids import cuboid_bbox, cylinder_bbox
 from monovisual3d.methods.bayes import BayesConfig
 from monovisual3d.methods.bayes.shapes import SOLID_EVIDENCE_NATS, _solid_only_if_clear, solid_evidence
 from monovisual3d.session import Detection, Session, View, Workspace
-from monovisual3d.sim.noise import perturb_boxes
+from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes
 
 CAM = Camera.from_hfov(1280, 720, 69.0)
 TARGET = np.array([0.6, 0.0, 0.3])
@@ -176,14 +176,7 @@ def test_two_containers_side_by_side_seen_side_on_keep_their_centres():
         poses = np.array(poses)
         boxes = np.stack([cylinder_bbox(CAM, poses, c, R_M, H_M, rotation_upright(0.0)) for c in centres], axis=1)
         depth = np.einsum("kj,nj->kn", np.linalg.inv(poses)[:, 2, :3], centres) + np.linalg.inv(poses)[:, 2, 3:4]
-        for k in range(len(poses)):  # the farther box ends where the nearer one begins
-            near, far = np.argsort(depth[k])
-            n, f = boxes[k, near], boxes[k, far]
-            if n[1] <= f[1] and n[3] >= f[3]:
-                if n[0] <= f[0] < n[2] < f[2]:
-                    f[0] = n[2]
-                elif f[0] < n[0] < f[2] <= n[2]:
-                    f[2] = n[0]
+        boxes = visible_part_boxes(boxes, depth)  # the farther box ends where the nearer one begins
         errors.append(_pair_error(poses, boxes, centres))
     assert max(errors) < 3e-3, errors
 
