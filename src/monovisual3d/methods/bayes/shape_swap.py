@@ -139,13 +139,7 @@ def _as_answer(problem: Problem, o: DetectedObject) -> Answer:
     """An object of the shape stage as an :data:`.shapes.Answer` (its ellipsoid and number of parameters)."""
     model = o.extra.get("solid") or o.shape or "sphere"
     n = len(fit_parameters(model, free_orientation=problem.config.free_orientation))
-    return (
-        o,
-        Ellipsoid(
-            np.asarray(o.position, dtype=float), np.asarray(o.semi_axes, dtype=float), np.asarray(o.quaternion_xyzw, dtype=float)
-        ),
-        n,
-    )
+    return o, Ellipsoid(o.position, o.semi_axes, o.quaternion_xyzw), n  # type: ignore[arg-type]
 
 
 def _held_value(problem: Problem, objs: list[DetectedObject]) -> float:
