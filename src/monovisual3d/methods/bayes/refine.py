@@ -1,6 +1,6 @@
 """Continuous refinement of one sphere from its associated boxes (and masks).
 
-Robust nonlinear least squares (:func:`scipy.optimize.least_squares`) on the
+Robust nonlinear least squares (:func:`.levenberg.levenberg_marquardt`, scipy's ``least_squares`` the reference) on the
 normalised box-edge residuals of :mod:`.likelihood`, with a redescending loss
 that matches the sensor model: ``rho(z) = -2 log((exp(-z/2) + eps) / (1 + eps))``
 with ``eps = exp(-inward_floor)``. Near zero it is the ordinary square; an
@@ -17,13 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 from ...camera import Camera
 from ...frames import invert_transform
 from ...geometry.sphere import pinhole_sphere_boxes, predict_sphere_boxes
 from ...geometry.spheroid import predict_spheroid_boxes
 from ._residuals import box_residuals_fused
+from .levenberg import levenberg_marquardt
 from .likelihood import SensorModel, edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
 from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
@@ -70,7 +70,8 @@ class Refined:
 
 
 def robust_loss(floor: float) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
-    """The redescending loss of the module docstring as a :func:`scipy.optimize.least_squares` callable.
+    """The redescending loss of the module docstring as a loss callable of :func:`scipy.optimize.least_squares`
+    (and :func:`.levenberg.levenberg_marquardt`).
 
     ``rho(z)`` of the squared residual ``z``; returns shape (3, len(z)): rho, rho', rho''.
     """
@@ -195,7 +196,7 @@ class _SphereResiduals:
     Everything that does not depend on the sphere (stacked poses and boxes,
     the contour points' viewing rays) is computed once; :meth:`batch`
     evaluates several parameter vectors in one numpy pass, which makes the
-    forward-difference Jacobian (:meth:`jacobian`) one call instead of four.
+    forward-difference Jacobian one call instead of four (:func:`.levenberg.forward_jacobian`).
     Box residuals come first, then each mask's, in observation order.
     """
 
@@ -217,17 +218,18 @@ class _SphereResiduals:
             parts.append(mask_residuals_rays(self.camera, centres_base @ R.T + t, radii, rays, self.model, extra))
         return np.concatenate(parts, axis=1) if parts else np.zeros((len(radii), 0))
 
+    def params_batch(self, P: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Residuals (P, n) for parameter vectors ``P`` (P, 4) of ``(x, y, z, log r)``.
+
+        A trial step far out (a depth the views hardly constrain) may overflow the radius: its residuals are then
+        not finite or huge, and the solver rejects the step."""
+        with np.errstate(over="ignore"):
+            radii = np.exp(P[:, 3])
+        return self.batch(P[:, :3], radii)
+
     def __call__(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
         """Residuals (n,) for ``params = (x, y, z, log r)``."""
-        return self.batch(params[None, :3], np.exp(params[None, 3]))[0]
-
-    def jacobian(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Forward-difference Jacobian (n, 4) with scipy's default ``2-point`` steps, in one batched call."""
-        h = _FD_REL_STEP * np.where(params >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(params))
-        h = (params + h) - params  # the step actually taken in floating point
-        P = np.vstack([params, params + np.diag(h)])
-        f = self.batch(P[:, :3], np.exp(P[:, 3]))
-        return ((f[1:] - f[0]) / h[:, None]).T
+        return self.params_batch(np.asarray(params, dtype=float)[None])[0]
 
 
 def one_sided_residuals(e: NDArray[np.floating], inward_floor: float, outward_floor: float) -> NDArray[np.float64]:
@@ -261,12 +263,11 @@ class _OneSidedResiduals(_SphereResiduals):
         return one_sided_residuals(super().batch(centres_base, radii), *self.floors)
 
 
-#: scipy's relative step for ``jac="2-point"``: sqrt of the float64 machine epsilon.
-_FD_REL_STEP = float(np.sqrt(np.finfo(float).eps))
-
-
 #: Most residual evaluations of one refinement (well-posed ones converge in under 20).
 MAX_NFEV = 60
+#: A meaningful change of each parameter: 1 cm of the centre, 10 % of the radius (its log) and of the semi-axis up.
+SPHERE_X_SCALE = np.array([0.01, 0.01, 0.01, 0.1])
+SPHEROID_X_SCALE = np.array([0.01, 0.01, 0.01, 0.1, 0.1])
 
 
 def refine_sphere(
@@ -288,7 +289,7 @@ def refine_sphere(
     -------
     Refined
         ``covariance`` is ``(J^T J)^-1`` at the solution, with ``J`` the
-        Jacobian scipy returns already scaled by the robust loss (outliers
+        Jacobian the solver returns already scaled by the robust loss (outliers
         carry little weight): the Gauss-Newton approximation of the posterior
         covariance of the position.
     """
@@ -298,16 +299,14 @@ def refine_sphere(
         fun = _SphereResiduals(camera, observations, model, use_masks)
     else:
         fun = _OneSidedResiduals(camera, observations, model, floors, use_masks)
-    sol = least_squares(
-        fun,
+    sol = levenberg_marquardt(
+        fun.params_batch,
         x0,
-        jac=fun.jacobian,
-        loss=robust_loss(model.inward_floor) if floors is None else "linear",
-        method="trf",
-        x_scale=np.array([0.01, 0.01, 0.01, 0.1]),
+        SPHERE_X_SCALE,
+        loss=robust_loss(model.inward_floor) if floors is None else None,
         max_nfev=MAX_NFEV,  # bounded: near-degenerate views (depth unconstrained) otherwise wander for 400 evaluations
     )
-    # scipy returns the Jacobian already scaled by the robust loss (J^T J is its
+    # the solver returns the Jacobian already scaled by the robust loss (J^T J is its
     # Gauss-Newton Hessian), so no further weighting here
     J = sol.jac
     H = J.T @ J
@@ -333,17 +332,12 @@ class _SpheroidResiduals:
         self.boxes = _BoxResiduals(camera, observations, model, up)
 
     def batch(self, P: NDArray[np.floating]) -> NDArray[np.float64]:
-        return self.boxes.batch(P[:, :3], np.exp(P[:, 3]), np.exp(P[:, 4]))
+        with np.errstate(over="ignore"):  # see _SphereResiduals.params_batch
+            a, b = np.exp(P[:, 3]), np.exp(P[:, 4])
+        return self.boxes.batch(P[:, :3], a, b)
 
     def __call__(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
         return self.batch(params[None, :])[0]
-
-    def jacobian(self, params: NDArray[np.floating]) -> NDArray[np.float64]:
-        """Forward-difference Jacobian (n, 5), scipy's ``2-point`` steps, one batched call."""
-        h = _FD_REL_STEP * np.where(params >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(params))
-        h = (params + h) - params
-        f = self.batch(np.vstack([params, params + np.diag(h)]))
-        return ((f[1:] - f[0]) / h[:, None]).T
 
 
 def refine_spheroid(
@@ -363,10 +357,7 @@ def refine_spheroid(
     """
     x0 = np.concatenate([np.asarray(centre0, dtype=float), np.log([max(radius0, 1e-4), max(semi_up0, 1e-4)])])
     fun = _SpheroidResiduals(camera, observations, model, up)
-    sol = least_squares(
-        fun, x0, jac=fun.jacobian, loss=robust_loss(model.inward_floor), method="trf",
-        x_scale=np.array([0.01, 0.01, 0.01, 0.1, 0.1]), max_nfev=MAX_NFEV,
-    )  # fmt: skip
+    sol = levenberg_marquardt(fun.batch, x0, SPHEROID_X_SCALE, loss=robust_loss(model.inward_floor), max_nfev=MAX_NFEV)
     try:
         cov_full = np.linalg.inv(sol.jac.T @ sol.jac)
     except np.linalg.LinAlgError:
