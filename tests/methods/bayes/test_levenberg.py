@@ -46,10 +46,7 @@ def test_minimum_cost_and_jacobian_match_scipy(seed: int, robust: bool) -> None:
 def test_sphere_refinement_matches_scipy(seed: int) -> None:
     rng = np.random.default_rng(seed)
     centre, radius = TARGET + rng.normal(0, 0.02, 3), 0.03
-    obs = [
-        Observation(invert_transform(T), sphere_bbox(CAM, T, centre[None], radius)[0] + rng.normal(0, 1.0, 4))
-        for T in POSES
-    ]
+    obs = [Observation(invert_transform(T), sphere_bbox(CAM, T, centre[None], radius)[0] + rng.normal(0, 1.0, 4)) for T in POSES]
     f = _SphereResiduals(CAM, obs, SensorModel())
     x0 = np.concatenate([centre + rng.normal(0, 0.01, 3), [np.log(0.025)]])
     loss = robust_loss(SensorModel().inward_floor)
