@@ -37,6 +37,7 @@ from scipy.optimize import least_squares
 from ..camera import Camera
 from ..errors import InputError
 from .ellipsoid import SHAPES, Ellipsoid, ellipsoid_bbox
+from .levenberg import levenberg_marquardt, named_loss
 from .orientation import DEFAULT_UP, check_up, rotation_upright
 from .solids import SOLIDS, cuboid_bbox, cylinder_bbox, union_boxes
 
@@ -280,9 +281,9 @@ def fit_ellipsoid_to_boxes(
     T, b, used, sigma = _usable_edges(
         camera, T_base_optical, boxes_xyxy, names, shape, box_sigma, edge_sigma_px, border_px, censored
     )
-    residuals, jacobian = _edge_residuals(camera, T, used, b[used], sigma, shape, u, free_orientation)
+    batch, jacobian = _edge_residuals(camera, T, used, b[used], sigma, shape, u, free_orientation)
     starts = _starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
-    best = _least_squares_from(starts, residuals, jacobian, names, lo, hi, loss, robust_scale)
+    best = _least_squares_from(starts, batch, jacobian, names, lo, hi, loss, robust_scale)
     c, s, R = ellipsoid_from_parameters(best.x, shape, up=u, free_orientation=free_orientation)
     r = best.fun
     return EllipsoidFit(
@@ -346,7 +347,7 @@ def _edge_residuals(
     u: NDArray[np.float64],
     free_orientation: bool,
 ) -> tuple[Callable[[NDArray[np.float64]], NDArray[np.float64]], Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
-    """The normalised residuals (E,) of a parameter vector (P,) and their central-difference Jacobian (E, P)."""
+    """The normalised residuals (N, E) of parameter vectors (N, P) and their central-difference Jacobian (E, P) at one."""
     R0 = rotation_upright(0.0, u)
     boxes_of = PinholeBoxes(camera, T) if camera.distortion_model == "none" else None
 
@@ -357,15 +358,12 @@ def _edge_residuals(
         r = (pred - observed) / sigma
         return np.where(np.isfinite(r), r, UNDEFINED_RESIDUAL)
 
-    def residuals(theta: NDArray[np.float64]) -> NDArray[np.float64]:
-        return normalised(theta[None])[0]
-
     def jacobian(theta: NDArray[np.float64]) -> NDArray[np.float64]:
         h = FD_STEP * (1.0 + np.abs(theta))
         r = normalised(np.concatenate([theta + np.diag(h), theta - np.diag(h)]))
         return ((r[: len(theta)] - r[len(theta) :]) / (2 * h[:, None])).T
 
-    return residuals, jacobian
+    return normalised, jacobian
 
 
 def _predicted_boxes(
@@ -393,7 +391,7 @@ def _predicted_boxes(
 
 def _least_squares_from(
     starts: list[NDArray[np.float64]],
-    residuals: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    batch: Callable[[NDArray[np.float64]], NDArray[np.float64]],
     jacobian: Callable[[NDArray[np.float64]], NDArray[np.float64]],
     names: tuple[str, ...],
     lo: float,
@@ -401,7 +399,8 @@ def _least_squares_from(
     loss: str,
     robust_scale: float,
 ) -> Any:
-    """The lowest-cost :func:`scipy.optimize.least_squares` result over ``starts``, sizes bounded by ``[lo, hi]`` metres."""
+    """The lowest-cost solution over ``starts``, sizes bounded by ``[lo, hi]`` metres: :func:`.levenberg.levenberg_marquardt`
+    (scipy's ``least_squares`` the reference), and scipy's bounded solver where a size leaves that range."""
     log_lo, log_hi = math.log(lo), math.log(hi)
     lower = np.array([log_lo if n.startswith("log_") else -np.inf for n in names])
     upper = np.array([log_hi if n.startswith("log_") else np.inf for n in names])
@@ -410,13 +409,13 @@ def _least_squares_from(
         theta0 = np.clip(theta0, lower + 1e-9, upper - 1e-9)
         # a convex-ish first pass finds the basin; a redescending loss then discounts the bad edges
         for stage_loss in dict.fromkeys((FIRST_PASS_LOSS, loss)):
-            options = {"jac": jacobian, "loss": stage_loss, "f_scale": robust_scale, "x_scale": "jac"}
-            # the unbounded solver is cheaper; a trial step far out overflows exp(log size), and the solver shrinks
-            # its step on a non-finite residual, so the overflow is expected, not an error
+            # the unbounded solver is cheaper; a trial step far out overflows exp(log size), and the solver rejects
+            # a step with a non-finite residual, so the overflow is expected, not an error
             with np.errstate(over="ignore", invalid="ignore"):
-                res = least_squares(residuals, theta0, **options)
+                res = levenberg_marquardt(batch, theta0, "jac", loss=named_loss(stage_loss, robust_scale), jac=jacobian)
             if np.any(res.x < lower) or np.any(res.x > upper):  # a size left size_range: solve again within it
-                res = least_squares(residuals, theta0, bounds=(lower, upper), **options)
+                options = {"jac": jacobian, "loss": stage_loss, "f_scale": robust_scale, "x_scale": "jac"}
+                res = least_squares(lambda th: batch(th[None])[0], theta0, bounds=(lower, upper), **options)
             theta0 = np.clip(res.x, lower + 1e-12, upper - 1e-12)
         if best is None or res.cost < best.cost:
             best = res

@@ -282,7 +282,7 @@ def test_compiled_box_residuals_match_the_numpy_reference(distortion):
 def test_refinement_residuals_and_jacobian_match_the_references():
     from scipy.optimize._numdiff import approx_derivative
 
-    from monovisual3d.methods.bayes.levenberg import forward_jacobian
+    from monovisual3d.geometry.levenberg import forward_jacobian
     from monovisual3d.methods.bayes.refine import Observation, _SphereResiduals, residuals
 
     rng = np.random.default_rng(6)

@@ -1,6 +1,6 @@
 """Continuous refinement of one sphere from its associated boxes (and masks).
 
-Robust nonlinear least squares (:func:`.levenberg.levenberg_marquardt`, scipy's ``least_squares`` the reference) on the
+Robust nonlinear least squares (:func:`monovisual3d.geometry.levenberg.levenberg_marquardt`, scipy's ``least_squares`` the reference) on the
 normalised box-edge residuals of :mod:`.likelihood`, with a redescending loss
 that matches the sensor model: ``rho(z) = -2 log((exp(-z/2) + eps) / (1 + eps))``
 with ``eps = exp(-inward_floor)``. Near zero it is the ordinary square; an
@@ -23,7 +23,7 @@ from ...frames import invert_transform
 from ...geometry.sphere import pinhole_sphere_boxes, predict_sphere_boxes
 from ...geometry.spheroid import predict_spheroid_boxes
 from ._residuals import box_residuals_fused
-from .levenberg import levenberg_marquardt
+from ...geometry.levenberg import levenberg_marquardt
 from .likelihood import SensorModel, edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
 from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
@@ -71,7 +71,7 @@ class Refined:
 
 def robust_loss(floor: float) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
     """The redescending loss of the module docstring as a loss callable of :func:`scipy.optimize.least_squares`
-    (and :func:`.levenberg.levenberg_marquardt`).
+    (and :func:`monovisual3d.geometry.levenberg.levenberg_marquardt`).
 
     ``rho(z)`` of the squared residual ``z``; returns shape (3, len(z)): rho, rho', rho''.
     """
@@ -196,7 +196,7 @@ class _SphereResiduals:
     Everything that does not depend on the sphere (stacked poses and boxes,
     the contour points' viewing rays) is computed once; :meth:`batch`
     evaluates several parameter vectors in one numpy pass, which makes the
-    forward-difference Jacobian one call instead of four (:func:`.levenberg.forward_jacobian`).
+    forward-difference Jacobian one call instead of four (:func:`monovisual3d.geometry.levenberg.forward_jacobian`).
     Box residuals come first, then each mask's, in observation order.
     """
 
