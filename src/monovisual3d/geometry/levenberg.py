@@ -126,6 +126,37 @@ def trust_region_step(eigenvalues: NDArray[np.float64], g: NDArray[np.float64], 
     return -g / (eigenvalues + lam)
 
 
+class _Region:
+    """The quadratic model of one iteration (scaled Gauss-Newton Hessian ``H`` (k, k), gradient ``g`` (k,), the
+    cost there) and its trust region, shrunk or grown after each trial step by scipy's rule."""
+
+    def __init__(self, H: NDArray[np.float64], g: NDArray[np.float64], scale: NDArray[np.float64], cost: float, radius: float):
+        self.H, self.g, self.scale, self.cost, self.radius = H, g, scale, cost, radius
+        self.eigenvalues, self.Q = np.linalg.eigh(H)
+        self.g_eigen = self.Q.T @ g
+
+    def trial(
+        self, batch: BatchResiduals, loss: Loss | None, x: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, bool]:
+        """One trial step from ``x``: the new point, its residuals (None: rejected, the region shrunk) and whether a
+        tolerance is met."""
+        step = self.Q @ trust_region_step(self.eigenvalues, self.g_eigen, self.radius)
+        step_norm = float(np.linalg.norm(step))
+        dx = step * self.scale
+        f_new = batch((x + dx)[None])[0]
+        predicted = -float(self.g @ step + 0.5 * step @ self.H @ step)
+        actual = self.cost - _cost(loss, f_new) if np.all(np.isfinite(f_new)) else -np.inf
+        ratio = actual / predicted if predicted > 0 else 0.0
+        if ratio < SHRINK_BELOW_RATIO:
+            self.radius = SHRINK_FACTOR * step_norm
+        elif ratio > GROW_ABOVE_RATIO and step_norm >= ON_BOUNDARY * self.radius:
+            self.radius *= 2.0
+        converged = (actual < FTOL * self.cost and ratio > SHRINK_BELOW_RATIO) or (
+            float(np.linalg.norm(dx)) < XTOL * (XTOL + float(np.linalg.norm(x)))
+        )
+        return x + dx, (f_new if actual > 0 else None), converged
+
+
 def _cost(loss: Loss | None, f: NDArray[np.float64]) -> float:
     return 0.5 * float(f @ f) if loss is None else 0.5 * float(np.sum(loss(f * f)[0]))
 
@@ -159,57 +190,33 @@ def levenberg_marquardt(
     (True, True)
     """
     x = np.array(x0, dtype=float)
-    jac_scale = isinstance(x_scale, str)
-    if jac_scale and x_scale != "jac":
+    if isinstance(x_scale, str) and x_scale != "jac":
         raise ValueError(f"x_scale: got {x_scale!r}, expected 'jac' or an array")
+    jac_scale = isinstance(x_scale, str)
     max_nfev = NFEV_PER_PARAMETER * len(x) if max_nfev is None else max_nfev
     jacobian = (lambda x, f: forward_jacobian(batch, x, f)) if jac is None else (lambda x, f: jac(x))
-    f = batch(x[None])[0]
-    nfev, converged = 1, False
+    f, nfev, converged, column_norm, radius = batch(x[None])[0], 1, False, np.zeros(len(x)), None
     J = jacobian(x, f)
-    column_norm = np.zeros(len(x))
-    radius = None
     while not converged and nfev < max_nfev:
         cost, fs, Js = scaled_by_loss(loss, f, J)
-        if jac_scale:
+        if jac_scale:  # scipy's rule: the inverse of the largest norm each column has had
             column_norm = np.maximum(column_norm, np.linalg.norm(Js, axis=0))
-            scale = np.where(column_norm > 0, 1.0 / np.where(column_norm > 0, column_norm, 1.0), 1.0)
-        else:
-            scale = np.asarray(x_scale, dtype=float)
+        scale = np.asarray(x_scale, dtype=float) if not jac_scale else 1.0 / np.where(column_norm > 0, column_norm, 1.0)
         if radius is None:  # scipy's first trust region: the size of x0 itself, in scaled variables
             radius = float(np.linalg.norm(x / scale)) or 1.0
         g = Js.T @ fs
-        if not np.all(np.isfinite(g)):
-            break
-        if np.max(np.abs(g)) < GTOL:
-            converged = True
+        converged = bool(np.max(np.abs(g)) < GTOL)
+        if converged or not np.all(np.isfinite(g)):
             break
         Jsc = Js * scale
-        H, gsc = Jsc.T @ Jsc, g * scale
-        eigenvalues, Q = np.linalg.eigh(H)
-        g_eigen = Q.T @ gsc
-        accepted = False
-        while not accepted and nfev < max_nfev:
-            step = Q @ trust_region_step(eigenvalues, g_eigen, radius)
-            step_norm = float(np.linalg.norm(step))
-            dx = step * scale
-            x_new = x + dx
-            f_new = batch(x_new[None])[0]
-            nfev += 1
-            predicted = -float(gsc @ step + 0.5 * step @ H @ step)
-            actual = cost - _cost(loss, f_new) if np.all(np.isfinite(f_new)) else -np.inf
-            ratio = actual / predicted if predicted > 0 else 0.0
-            if ratio < SHRINK_BELOW_RATIO:  # scipy's update of the region
-                radius = SHRINK_FACTOR * step_norm
-            elif ratio > GROW_ABOVE_RATIO and step_norm >= ON_BOUNDARY * radius:
-                radius *= 2.0
-            converged = (actual < FTOL * cost and ratio > SHRINK_BELOW_RATIO) or (
-                float(np.linalg.norm(dx)) < XTOL * (XTOL + float(np.linalg.norm(x)))
-            )
-            if actual > 0:
-                accepted = True
+        region = _Region(Jsc.T @ Jsc, g * scale, scale, cost, radius)
+        while nfev < max_nfev:
+            x_new, f_new, converged = region.trial(batch, loss, x)
+            nfev, radius = nfev + 1, region.radius
+            if f_new is not None:
                 x, f = x_new, f_new
                 J = jacobian(x, f)
+                break
             if converged:
                 break
     cost, _, Js = scaled_by_loss(loss, f, J)

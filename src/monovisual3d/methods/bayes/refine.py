@@ -20,10 +20,10 @@ from numpy.typing import NDArray
 
 from ...camera import Camera
 from ...frames import invert_transform
+from ...geometry.levenberg import levenberg_marquardt
 from ...geometry.sphere import pinhole_sphere_boxes, predict_sphere_boxes
 from ...geometry.spheroid import predict_spheroid_boxes
 from ._residuals import box_residuals_fused
-from ...geometry.levenberg import levenberg_marquardt
 from .likelihood import SensorModel, edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
 from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
