@@ -39,15 +39,15 @@ import argparse
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from monovisual3d.api import localize
 from monovisual3d.bench.scale import BOX_NOISE, OPTIONS, row_session
 from monovisual3d.frames import invert_transform
 from monovisual3d.geometry.bounds import box_edge_covariance
+from monovisual3d.geometry.levenberg import levenberg_marquardt
 from monovisual3d.geometry.sphere import predict_sphere_boxes
 from monovisual3d.methods.bayes import shapes
-from monovisual3d.methods.bayes.refine import MAX_NFEV, Observation, _SphereResiduals, refine_sphere, robust_loss
+from monovisual3d.methods.bayes.refine import MAX_NFEV, SPHERE_X_SCALE, Observation, _SphereResiduals, refine_sphere, robust_loss
 from monovisual3d.methods.bayes.sensor import SensorModel
 from monovisual3d.metrics import match
 from monovisual3d.sim.noise import NoiseModel
@@ -142,8 +142,7 @@ def refine_censored(camera, obs, occluded, centre, radius, model):  # noqa: ANN0
     fun = _SphereResiduals(camera, obs, model, use_masks=False)
     fun.boxes.censored = fun.boxes.censored | occluded
     x0 = np.r_[centre, np.log(radius)]
-    sol = least_squares(fun, x0, jac=fun.jacobian, loss=robust_loss(model.inward_floor), method="trf",
-                        x_scale=np.array([0.01, 0.01, 0.01, 0.1]), max_nfev=MAX_NFEV)  # fmt: skip
+    sol = levenberg_marquardt(fun.params_batch, x0, SPHERE_X_SCALE, loss=robust_loss(model.inward_floor), max_nfev=MAX_NFEV)
     return sol.x[:3]
 
 

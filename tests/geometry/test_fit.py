@@ -105,6 +105,11 @@ def test_robust_loss_resists_one_bad_edge() -> None:
     assert errors_mm(robust, truth)[0] < 0.5 * errors_mm(plain, truth)[0]
     assert errors_mm(robust, truth)[0] < 1.0
     assert np.argmax(np.abs(robust.residuals_px)) == 4 * 1 + 3  # the bad edge stands out
+    for loss in ("huber", "arctan"):  # scipy's other robust losses also hold the edge back
+        assert (
+            errors_mm(fit_ellipsoid_to_boxes(CAM, poses, boxes, shape="spheroid", loss=loss), truth)[0]
+            < errors_mm(plain, truth)[0]
+        )
 
 
 def test_edges_on_the_image_border_are_left_out() -> None:
@@ -161,6 +166,8 @@ def test_bad_input() -> None:
         fit_ellipsoid_to_boxes(CAM, P, b[:2])
     with pytest.raises(InputError, match="not both 0"):
         fit_ellipsoid_to_boxes(CAM, P, b, box_sigma=0.0, edge_sigma_px=0.0)
+    with pytest.raises(InputError, match="loss: got 'l1', expected one of linear, soft_l1, huber, cauchy, arctan"):
+        fit_ellipsoid_to_boxes(CAM, P, b, loss="l1")
 
 
 def test_bic_keeps_the_paper_spheres_spheres() -> None:

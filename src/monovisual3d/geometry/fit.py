@@ -5,7 +5,7 @@ predicted box the exact one of :func:`~monovisual3d.geometry.ellipsoid.ellipsoid
 and ``sigma = sqrt((1.118 * box_sigma * size)^2 + edge_sigma_px^2)`` (``size`` the
 observed box width for x edges, height for y edges; 1.118 = sqrt(1.25) is the
 per-edge std of the simulator's relative box noise). A robust loss on each edge
-(:func:`scipy.optimize.least_squares`, ``cauchy`` by default, after a first pass with
+(one of scipy's, solved as :func:`scipy.optimize.least_squares` does; ``cauchy`` by default, after a first pass with
 ``soft_l1`` that finds the basin) keeps one loose or clipped-by-a-leaf edge from dragging the fit. Edges that lie on the image border
 (truncated objects) say nothing about the object and are left out.
 
@@ -37,7 +37,7 @@ from scipy.optimize import least_squares
 from ..camera import Camera
 from ..errors import InputError
 from .ellipsoid import SHAPES, Ellipsoid, ellipsoid_bbox
-from .levenberg import levenberg_marquardt, named_loss
+from .levenberg import LOSSES, Solution, levenberg_marquardt, named_loss
 from .orientation import DEFAULT_UP, check_up, rotation_upright
 from .solids import SOLIDS, cuboid_bbox, cylinder_bbox, union_boxes
 
@@ -254,7 +254,7 @@ def fit_ellipsoid_to_boxes(
     size_range : (min, max), metres, bounds of every semi-axis
     box_sigma : float, relative box noise (per-edge std ``1.118 * box_sigma * size``)
     edge_sigma_px : float, pixels, absolute per-edge noise added in quadrature
-    loss : str, robust loss of :func:`scipy.optimize.least_squares` (``linear`` for plain least squares)
+    loss : str, robust loss, one of :data:`.levenberg.LOSSES` (scipy's; ``linear`` for plain least squares)
     robust_scale : float, sigmas at which the robust loss starts to discount an edge
     border_px : float, observed edges this close to the image border are truncated and left out
     initial : Ellipsoid, optional starting point (default: centre triangulated from the box centres,
@@ -275,6 +275,8 @@ def fit_ellipsoid_to_boxes(
     >>> np.round(fit.ellipsoid.centre_base, 6).tolist(), np.round(fit.ellipsoid.semi_axes, 6).tolist()
     ([0.6, 0.02, 0.45], [0.022, 0.022, 0.09])
     """
+    if loss not in LOSSES:
+        raise InputError(f"loss: got {loss!r}, expected one of {', '.join(LOSSES)}")
     names = fit_parameters(shape, free_orientation=free_orientation)
     u = check_up(up)
     lo, hi = _size_range(size_range)
@@ -398,9 +400,10 @@ def _least_squares_from(
     hi: float,
     loss: str,
     robust_scale: float,
-) -> Any:
+) -> Solution:
     """The lowest-cost solution over ``starts``, sizes bounded by ``[lo, hi]`` metres: :func:`.levenberg.levenberg_marquardt`
-    (scipy's ``least_squares`` the reference), and scipy's bounded solver where a size leaves that range."""
+    (scipy's ``least_squares`` without bounds, step by step), and scipy's bounded solver where a size leaves that
+    range."""
     log_lo, log_hi = math.log(lo), math.log(hi)
     lower = np.array([log_lo if n.startswith("log_") else -np.inf for n in names])
     upper = np.array([log_hi if n.startswith("log_") else np.inf for n in names])
@@ -409,13 +412,14 @@ def _least_squares_from(
         theta0 = np.clip(theta0, lower + 1e-9, upper - 1e-9)
         # a convex-ish first pass finds the basin; a redescending loss then discounts the bad edges
         for stage_loss in dict.fromkeys((FIRST_PASS_LOSS, loss)):
-            # the unbounded solver is cheaper; a trial step far out overflows exp(log size), and the solver rejects
-            # a step with a non-finite residual, so the overflow is expected, not an error
+            # the unbounded solver is cheaper; a trial step far out overflows exp(log size): its residuals are
+            # UNDEFINED_RESIDUAL, so the step costs more and is rejected; the overflow is expected, not an error
             with np.errstate(over="ignore", invalid="ignore"):
                 res = levenberg_marquardt(batch, theta0, "jac", loss=named_loss(stage_loss, robust_scale), jac=jacobian)
             if np.any(res.x < lower) or np.any(res.x > upper):  # a size left size_range: solve again within it
                 options = {"jac": jacobian, "loss": stage_loss, "f_scale": robust_scale, "x_scale": "jac"}
-                res = least_squares(lambda th: batch(th[None])[0], theta0, bounds=(lower, upper), **options)
+                b = least_squares(lambda th: batch(th[None])[0], theta0, bounds=(lower, upper), **options)
+                res = Solution(b.x, b.fun, float(b.cost), b.jac, bool(b.success), int(b.nfev))
             theta0 = np.clip(res.x, lower + 1e-12, upper - 1e-12)
         if best is None or res.cost < best.cost:
             best = res

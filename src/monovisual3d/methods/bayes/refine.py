@@ -222,7 +222,7 @@ class _SphereResiduals:
         """Residuals (P, n) for parameter vectors ``P`` (P, 4) of ``(x, y, z, log r)``.
 
         A trial step far out (a depth the views hardly constrain) may overflow the radius: its residuals are then
-        not finite or huge, and the solver rejects the step."""
+        the stand-in of an undefined one (1e3) or not finite, and the solver rejects the step."""
         with np.errstate(over="ignore"):
             radii = np.exp(P[:, 3])
         return self.batch(P[:, :3], radii)
@@ -268,6 +268,7 @@ MAX_NFEV = 60
 #: A meaningful change of each parameter: 1 cm of the centre, 10 % of the radius (its log) and of the semi-axis up.
 SPHERE_X_SCALE = np.array([0.01, 0.01, 0.01, 0.1])
 SPHEROID_X_SCALE = np.array([0.01, 0.01, 0.01, 0.1, 0.1])
+SPHERE_X_SCALE.flags.writeable = SPHEROID_X_SCALE.flags.writeable = False
 
 
 def refine_sphere(
