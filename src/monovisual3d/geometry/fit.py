@@ -56,10 +56,9 @@ UNDEFINED_RESIDUAL = 1e4
 FIRST_PASS_LOSS = "soft_l1"
 #: Relative central-difference step of the Jacobian.
 FD_STEP = 1e-6
-#: Most residual evaluations of one fit, per parameter (scipy's default is 100). A fit still moving after this many
-#: crawls along a kinked valley (a cuboid's yaw against its sides, whose box switches corners): over the 2,084 fits
-#: of 30 sessions of two containers side by side, the 14 that ran past it lowered their cost by under 1.5 % in up
-#: to 560 more evaluations, a seventh of all the fits' evaluations.
+#: Most residual evaluations of one fit, per parameter (scipy's default: 100). Past it a fit crawls along a kinked
+#: valley (a cuboid's yaw against its sides): of 2,084 fits of two containers side by side, the 14 that ran past it
+#: lowered their cost by under 1.5 % in up to 560 more evaluations, a seventh of all the fits' evaluations.
 MAX_NFEV_PER_PARAMETER = 20
 #: Yaw starts of the ellipsoid model (radians).
 YAW_STARTS = (0.0, 0.25 * math.pi)
