@@ -37,6 +37,7 @@ from scipy.optimize import least_squares
 from ..camera import Camera
 from ..errors import InputError
 from .ellipsoid import SHAPES, Ellipsoid, ellipsoid_bbox
+from .fit_starts import fit_starts
 from .levenberg import LOSSES, Solution, levenberg_marquardt, named_loss
 from .orientation import DEFAULT_UP, check_up, rotation_upright
 from .solids import SOLIDS, cuboid_bbox, cylinder_bbox, union_boxes
@@ -60,8 +61,6 @@ FD_STEP = 1e-6
 #: valley (a cuboid's yaw against its sides): of 2,084 fits of two containers side by side, the 14 that ran past it
 #: lowered their cost by under 1.5 % in up to 560 more evaluations, a seventh of all the fits' evaluations.
 MAX_NFEV_PER_PARAMETER = 20
-#: Yaw starts of the ellipsoid model (radians).
-YAW_STARTS = (0.0, 0.25 * math.pi)
 
 
 @dataclass(frozen=True)
@@ -288,7 +287,7 @@ def fit_ellipsoid_to_boxes(
         camera, T_base_optical, boxes_xyxy, names, shape, box_sigma, edge_sigma_px, border_px, censored
     )
     batch, jacobian = _edge_residuals(camera, T, used, b[used], sigma, shape, u, free_orientation)
-    starts = _starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
+    starts = fit_starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
     best = _least_squares_from(starts, batch, jacobian, names, lo, hi, loss, robust_scale)
     c, s, R = ellipsoid_from_parameters(best.x, shape, up=u, free_orientation=free_orientation)
     r = best.fun
@@ -526,68 +525,6 @@ class PinholeBoxes:
         lo = self.f * (x0 - h) + self.pp
         hi = self.f * (x0 + h) + self.pp
         return np.concatenate([lo, hi], axis=-1)
-
-
-# ---------------------------------------------------------------------- initialisation
-def _starts(
-    camera: Camera,
-    T: NDArray[np.float64],
-    b: NDArray[np.float64],
-    shape: str,
-    up: NDArray[np.float64],
-    free_orientation: bool,
-    lo: float,
-    hi: float,
-    initial: Ellipsoid | None,
-) -> list[NDArray[np.float64]]:
-    """Starting parameter vectors: the given ``initial`` or a triangulated guess (several yaws for ellipsoids)."""
-    if initial is not None:
-        centre, s = initial.centre_base, np.clip(initial.semi_axes, lo, hi)
-        horizontal, vertical = float(np.sqrt(s[0] * s[1])), float(s[2])
-    else:
-        centre, horizontal, vertical = _triangulate(camera, T, b, lo, hi)
-    if shape == "sphere":
-        return [np.r_[centre, math.log(math.sqrt(horizontal * vertical))]]
-    if shape in ("spheroid", "cylinder"):
-        return [np.r_[centre, math.log(horizontal), math.log(vertical), [0.0, 0.0] if free_orientation else []]]
-    a, bb = math.log(horizontal * 1.1), math.log(horizontal / 1.1)
-    out = []
-    for yaw in YAW_STARTS:
-        angle = np.array([0.0, 0.0, 0.0]) + yaw * up if free_orientation else np.array([yaw])
-        out.append(np.r_[centre, a, bb, math.log(vertical), angle])
-    return out
-
-
-def _triangulate(
-    camera: Camera, T: NDArray[np.float64], b: NDArray[np.float64], lo: float, hi: float
-) -> tuple[NDArray[np.float64], float, float]:
-    """Centre closest to the rays through the box centres, and sizes from the box sizes at that depth."""
-    ok = np.all(np.isfinite(b), axis=1)
-    T, b = T[ok], b[ok]
-    centres_uv = 0.5 * (b[:, :2] + b[:, 2:])
-    d = np.einsum("kij,kj->ki", T[:, :3, :3], camera.rays(centres_uv))  # base frame
-    o = T[:, :3, 3]
-    guess = 0.03
-    if len(T) >= 2:
-        A = np.zeros((3, 3))
-        rhs = np.zeros(3)
-        for di, oi in zip(d, o):
-            P = np.eye(3) - np.outer(di, di)
-            A += P
-            rhs += P @ oi
-        if np.linalg.cond(A) < 1e8:
-            p = np.linalg.solve(A, rhs)
-        else:
-            p = o[0] + d[0] * guess * camera.fx / max(0.5 * (b[0, 2] - b[0, 0]), 1.0)
-    else:
-        p = o[0] + d[0] * guess * camera.fx / max(0.5 * (b[0, 2] - b[0, 0]), 1.0)
-    z = np.einsum("ki,ki->k", p - o, T[:, :3, 2])  # depth along each optical axis
-    z = np.where(z > 0, z, np.median(np.abs(z)) + 1e-3)
-    half_w = 0.5 * (b[:, 2] - b[:, 0]) * z / camera.fx
-    half_h = 0.5 * (b[:, 3] - b[:, 1]) * z / camera.fy
-    horizontal = float(np.clip(np.median(half_w), lo, hi))
-    vertical = float(np.clip(np.median(half_h), lo, hi))
-    return p, horizontal, vertical
 
 
 def _size_range(size_range: Any) -> tuple[float, float]:
