@@ -298,23 +298,25 @@ def levenberg_marquardt(
     f = batch(x[None])[0]
     if not np.all(np.isfinite(f)):
         raise ValueError("x0: the residuals are not finite there")
-    J = jacobian(x, f)
-    column_norms = _column_norms(scaled_by_loss(loss, f, J)[2], None) if scale is None else None
-    it = _Iterate(x, f, J, float(np.linalg.norm(x / (1.0 / column_norms if scale is None else scale))) or 1.0)
+    it = _Iterate(x, f, jacobian(x, f), radius=0.0)
+    column_norms = None
     while True:
         _, fs, Js = scaled_by_loss(loss, it.f, it.J)
+        if scale is None:  # at the start and after each accepted step, as scipy updates it
+            column_norms = _column_norms(Js, column_norms)
+        d = 1.0 / column_norms if scale is None else scale
+        if it.nfev == 1:  # scipy's first region: the size of x0 in scaled variables
+            it.radius = float(np.linalg.norm(it.x / d)) or 1.0
         g = Js.T @ fs
         it.converged = it.converged or bool(np.max(np.abs(g)) < GTOL)
-        if it.converged or it.nfev >= max_nfev:
+        if it.converged or it.nfev >= max_nfev or not np.all(np.isfinite(g)):
             break
-        d = 1.0 / column_norms if scale is None else scale
         Jd = Js * d
         new = _trial_steps(it, batch, loss, Jd.T @ Jd, g * d, d, max_nfev)
-        if new is not None:
-            it.x, it.f = new
-            it.J = jacobian(it.x, it.f)
-            if column_norms is not None:
-                column_norms = _column_norms(scaled_by_loss(loss, it.f, it.J)[2], column_norms)
+        if new is None:  # a tolerance met or the budget spent
+            break
+        it.x, it.f = new
+        it.J = jacobian(it.x, it.f)
     cost, _, Js = scaled_by_loss(loss, it.f, it.J)
     return Solution(it.x, it.f, cost, Js, it.converged, it.nfev)
 
