@@ -9,6 +9,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 import monovisual3d as mv
 from monovisual3d.errors import InputError
 from monovisual3d.methods.bayes import BayesConfig
+from monovisual3d.methods.bayes._kernels import box_dominated_fused
 from monovisual3d.methods.bayes.search import box_dominated
 
 
@@ -43,6 +44,23 @@ def test_box_dominated_matches_its_definition(margin):
         got = box_dominated(total, assoc, [B] * V, margin)
         assert got.shape == (N, K) and got.dtype == bool
         np.testing.assert_array_equal(got, _naive_dominated(total, assoc, margin))
+        np.testing.assert_array_equal(box_dominated_fused(total, assoc, [B] * V, margin), got)
+
+
+def test_compiled_box_dominated_equals_the_numpy_reference_on_large_inputs():
+    """Many hypotheses sharing few boxes, unscored ones, views without boxes, no margin and an infinite one."""
+    rng = np.random.default_rng(11)
+    V, N, K = 4, 3000, 7
+    n_boxes = [40, 0, 25, 3]
+    total = rng.normal(12, 8, (N, K))
+    total[rng.random((N, K)) < 0.3] = -np.inf
+    assoc = np.stack([rng.integers(-1, max(b, 1), (N, K)) if b else np.full((N, K), -1) for b in n_boxes]).astype(np.int16)
+    for margin in (0.0, 6.0, np.inf):
+        ref = box_dominated(total, assoc, n_boxes, margin)
+        assert 0 < ref.sum() < ref.size or margin == np.inf
+        assert_array_equal(box_dominated_fused(total, assoc, n_boxes, margin), ref)
+    empty = np.zeros((0, K))
+    assert box_dominated_fused(empty, np.zeros((V, 0, K), dtype=np.int16), n_boxes, 10.0).shape == (0, K)
 
 
 def test_box_dominated_never_drops_the_best_user_of_a_box_and_inf_drops_nothing():

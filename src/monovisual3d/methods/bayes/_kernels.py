@@ -8,6 +8,8 @@
 - :func:`cone_counts_fused` is :func:`monovisual3d.grid.cone_counts`
   (the numpy reference) in one parallel pass: in how many views each point
   projects inside a widened box.
+- :func:`box_dominated_fused` is :func:`monovisual3d.methods.bayes.search.box_dominated`
+  (the numpy reference) in two passes over the scored hypotheses, without temporaries.
 """
 
 from __future__ import annotations
@@ -367,6 +369,46 @@ def cone_counts_fused(
     return counts
 
 
+def _dominated_kernel(total, assoc, n_boxes, margin, best, out):  # pragma: no cover - jitted
+    N, K = total.shape
+    V = assoc.shape[0]
+    for v in range(V):
+        for j in range(n_boxes[v]):
+            best[v, j] = -math.inf
+        for n in range(N):
+            for k in range(K):
+                j = assoc[v, n, k]
+                if j >= 0 and total[n, k] > best[v, j]:
+                    best[v, j] = total[n, k]
+    for n in range(N):
+        for k in range(K):
+            s = total[n, k]
+            dominated, used = True, False
+            if s > -math.inf:
+                for v in range(V):  # most hypotheses are not dominated and stop at their first box
+                    j = assoc[v, n, k]
+                    if j >= 0:
+                        used = True
+                        if not s < best[v, j] - margin:
+                            dominated = False
+                            break
+            out[n, k] = dominated and used
+
+
+def box_dominated_fused(
+    total: NDArray[np.float64], assoc: NDArray[np.int16], n_boxes: list[int], margin: float
+) -> NDArray[np.bool_]:
+    """:func:`monovisual3d.methods.bayes.search.box_dominated` (the numpy reference), compiled: the best score of any
+    hypothesis using each box in one pass, then each hypothesis against its boxes' best."""
+    out = np.zeros(total.shape, dtype=np.bool_)
+    if not math.isfinite(margin):
+        return out
+    best = np.empty((len(n_boxes), max(max(n_boxes, default=0), 1)))
+    total, assoc = np.ascontiguousarray(total, dtype=np.float64), np.ascontiguousarray(assoc, dtype=np.int16)
+    _dominated_kernel(total, assoc, np.asarray(n_boxes, dtype=np.int64), float(margin), best, out)
+    return out
+
+
 _distort_xy = numba.njit(cache=True, inline="always")(_distort_xy)
 _edge_ll = numba.njit(cache=True, inline="always")(_edge_ll)
 _sphere_box_px = numba.njit(cache=True, inline="always")(_sphere_box_px)
@@ -379,6 +421,7 @@ _box_score = numba.njit(cache=True, inline="always", fastmath=True)(_box_score)
 _best_box = numba.njit(cache=True, inline="always", fastmath=True)(_best_box)
 _score_kernel = numba.njit(cache=True, parallel=True, fastmath=True)(_score_kernel)
 _cone_kernel = numba.njit(cache=True, parallel=True)(_cone_kernel)
+_dominated_kernel = numba.njit(cache=True)(_dominated_kernel)
 
 
 def pack_views(

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from ...result import DetectedObject
 from .problem import Problem, Taken
@@ -98,7 +99,10 @@ class _Work:
         """The rows among ``rows`` (N,) bool whose association in view ``v`` holds one of ``boxes``, sorted."""
         cand = self.users[v].rows(boxes)
         cand = np.unique(cand[rows[cand]])
-        return cand[np.isin(self.assoc[v, cand], boxes).any(axis=1)]
+        current = self.assoc[v, cand]
+        holds = np.zeros(max(int(current.max(initial=-1)), int(np.max(boxes, initial=-1))) + 2, dtype=bool)
+        holds[boxes] = True  # holds[-1], the entry of no box, stays False
+        return cand[holds[current].any(axis=1)]
 
     def suppress(self, rows: NDArray[np.bool_]) -> None:
         """Deactivate the cells ``rows`` (N,) bool."""
@@ -113,6 +117,29 @@ class _Work:
             return c, 0, -np.inf
         k = int(np.argmax(self.eligible[c]))
         return c, k, float(self.eligible[c, k])
+
+
+@dataclass(frozen=True)
+class _Cells:
+    """The hypothesis cells' centres (N, 3), metres, base frame, and a k-d tree of them: the cells near a point are
+    found in time growing with their number, not with all cells (an extraction asks once per candidate and object)."""
+
+    centres: NDArray[np.float64]
+    tree: cKDTree
+
+    @classmethod
+    def of(cls, centres_base: NDArray[np.float64]) -> _Cells:
+        return cls(centres_base, cKDTree(centres_base.reshape(-1, 3)))
+
+    def within(self, point: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
+        """Cells (N,) bool whose centre lies within ``radius`` metres of ``point`` (3,): ``norm(c - point) <= radius``
+        exactly, tested on the tree's candidates found a hair farther out."""
+        out = np.zeros(len(self.centres), dtype=bool)
+        if not len(self.centres):
+            return out
+        idx = np.asarray(self.tree.query_ball_point(point, radius * (1 + 1e-9) + 1e-12), dtype=np.intp)
+        out[idx[np.linalg.norm(self.centres[idx] - point, axis=1) <= radius]] = True
+        return out
 
 
 @dataclass
@@ -147,14 +174,21 @@ class _BoxUsers:
     def rows(self, boxes: NDArray[np.intp]) -> NDArray[np.intp]:
         """Rows indexed with one of ``boxes`` (repeats possible; some no longer use it)."""
         out = []
+        keys = np.asarray(boxes).astype(np.int16)  # in the runs' type: a key of another type would convert each run
         for js, rs in self.runs:
-            lo, hi = np.searchsorted(js, boxes, side="left"), np.searchsorted(js, boxes, side="right")
+            lo, hi = np.searchsorted(js, keys, side="left"), np.searchsorted(js, keys, side="right")
             out += [rs[a:b] for a, b in zip(lo, hi)]
         return np.concatenate(out) if out else np.zeros(0, dtype=np.intp)
 
 
 def _candidates(
-    problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, best: float, cache: dict[tuple[int, int], DetectedObject | None]
+    problem: Problem,
+    hyp: Hypotheses,
+    work: _Work,
+    taken: Taken,
+    best: float,
+    cache: dict[tuple[int, int], DetectedObject | None],
+    cells: _Cells,
 ) -> list[tuple[DetectedObject | None, NDArray[np.bool_]]]:
     """The look-ahead: refined candidates near the best grid score, each with the cells it stands for."""
     cfg, centres, radii = problem.config, hyp.centres_base, hyp.radii
@@ -170,17 +204,17 @@ def _candidates(
             b, u = hyp.bin_semi_up(int(k)), hyp.bin_axis(int(k))
             _, assoc_h = score_one(problem, taken, centres[c], float(radii[k]), hyp.cell, b, u)
             cache[key] = refine_and_check(problem, taken, centres[c], float(radii[k]), assoc_h, b, u)
-        near = np.linalg.norm(centres - centres[c], axis=1) <= max(2 * hyp.cell, radii[k])
+        near = cells.within(centres[c], max(2 * hyp.cell, radii[k]))
         trial[near] = False
         out.append((cache[key], near))
     return out
 
 
-def _take(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, obj: DetectedObject) -> Taken:
+def _take(problem: Problem, hyp: Hypotheses, work: _Work, taken: Taken, obj: DetectedObject, cells: _Cells) -> Taken:
     """Give ``obj`` its boxes: suppress the cells around it and mark stale the hypotheses that used its boxes."""
     new = boxes_of(problem, obj)
     taken = taken | new
-    near = np.linalg.norm(hyp.centres_base - obj.position, axis=1) <= max(hyp.cell, 0.5 * float(obj.radius or 0))
+    near = cells.within(obj.position, max(hyp.cell, 0.5 * float(obj.radius or 0)))
     work.suppress(near)
     live = work.active & ~work.stale  # a stale row is rescored anyway; its associations are old
     for v in {v for v, _ in new}:
@@ -219,6 +253,7 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
     objects: list[DetectedObject] = []
     taken: Taken = frozenset()
     cache: dict[tuple[int, int], DetectedObject | None] = {}
+    cells = _Cells.of(hyp.centres_base)
     max_iter = sum(len(vd.boxes) for vd in problem.views) * 3 + 10
     for _ in range(max_iter):
         if work.total.size == 0:
@@ -227,7 +262,7 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
         best = float(work.row_best.max())
         if not np.isfinite(best) or best < cfg.accept - cfg.prune_slack:
             break
-        candidates = _candidates(problem, hyp, work, taken, best, cache)
+        candidates = _candidates(problem, hyp, work, taken, best, cache, cells)
         for cand, near in candidates:
             if cand is None:
                 work.suppress(near)
@@ -238,5 +273,5 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
         objects.append(obj)
         mine = boxes_of(problem, obj)
         cache = {key: o for key, o in cache.items() if o is not None and o is not obj and not mine & boxes_of(problem, o)}
-        taken = _take(problem, hyp, work, taken, obj)
+        taken = _take(problem, hyp, work, taken, obj, cells)
     return objects, taken

@@ -273,6 +273,17 @@ def box_dominated(total: NDArray[np.float64], assoc: NDArray[np.int16], n_boxes:
     return (out & used).reshape(total.shape)
 
 
+def _box_dominated(
+    problem: Problem, total: NDArray[np.float64], assoc: NDArray[np.int16], n_boxes: list[int]
+) -> NDArray[np.bool_]:
+    """:func:`box_dominated` with the problem's margin, compiled with the numba backend."""
+    if problem.config.backend == "numba":
+        from ._kernels import box_dominated_fused
+
+        return box_dominated_fused(total, assoc, n_boxes, problem.config.dominance_margin)
+    return box_dominated(total, assoc, n_boxes, problem.config.dominance_margin)
+
+
 def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
     """Each row's kept radius bins, widened by ``bins`` on each side."""
     for _ in range(bins):
@@ -399,7 +410,7 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
         mask = (
             (total >= floor)
             & (n_assoc >= cfg.min_views)
-            & ~box_dominated(total, assoc, n_boxes, cfg.dominance_margin)
+            & ~_box_dominated(problem, total, assoc, n_boxes)
             & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack + cfg.elongation_cost)
         )
         good = mask.any(axis=1)
