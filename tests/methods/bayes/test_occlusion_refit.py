@@ -11,7 +11,7 @@ from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.methods.bayes import shapes
 from monovisual3d.methods.bayes.likelihood import SensorModel
-from monovisual3d.methods.bayes.occlusion import occluded_edges
+from monovisual3d.methods.bayes.occlusion import OCCLUSION_MARGIN_SIGMAS, _meeting, covered_sides, occluded_edges
 from monovisual3d.methods.bayes.refine import Observation, _BoxResiduals, observation_residuals, refine_sphere
 from monovisual3d.session import Workspace
 from monovisual3d.sim.scene import Scene, Sphere
@@ -96,3 +96,28 @@ def test_a_fruit_half_hidden_by_a_nearer_one_is_localised_better_with_the_refit(
     assert without[1] > 3e-3  # the hidden part of its boxes pulls the fit
     assert with_refit[1] < 1e-3
     assert abs(with_refit[0] - without[0]) < 0.2e-3
+
+
+def test_boxes_that_do_not_meet_widened_by_their_pads_flag_nothing():
+    """``occlusion_flags`` skips the nearer boxes that ``_meeting`` rules out: on random boxes and stds, a pair it
+    rules out gets no flag from either test at the pair's margin, and a pair that overlaps is never ruled out."""
+    rng = np.random.default_rng(5)
+    n = 60
+    corner = rng.uniform(0, 600, (n, 2))
+    boxes = np.hstack([corner, corner + rng.uniform(5, 120, (n, 2))])
+    boxes[3] = np.nan
+    std = rng.uniform(0, 25, (n, 2))
+    meets = _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std)
+    assert not meets[3].any() and not meets.diagonal().any()
+    ruled_out = 0
+    for i in range(n):
+        for j in range(n):
+            margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[j], std[i])[None]
+            overlap = np.all(boxes[i, :2] <= boxes[j, 2:]) and np.all(boxes[j, :2] <= boxes[i, 2:])
+            if i == j or meets[i, j]:
+                continue
+            ruled_out += 1
+            assert not overlap
+            assert not occluded_edges(boxes[i], boxes[j][None], margin).any()
+            assert not covered_sides(boxes[i], boxes[j][None], margin).any()
+    assert ruled_out > n * n // 4

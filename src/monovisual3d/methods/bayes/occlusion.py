@@ -151,6 +151,20 @@ def ends_at_occluder(
     return np.any(np.abs(facing - np.asarray(observed, dtype=float)[None, :]) <= tol, axis=0)
 
 
+def _meeting(boxes: NDArray[np.float64], pad_px: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Which of the boxes (N, 4), each widened by its ``pad_px`` (N, 2) along x and y, meet each other (closed
+    intervals), shape (N, N); False on the diagonal and for a box with a NaN.
+
+    The tests of :func:`occlusion_flags` flag an edge only where the nearer box, shrunk or grown by the pair's margin
+    ``OCCLUSION_MARGIN_SIGMAS * hypot(std_i, std_j)`` (at most the sum of the two pads), reaches into the box or
+    spans it: boxes that do not meet so widened have no flag to give each other.
+    """
+    lo, hi = boxes[:, :2] - pad_px, boxes[:, 2:] + pad_px
+    out = np.all((lo[:, None, :] <= hi[None, :, :]) & (hi[:, None, :] >= lo[None, :, :]), axis=2)
+    np.fill_diagonal(out, False)
+    return out
+
+
 #: Per view: the objects' predicted boxes (N, 4), centre depths (N,) and projected-centre stds (N, 2) (``_predicted``).
 Predicted = list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
 
@@ -183,6 +197,10 @@ def occlusion_flags(
     cfg = problem.config
     preds = predicted_views(problem, objects) if predicted is None else predicted
     elongated = np.array([o.extra.get("semi_up") is not None for o in objects], dtype=bool)
+    # only a nearer object whose predicted box comes within the margin of this one's can cut or cover its edges
+    meets = [_meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None]) for boxes, depth, std in preds]
+    if trusted is not None:
+        meets = [m & np.asarray(trusted, dtype=bool)[None, :] for m in meets]
     out: list[tuple[list[Observation], frozenset[int]] | None] = []
     for i, o in enumerate(objects):
         assoc = associations_list(problem, o)
@@ -192,9 +210,11 @@ def occlusion_flags(
         obs, cut = [], set()
         for ob, v in zip(observations(problem, assoc, o.position), [v for v, j in enumerate(assoc) if j >= 0]):
             boxes, depth, std = preds[v]
-            near = (depth < depth[i]) & (np.arange(len(objects)) != i)
-            if trusted is not None:
-                near &= np.asarray(trusted, dtype=bool)
+            near = meets[v][i]
+            if not near.any():
+                ob.censored = np.zeros(4, dtype=bool)
+                obs.append(ob)
+                continue
             margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
             shifted = occluded_edges(boxes[i], boxes[near], margin)
             if whole_sides:
