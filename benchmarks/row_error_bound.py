@@ -109,10 +109,16 @@ def fruit_bound(camera, views, f, centre, radius, rng):  # noqa: ANN001, ANN201
         n_border += int(border.sum())
         usable = ~border & ~occluded
         J = np.stack(
-            [(sphere_box(camera, sv.T_base_optical_true, centre + h[:3], radius + h[3]) - sphere_box(
-                camera, sv.T_base_optical_true, centre - h[:3], radius - h[3])) / (2 * STEP_M) for h in np.eye(4) * STEP_M],
+            [
+                (
+                    sphere_box(camera, sv.T_base_optical_true, centre + h[:3], radius + h[3])
+                    - sphere_box(camera, sv.T_base_optical_true, centre - h[:3], radius - h[3])
+                )
+                / (2 * STEP_M)
+                for h in np.eye(4) * STEP_M
+            ],
             axis=1,
-        )  # fmt: skip
+        )
         C = box_edge_covariance(vis, BOX_NOISE)
         C_full = box_edge_covariance(np.clip(full, 0.0, size), BOX_NOISE)  # a detector whose noise ignores the cut
         idx = np.flatnonzero(usable)
@@ -201,11 +207,27 @@ def summary(rows: list[FruitRow]) -> dict[str, float]:
 
 
 HEADER = (
-    "fruit", "seeds", "matched", "singular", "mean mm", "bound mm", "error / sparse", "bound / sparse", "eff",
-    "bound uncut-noise mm", "its / sparse",
-    "RMS mm", "RMS bound mm", "oracle mm", "oracle-cens mm", "occl. fruit %", "occl. eff", "clear eff", "wrong-assoc %",
+    "fruit",
+    "seeds",
+    "matched",
+    "singular",
+    "mean mm",
+    "bound mm",
+    "error / sparse",
+    "bound / sparse",
+    "eff",
+    "bound uncut-noise mm",
+    "its / sparse",
+    "RMS mm",
+    "RMS bound mm",
+    "oracle mm",
+    "oracle-cens mm",
+    "occl. fruit %",
+    "occl. eff",
+    "clear eff",
+    "wrong-assoc %",
     "views/fruit",
-)  # fmt: skip
+)
 
 
 def table_row(n: int, n_seeds: int, rows: list[FruitRow], sparse: dict[str, float]) -> str:

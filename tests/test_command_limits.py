@@ -170,9 +170,12 @@ def test_simulate_pictures_limit(tmp_path: Path) -> None:
 
 def test_what_simulate_writes_load_session_reads(tmp_path: Path) -> None:
     noise = NoiseModel.from_mm_deg(
-        box_sigma=0.05, drop_probability=0.02, false_positive_rate=limits.MAX_SIM_FALSE_POSITIVES,
-        pose_error_mm=limits.MAX_SIM_POSE_ERROR_MM, pose_error_deg=limits.MAX_SIM_POSE_ERROR_DEG,
-    )  # fmt: skip
+        box_sigma=0.05,
+        drop_probability=0.02,
+        false_positive_rate=limits.MAX_SIM_FALSE_POSITIVES,
+        pose_error_mm=limits.MAX_SIM_POSE_ERROR_MM,
+        pose_error_deg=limits.MAX_SIM_POSE_ERROR_DEG,
+    )
     paths = write_simulation(tmp_path / "o", paper_scene(), noise=noise, rng=3, images=False)
     session = load_session(paths["session"])
     assert len(session.views) == 3
@@ -245,9 +248,16 @@ def test_import_with_no_matching_image_is_an_error(tmp_path: Path) -> None:
     dets.write_text((FIXTURES / "detections.csv").read_text().replace("img_", "other_"))
     out = tmp_path / "s.json"
     code, text = run(
-        "import", "--camera", str(FIXTURES / "ros_camera_info.yaml"), "--poses", str(FIXTURES / "poses.csv"),
-        "--detections", str(dets), "-o", str(out),
-    )  # fmt: skip
+        "import",
+        "--camera",
+        str(FIXTURES / "ros_camera_info.yaml"),
+        "--poses",
+        str(FIXTURES / "poses.csv"),
+        "--detections",
+        str(dets),
+        "-o",
+        str(out),
+    )
     assert code == 2
     assert text.splitlines()[-1] == (
         f"error: {dets}: no detection image matches an image named in {FIXTURES / 'poses.csv'} "
@@ -267,9 +277,16 @@ def test_import_errors_name_the_input_line(tmp_path: Path) -> None:
     with open(labels / "img_001.txt", "a") as f:
         f.write(f"0 {pts}\n")
     line = one_error(
-        "import", "--camera", str(FIXTURES / "opencv_calibration.yaml"), "--poses", str(FIXTURES / "poses.csv"),
-        "--detections", str(labels), "-o", str(tmp_path / "s.json"),
-    )  # fmt: skip
+        "import",
+        "--camera",
+        str(FIXTURES / "opencv_calibration.yaml"),
+        "--poses",
+        str(FIXTURES / "poses.csv"),
+        "--detections",
+        str(labels),
+        "-o",
+        str(tmp_path / "s.json"),
+    )
     assert (
         line == f"error: {labels / 'img_001.txt'}: line {n_lines + 1}: mask.polygon: 100010 points, more than the 100000 accepted"
     )
@@ -280,9 +297,16 @@ def test_import_refuses_huge_tables_before_parsing(tmp_path: Path) -> None:
     row = "img_x.png,1.0,0.18,0.0,0.47,-0.5,0.5,-0.5,0.5\n"
     poses.write_text("image,stamp,x,y,z,qx,qy,qz,qw\n" + row * (limits.MAX_TABLE_ROWS + 1))
     line = one_error(
-        "import", "--camera", str(FIXTURES / "ros_camera_info.yaml"), "--poses", str(poses),
-        "--detections", str(FIXTURES / "detections.csv"), "-o", str(tmp_path / "s.json"),
-    )  # fmt: skip
+        "import",
+        "--camera",
+        str(FIXTURES / "ros_camera_info.yaml"),
+        "--poses",
+        str(poses),
+        "--detections",
+        str(FIXTURES / "detections.csv"),
+        "-o",
+        str(tmp_path / "s.json"),
+    )
     assert line == f"error: {poses}: 200,002 lines, more than the 200,000 accepted in one file"
 
 
@@ -322,8 +346,11 @@ def test_max_memory_stops_a_command_in_one_line(tmp_path: Path) -> None:
     args = ["simulate", "-o", str(tmp_path / "o"), "--views", "ring:100", "--supersample", "2", "--no-images"]
     proc = subprocess.run(
         [sys.executable, "-c", "from monovisual3d.cli import main; main()", *args, "--max-memory", "16MiB"],
-        capture_output=True, text=True, timeout=300, env=env,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
     assert proc.returncode == 2, proc.stderr[-2000:]
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert lines == ["error: --max-memory: the command grew by more than 16 MiB, stopped; raise --max-memory"]

@@ -173,8 +173,14 @@ def fake_results(nbv3: float, nbv5: float, recall_nbv: float = 1.0) -> dict[str,
     res = {"greenhouse-noise": {"description": "d", "seeds": list(range(10)), "table": table, "stopping": stops}}
     res["greenhouse"] = res["greenhouse-noise"]
     timing = {"n_candidates": 100, "n_objects": 6, "median_s": 0.05, "min_s": 0.04, "max_s": 0.07, "repeats": 7}
-    return {"results": res, "timing": timing, "targets": check_targets(res, timing), "max_views": 5, "n_candidates": 60,
-            "machine": {"cpu": "x", "cores": 2, "python": "3", "numpy": "2", "date_utc": "2026-12-01T00:00"}}  # fmt: skip
+    return {
+        "results": res,
+        "timing": timing,
+        "targets": check_targets(res, timing),
+        "max_views": 5,
+        "n_candidates": 60,
+        "machine": {"cpu": "x", "cores": 2, "python": "3", "numpy": "2", "date_utc": "2026-12-01T00:00"},
+    }
 
 
 def test_bench_targets_use_the_better_baseline_per_budget(tmp_path: Path) -> None:

@@ -45,9 +45,16 @@ def test_local_cluster_with_killed_workers_loses_and_duplicates_nothing(
     out = tmp_path / "out"
     progress = []
     fruit, sessions = run(
-        [mixed_root], out, workers=2, max_worker_deaths=1, chunk_size=chunk_size, localizer=crashing, dashboard_address=None,
-        progress=progress.append, **FAST,
-    )  # fmt: skip
+        [mixed_root],
+        out,
+        workers=2,
+        max_worker_deaths=1,
+        chunk_size=chunk_size,
+        localizer=crashing,
+        dashboard_address=None,
+        progress=progress.append,
+        **FAST,
+    )
     assert not marker.exists()  # the first attempt of a/s1 did kill its worker
     assert progress[-1].workers == 2 and progress[-1].done == 6 and progress[-1].failed == 4
     assert sessions["session_id"].is_unique and len(sessions) == 6

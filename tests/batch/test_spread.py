@@ -65,9 +65,13 @@ def test_bench_accuracy_spread_gives_the_same_errors(scheduler: str) -> None:
 
 def test_bench_active_spread_gives_the_same_runs(scheduler: str) -> None:
     kwargs = {
-        "conditions": ("greenhouse",), "seeds": (0, 1), "max_views": 2, "n_candidates": 8, "strategies": ("nbv", "random"),
+        "conditions": ("greenhouse",),
+        "seeds": (0, 1),
+        "max_views": 2,
+        "n_candidates": 8,
+        "strategies": ("nbv", "random"),
         "timing_repeats": 1,
-    }  # fmt: skip
+    }
     here = run_active_bench(**kwargs)
     spread = run_active_bench(**kwargs, scheduler=scheduler)
     for key in ("table", "chosen", "stopping"):

@@ -102,14 +102,42 @@ def test_compiled_projections_match_camera_project(name):
     res = 0.01
     F = p_optical / res
     ub, vb = np.empty(n), np.empty(n)
-    nk.project_cells(T[0], p.intrinsics, p.distortion_id, p.distortion, 0.0, 0.0, 0.0, res, n, F[:, 0].copy(),
-                     F[:, 1].copy(), F[:, 2].copy(), ub, vb)  # fmt: skip
+    nk.project_cells(
+        T[0],
+        p.intrinsics,
+        p.distortion_id,
+        p.distortion,
+        0.0,
+        0.0,
+        0.0,
+        res,
+        n,
+        F[:, 0].copy(),
+        F[:, 1].copy(),
+        F[:, 2].copy(),
+        ub,
+        vb,
+    )
     assert_allclose(np.column_stack([ub, vb])[front], uv_ref[front], rtol=1e-12, atol=1e-8)
     assert (ub[~front] == nk.FAR_PX).all()
     F32 = F.astype(np.float32)
     ub32, vb32 = np.empty(n, np.float32), np.empty(n, np.float32)
-    nk.project_cells32(T[0], p.intrinsics, p.distortion_id, p.distortion, 0.0, 0.0, 0.0, res, n, F32[:, 0].copy(),
-                       F32[:, 1].copy(), F32[:, 2].copy(), ub32, vb32)  # fmt: skip
+    nk.project_cells32(
+        T[0],
+        p.intrinsics,
+        p.distortion_id,
+        p.distortion,
+        0.0,
+        0.0,
+        0.0,
+        res,
+        n,
+        F32[:, 0].copy(),
+        F32[:, 1].copy(),
+        F32[:, 2].copy(),
+        ub32,
+        vb32,
+    )
     assert_allclose(np.column_stack([ub32, vb32])[front], uv_ref[front], rtol=0, atol=0.05)
 
 

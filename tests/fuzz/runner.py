@@ -281,9 +281,19 @@ def cli_case(rng: random.Random, tmp: Path, report: Report, case: str, bases: li
         hostile_opt = rng.random()
         if hostile_opt < 0.15:
             opts += rng.choice(
-                [["--k", "²"], ["--k", "0"], ["--k", "99999999999999999999"], ["--resolution", "nan"], ["--resolution", "1e-300"],
-                 ["--reach", "1e5"], ["--reach", "inf"], ["--accept", "nan"], ["--pose-sigma-mm", "-1"], ["--kernel", "\x1b[31m"]]
-            )  # fmt: skip
+                [
+                    ["--k", "²"],
+                    ["--k", "0"],
+                    ["--k", "99999999999999999999"],
+                    ["--resolution", "nan"],
+                    ["--resolution", "1e-300"],
+                    ["--reach", "1e5"],
+                    ["--reach", "inf"],
+                    ["--accept", "nan"],
+                    ["--pose-sigma-mm", "-1"],
+                    ["--kernel", "\x1b[31m"],
+                ]
+            )
         target = rng.choice([str(out), str(out), "/dev/full", str(path), str(tmp / "nodir" / "x.json"), str(tmp)])
         args = ["localize", str(path), "-q", *opts, "-o", target]
         # a big workspace would make a dense grid: the grid guard is fuzzed in-process; keep the CLI cheap

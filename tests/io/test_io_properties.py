@@ -43,10 +43,42 @@ EXAMPLES = int(os.environ.get("MV3D_HYPOTHESIS_EXAMPLES", "40"))
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 TOKENS = [
-    "nan", "NaN", "inf", "-inf", ".inf", "1e308", "-1e308", "1e999", "1e-320", "0", "-0", "-1", "0.0", "abc", "",
-    "[]", "{}", "null", "~", "true", "1.5", "2", "99999999999999999999999", ":", "- x", "#", "0x10", "1_000", '"',
-    "[1, 2]", "{a: 1}", "!!opencv-matrix", "!!python/object", "&a", "*a",
-]  # fmt: skip
+    "nan",
+    "NaN",
+    "inf",
+    "-inf",
+    ".inf",
+    "1e308",
+    "-1e308",
+    "1e999",
+    "1e-320",
+    "0",
+    "-0",
+    "-1",
+    "0.0",
+    "abc",
+    "",
+    "[]",
+    "{}",
+    "null",
+    "~",
+    "true",
+    "1.5",
+    "2",
+    "99999999999999999999999",
+    ":",
+    "- x",
+    "#",
+    "0x10",
+    "1_000",
+    '"',
+    "[1, 2]",
+    "{a: 1}",
+    "!!opencv-matrix",
+    "!!python/object",
+    "&a",
+    "*a",
+]
 SPLIT = re.compile(r"(\s+|,|\[|\]|:|\{|\})")
 
 

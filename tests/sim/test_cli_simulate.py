@@ -28,9 +28,27 @@ def test_simulate_paper_scene(tmp_path):
 
 def test_simulate_with_all_options_is_reproducible(tmp_path):
     args = [
-        "simulate", "--scene", "random", "--n-fruit", "3", "--views", "ring:4:25", "--noise", "0.05", "--drop", "0.02",
-        "--false-positives", "0.5", "--pose-error-mm", "2", "--pose-error-deg", "0.5", "--seed", "4", "--no-images",
-    ]  # fmt: skip
+        "simulate",
+        "--scene",
+        "random",
+        "--n-fruit",
+        "3",
+        "--views",
+        "ring:4:25",
+        "--noise",
+        "0.05",
+        "--drop",
+        "0.02",
+        "--false-positives",
+        "0.5",
+        "--pose-error-mm",
+        "2",
+        "--pose-error-deg",
+        "0.5",
+        "--seed",
+        "4",
+        "--no-images",
+    ]
     r1 = runner.invoke(app, [*args, "--output", str(tmp_path / "a")])
     r2 = runner.invoke(app, [*args, "--output", str(tmp_path / "b")])
     assert r1.exit_code == 0 and r2.exit_code == 0, r1.output + r2.output

@@ -56,9 +56,13 @@ def row_session(n_fruit: int, n_views: int, seed: int):  # noqa: ANN201 - (Sessi
     scene = row_scene(n_fruit, seed)
     ws = scene.metadata["workspace"]
     session, _ = simulate(
-        scene, row_camera(), row_poses(n_views), noise=NoiseModel(box_sigma=BOX_NOISE), rng=seed,
+        scene,
+        row_camera(),
+        row_poses(n_views),
+        noise=NoiseModel(box_sigma=BOX_NOISE),
+        rng=seed,
         workspace=Workspace(np.asarray(ws["min"], dtype=float), np.asarray(ws["max"], dtype=float)),
-    )  # fmt: skip
+    )
     return session, scene
 
 
@@ -128,9 +132,15 @@ def run_scale(
     warm, _ = row_session(6, 3, 0)
     localize(warm, **OPTIONS)  # loads numba's cached kernels outside the timing
     meta = {
-        **machine_metadata(), "seeds": list(seeds), "repeats": repeats, "box_noise": BOX_NOISE,
-        "camera": "1280x720, 90 deg", "row_m": "1.2 x 0.7 x 0.25", "distance_m": 0.8, "options": OPTIONS,
-    }  # fmt: skip
+        **machine_metadata(),
+        "seeds": list(seeds),
+        "repeats": repeats,
+        "box_noise": BOX_NOISE,
+        "camera": "1280x720, 90 deg",
+        "row_m": "1.2 x 0.7 x 0.25",
+        "distance_m": 0.8,
+        "options": OPTIONS,
+    }
     cases = [("fruit", int(n), SWEEP_VIEWS) for n in fruit] + [("views", SWEEP_FRUIT, int(v)) for v in views]
     rows: list[dict[str, Any]] = []
     for load in ("idle", "busy one core") if busy else ("idle",):
@@ -157,11 +167,17 @@ def format_table(result: dict[str, Any]) -> list[list[str]]:
     for r in result["rows"]:
         out.append(
             [
-                r["load"], str(r["fruit"]), str(r["views"]), f"{r['boxes_per_view']:.0f}", f"{r['time_s']:.2f}", f"{r['cpu_s']:.2f}",
-                "-" if r["mean_mm"] is None else f"{r['mean_mm']:.2f}", "-" if r["recall"] is None else f"{r['recall']:.3f}",
+                r["load"],
+                str(r["fruit"]),
+                str(r["views"]),
+                f"{r['boxes_per_view']:.0f}",
+                f"{r['time_s']:.2f}",
+                f"{r['cpu_s']:.2f}",
+                "-" if r["mean_mm"] is None else f"{r['mean_mm']:.2f}",
+                "-" if r["recall"] is None else f"{r['recall']:.3f}",
                 "-" if r["precision"] is None else f"{r['precision']:.3f}",
             ]
-        )  # fmt: skip
+        )
     return out
 
 

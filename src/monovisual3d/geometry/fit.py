@@ -419,12 +419,21 @@ def _least_squares_from(
             # UNDEFINED_RESIDUAL, so the step costs more and is rejected; the overflow is expected, not an error
             with np.errstate(over="ignore", invalid="ignore"):
                 res = levenberg_marquardt(
-                    batch, theta0, "jac", loss=named_loss(stage_loss, robust_scale), jac=jacobian,
+                    batch,
+                    theta0,
+                    "jac",
+                    loss=named_loss(stage_loss, robust_scale),
+                    jac=jacobian,
                     max_nfev=MAX_NFEV_PER_PARAMETER * len(theta0),
-                )  # fmt: skip
+                )
             if np.any(res.x < lower) or np.any(res.x > upper):  # a size left size_range: solve again within it
-                options = {"jac": jacobian, "loss": stage_loss, "f_scale": robust_scale, "x_scale": "jac",
-                           "max_nfev": MAX_NFEV_PER_PARAMETER * len(theta0)}  # fmt: skip
+                options = {
+                    "jac": jacobian,
+                    "loss": stage_loss,
+                    "f_scale": robust_scale,
+                    "x_scale": "jac",
+                    "max_nfev": MAX_NFEV_PER_PARAMETER * len(theta0),
+                }
                 b = least_squares(lambda th: batch(th[None])[0], theta0, bounds=(lower, upper), **options)
                 res = Solution(b.x, b.fun, float(b.cost), b.jac, bool(b.success), int(b.nfev))
             theta0 = np.clip(res.x, lower + 1e-12, upper - 1e-12)

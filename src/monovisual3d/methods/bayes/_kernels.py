@@ -300,9 +300,22 @@ def _score_kernel(
                 if not seen[kk]:
                     continue
                 best, found = _best_box(
-                    v, boxes, available, cand, m, pred[kk, 0], pred[kk, 1], pred[kk, 2], pred[kk, 3], pred[kk, 4], pred[kk, 5],
-                    pred[kk, 6], pred[kk, 7], cam, params,
-                )  # fmt: skip
+                    v,
+                    boxes,
+                    available,
+                    cand,
+                    m,
+                    pred[kk, 0],
+                    pred[kk, 1],
+                    pred[kk, 2],
+                    pred[kk, 3],
+                    pred[kk, 4],
+                    pred[kk, 5],
+                    pred[kk, 6],
+                    pred[kk, 7],
+                    cam,
+                    params,
+                )
                 total[n, kk] += best
                 if found >= 0:
                     n_assoc[n, kk] += 1

@@ -66,9 +66,13 @@ def _fit(problem: Problem, o: DetectedObject, assoc: list[int], fits: _Fits) -> 
 
 
 def swap_worth_fitting(
-    problem: Problem, v: int, first: list[DetectedObject], second: list[DetectedObject], first_boxes: NDArray[np.float64],
+    problem: Problem,
+    v: int,
+    first: list[DetectedObject],
+    second: list[DetectedObject],
+    first_boxes: NDArray[np.float64],
     second_boxes: NDArray[np.float64],
-) -> NDArray[np.bool_]:  # fmt: skip
+) -> NDArray[np.bool_]:
     """Whether swapping the boxes of objects ``first[p]`` and ``second[p]`` (P pairs, predicted at ``first_boxes`` and
     ``second_boxes``, (P, 4)) in view ``v`` loses less than ``match_bonus`` nats at their current positions (the gate
     before the two refits), shape (P,) bool.
@@ -161,9 +165,16 @@ def _steal_candidates(problem: Problem, hyp: Hypotheses, taken: Taken) -> NDArra
 
 
 def _try_steal(
-    problem: Problem, objects: list[DetectedObject], taken: Taken, holder: dict[tuple[int, int], int], centre: NDArray[np.float64],
-    radius: float, wanted: list[int], semi_up: float | None = None, axis: NDArray[np.float64] | None = None,
-) -> tuple[DetectedObject, dict[int, DetectedObject]] | None:  # fmt: skip
+    problem: Problem,
+    objects: list[DetectedObject],
+    taken: Taken,
+    holder: dict[tuple[int, int], int],
+    centre: NDArray[np.float64],
+    radius: float,
+    wanted: list[int],
+    semi_up: float | None = None,
+    axis: NDArray[np.float64] | None = None,
+) -> tuple[DetectedObject, dict[int, DetectedObject]] | None:
     """The candidate refined with the boxes it wants (held ones released), and the holders refit without them."""
     cfg = problem.config
     stolen = {(v, j) for v, j in enumerate(wanted) if j >= 0 and (v, j) in holder}

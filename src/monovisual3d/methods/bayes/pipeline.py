@@ -124,10 +124,16 @@ def bundle(problem: Problem, objects: list[DetectedObject]) -> tuple[list[Detect
         if (j := o.associations.get(vd.index, -1)) >= 0
     ]
     b = bundle_adjust(
-        problem.camera, obs, np.stack([o.position for o in objects]), np.array([float(o.radius) for o in objects]),  # type: ignore[arg-type]
-        problem.model, position_sigma=cfg.pose_position_sigma, rotation_sigma=cfg.pose_rotation_sigma,
-        use_masks=cfg.use_masks, n_views=len(views),
-    )  # fmt: skip
+        problem.camera,
+        obs,
+        np.stack([o.position for o in objects]),
+        np.array([float(o.radius) for o in objects]),  # type: ignore[arg-type]
+        problem.model,
+        position_sigma=cfg.pose_position_sigma,
+        rotation_sigma=cfg.pose_rotation_sigma,
+        use_masks=cfg.use_masks,
+        n_views=len(views),
+    )
     out = []
     for i, o in enumerate(objects):
         lo, hi = cfg.radius_min / DIVERGED_RADIUS_FACTOR, cfg.radius_max * DIVERGED_RADIUS_FACTOR

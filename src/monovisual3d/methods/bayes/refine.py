@@ -176,10 +176,15 @@ class _BoxResiduals:
         if semi_up is not None:
             pred = np.stack(
                 [
-                    np.stack([predict_spheroid_boxes(cam, p_opt[p, m][None], [a], [b], self.up_optical[m])[0][0, 0] for m in range(len(self.R))])
+                    np.stack(
+                        [
+                            predict_spheroid_boxes(cam, p_opt[p, m][None], [a], [b], self.up_optical[m])[0][0, 0]
+                            for m in range(len(self.R))
+                        ]
+                    )
                     for p, (a, b) in enumerate(zip(radii, semi_up))
                 ]
-            )  # fmt: skip
+            )
         elif cam.distortion_model == "none":
             pred = pinhole_sphere_boxes(cam, p_opt, radii[:, None])
         else:

@@ -154,9 +154,14 @@ def score_hypotheses_numpy(
 
 
 def score_one(
-    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, cell: float = 0.0, semi_up: float | None = None,
+    problem: Problem,
+    taken: Taken,
+    centre: NDArray[np.float64],
+    radius: float,
+    cell: float = 0.0,
+    semi_up: float | None = None,
     axis: NDArray[np.float64] | None = None,
-) -> tuple[float, list[int]]:  # fmt: skip
+) -> tuple[float, list[int]]:
     """Score (nats) and best available box per view (-1: none) of one sphere (a spheroid with ``semi_up`` along
     ``axis``, default ``up``); ``cell`` > 0 blurs it as a grid cell."""
     b = None if semi_up is None else np.array([semi_up])
@@ -203,9 +208,13 @@ def spheroid_axis(problem: Problem, axis: NDArray[np.float64] | None) -> NDArray
 
 
 def _refine(
-    problem: Problem, obs: Sequence[Observation], centre: NDArray[np.float64], radius: float, semi_up: float | None,
+    problem: Problem,
+    obs: Sequence[Observation],
+    centre: NDArray[np.float64],
+    radius: float,
+    semi_up: float | None,
     axis: NDArray[np.float64] | None = None,
-) -> Refined:  # fmt: skip
+) -> Refined:
     """A sphere through :func:`.refine.refine_sphere`, a spheroid (``semi_up`` along ``axis``, default ``up``)
     through ``refine_spheroid``."""
     cfg = problem.config
@@ -237,9 +246,14 @@ def _object(
 
 
 def refine_and_check(
-    problem: Problem, taken: Taken, centre0: NDArray[np.float64], radius0: float, assoc0: Sequence[int],
-    semi_up0: float | None = None, axis: NDArray[np.float64] | None = None,
-) -> DetectedObject | None:  # fmt: skip
+    problem: Problem,
+    taken: Taken,
+    centre0: NDArray[np.float64],
+    radius0: float,
+    assoc0: Sequence[int],
+    semi_up0: float | None = None,
+    axis: NDArray[np.float64] | None = None,
+) -> DetectedObject | None:
     """Refine a hypothesis, re-associating its boxes among those not ``taken``; None unless it is accepted.
 
     Accepted: at least ``min_views`` associated views, a plausible radius and a
@@ -267,9 +281,15 @@ def refine_and_check(
 
 
 def _refine_associating(
-    problem: Problem, taken: Taken, centre: NDArray[np.float64], radius: float, assoc: list[int], rounds: int = 3,
-    semi_up: float | None = None, axis: NDArray[np.float64] | None = None,
-) -> tuple[Any, float, list[int]] | None:  # fmt: skip
+    problem: Problem,
+    taken: Taken,
+    centre: NDArray[np.float64],
+    radius: float,
+    assoc: list[int],
+    rounds: int = 3,
+    semi_up: float | None = None,
+    axis: NDArray[np.float64] | None = None,
+) -> tuple[Any, float, list[int]] | None:
     """Refine on the associated boxes, rescore (re-associating the free boxes) and repeat up to ``rounds`` times.
 
     Returns the refined sphere (or upright spheroid, with ``semi_up``), its score and the association it
@@ -293,9 +313,13 @@ def _refine_associating(
 
 
 def fit_fixed(
-    problem: Problem, centre0: NDArray[np.float64], radius0: float, assoc: Sequence[int], semi_up0: float | None = None,
+    problem: Problem,
+    centre0: NDArray[np.float64],
+    radius0: float,
+    assoc: Sequence[int],
+    semi_up0: float | None = None,
     axis: NDArray[np.float64] | None = None,
-) -> DetectedObject | None:  # fmt: skip
+) -> DetectedObject | None:
     """Refine one object with a fixed association and score it with that association (None: no valid fit).
 
     ``semi_up0``: a spheroid along ``axis`` (default ``up``)."""

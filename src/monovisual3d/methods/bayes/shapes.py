@@ -279,9 +279,17 @@ def as_sphere(obj: DetectedObject) -> DetectedObject:
     if b is not None:
         r = float((r * r * float(b)) ** (1 / 3))
     return DetectedObject(
-        obj.position, obj.score, r, obj.covariance, obj.associations, obj.n_cells, obj.extra,
-        shape="sphere", semi_axes=np.array([r, r, r]), quaternion_xyzw=np.array([0.0, 0.0, 0.0, 1.0]),
-    )  # fmt: skip
+        obj.position,
+        obj.score,
+        r,
+        obj.covariance,
+        obj.associations,
+        obj.n_cells,
+        obj.extra,
+        shape="sphere",
+        semi_axes=np.array([r, r, r]),
+        quaternion_xyzw=np.array([0.0, 0.0, 0.0, 1.0]),
+    )
 
 
 def _sphere_answer(obj: DetectedObject) -> Answer:
@@ -307,10 +315,18 @@ def _fitted(
     poses, boxes = object_boxes(problem, obj)
     try:
         best, fits = fit_shape_by_bic(
-            problem.camera, poses, boxes, shapes=shapes, up=cfg.up_vector, size_range=cfg.semi_axis_range,
-            box_sigma=problem.model.alpha, edge_sigma_px=problem.model.sigma0_px, border_px=problem.model.border_px,
-            free_orientation=cfg.free_orientation, censored=censored,
-        )  # fmt: skip
+            problem.camera,
+            poses,
+            boxes,
+            shapes=shapes,
+            up=cfg.up_vector,
+            size_range=cfg.semi_axis_range,
+            box_sigma=problem.model.alpha,
+            edge_sigma_px=problem.model.sigma0_px,
+            border_px=problem.model.border_px,
+            free_orientation=cfg.free_orientation,
+            censored=censored,
+        )
     except InputError:
         return None
     best = _solid_only_if_clear(best, fits)
@@ -323,9 +339,16 @@ def _fitted(
     if shape != best.model:
         extra["solid"] = best.model
     o = DetectedObject.from_ellipsoid(
-        e.centre_base, e.semi_axes, e.quaternion_xyzw, obj.score, shape,
-        covariance=best.centre_covariance, associations=obj.associations, n_cells=obj.n_cells, extra=extra,
-    )  # fmt: skip
+        e.centre_base,
+        e.semi_axes,
+        e.quaternion_xyzw,
+        obj.score,
+        shape,
+        covariance=best.centre_covariance,
+        associations=obj.associations,
+        n_cells=obj.n_cells,
+        extra=extra,
+    )
     return (o, e, best.n_parameters), best.n_edges
 
 
