@@ -197,10 +197,10 @@ def occlusion_flags(
     cfg = problem.config
     preds = predicted_views(problem, objects) if predicted is None else predicted
     elongated = np.array([o.extra.get("semi_up") is not None for o in objects], dtype=bool)
+    counted = np.ones(len(objects), dtype=bool) if trusted is None else np.asarray(trusted, dtype=bool)
+    nearer = [(depth[None, :] < depth[:, None]) & counted[None, :] for _, depth, _ in preds]  # [i, j]: j nearer than i
     # only a nearer object whose predicted box comes within the margin of this one's can cut or cover its edges
-    meets = [_meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None]) for boxes, depth, std in preds]
-    if trusted is not None:
-        meets = [m & np.asarray(trusted, dtype=bool)[None, :] for m in meets]
+    meets = [_meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & n for (boxes, _, std), n in zip(preds, nearer)]
     out: list[tuple[list[Observation], frozenset[int]] | None] = []
     for i, o in enumerate(objects):
         assoc = associations_list(problem, o)
@@ -222,11 +222,13 @@ def occlusion_flags(
                 # at its box's edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge
                 # lies anywhere inside its box)
                 straight = elongated[near]
-                sigma = box_edge_sigma_px(problem.model, ob.bbox_xyxy)
-                ob.censored = covered_sides(boxes[i], boxes[near][~straight], margin[~straight]) | (
-                    covered_sides(boxes[i], boxes[near][straight], margin[straight])
-                    & ends_at_occluder(ob.bbox_xyxy, boxes[near][straight], margin[straight], sigma)
-                )
+                behind_straight = covered_sides(boxes[i], boxes[near][straight], margin[straight])
+                if behind_straight.any():  # the edge ends at any nearer elongated box, within the margin or not
+                    every = nearer[v][i] & elongated
+                    sigma = box_edge_sigma_px(problem.model, ob.bbox_xyxy)
+                    m_every = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[every], std[i][None])
+                    behind_straight &= ends_at_occluder(ob.bbox_xyxy, boxes[every], m_every, sigma)
+                ob.censored = covered_sides(boxes[i], boxes[near][~straight], margin[~straight]) | behind_straight
             else:
                 ob.censored = shifted
             if shifted.any() or ob.censored.any():
