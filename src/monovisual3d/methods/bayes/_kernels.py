@@ -391,13 +391,13 @@ def _dominated_kernel(total, assoc, n_boxes, margin, best, out):  # pragma: no c
         for n in range(N):
             for k in range(K):
                 j = assoc[v, n, k]
-                if j >= 0 and total[n, k] > best[v, j]:
+                if j >= 0 and math.isfinite(total[n, k]) and total[n, k] > best[v, j]:
                     best[v, j] = total[n, k]
     for n in range(N):
         for k in range(K):
             s = total[n, k]
             dominated, used = True, False
-            if s > -math.inf:
+            if math.isfinite(s):  # as the reference: a score of +-inf or NaN is not a scored hypothesis
                 for v in range(V):  # most hypotheses are not dominated and stop at their first box
                     j = assoc[v, n, k]
                     if j >= 0:

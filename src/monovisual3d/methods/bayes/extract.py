@@ -135,7 +135,7 @@ class _Cells:
         """Cells (N,) bool whose centre lies within ``radius`` metres of ``point`` (3,): ``norm(c - point) <= radius``
         exactly, tested on the tree's candidates found a hair farther out."""
         out = np.zeros(len(self.centres), dtype=bool)
-        if not len(self.centres):
+        if not len(self.centres) or not np.all(np.isfinite(point)):
             return out
         idx = np.asarray(self.tree.query_ball_point(point, radius * (1 + 1e-9) + 1e-12), dtype=np.intp)
         out[idx[np.linalg.norm(self.centres[idx] - point, axis=1) <= radius]] = True
