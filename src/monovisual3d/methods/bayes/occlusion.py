@@ -165,6 +165,33 @@ def _meeting(boxes: NDArray[np.float64], pad_px: NDArray[np.float64]) -> NDArray
     return out
 
 
+def _whole_sides_cut(
+    problem: Problem,
+    pred: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    i: int,
+    observed: NDArray[np.float64],
+    near: NDArray[np.bool_],
+    straight_nearer: NDArray[np.bool_],
+    elongated: NDArray[np.bool_],
+) -> NDArray[np.bool_]:
+    """The edges (4,) of object ``i``'s observed box a shape fit must leave out in one view (``pred``: that view's
+    :func:`_predicted`): those whose whole side a nearer box covers (``near``: the nearer objects within the margin),
+    behind an elongated one only where the edge ends at a nearer elongated box (any of ``straight_nearer``).
+
+    An elongated occluder's side is straight along the side it covers: a box of the visible part ends at its box's
+    edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge lies anywhere inside its box).
+    """
+    boxes, _, std = pred
+    margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
+    straight = elongated[near]
+    behind_straight = covered_sides(boxes[i], boxes[near][straight], margin[straight])
+    if behind_straight.any():
+        sigma = box_edge_sigma_px(problem.model, observed)
+        m_every = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[straight_nearer], std[i][None])
+        behind_straight &= ends_at_occluder(observed, boxes[straight_nearer], m_every, sigma)
+    return covered_sides(boxes[i], boxes[near][~straight], margin[~straight]) | behind_straight
+
+
 #: Per view: the objects' predicted boxes (N, 4), centre depths (N,) and projected-centre stds (N, 2) (``_predicted``).
 Predicted = list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
 
@@ -218,17 +245,7 @@ def occlusion_flags(
             margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
             shifted = occluded_edges(boxes[i], boxes[near], margin)
             if whole_sides:
-                # an elongated occluder's side is straight along the side it covers: a box of the visible part ends
-                # at its box's edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge
-                # lies anywhere inside its box)
-                straight = elongated[near]
-                behind_straight = covered_sides(boxes[i], boxes[near][straight], margin[straight])
-                if behind_straight.any():  # the edge ends at any nearer elongated box, within the margin or not
-                    every = nearer[v][i] & elongated
-                    sigma = box_edge_sigma_px(problem.model, ob.bbox_xyxy)
-                    m_every = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[every], std[i][None])
-                    behind_straight &= ends_at_occluder(ob.bbox_xyxy, boxes[every], m_every, sigma)
-                ob.censored = covered_sides(boxes[i], boxes[near][~straight], margin[~straight]) | behind_straight
+                ob.censored = _whole_sides_cut(problem, preds[v], i, ob.bbox_xyxy, near, nearer[v][i] & elongated, elongated)
             else:
                 ob.censored = shifted
             if shifted.any() or ob.censored.any():
