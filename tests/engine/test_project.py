@@ -101,44 +101,18 @@ def test_compiled_projections_match_camera_project(name):
     # row kernels: points as res * offsets from a corner
     res = 0.01
     F = p_optical / res
-    ub, vb = np.empty(n), np.empty(n)
-    nk.project_cells(
-        T[0],
-        p.intrinsics,
-        p.distortion_id,
-        p.distortion,
-        0.0,
-        0.0,
-        0.0,
-        res,
-        n,
-        F[:, 0].copy(),
-        F[:, 1].copy(),
-        F[:, 2].copy(),
-        ub,
-        vb,
+    kernels = (
+        (nk.project_cells, np.float64, {"rtol": 1e-12, "atol": 1e-8}),
+        (nk.project_cells32, np.float32, {"rtol": 0, "atol": 0.05}),
     )
-    assert_allclose(np.column_stack([ub, vb])[front], uv_ref[front], rtol=1e-12, atol=1e-8)
-    assert (ub[~front] == nk.FAR_PX).all()
-    F32 = F.astype(np.float32)
-    ub32, vb32 = np.empty(n, np.float32), np.empty(n, np.float32)
-    nk.project_cells32(
-        T[0],
-        p.intrinsics,
-        p.distortion_id,
-        p.distortion,
-        0.0,
-        0.0,
-        0.0,
-        res,
-        n,
-        F32[:, 0].copy(),
-        F32[:, 1].copy(),
-        F32[:, 2].copy(),
-        ub32,
-        vb32,
-    )
-    assert_allclose(np.column_stack([ub32, vb32])[front], uv_ref[front], rtol=0, atol=0.05)
+    for kernel, dtype, tolerance in kernels:
+        Fd = F.astype(dtype)
+        ub, vb = np.empty(n, dtype), np.empty(n, dtype)
+        corner = (0.0, 0.0, 0.0)
+        kernel(T[0], p.intrinsics, p.distortion_id, p.distortion, *corner, res, n, *(Fd[:, c].copy() for c in range(3)), ub, vb)
+        assert_allclose(np.column_stack([ub, vb])[front], uv_ref[front], **tolerance)
+        if dtype == np.float64:
+            assert (ub[~front] == nk.FAR_PX).all()
 
 
 @pytest.mark.parametrize("name", ["none", "rational", "equidistant"])
