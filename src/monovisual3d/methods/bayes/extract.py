@@ -97,6 +97,7 @@ class _Work:
 
     def using(self, v: int, boxes: NDArray[np.intp], rows: NDArray[np.bool_]) -> NDArray[np.intp]:
         """The rows among ``rows`` (N,) bool whose association in view ``v`` holds one of ``boxes``, sorted."""
+        boxes = np.asarray(boxes, dtype=np.intp)
         cand = self.users[v].rows(boxes)
         cand = np.unique(cand[rows[cand]])
         current = self.assoc[v, cand]
