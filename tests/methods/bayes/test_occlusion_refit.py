@@ -11,7 +11,13 @@ from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.methods.bayes import shapes
 from monovisual3d.methods.bayes.likelihood import SensorModel
-from monovisual3d.methods.bayes.occlusion import OCCLUSION_MARGIN_SIGMAS, _meeting, covered_sides, occluded_edges
+from monovisual3d.methods.bayes.occlusion import (
+    OCCLUSION_MARGIN_SIGMAS,
+    _meeting,
+    _whole_sides_cut,
+    covered_sides,
+    occluded_edges,
+)
 from monovisual3d.methods.bayes.refine import Observation, _BoxResiduals, observation_residuals, refine_sphere
 from monovisual3d.session import Workspace
 from monovisual3d.sim.scene import Scene, Sphere
@@ -121,3 +127,19 @@ def test_boxes_that_do_not_meet_widened_by_their_pads_flag_nothing():
             assert not occluded_edges(boxes[i], boxes[j][None], margin).any()
             assert not covered_sides(boxes[i], boxes[j][None], margin).any()
     assert ruled_out > n * n // 4
+
+
+def test_an_edge_behind_a_tall_occluder_is_left_out_only_where_it_ends_at_that_occluder():
+    """A farther container's right edge behind a nearer tall one: left out of the shape fit where the visible part's
+    box ends at the occluder's left edge, kept where it lies well inside the occluder (an amodal box's own edge), even
+    when a third, unrelated tall box elsewhere in the image begins at that column."""
+    from types import SimpleNamespace
+
+    problem = SimpleNamespace(model=SensorModel())
+    predicted = np.array([[100.0, 50, 160, 200], [150.0, 40, 230, 210], [190.0, 400, 250, 500]])
+    pred = (predicted, np.array([1.0, 0.8, 0.8]), np.ones((3, 2)))
+    near, tall = np.array([False, True, True]), np.array([True, True, True])
+    visible_part = _whole_sides_cut(problem, pred, 0, np.array([100.0, 50, 150, 200]), near, tall)
+    amodal = _whole_sides_cut(problem, pred, 0, np.array([100.0, 50, 190, 200]), near, tall)
+    assert visible_part.tolist() == [False, False, True, False]
+    assert amodal.tolist() == [False, False, False, False]

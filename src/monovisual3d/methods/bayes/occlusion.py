@@ -171,12 +171,11 @@ def _whole_sides_cut(
     i: int,
     observed: NDArray[np.float64],
     near: NDArray[np.bool_],
-    straight_nearer: NDArray[np.bool_],
     elongated: NDArray[np.bool_],
 ) -> NDArray[np.bool_]:
     """The edges (4,) of object ``i``'s observed box a shape fit must leave out in one view (``pred``: that view's
     :func:`_predicted`): those whose whole side a nearer box covers (``near``: the nearer objects within the margin),
-    behind an elongated one only where the edge ends at a nearer elongated box (any of ``straight_nearer``).
+    behind an elongated one only where the edge ends at that occluder's facing edge.
 
     An elongated occluder's side is straight along the side it covers: a box of the visible part ends at its box's
     edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge lies anywhere inside its box).
@@ -184,12 +183,12 @@ def _whole_sides_cut(
     boxes, _, std = pred
     margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
     straight = elongated[near]
-    behind_straight = covered_sides(boxes[i], boxes[near][straight], margin[straight])
-    if behind_straight.any():
+    out = covered_sides(boxes[i], boxes[near][~straight], margin[~straight])
+    if straight.any():
         sigma = box_edge_sigma_px(problem.model, observed)
-        m_every = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[straight_nearer], std[i][None])
-        behind_straight &= ends_at_occluder(observed, boxes[straight_nearer], m_every, sigma)
-    return covered_sides(boxes[i], boxes[near][~straight], margin[~straight]) | behind_straight
+        for box, m in zip(boxes[near][straight], margin[straight]):  # each occluder covers and ends the edge itself
+            out |= covered_sides(boxes[i], box[None], m[None]) & ends_at_occluder(observed, box[None], m[None], sigma)
+    return out
 
 
 #: Per view: the objects' predicted boxes (N, 4), centre depths (N,) and projected-centre stds (N, 2) (``_predicted``).
@@ -225,9 +224,12 @@ def occlusion_flags(
     preds = predicted_views(problem, objects) if predicted is None else predicted
     elongated = np.array([o.extra.get("semi_up") is not None for o in objects], dtype=bool)
     counted = np.ones(len(objects), dtype=bool) if trusted is None else np.asarray(trusted, dtype=bool)
-    nearer = [(depth[None, :] < depth[:, None]) & counted[None, :] for _, depth, _ in preds]  # [i, j]: j nearer than i
-    # only a nearer object whose predicted box comes within the margin of this one's can cut or cover its edges
-    meets = [_meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & n for (boxes, _, std), n in zip(preds, nearer)]
+    # [i, j]: object j is nearer than i, counts, and its predicted box comes within the pair's margin of i's (only
+    # such an object can cut or cover an edge of i's box)
+    meets = [
+        _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None]) & counted[None, :]
+        for boxes, depth, std in preds
+    ]
     out: list[tuple[list[Observation], frozenset[int]] | None] = []
     for i, o in enumerate(objects):
         assoc = associations_list(problem, o)
@@ -245,7 +247,7 @@ def occlusion_flags(
             margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
             shifted = occluded_edges(boxes[i], boxes[near], margin)
             if whole_sides:
-                ob.censored = _whole_sides_cut(problem, preds[v], i, ob.bbox_xyxy, near, nearer[v][i] & elongated, elongated)
+                ob.censored = _whole_sides_cut(problem, preds[v], i, ob.bbox_xyxy, near, elongated)
             else:
                 ob.censored = shifted
             if shifted.any() or ob.censored.any():
