@@ -136,10 +136,10 @@ def test_an_edge_behind_a_tall_occluder_is_left_out_only_where_it_ends_at_that_o
     from types import SimpleNamespace
 
     problem = SimpleNamespace(model=SensorModel())
-    predicted = np.array([[100.0, 50, 160, 200], [150.0, 40, 230, 210], [190.0, 400, 250, 500]])
-    pred = (predicted, np.array([1.0, 0.8, 0.8]), np.ones((3, 2)))
-    near, tall = np.array([False, True, True]), np.array([True, True, True])
-    visible_part = _whole_sides_cut(problem, pred, 0, np.array([100.0, 50, 150, 200]), near, tall)
-    amodal = _whole_sides_cut(problem, pred, 0, np.array([100.0, 50, 190, 200]), near, tall)
+    predicted = np.array([100.0, 50, 160, 200])
+    nearer = np.array([[150.0, 40, 230, 210], [190.0, 400, 250, 500]])  # both tall, both nearer
+    margin, tall = np.full((2, 2), OCCLUSION_MARGIN_SIGMAS * np.hypot(1.0, 1.0)), np.array([True, True])
+    visible_part = _whole_sides_cut(problem, predicted, np.array([100.0, 50, 150, 200]), nearer, margin, tall)
+    amodal = _whole_sides_cut(problem, predicted, np.array([100.0, 50, 190, 200]), nearer, margin, tall)
     assert visible_part.tolist() == [False, False, True, False]
     assert amodal.tolist() == [False, False, False, False]

@@ -167,27 +167,25 @@ def _meeting(boxes: NDArray[np.float64], pad_px: NDArray[np.float64]) -> NDArray
 
 def _whole_sides_cut(
     problem: Problem,
-    pred: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
-    i: int,
+    predicted: NDArray[np.float64],
     observed: NDArray[np.float64],
-    near: NDArray[np.bool_],
-    elongated: NDArray[np.bool_],
+    nearer: NDArray[np.float64],
+    margin_px: NDArray[np.float64],
+    straight: NDArray[np.bool_],
 ) -> NDArray[np.bool_]:
-    """The edges (4,) of object ``i``'s observed box a shape fit must leave out in one view (``pred``: that view's
-    :func:`_predicted`): those whose whole side a nearer box covers (``near``: the nearer objects within the margin),
-    behind an elongated one only where the edge ends at that occluder's facing edge.
+    """The edges (4,) of an object's observed box (4,) a shape fit must leave out in one view: those whose whole side
+    a nearer predicted box (``nearer`` (M, 4), with the pairs' margins ``margin_px`` (M, 2)) covers around the
+    object's ``predicted`` box (4,); behind an elongated occluder (``straight`` (M,)) only where the edge ends at that
+    occluder's facing edge.
 
     An elongated occluder's side is straight along the side it covers: a box of the visible part ends at its box's
     edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge lies anywhere inside its box).
     """
-    boxes, _, std = pred
-    margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
-    straight = elongated[near]
-    out = covered_sides(boxes[i], boxes[near][~straight], margin[~straight])
+    out = covered_sides(predicted, nearer[~straight], margin_px[~straight])
     if straight.any():
         sigma = box_edge_sigma_px(problem.model, observed)
-        for box, m in zip(boxes[near][straight], margin[straight]):  # each occluder covers and ends the edge itself
-            out |= covered_sides(boxes[i], box[None], m[None]) & ends_at_occluder(observed, box[None], m[None], sigma)
+        for box, m in zip(nearer[straight], margin_px[straight]):  # each occluder covers and ends the edge itself
+            out |= covered_sides(predicted, box[None], m[None]) & ends_at_occluder(observed, box[None], m[None], sigma)
     return out
 
 
@@ -247,7 +245,7 @@ def occlusion_flags(
             margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
             shifted = occluded_edges(boxes[i], boxes[near], margin)
             if whole_sides:
-                ob.censored = _whole_sides_cut(problem, preds[v], i, ob.bbox_xyxy, near, elongated)
+                ob.censored = _whole_sides_cut(problem, boxes[i], ob.bbox_xyxy, boxes[near], margin, elongated[near])
             else:
                 ob.censored = shifted
             if shifted.any() or ob.censored.any():
