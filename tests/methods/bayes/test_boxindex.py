@@ -178,25 +178,6 @@ def test_rows_using_a_box_are_those_a_scan_finds():
     assert len(work.users[0].runs) < 8  # merged as they grow
 
 
-def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes():
-    """Rescoring a stale hypothesis only when its bound reaches the look-ahead band is an exact skip."""
-    from monovisual3d.bench.scale import row_session
-    from monovisual3d.methods.bayes.config import BayesConfig
-    from monovisual3d.methods.bayes.extract import extract
-    from monovisual3d.methods.bayes.localizer import region_grid
-    from monovisual3d.methods.bayes.problem import build_problem
-    from monovisual3d.methods.bayes.search import search
-
-    session, _ = row_session(24, 4, 3)
-    problem = build_problem(session.camera, BayesConfig(use_masks=False), session.views)
-    hyp = search(problem, region_grid(problem.config, session.workspace, session.views[0]))
-    lazy, taken_lazy = extract(problem, hyp)
-    eager, taken_eager = extract(problem, hyp, lazy=False)
-    assert len(lazy) >= 20 and taken_lazy == taken_eager
-    assert [o.score for o in lazy] == [o.score for o in eager]
-    assert_array_equal(np.array([o.position for o in lazy]), np.array([o.position for o in eager]))
-
-
 def test_too_many_boxes_in_a_view_are_refused_before_any_work():
     from types import SimpleNamespace
 

@@ -19,7 +19,11 @@ half-diagonal (:func:`monovisual3d.grid.cone_counts`). Surviving cells are
 scored with every radius bin (:func:`.scoring.score_hypotheses`); cells whose
 best score is below ``accept - prune_slack`` are dropped and the rest are split
 into 8 children, until the target resolution is reached. The cost grows with
-the volume of the viewing-cone intersections, not with the workspace.
+the volume of the viewing-cone intersections, not with the workspace. Where the
+last level would be large (:data:`LAZY_LAST_LEVEL_ABOVE`), the search stops one
+level above it and the extraction splits a cell only when it nears the best
+(:func:`.extract.extract`): most cells of a dense row are ghost crossings whose
+boxes are taken before they get there.
 
 Explaining away starts in the search (:func:`box_dominated`): a hypothesis
 whose every box is also used by another hypothesis scoring ``dominance_margin``
@@ -41,7 +45,7 @@ more hypotheses than fit is scored in chunks keeping the best-scoring cells
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -54,6 +58,13 @@ from .scoring import Scores, score_hypotheses
 MAX_FIRST_LEVEL_CELLS = 2_000_000
 #: Boxes may be this much larger than the silhouette (noise) in the depth gate of the coarse levels.
 DEPTH_GATE_SLACK = 2.0
+#: Hypotheses of the last level above which the search leaves that level to the extraction, which scores a cell's
+#: children only when the cell nears the best. Scoring the whole level at once is one parallel kernel call; the
+#: extraction's splits are many small ones and pay off only where most cells are ghost crossings it never splits.
+#: Measured (``bench scale`` rows from 5 views, lazy and eager alternated in one process, seeds 0-2): 12 fruit (25,000
+#: hypotheses) 12-17 % slower lazily, 24 fruit (55,000) 6-22 % slower, 48 and 64 fruit (125,000 and 200,000) from
+#: 15 % faster to 9 % slower, 80 fruit (275,000) 4 % slower to 11 % faster, 96 fruit (365,000) 9-12 % faster.
+LAZY_LAST_LEVEL_ABOVE = 200_000
 #: Cells whose cone counts are computed at once.
 CHUNK_CELLS = 1 << 20
 #: A box at least this much wider than tall (width / height) may be a lying object's: the first level scores the lying
@@ -69,7 +80,8 @@ MIN_WIDE_VIEWS = 2
 
 @dataclass(frozen=True)
 class Hypotheses:
-    """The last search level: hypotheses scored with every box available.
+    """The last search level: hypotheses scored with every box available (or the level above it, with
+    ``child_cell``: its cells' children are scored by the extraction).
 
     Attributes
     ----------
@@ -78,11 +90,17 @@ class Hypotheses:
     cell : float, metres, cell size of the level
     scores : (total (N, K), n_assoc (N, K), assoc (V, N, K)), see :data:`.scoring.Scores`
     mask : ndarray, shape (N, K), bool: the radius bins scored per cell
-    n_scored : int, hypotheses scored over all levels
+    n_scored : int, hypotheses the search scored over all levels (not the children the extraction scores)
     start_cell : float, metres, cell size of the first level
     capped : bool, whether a level had more hypotheses than the budget and kept only the best cells
     semi_up : ndarray, shape (K,), metres: the bins' semi-axis along their axis (equal to ``radii`` for spheres)
     axes : ndarray, shape (K, 3), unit, base frame: the bins' symmetry axis (``up``; horizontal for lying bins)
+    child_cell : float, metres, or None: the last level's cell size when that level is left to the extraction
+        (:func:`search`): the hypotheses are then the level above it, each cell's children to be scored when it
+        nears the best
+    children_base : ndarray, shape (8N, 3), metres, base frame, or None: the centres of each cell's 8 children
+        (rows ``8 i`` to ``8 i + 7``: cell ``i``'s), with ``child_cell``
+    children_mask : ndarray, shape (8N, K), bool, or None: the bins each child would score (its parent's, widened)
     """
 
     centres_base: NDArray[np.float64]
@@ -95,6 +113,9 @@ class Hypotheses:
     capped: bool
     semi_up: NDArray[np.float64] | None = None
     axes: NDArray[np.float64] | None = None
+    child_cell: float | None = None
+    children_base: NDArray[np.float64] | None = None
+    children_mask: NDArray[np.bool_] | None = None
 
     def bin_semi_up(self, k: int) -> float | None:
         """Semi-axis along its axis of bin ``k`` (metres), None for a sphere bin."""
@@ -110,7 +131,7 @@ class Hypotheses:
 
     def stats(self) -> dict[str, float | int | bool]:
         return {
-            "cell_size": self.cell,
+            "cell_size": self.cell if self.child_cell is None else self.child_cell,
             "n_scored": self.n_scored,
             "n_cells_kept": len(self.centres_base),
             "start_cell_size": self.start_cell,
@@ -353,6 +374,26 @@ def _score_deferred(
     return total, n_assoc, assoc, int(mask.sum())
 
 
+def level_mask(problem: Problem, scores: Scores, dominated: NDArray[np.bool_] | None) -> NDArray[np.bool_]:
+    """The hypotheses a level keeps, shape (N, K): at least ``accept - prune_slack`` (scores only fall as boxes are
+    taken, so one below it never matters again), ``min_views`` views, a plausible shape (:func:`_plausible_shapes`)
+    and, with ``dominated`` (N, K), not explained away (:func:`box_dominated`)."""
+    cfg = problem.config
+    radii, semi_up = cfg.hypothesis_bins
+    total, n_assoc, _ = scores
+    keep = (
+        (total >= cfg.accept - cfg.prune_slack)
+        & (n_assoc >= cfg.min_views)
+        & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack + cfg.elongation_cost)
+    )
+    return keep if dominated is None else keep & ~dominated
+
+
+def cone_counts_at(problem: Problem, centres_base: NDArray[np.float64], cell: float) -> NDArray[np.int32]:
+    """Views whose widened viewing cones hold each cell of size ``cell`` (metres) centred at ``centres_base`` (N, 3)."""
+    return _cone_counts(problem, centres_base, cell * np.sqrt(3) / 2)
+
+
 def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[NDArray[np.float64], float, bool]:
     """Levels coarser than ``search_start`` (a workspace too large for it): cone counts only, no scoring.
 
@@ -376,8 +417,12 @@ def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[ND
     return centres_grid, cell, capped
 
 
-def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
-    """Coarse-to-fine search over ``grid``'s region (see the module docstring)."""
+def search(problem: Problem, grid: VoxelGrid, lazy_last_level: bool | None = None) -> Hypotheses:
+    """Coarse-to-fine search over ``grid``'s region (see the module docstring).
+
+    ``lazy_last_level``: leave the last level to the extraction (``Hypotheses.child_cell``); by default, when its
+    hypotheses would be more than :data:`LAZY_LAST_LEVEL_ABOVE`.
+    """
     cfg = problem.config
     radii, semi_up = cfg.hypothesis_bins
     level = first_level(grid, cfg.search_start, cfg.resolution)
@@ -394,7 +439,7 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
     while True:
         centres = centres_grid @ R.T + t
         if not counted:
-            keep = _cone_counts(problem, centres, cell * np.sqrt(3) / 2) >= cfg.min_views
+            keep = cone_counts_at(problem, centres, cell) >= cfg.min_views
             centres_grid, centres, mask = centres_grid[keep], centres[keep], mask[keep]
         counted = False
         rows, scores, dropped = _score_level(problem, centres, cell, mask, cap)
@@ -405,21 +450,21 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
         if deferred:
             total, n_assoc, assoc, n_more = _score_deferred(problem, centres, cell, scores, sphere_bins, floor)
             mask, n_scored, deferred = mask | ~sphere_bins, n_scored + n_more, False
-        # scores only fall as boxes are taken, so a hypothesis below the floor never matters again
         n_boxes = [len(vd.boxes) for vd in problem.views]
-        mask = (
-            (total >= floor)
-            & (n_assoc >= cfg.min_views)
-            & ~_box_dominated(problem, total, assoc, n_boxes)
-            & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack + cfg.elongation_cost)
-        )
+        mask = level_mask(problem, (total, n_assoc, assoc), _box_dominated(problem, total, assoc, n_boxes))
         good = mask.any(axis=1)
         centres_grid, centres, mask = centres_grid[good], centres[good], mask[good]
         scores = (total[good], n_assoc[good], assoc[:, good])
+        axes = cfg.hypothesis_axes
         if cell <= cfg.resolution * (1 + 1e-9) or len(centres) == 0:
-            axes = cfg.hypothesis_axes
             return Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped, semi_up, axes)
         # children inherit the radii their parent kept, widened (the parent's score is blurred in position, not radius)
-        mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
-        centres_grid = split_cells(centres_grid, cell)
+        children_mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
+        children_grid = split_cells(centres_grid, cell)
+        lazy = int(children_mask.sum()) > LAZY_LAST_LEVEL_ABOVE if lazy_last_level is None else lazy_last_level
+        if cell / 2 <= cfg.resolution * (1 + 1e-9) and lazy:  # the last level: split by the extraction
+            children = children_grid @ R.T + t
+            parent = Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped, semi_up, axes)
+            return replace(parent, child_cell=cell / 2, children_base=children, children_mask=children_mask)
+        centres_grid, mask = children_grid, children_mask
         cell /= 2

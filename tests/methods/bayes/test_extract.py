@@ -1,0 +1,75 @@
+"""The extraction (issue 22): its lazy rescoring and, in dense scenes, its lazy split of the search's last level."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from monovisual3d.bench.scale import row_session
+from monovisual3d.methods.bayes import extract as extract_module
+from monovisual3d.methods.bayes.config import BayesConfig
+from monovisual3d.methods.bayes.extract import _extended, extract
+from monovisual3d.methods.bayes.localizer import region_grid
+from monovisual3d.methods.bayes.problem import build_problem
+from monovisual3d.methods.bayes.search import search
+
+
+@pytest.fixture(scope="module")
+def dense_row():
+    """A row of 24 fruit seen from 4 views (seed 3): its problem and search grid."""
+    session, _ = row_session(24, 4, 3)
+    problem = build_problem(session.camera, BayesConfig(use_masks=False), session.views)
+    return problem, region_grid(problem.config, session.workspace, session.views[0])
+
+
+@pytest.mark.parametrize("lazy_last_level", [False, True])
+def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes(dense_row, lazy_last_level):
+    """Rescoring a stale hypothesis only when its bound reaches the look-ahead band is an exact skip."""
+    problem, grid = dense_row
+    hyp = search(problem, grid, lazy_last_level=lazy_last_level)
+    lazy, taken_lazy = extract(problem, hyp)
+    eager, taken_eager = extract(problem, hyp, lazy=False)
+    assert len(lazy) >= 20 and taken_lazy == taken_eager
+    assert [o.score for o in lazy] == [o.score for o in eager]
+    assert_array_equal(np.array([o.position for o in lazy]), np.array([o.position for o in eager]))
+
+
+def test_the_last_level_split_by_the_extraction_takes_the_same_objects_with_less_work(dense_row, monkeypatch):
+    """Splitting a cell only when it nears the best gives the objects of the eagerly scored last level, and scores
+    fewer hypotheses: the cells of ghost crossings lose their boxes before they are split."""
+    problem, grid = dense_row
+    scored = []
+    score = extract_module.score_hypotheses
+
+    def counted(problem, taken, centres, radii, cell, mask, *args):
+        scored.append(int(mask.sum()))
+        return score(problem, taken, centres, radii, cell, mask, *args)
+
+    monkeypatch.setattr(extract_module, "score_hypotheses", counted)
+    work, objects = {}, {}
+    for lazy_last_level in (False, True):
+        scored.clear()
+        hyp = search(problem, grid, lazy_last_level=lazy_last_level)
+        objects[lazy_last_level], _ = extract(problem, hyp)
+        work[lazy_last_level] = hyp.n_scored + sum(scored)
+    eager_hyp, lazy_hyp = search(problem, grid, lazy_last_level=False), search(problem, grid, lazy_last_level=True)
+    assert lazy_hyp.child_cell == eager_hyp.cell and lazy_hyp.cell == 2 * eager_hyp.cell
+    assert lazy_hyp.children_base is not None and len(lazy_hyp.children_base) == 8 * len(lazy_hyp.centres_base)
+    assert eager_hyp.child_cell is None
+    assert len(objects[True]) == len(objects[False]) >= 20
+    assert_allclose(np.array([o.position for o in objects[True]]), np.array([o.position for o in objects[False]]), atol=1e-9)
+    assert work[True] < 0.9 * work[False]  # 0.84 here; the denser the row, the larger the saving
+
+
+@pytest.mark.parametrize("axis", [0, 1])
+def test_extended_appends_rows_to_a_buffer_that_doubles(axis):
+    buffers: dict = {}
+    a = np.zeros((2, 0, 3)) if axis == 1 else np.zeros((0, 3))
+    for i in range(40):
+        shape = (2, 3, 3) if axis == 1 else (3, 3)
+        a = _extended(buffers, "a", a, np.full(shape, float(i)), axis=axis)
+    first = a[0, :, 0] if axis == 1 else a[:, 0]
+    assert_array_equal(first, np.repeat(np.arange(40.0), 3))
+    assert np.shares_memory(a, buffers["a"])  # a view: writes reach the buffer the next append copies from
+    assert 120 <= buffers["a"].shape[axis] <= 2 * 120
