@@ -73,3 +73,21 @@ def test_extended_appends_rows_to_a_buffer_that_doubles(axis):
     assert_array_equal(first, np.repeat(np.arange(40.0), 3))
     assert np.shares_memory(a, buffers["a"])  # a view: writes reach the buffer the next append copies from
     assert 120 <= buffers["a"].shape[axis] <= 2 * 120
+
+
+def test_the_steal_pass_after_a_lazy_last_level_gives_back_what_the_eager_one_does(monkeypatch):
+    """A row of 128 fruit (seed 0): the extraction gives one fruit's view-0 box to its neighbour, and only the steal
+    pass gives it back, from a last-level hypothesis the lazy extraction never scored: the pass scores the last level
+    where a box is free, and finds every fruit as the eager search does."""
+    import monovisual3d as mv
+    from monovisual3d.methods.bayes import search as search_module
+    from monovisual3d.metrics import evaluate
+
+    session, scene = row_session(128, 5, 0)
+    positions = {}
+    for lazy_last_level in (False, True):
+        monkeypatch.setattr(search_module, "LAZY_LAST_LEVEL_ABOVE", 0 if lazy_last_level else 10**12)
+        res = mv.localize(session, use_masks=False)
+        positions[lazy_last_level] = res.positions[np.lexsort(res.positions.T)]
+        assert evaluate(res.positions, scene.centres, truth_radii=scene.radii).true_positives == 128
+    assert_allclose(positions[True], positions[False], atol=1e-9)

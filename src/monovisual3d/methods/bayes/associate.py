@@ -18,7 +18,7 @@ from ...result import DetectedObject
 from .likelihood import box_scores
 from .problem import Problem, Taken
 from .scoring import associations_list, axis_of, boxes_of, fit_fixed, pose_px, refine_and_check, semi_up_of, spheroid_axis
-from .search import Hypotheses
+from .search import Hypotheses, last_level
 
 
 def _predicted_boxes(problem: Problem, v: int, objects: list[DetectedObject]) -> NDArray[np.float64]:
@@ -153,14 +153,22 @@ def swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedO
     return objects
 
 
+def _box_counts(problem: Problem, hyp: Hypotheses, taken: Taken) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Per grid hypothesis (scored with every box), its associated boxes that are free and that are in ``taken``,
+    shapes (N, K)."""
+    _, _, assoc0 = hyp.scores
+    free_lut = [np.append(a, False) for a in problem.available(taken)]  # index -1 (no box) -> last slot
+    held_lut = [np.append(~a, False) for a in problem.available(taken)]
+    n_free = sum((f[a] for f, a in zip(free_lut, assoc0)), np.zeros(assoc0.shape[1:], dtype=np.int64))
+    n_held = sum((h[a] for h, a in zip(held_lut, assoc0)), np.zeros(assoc0.shape[1:], dtype=np.int64))
+    return n_free, n_held
+
+
 def _steal_candidates(problem: Problem, hyp: Hypotheses, taken: Taken) -> NDArray[np.bool_]:
     """Grid hypotheses (scored with every box) using at least one free box and one taken box, shape (N, K)."""
     cfg = problem.config
-    total0, n0, assoc0 = hyp.scores
-    free_lut = [np.append(a, False) for a in problem.available(taken)]  # index -1 (no box) -> last slot
-    held_lut = [np.append(~a, False) for a in problem.available(taken)]
-    n_free = sum(f[a] for f, a in zip(free_lut, assoc0))
-    n_held = sum(h[a] for h, a in zip(held_lut, assoc0))
+    total0, n0, _ = hyp.scores
+    n_free, n_held = _box_counts(problem, hyp, taken)
     return (total0 >= cfg.accept - cfg.prune_slack) & (n0 >= cfg.min_views) & (n_free >= 1) & (n_held >= 1)
 
 
@@ -206,7 +214,9 @@ def steal_pass(
     own box in that view (occluded or missed): the neighbour is then left with
     one view and never accepted. Candidates are grid hypotheses (scored with
     every box available) that use at least one free box and at least one box
-    an accepted object holds. For the best ``lookahead`` of them, the holders
+    an accepted object holds (where the extraction split the last search level
+    lazily, that level is scored in the children of the cells using a free box:
+    :func:`.search.last_level`). For the best ``lookahead`` of them, the holders
     give up those boxes and are refit without them, the candidate is refined
     with the boxes left to it, and the move is kept when both stay acceptable
     and the summed score grows by more than ``accept``.
@@ -216,6 +226,8 @@ def steal_pass(
         return objects, taken
     objects = list(objects)
     holder = {b: i for i, o in enumerate(objects) for b in boxes_of(problem, o)}
+    if hyp.child_cell is not None:  # the extraction split the last level lazily: score it where a free box is
+        hyp = last_level(problem, hyp, (_box_counts(problem, hyp, taken)[0] >= 1).any(axis=1))
     ok = _steal_candidates(problem, hyp, taken)
     total0, _, assoc0 = hyp.scores
     centres, radii = hyp.centres_base, hyp.radii

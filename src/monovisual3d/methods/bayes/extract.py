@@ -37,7 +37,7 @@ from scipy.spatial import cKDTree
 from ...result import DetectedObject
 from .problem import Problem, Taken
 from .scoring import boxes_of, refine_and_check, score_hypotheses, score_one
-from .search import Hypotheses, cone_counts_at, level_mask
+from .search import Hypotheses, score_children
 
 
 def _extended(
@@ -352,26 +352,13 @@ def _rescore(problem: Problem, rows: _Rows, work: _Work, taken: Taken, sub: NDAr
 
 
 def _split(problem: Problem, rows: _Rows, work: _Work, taken: Taken, parents: NDArray[np.intp]) -> None:
-    """Replace the cells ``parents`` (rows) by their children, scored with the boxes not in ``taken``: those not
-    suppressed, in at least ``min_views`` viewing cones, and with a bin the search would keep
-    (:func:`.search.level_mask`, without its explaining away: the extraction does that itself)."""
-    cfg, hyp = problem.config, rows.hyp
+    """Replace the cells ``parents`` (rows) by their children not suppressed, scored with the boxes not in ``taken``
+    (:func:`.search.score_children`; the explaining away is the extraction's own)."""
     work.pending[parents] = False
     work.suppress(parents)
     kids = (8 * parents[:, None] + np.arange(8)).ravel()  # parent rows are the search's cells, in its order
-    kids = kids[~rows.dead[kids]]
-    if len(kids):
-        kids = kids[cone_counts_at(problem, rows.fine_centres[kids], rows.cell) >= cfg.min_views]
-    if not len(kids):
-        return
-    t, n, a = score_hypotheses(
-        problem, taken, rows.fine_centres[kids], hyp.radii, rows.cell, rows.fine_mask[kids], hyp.semi_up, hyp.axes
-    )
-    keep = level_mask(problem, (t, n, a), None)
-    good = keep.any(axis=1)
-    rows.dead[kids[~good]] = True
-    new = work.append(t[good], n[good], a[:, good], cfg.min_views)
-    rows.add(kids[good], new, keep[good])
+    kids, (t, n, a), keep = score_children(problem, rows.hyp, kids[~rows.dead[kids]], taken)
+    rows.add(kids, work.append(t, n, a, problem.config.min_views), keep)
 
 
 def _refresh(problem: Problem, rows: _Rows, work: _Work, taken: Taken, lazy: bool = True) -> None:

@@ -51,7 +51,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...grid import VoxelGrid, cone_counts, split_cells
-from .problem import Problem
+from .problem import Problem, Taken
 from .scoring import Scores, score_hypotheses
 
 #: Cells of the first search level at most (chosen so the first level takes well under a second).
@@ -392,6 +392,33 @@ def level_mask(problem: Problem, scores: Scores, dominated: NDArray[np.bool_] | 
 def cone_counts_at(problem: Problem, centres_base: NDArray[np.float64], cell: float) -> NDArray[np.int32]:
     """Views whose widened viewing cones hold each cell of size ``cell`` (metres) centred at ``centres_base`` (N, 3)."""
     return _cone_counts(problem, centres_base, cell * np.sqrt(3) / 2)
+
+
+def score_children(
+    problem: Problem, hyp: Hypotheses, kids: NDArray[np.intp], taken: Taken
+) -> tuple[NDArray[np.intp], Scores, NDArray[np.bool_]]:
+    """The last-level cells ``kids`` (indices into ``hyp.children_base``) in at least ``min_views`` viewing cones,
+    scored with the boxes not in ``taken``, that keep a bin (:func:`level_mask` without the explaining away): their
+    indices (M,), scores and kept bins (M, K)."""
+    assert hyp.child_cell is not None and hyp.children_base is not None and hyp.children_mask is not None
+    kids = kids[cone_counts_at(problem, hyp.children_base[kids], hyp.child_cell) >= problem.config.min_views]
+    centres, mask = hyp.children_base[kids], hyp.children_mask[kids]
+    t, n, a = score_hypotheses(problem, taken, centres, hyp.radii, hyp.child_cell, mask, hyp.semi_up, hyp.axes)
+    keep = level_mask(problem, (t, n, a), None)
+    good = keep.any(axis=1)
+    return kids[good], (t[good], n[good], a[:, good]), keep[good]
+
+
+def last_level(problem: Problem, hyp: Hypotheses, cells: NDArray[np.bool_]) -> Hypotheses:
+    """The last level in the children of ``hyp``'s cells ``cells`` (N,) bool, scored with every box: what the search
+    keeps there, without its explaining away, as a last-level :class:`Hypotheses` (``hyp`` itself when it is the last
+    level)."""
+    if hyp.child_cell is None:
+        return hyp
+    kids, scores, keep = score_children(problem, hyp, (8 * np.flatnonzero(cells)[:, None] + np.arange(8)).ravel(), frozenset())
+    assert hyp.children_base is not None
+    last = Hypotheses(hyp.children_base[kids], hyp.radii, hyp.child_cell, scores, keep, hyp.n_scored, hyp.start_cell, hyp.capped)
+    return replace(last, semi_up=hyp.semi_up, axes=hyp.axes)
 
 
 def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[NDArray[np.float64], float, bool]:
