@@ -2,17 +2,20 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from monovisual3d.bench.scale import row_session
 from monovisual3d.methods.bayes import extract as extract_module
+from monovisual3d.methods.bayes import search as search_module
 from monovisual3d.methods.bayes.config import BayesConfig
 from monovisual3d.methods.bayes.extract import _extended, extract
 from monovisual3d.methods.bayes.localizer import region_grid
 from monovisual3d.methods.bayes.problem import build_problem
-from monovisual3d.methods.bayes.search import search
+from monovisual3d.methods.bayes.search import last_level, search
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +28,8 @@ def dense_row():
 
 @pytest.mark.parametrize("lazy_last_level", [False, True])
 def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes(dense_row, lazy_last_level):
-    """Rescoring a stale hypothesis only when its bound reaches the look-ahead band is an exact skip."""
+    """Rescoring a stale hypothesis only when its bound reaches the look-ahead band is an exact skip (with a lazy
+    last level the reference also splits every cell at once)."""
     problem, grid = dense_row
     hyp = search(problem, grid, lazy_last_level=lazy_last_level)
     lazy, taken_lazy = extract(problem, hyp)
@@ -37,29 +41,56 @@ def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes(dense_row, lazy_
 
 def test_the_last_level_split_by_the_extraction_takes_the_same_objects_with_less_work(dense_row, monkeypatch):
     """Splitting a cell only when it nears the best gives the objects of the eagerly scored last level, and scores
-    fewer hypotheses: the cells of ghost crossings lose their boxes before they are split."""
+    fewer hypotheses in all (search, splits and rescoring): the cells of ghost crossings lose their boxes before they
+    are split."""
     problem, grid = dense_row
     scored = []
-    score = extract_module.score_hypotheses
+    score = search_module.score_hypotheses
 
     def counted(problem, taken, centres, radii, cell, mask, *args):
         scored.append(int(mask.sum()))
         return score(problem, taken, centres, radii, cell, mask, *args)
 
-    monkeypatch.setattr(extract_module, "score_hypotheses", counted)
-    work, objects = {}, {}
+    for module in (search_module, extract_module):
+        monkeypatch.setattr(module, "score_hypotheses", counted)
+    work, objects, hyps = {}, {}, {}
     for lazy_last_level in (False, True):
         scored.clear()
-        hyp = search(problem, grid, lazy_last_level=lazy_last_level)
+        hyps[lazy_last_level] = hyp = search(problem, grid, lazy_last_level=lazy_last_level)
         objects[lazy_last_level], _ = extract(problem, hyp)
-        work[lazy_last_level] = hyp.n_scored + sum(scored)
-    eager_hyp, lazy_hyp = search(problem, grid, lazy_last_level=False), search(problem, grid, lazy_last_level=True)
+        work[lazy_last_level] = sum(scored)
+    eager_hyp, lazy_hyp = hyps[False], hyps[True]
     assert lazy_hyp.child_cell == eager_hyp.cell and lazy_hyp.cell == 2 * eager_hyp.cell
     assert lazy_hyp.children_base is not None and len(lazy_hyp.children_base) == 8 * len(lazy_hyp.centres_base)
-    assert eager_hyp.child_cell is None
+    assert eager_hyp.child_cell is None and lazy_hyp.stats()["lazy_last_level"]
     assert len(objects[True]) == len(objects[False]) >= 20
     assert_allclose(np.array([o.position for o in objects[True]]), np.array([o.position for o in objects[False]]), atol=1e-9)
     assert work[True] < 0.9 * work[False]  # 0.84 here; the denser the row, the larger the saving
+
+
+def test_the_last_level_is_left_to_the_extraction_only_where_it_fits_the_budget(dense_row):
+    """A last level over the hypothesis budget is scored by the search in chunks (``capped``), never held whole."""
+    problem, grid = dense_row
+    small = replace(problem, config=replace(problem.config, max_hypotheses=5_000))
+    hyp = search(small, grid, lazy_last_level=True)
+    assert hyp.child_cell is None and hyp.capped and hyp.cell == problem.config.resolution
+    assert len(extract(small, hyp)[0]) >= 10
+
+
+def test_a_search_whose_first_level_is_the_last_scores_it_itself():
+    session, _ = row_session(6, 3, 1)
+    problem = build_problem(session.camera, BayesConfig(use_masks=False, resolution=0.04), session.views)
+    hyp = search(problem, region_grid(problem.config, session.workspace, session.views[0]), lazy_last_level=True)
+    assert hyp.child_cell is None and hyp.cell == 0.04 and len(extract(problem, hyp)[0]) >= 5
+
+
+def test_the_last_level_of_no_cells_is_empty(dense_row):
+    problem, grid = dense_row
+    hyp = search(problem, grid, lazy_last_level=True)
+    last = last_level(problem, hyp, np.zeros(len(hyp.centres_base), dtype=bool))
+    assert last.child_cell is None and last.scores[0].shape == (0, len(hyp.radii)) and len(last.centres_base) == 0
+    every = last_level(problem, hyp, np.ones(len(hyp.centres_base), dtype=bool))
+    assert every.cell == hyp.child_cell and len(every.centres_base) > len(hyp.centres_base)
 
 
 @pytest.mark.parametrize("axis", [0, 1])
@@ -73,6 +104,10 @@ def test_extended_appends_rows_to_a_buffer_that_doubles(axis):
     assert_array_equal(first, np.repeat(np.arange(40.0), 3))
     assert np.shares_memory(a, buffers["a"])  # a view: writes reach the buffer the next append copies from
     assert 120 <= buffers["a"].shape[axis] <= 2 * 120
+    first[0] = -1.0  # written through the view, then kept when the buffer grows
+    while buffers["a"].shape[axis] < 500:
+        a = _extended(buffers, "a", a, np.zeros((2, 3, 3) if axis == 1 else (3, 3)), axis=axis)
+    assert (a[0, 0, 0] if axis == 1 else a[0, 0]) == -1.0
 
 
 def test_the_steal_pass_after_a_lazy_last_level_gives_back_what_the_eager_one_does(monkeypatch):
@@ -80,7 +115,6 @@ def test_the_steal_pass_after_a_lazy_last_level_gives_back_what_the_eager_one_do
     pass gives it back, from a last-level hypothesis the lazy extraction never scored: the pass scores the last level
     where a box is free, and finds every fruit as the eager search does."""
     import monovisual3d as mv
-    from monovisual3d.methods.bayes import search as search_module
     from monovisual3d.metrics import evaluate
 
     session, scene = row_session(128, 5, 0)

@@ -366,7 +366,8 @@ def _refresh(problem: Problem, rows: _Rows, work: _Work, taken: Taken, lazy: boo
     until the band holds fresh last-level rows only (every stale row and cell when not ``lazy``: the eager reference).
 
     A stale row below the band cannot be the best nor a look-ahead candidate: its true score is at most its bound.
-    A stale cell is rescored before it is split: most drop out of the band then (their boxes are taken).
+    A stale cell is rescored before it is split: most drop out of the band then (their boxes are taken). A cell waiting
+    to be split bounds its children only approximately (see the module docstring).
     """
     margin = problem.config.lookahead_margin if lazy else np.inf
     while True:
@@ -387,8 +388,9 @@ def _refresh(problem: Problem, rows: _Rows, work: _Work, taken: Taken, lazy: boo
 def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[DetectedObject], Taken]:
     """Objects found greedily in ``hyp``, and the boxes they took.
 
-    ``lazy=False`` rescores every stale hypothesis after each taken object and splits every cell at once (the
-    reference the lazy rescoring is tested against: the same objects).
+    ``lazy=False`` rescores every stale hypothesis after each taken object (the reference the lazy rescoring is
+    tested against: the same objects) and splits every cell at once (unlike the search's eager last level, without
+    its explaining away).
     """
     cfg = problem.config
     rows = _Rows.of(hyp)

@@ -39,7 +39,8 @@ of two, so the last level is still ``resolution``) until the workspace has at
 most :data:`MAX_FIRST_LEVEL_CELLS` cells. Levels coarser than ``search_start``
 use cone counts only (a score blurred over metres says nothing). A level with
 more hypotheses than fit is scored in chunks keeping the best-scoring cells
-(``Hypotheses.capped``).
+(``Hypotheses.capped``); the last level is left to the extraction only when all
+of it fits (the extraction may hold it all), so a capped last level is scored here.
 """
 
 from __future__ import annotations
@@ -130,12 +131,15 @@ class Hypotheses:
         return self.axes[k]
 
     def stats(self) -> dict[str, float | int | bool]:
+        """``cell_size`` (the last level's), ``n_scored`` (by the search), ``n_cells_kept`` (the search's cells: those of
+        the level above the last where ``lazy_last_level``), ``start_cell_size``, ``capped``, ``lazy_last_level``."""
         return {
             "cell_size": self.cell if self.child_cell is None else self.child_cell,
             "n_scored": self.n_scored,
             "n_cells_kept": len(self.centres_base),
             "start_cell_size": self.start_cell,
             "capped": self.capped,
+            "lazy_last_level": self.child_cell is not None,
         }
 
 
@@ -448,7 +452,8 @@ def search(problem: Problem, grid: VoxelGrid, lazy_last_level: bool | None = Non
     """Coarse-to-fine search over ``grid``'s region (see the module docstring).
 
     ``lazy_last_level``: leave the last level to the extraction (``Hypotheses.child_cell``); by default, when its
-    hypotheses would be more than :data:`LAZY_LAST_LEVEL_ABOVE`.
+    hypotheses (before the cone test of its cells) would be more than :data:`LAZY_LAST_LEVEL_ABOVE`. Never where the
+    first scored level is the last, nor where the last level exceeds the hypothesis budget (:func:`hypothesis_cap`).
     """
     cfg = problem.config
     radii, semi_up = cfg.hypothesis_bins
@@ -488,8 +493,10 @@ def search(problem: Problem, grid: VoxelGrid, lazy_last_level: bool | None = Non
         # children inherit the radii their parent kept, widened (the parent's score is blurred in position, not radius)
         children_mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
         children_grid = split_cells(centres_grid, cell)
-        lazy = int(children_mask.sum()) > LAZY_LAST_LEVEL_ABOVE if lazy_last_level is None else lazy_last_level
-        if cell / 2 <= cfg.resolution * (1 + 1e-9) and lazy:  # the last level: split by the extraction
+        n_children = int(children_mask.sum())
+        lazy = n_children > LAZY_LAST_LEVEL_ABOVE if lazy_last_level is None else lazy_last_level
+        # the extraction holds at most the whole last level: lazily only where that fits the budget (else chunked)
+        if cell / 2 <= cfg.resolution * (1 + 1e-9) and lazy and n_children <= cap:
             children = children_grid @ R.T + t
             parent = Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped, semi_up, axes)
             return replace(parent, child_cell=cell / 2, children_base=children, children_mask=children_mask)
