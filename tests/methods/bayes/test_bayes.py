@@ -394,14 +394,11 @@ def test_lookahead_avoids_a_greedy_ghost(tmp_path):
 
 @pytest.mark.parametrize("lazy_last_level", [False, True])
 @pytest.mark.parametrize("offset", [(0.03, 0.03, -0.02), (0.06, 0.03, 0.02), (0.06, 0.06, 0.0)])
-def test_steal_pass_gives_a_fruit_back_the_box_a_neighbour_took(offset, lazy_last_level, monkeypatch):
+def test_steal_pass_gives_a_fruit_back_the_box_a_neighbour_took(offset, lazy_last_level):
     # two fruit side by side: fruit 0 has no box in view 1, fruit 1 none in view 2. The greedy extraction takes
     # fruit 0 first (three views) with fruit 1's view-1 box, which overlaps its own prediction there, and leaves
     # fruit 1 with one view; the steal pass gives the box back (fruit 0 keeps views 0 and 2), also when the last
     # search level is left to the extraction (as in a dense scene), whose cells it then scores near the free boxes
-    from monovisual3d.methods.bayes import search
-
-    monkeypatch.setattr(search, "LAZY_LAST_LEVEL_ABOVE", 0 if lazy_last_level else 10**12)
     centres = np.array([TARGET, TARGET + offset])
     poses = [look_at(TARGET + step, TARGET) for step in ([-0.5, 0.0, 0.0], [-0.45, 0.25, 0.05], [-0.45, -0.25, -0.05])]
     session = session_for(centres, [0.03, 0.03], poses)
@@ -415,8 +412,8 @@ def test_steal_pass_gives_a_fruit_back_the_box_a_neighbour_took(offset, lazy_las
     def both_found(res):
         return len(res.objects) == 2 and all(np.linalg.norm(res.positions - c, axis=1).min() < 0.01 for c in centres)
 
-    assert both_found(mv.localize(session, use_masks=False))
-    assert not both_found(mv.localize(session, use_masks=False, steal=False))
+    assert both_found(mv.localize(session, use_masks=False, lazy_last_level=lazy_last_level))
+    assert not both_found(mv.localize(session, use_masks=False, steal=False, lazy_last_level=lazy_last_level))
 
 
 def test_radius_pruning_of_the_search_keeps_the_estimates():

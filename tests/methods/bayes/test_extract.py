@@ -18,6 +18,11 @@ from monovisual3d.methods.bayes.problem import build_problem
 from monovisual3d.methods.bayes.search import last_level, search
 
 
+def _search(problem, grid, lazy_last_level):
+    """:func:`search` with ``BayesConfig.lazy_last_level`` set."""
+    return search(replace(problem, config=replace(problem.config, lazy_last_level=lazy_last_level)), grid)
+
+
 @pytest.fixture(scope="module")
 def dense_row():
     """A row of 24 fruit seen from 4 views (seed 3): its problem and search grid."""
@@ -31,7 +36,7 @@ def test_lazy_rescoring_takes_the_objects_eager_rescoring_takes(dense_row, lazy_
     """Rescoring a stale hypothesis only when its bound reaches the look-ahead band is an exact skip (with a lazy
     last level the reference also splits every cell at once)."""
     problem, grid = dense_row
-    hyp = search(problem, grid, lazy_last_level=lazy_last_level)
+    hyp = _search(problem, grid, lazy_last_level)
     lazy, taken_lazy = extract(problem, hyp)
     eager, taken_eager = extract(problem, hyp, lazy=False)
     assert len(lazy) >= 20 and taken_lazy == taken_eager
@@ -56,7 +61,7 @@ def test_the_last_level_split_by_the_extraction_takes_the_same_objects_with_less
     work, objects, hyps = {}, {}, {}
     for lazy_last_level in (False, True):
         scored.clear()
-        hyps[lazy_last_level] = hyp = search(problem, grid, lazy_last_level=lazy_last_level)
+        hyps[lazy_last_level] = hyp = _search(problem, grid, lazy_last_level)
         objects[lazy_last_level], _ = extract(problem, hyp)
         work[lazy_last_level] = sum(scored)
     eager_hyp, lazy_hyp = hyps[False], hyps[True]
@@ -72,7 +77,7 @@ def test_the_last_level_is_left_to_the_extraction_only_where_it_fits_the_budget(
     """A last level over the hypothesis budget is scored by the search in chunks (``capped``), never held whole."""
     problem, grid = dense_row
     small = replace(problem, config=replace(problem.config, max_hypotheses=5_000))
-    hyp = search(small, grid, lazy_last_level=True)
+    hyp = _search(small, grid, True)
     assert hyp.child_cell is None and hyp.capped and hyp.cell == problem.config.resolution
     assert len(extract(small, hyp)[0]) >= 10
 
@@ -80,13 +85,13 @@ def test_the_last_level_is_left_to_the_extraction_only_where_it_fits_the_budget(
 def test_a_search_whose_first_level_is_the_last_scores_it_itself():
     session, _ = row_session(6, 3, 1)
     problem = build_problem(session.camera, BayesConfig(use_masks=False, resolution=0.04), session.views)
-    hyp = search(problem, region_grid(problem.config, session.workspace, session.views[0]), lazy_last_level=True)
+    hyp = _search(problem, region_grid(problem.config, session.workspace, session.views[0]), True)
     assert hyp.child_cell is None and hyp.cell == 0.04 and len(extract(problem, hyp)[0]) >= 5
 
 
 def test_the_last_level_of_no_cells_is_empty(dense_row):
     problem, grid = dense_row
-    hyp = search(problem, grid, lazy_last_level=True)
+    hyp = _search(problem, grid, True)
     last = last_level(problem, hyp, np.zeros(len(hyp.centres_base), dtype=bool))
     assert last.child_cell is None and last.scores[0].shape == (0, len(hyp.radii)) and len(last.centres_base) == 0
     every = last_level(problem, hyp, np.ones(len(hyp.centres_base), dtype=bool))
@@ -110,7 +115,7 @@ def test_extended_appends_rows_to_a_buffer_that_doubles(axis):
     assert (a[0, 0, 0] if axis == 1 else a[0, 0]) == -1.0
 
 
-def test_the_steal_pass_after_a_lazy_last_level_gives_back_what_the_eager_one_does(monkeypatch):
+def test_the_steal_pass_after_a_lazy_last_level_gives_back_what_the_eager_one_does():
     """A row of 128 fruit (seed 0): the extraction gives one fruit's view-0 box to its neighbour, and only the steal
     pass gives it back, from a last-level hypothesis the lazy extraction never scored: the pass scores the last level
     where a box is free, and finds every fruit as the eager search does."""
@@ -120,8 +125,16 @@ def test_the_steal_pass_after_a_lazy_last_level_gives_back_what_the_eager_one_do
     session, scene = row_session(128, 5, 0)
     positions = {}
     for lazy_last_level in (False, True):
-        monkeypatch.setattr(search_module, "LAZY_LAST_LEVEL_ABOVE", 0 if lazy_last_level else 10**12)
-        res = mv.localize(session, use_masks=False)
+        res = mv.localize(session, use_masks=False, lazy_last_level=lazy_last_level)
+        assert res.diagnostics["lazy_last_level"] == lazy_last_level
         positions[lazy_last_level] = res.positions[np.lexsort(res.positions.T)]
         assert evaluate(res.positions, scene.centres, truth_radii=scene.radii).true_positives == 128
     assert_allclose(positions[True], positions[False], atol=1e-9)
+
+
+def test_lazy_last_level_is_checked():
+    from monovisual3d.errors import InputError
+
+    with pytest.raises(InputError, match=r"lazy_last_level: got 'yes', expected true, false or null"):
+        BayesConfig(lazy_last_level="yes")
+    assert BayesConfig(lazy_last_level=None).lazy_last_level is None

@@ -90,9 +90,9 @@ def test_dropping_dominated_hypotheses_keeps_the_objects_of_a_dense_row():
     session, _ = row_session(24, 4, 11)
     n_scored = []
     for margin in (BayesConfig().dominance_margin, float("inf")):
-        problem = build_problem(session.camera, BayesConfig(use_masks=False, dominance_margin=margin), session.views)
-        grid = region_grid(problem.config, session.workspace, session.views[0])
-        n_scored.append(search(problem, grid, lazy_last_level=False).n_scored)  # every level scored by the search
+        config = BayesConfig(use_masks=False, dominance_margin=margin, lazy_last_level=False)  # every level in the search
+        problem = build_problem(session.camera, config, session.views)
+        n_scored.append(search(problem, region_grid(problem.config, session.workspace, session.views[0])).n_scored)
     assert n_scored[0] < 0.6 * n_scored[1]
     pruned = mv.localize(session, use_masks=False)
     full = mv.localize(session, use_masks=False, dominance_margin=float("inf"))

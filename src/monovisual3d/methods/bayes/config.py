@@ -95,6 +95,9 @@ class BayesConfig:
     max_hypotheses : int, cap on the (cell, radius) hypotheses scored at one search level (the memory budget may lower it;
         the best-scoring cells are kept)
     radius_margin_bins : int, radius bins a child cell inherits on each side of those its parent kept
+    lazy_last_level : bool or None: leave the search's last level to the extraction, which scores a cell's children only
+        when the cell nears the best (the same objects on every benchmark, less work in a dense scene; never over the
+        hypothesis budget); None: where that level would hold more than ``search.LAZY_LAST_LEVEL_ABOVE`` hypotheses
     swap : bool, after extraction, swap the boxes of overlapping objects in a view when that fits both better; after the
         shape stage (``shape`` auto), trade a view's boxes between, or refit, two objects side by side, one of them tall,
         when the shape models prefer it (:mod:`.shape_swap`)
@@ -151,6 +154,7 @@ class BayesConfig:
     lookahead_margin: float = 4.0
     max_hypotheses: int = 8_000_000
     radius_margin_bins: int = 1
+    lazy_last_level: bool | None = None
     swap: bool = True
     steal: bool = True
     pose_sigma_mm: float = 0.0
@@ -204,6 +208,8 @@ class BayesConfig:
         for name in ("use_masks", "swap", "steal", "free_orientation", "solids", "one_sided_refit"):
             if not (isinstance(getattr(self, name), bool) or type(getattr(self, name)).__name__ == "bool_"):
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
+        if self.lazy_last_level is not None and not isinstance(self.lazy_last_level, bool):
+            raise InputError(f"lazy_last_level: got {self.lazy_last_level!r}, expected true, false or null (by size)")
         if self.backend not in BACKENDS:
             raise InputError(f"backend: got {self.backend!r}, expected one of {list(BACKENDS)} for method 'bayes'")
         check_shared_options(self)

@@ -448,10 +448,10 @@ def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[ND
     return centres_grid, cell, capped
 
 
-def search(problem: Problem, grid: VoxelGrid, lazy_last_level: bool | None = None) -> Hypotheses:
+def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
     """Coarse-to-fine search over ``grid``'s region (see the module docstring).
 
-    ``lazy_last_level``: leave the last level to the extraction (``Hypotheses.child_cell``); by default, when its
+    ``BayesConfig.lazy_last_level`` leaves the last level to the extraction (``Hypotheses.child_cell``); None: when its
     hypotheses (before the cone test of its cells) would be more than :data:`LAZY_LAST_LEVEL_ABOVE`. Never where the
     first scored level is the last, nor where the last level exceeds the hypothesis budget (:func:`hypothesis_cap`).
     """
@@ -494,7 +494,7 @@ def search(problem: Problem, grid: VoxelGrid, lazy_last_level: bool | None = Non
         children_mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
         children_grid = split_cells(centres_grid, cell)
         n_children = int(children_mask.sum())
-        lazy = n_children > LAZY_LAST_LEVEL_ABOVE if lazy_last_level is None else lazy_last_level
+        lazy = n_children > LAZY_LAST_LEVEL_ABOVE if cfg.lazy_last_level is None else cfg.lazy_last_level
         # the extraction holds at most the whole last level: lazily only where that fits the budget (else chunked)
         if cell / 2 <= cfg.resolution * (1 + 1e-9) and lazy and n_children <= cap:
             children = children_grid @ R.T + t
