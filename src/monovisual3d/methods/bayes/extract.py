@@ -238,7 +238,7 @@ class _Rows:
     """The rows the extraction draws from, and the last-level cells they stand for.
 
     Without ``Hypotheses.child_cell`` the rows are the search's cells, one last-level cell each. With it they start as
-    the search's cells one level above (``parent`` True, scored at ``parent_cell``), and a cell's 8 children (last-level
+    the search's cells one level above (the first ``n_parents`` rows, scored at ``parent_cell``), and a cell's 8 children (last-level
     cells ``8 i`` to ``8 i + 7`` of cell ``i``) become rows only when it nears the best (:func:`_split`); most cells of
     ghost crossings never do, their boxes taken first. A last-level cell suppressed (``dead``) before it is a row never
     becomes one.
@@ -248,7 +248,7 @@ class _Rows:
     hyp : Hypotheses, the search's result (its bins, and its cells' every-box scores)
     centres : ndarray, shape (M, 3), metres, base frame: each row's centre
     mask : ndarray, shape (M, K), bool: the bins each row scores
-    parent : ndarray, shape (M,), bool: rows that are cells of the level above the last
+    n_parents : int, rows that are cells of the level above the last (the first ones; 0 without ``child_cell``)
     fine_centres : ndarray, shape (F, 3), metres, base frame: the last-level cells
     fine_mask : ndarray, shape (F, K), bool: the bins each last-level cell would score
     row_of : ndarray, shape (F,), intp: each last-level cell's row, -1 while it has none
@@ -259,7 +259,7 @@ class _Rows:
     hyp: Hypotheses
     centres: NDArray[np.float64]
     mask: NDArray[np.bool_]
-    parent: NDArray[np.bool_]
+    n_parents: int
     fine_centres: NDArray[np.float64]
     fine_mask: NDArray[np.bool_]
     row_of: NDArray[np.intp]
@@ -272,22 +272,21 @@ class _Rows:
     def of(cls, hyp: Hypotheses) -> _Rows:
         n = len(hyp.centres_base)
         if hyp.child_cell is None or hyp.children_base is None or hyp.children_mask is None:
-            parent, fine, fine_mask, row_of, cell = np.zeros(n, dtype=bool), hyp.centres_base, hyp.mask, np.arange(n), hyp.cell
+            n_parents, fine, fine_mask, row_of, cell = 0, hyp.centres_base, hyp.mask, np.arange(n), hyp.cell
         else:
             fine, fine_mask, cell = hyp.children_base, hyp.children_mask, hyp.child_cell
-            parent, row_of = np.ones(n, dtype=bool), np.full(len(fine), -1, dtype=np.intp)
+            n_parents, row_of = n, np.full(len(fine), -1, dtype=np.intp)
         dead = np.zeros(len(fine), dtype=bool)
-        return cls(hyp, hyp.centres_base, hyp.mask, parent, fine, fine_mask, row_of, dead, cell, hyp.cell)
+        return cls(hyp, hyp.centres_base, hyp.mask, n_parents, fine, fine_mask, row_of, dead, cell, hyp.cell)
 
     def cell_of(self, rows: NDArray[np.intp]) -> NDArray[np.float64]:
         """Cell size (metres) each of ``rows`` stands for."""
-        return np.where(self.parent[rows], self.parent_cell, self.cell)
+        return np.where(rows < self.n_parents, self.parent_cell, self.cell)
 
     def add(self, fine: NDArray[np.intp], rows: NDArray[np.intp], mask: NDArray[np.bool_]) -> None:
         """The last-level cells ``fine`` became the rows ``rows`` (M,), scoring the bins ``mask`` (M, K)."""
         self.centres = _extended(self.buffers, "centres", self.centres, self.fine_centres[fine])
         self.mask = _extended(self.buffers, "mask", self.mask, mask)
-        self.parent = _extended(self.buffers, "parent", self.parent, np.zeros(len(fine), dtype=bool))
         self.row_of[fine] = rows
 
 
@@ -394,7 +393,7 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
     """
     cfg = problem.config
     rows = _Rows.of(hyp)
-    work = _Work.from_scores(*hyp.scores, cfg.min_views, pending=rows.parent)
+    work = _Work.from_scores(*hyp.scores, cfg.min_views, pending=np.arange(len(rows.centres)) < rows.n_parents)
     objects: list[DetectedObject] = []
     taken: Taken = frozenset()
     cache: dict[tuple[int, int], DetectedObject | None] = {}
