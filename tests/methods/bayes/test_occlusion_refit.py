@@ -14,6 +14,7 @@ from monovisual3d.methods.bayes.likelihood import SensorModel
 from monovisual3d.methods.bayes.occlusion import (
     OCCLUSION_MARGIN_SIGMAS,
     _meeting,
+    _predicted,
     _whole_sides_cut,
     covered_sides,
     occluded_edges,
@@ -143,3 +144,46 @@ def test_an_edge_behind_a_tall_occluder_is_left_out_only_where_it_ends_at_that_o
     amodal = _whole_sides_cut(problem, predicted, np.array([100.0, 50, 190, 200]), nearer, margin, tall)
     assert visible_part.tolist() == [False, False, True, False]
     assert amodal.tolist() == [False, False, False, False]
+
+
+def test_predicted_boxes_and_stds_batched_equal_one_object_at_a_time():
+    """``_predicted`` (all objects of a view at once) gives each object's box, depth and projected-centre std as
+    the single-object formulas do: spheres, upright and lying spheroids, with and without a covariance, one behind
+    the camera."""
+    from monovisual3d.geometry.sphere import predict_sphere_boxes
+    from monovisual3d.geometry.spheroid import predict_spheroid_boxes
+    from monovisual3d.methods.bayes.config import BayesConfig
+    from monovisual3d.methods.bayes.problem import Problem, ViewData
+    from monovisual3d.methods.bayes.sensor import box_edge_sigma_px
+    from monovisual3d.result import DetectedObject
+
+    rng = np.random.default_rng(8)
+    views = tuple(ViewData(i, invert_transform(T), np.zeros((0, 4)), (), None) for i, T in enumerate(poses()))
+    problem = Problem(CAM, BayesConfig(), SensorModel(), views)
+    objects = []
+    for i in range(12):
+        extra = {} if i % 3 == 0 else {"semi_up": 0.05} if i % 3 == 1 else {"semi_up": 0.06, "axis": [0.0, 1.0, 0.0]}
+        a = rng.normal(size=(3, 3)) * 1e-3
+        cov = a @ a.T if i % 2 else None
+        objects.append(DetectedObject(TARGET + rng.normal(0, 0.1, 3), 1.0, 0.02 + 0.01 * rng.random(), cov, extra=extra))
+    objects.append(DetectedObject(np.array([-1.0, 0.0, 0.5]), 1.0, 0.03))  # behind every camera
+    for v, vd in enumerate(views):
+        boxes, depth, std = _predicted(problem, objects, v)
+        R, t = vd.T_optical_base[:3, :3], vd.T_optical_base[:3, 3]
+        for i, o in enumerate(objects):
+            p = R @ o.position + t
+            if "semi_up" in o.extra:
+                up = R @ np.asarray(o.extra.get("axis", problem.config.up_vector), dtype=float)
+                box = predict_spheroid_boxes(CAM, p[None], [o.radius], [o.extra["semi_up"]], up)[0][0, 0]
+            else:
+                box = predict_sphere_boxes(CAM, p[None], np.array([o.radius]))[0][0, 0]
+            assert_allclose(boxes[i], box, rtol=1e-12, atol=1e-9)
+            assert_allclose(depth[i], p[2], rtol=1e-12)
+            if o.covariance is not None and p[2] > 0:
+                J = np.array([[CAM.fx, 0.0, -CAM.fx * p[0] / p[2]], [0.0, CAM.fy, -CAM.fy * p[1] / p[2]]]) / p[2]
+                want = np.sqrt(np.diag(J @ R @ o.covariance @ R.T @ J.T))
+            else:
+                want = box_edge_sigma_px(problem.model, box)[:2]
+            assert_allclose(std[i], want, rtol=1e-9, equal_nan=True)
+        assert np.isnan(boxes[-1]).all()
+    assert _predicted(problem, [], 0)[0].shape == (0, 4)

@@ -35,24 +35,31 @@ def _predicted(
     projected centre along x and y in view ``v`` (its position covariance through the pinhole projection's
     Jacobian; without a covariance, its box's edge noise)."""
     vd, cam = problem.views[v], problem.camera
-    boxes, depth, std = np.full((len(objects), 4), np.nan), np.full(len(objects), np.inf), np.zeros((len(objects), 2))
-    for i, o in enumerate(objects):
-        p_opt = vd.T_optical_base[:3, :3] @ o.position + vd.T_optical_base[:3, 3]
-        r = float(o.radius)  # type: ignore[arg-type]
-        b = o.extra.get("semi_up")
-        if b is None:
-            boxes[i] = predict_sphere_boxes(cam, p_opt[None], np.array([r]))[0][0, 0]
-        else:
-            u = vd.T_optical_base[:3, :3] @ spheroid_axis(problem, axis_of(o))
-            boxes[i] = predict_spheroid_boxes(cam, p_opt[None], [r], [float(b)], u)[0][0, 0]
-        depth[i] = p_opt[2]
-        if o.covariance is not None and p_opt[2] > 0:
-            x, y, z = p_opt
-            J = np.array([[cam.fx, 0.0, -cam.fx * x / z], [0.0, cam.fy, -cam.fy * y / z]]) / z
-            R = vd.T_optical_base[:3, :3]
-            std[i] = np.sqrt(np.maximum(np.diag(J @ R @ o.covariance @ R.T @ J.T), 0.0))
-        else:
-            std[i] = box_edge_sigma_px(problem.model, boxes[i])[:2]
+    n = len(objects)
+    boxes = np.full((n, 4), np.nan)
+    if not n:
+        return boxes, np.zeros(0), np.zeros((0, 2))
+    R, t = vd.T_optical_base[:3, :3], vd.T_optical_base[:3, 3]
+    p_opt = np.array([o.position for o in objects], dtype=float) @ R.T + t  # (N, 3)
+    radii = np.array([float(o.radius) for o in objects])  # type: ignore[arg-type]
+    spheres = np.array([o.extra.get("semi_up") is None for o in objects])
+    boxes[spheres] = predict_sphere_boxes(cam, p_opt[spheres], radii[spheres, None])[0][:, 0]
+    for i in np.flatnonzero(~spheres):
+        o = objects[i]
+        u = R @ spheroid_axis(problem, axis_of(o))
+        boxes[i] = predict_spheroid_boxes(cam, p_opt[i : i + 1], [radii[i]], [float(o.extra["semi_up"])], u)[0][0, 0]
+    depth = p_opt[:, 2].copy()
+    std = box_edge_sigma_px(problem.model, boxes)[:, :2]
+    known = np.array([o.covariance is not None for o in objects]) & (depth > 0)
+    if known.any():
+        x, y, z = p_opt[known].T
+        zero = np.zeros_like(z)
+        J = np.stack(
+            [np.stack([cam.fx / z, zero, -cam.fx * x / z**2], -1), np.stack([zero, cam.fy / z, -cam.fy * y / z**2], -1)], 1
+        )
+        JR = J @ R  # (M, 2, 3): the projected centre's Jacobian with respect to the base-frame position
+        cov = np.array([objects[i].covariance for i in np.flatnonzero(known)], dtype=float)
+        std[known] = np.sqrt(np.maximum(np.einsum("mij,mjk,mik->mi", JR, cov, JR), 0.0))
     return boxes, depth, std
 
 
