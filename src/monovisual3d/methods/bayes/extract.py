@@ -103,7 +103,7 @@ class _Work:
             total.copy(),
             np.zeros(n),
             np.zeros(n, dtype=bool),
-            [_BoxUsers.of(a, np.arange(n)) for a in assoc],
+            [_BoxUsers.of(a, np.arange(n), _holders(n_assoc)) for a in assoc],
             np.zeros(n, dtype=bool) if pending is None else pending.copy(),
         )
         work.update(np.arange(n), min_views)
@@ -120,8 +120,9 @@ class _Work:
         for name, value in new.items():
             setattr(self, name, _extended(self.buffers, name, getattr(self, name), value))
         self.assoc = _extended(self.buffers, "assoc", self.assoc, assoc, axis=1)
+        held = _holders(n_assoc)
         for users, a in zip(self.users, assoc):
-            users.add(a, rows)
+            users.add(a, rows, held)
         self.update(rows, min_views)
         return rows
 
@@ -142,8 +143,9 @@ class _Work:
         """New scores of the rows ``rows`` (M,): ``total`` and ``n_assoc`` (M, K), ``assoc`` (V, M, K); fresh now."""
         self.total[rows], self.n_assoc[rows], self.assoc[:, rows] = total, n_assoc, assoc
         self.stale[rows] = False
+        held = _holders(n_assoc)
         for users, a in zip(self.users, assoc):
-            users.add(a, rows)
+            users.add(a, rows, held)
         self.update(rows, min_views)
 
     def using(self, v: int, boxes: NDArray[np.intp], rows: NDArray[np.bool_]) -> NDArray[np.intp]:
@@ -194,6 +196,12 @@ class _Cells:
         return out
 
 
+def _holders(n_assoc: NDArray[np.int32]) -> NDArray[np.intp]:
+    """Flat indices into ``n_assoc`` (M, K) of the hypotheses with a box in some view: most hold none (a dense
+    scene's bins ruled out, or explained away), so the box index looks only at these."""
+    return np.flatnonzero(n_assoc > 0)
+
+
 @dataclass
 class _BoxUsers:
     """Which rows associate each box of one view: sorted runs of (box, row) pairs, the rows' associations as they were
@@ -205,18 +213,20 @@ class _BoxUsers:
     runs: list[tuple[NDArray[np.int16], NDArray[np.intp]]]
 
     @classmethod
-    def of(cls, assoc_v: NDArray[np.int16], rows: NDArray[np.intp]) -> _BoxUsers:
-        """The index of the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,)."""
+    def of(cls, assoc_v: NDArray[np.int16], rows: NDArray[np.intp], held: NDArray[np.intp] | None = None) -> _BoxUsers:
+        """The index of the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,) (``held``: see :meth:`add`)."""
         users = cls([])
-        users.add(assoc_v, rows)
+        users.add(assoc_v, rows, held)
         return users
 
-    def add(self, assoc_v: NDArray[np.int16], rows: NDArray[np.intp]) -> None:
-        """Index the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,)."""
-        where, _ = np.nonzero(assoc_v >= 0)
-        js = assoc_v[assoc_v >= 0]
+    def add(self, assoc_v: NDArray[np.int16], rows: NDArray[np.intp], held: NDArray[np.intp] | None = None) -> None:
+        """Index the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,); ``held``, optional: the flat indices
+        into (M, K) of every hypothesis that holds a box in some view (:func:`_holders`), where to look."""
+        flat = assoc_v.reshape(-1)
+        cells = np.flatnonzero(flat >= 0) if held is None else held[flat[held] >= 0]
+        js = flat[cells]
         order = np.argsort(js, kind="stable")
-        self.runs.append((js[order], rows[where[order]]))
+        self.runs.append((js[order], rows[cells[order] // assoc_v.shape[1]]))
         while len(self.runs) >= 2 and len(self.runs[-2][0]) <= 2 * len(self.runs[-1][0]):
             (j1, r1), (j2, r2) = self.runs.pop(), self.runs.pop()
             js, rs = np.concatenate([j2, j1]), np.concatenate([r2, r1])
