@@ -151,12 +151,14 @@ class _Work:
     def using(self, v: int, boxes: NDArray[np.intp], rows: NDArray[np.bool_]) -> NDArray[np.intp]:
         """The rows among ``rows`` (N,) bool whose association in view ``v`` holds one of ``boxes``, sorted."""
         boxes = np.asarray(boxes, dtype=np.intp)
-        cand = self.users[v].rows(boxes)
-        cand = np.unique(cand[rows[cand]])
-        current = self.assoc[v, cand]
+        cand = self.users[v].hypotheses(boxes)
+        row, k = np.divmod(cand, self.assoc.shape[2])
+        keep = rows[row]
+        row, k = row[keep], k[keep]
+        current = self.assoc[v, row, k]  # every current association was indexed when it was scored
         holds = np.zeros(max(int(current.max(initial=-1)), int(np.max(boxes, initial=-1))) + 2, dtype=bool)
         holds[boxes] = True  # holds[-1], the entry of no box, stays False
-        return cand[holds[current].any(axis=1)]
+        return np.unique(row[holds[current]])
 
     def suppress(self, rows: NDArray[np.bool_] | NDArray[np.intp]) -> None:
         """Deactivate the cells ``rows`` ((N,) bool, or indices)."""
@@ -204,10 +206,11 @@ def _holders(n_assoc: NDArray[np.int32]) -> NDArray[np.intp]:
 
 @dataclass
 class _BoxUsers:
-    """Which rows associate each box of one view: sorted runs of (box, row) pairs, the rows' associations as they were
-    when each run was added (a row rescored since has its new associations in a later run; :meth:`_Work.using` checks
-    the current ones). Adding a run merges it with the runs before it while they are not twice as long, so a look-up
-    searches a few runs and the merges cost ``O(n log n)`` over all the rescoring.
+    """Which hypotheses associate each box of one view: sorted runs of (box, hypothesis) pairs, a hypothesis as its
+    flat index ``row * K + bin``, and its association as it was when the run was added (a row rescored since has its
+    new associations in a later run; :meth:`_Work.using` checks the current ones). Adding a run merges it with the
+    runs before it while they are not twice as long, so a look-up searches a few runs and the merges cost
+    ``O(n log n)`` over all the rescoring.
     """
 
     runs: list[tuple[NDArray[np.int16], NDArray[np.intp]]]
@@ -222,19 +225,21 @@ class _BoxUsers:
     def add(self, assoc_v: NDArray[np.int16], rows: NDArray[np.intp], held: NDArray[np.intp] | None = None) -> None:
         """Index the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,); ``held``, optional: the flat indices
         into (M, K) of every hypothesis that holds a box in some view (:func:`_holders`), where to look."""
-        flat = assoc_v.reshape(-1)
+        flat, k = assoc_v.reshape(-1), assoc_v.shape[1]
         cells = np.flatnonzero(flat >= 0) if held is None else held[flat[held] >= 0]
         js = flat[cells]
         order = np.argsort(js, kind="stable")
-        self.runs.append((js[order], rows[cells[order] // assoc_v.shape[1]]))
+        cells = cells[order]
+        self.runs.append((js[order], rows[cells // k] * k + cells % k))
         while len(self.runs) >= 2 and len(self.runs[-2][0]) <= 2 * len(self.runs[-1][0]):
             (j1, r1), (j2, r2) = self.runs.pop(), self.runs.pop()
             js, rs = np.concatenate([j2, j1]), np.concatenate([r2, r1])
             order = np.argsort(js, kind="stable")
             self.runs.append((js[order], rs[order]))
 
-    def rows(self, boxes: NDArray[np.intp]) -> NDArray[np.intp]:
-        """Rows indexed with one of ``boxes`` (repeats possible; some no longer use it)."""
+    def hypotheses(self, boxes: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Hypotheses (flat indices ``row * K + bin``) indexed with one of ``boxes`` (repeats possible; some no longer
+        use it)."""
         out = []
         keys = np.asarray(boxes).astype(np.int16)  # in the runs' type: a key of another type would convert each run
         for js, rs in self.runs:
