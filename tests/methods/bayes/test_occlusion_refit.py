@@ -15,6 +15,7 @@ from monovisual3d.methods.bayes.occlusion import (
     OCCLUSION_MARGIN_SIGMAS,
     _meeting,
     _predicted,
+    _view_flags,
     _whole_sides_cut,
     covered_sides,
     occluded_edges,
@@ -187,3 +188,38 @@ def test_predicted_boxes_and_stds_batched_equal_one_object_at_a_time():
             assert_allclose(std[i], want, rtol=1e-9, equal_nan=True)
         assert np.isnan(boxes[-1]).all()
     assert _predicted(problem, [], 0)[0].shape == (0, 4)
+
+
+def test_flags_of_all_objects_at_once_equal_the_tests_one_object_at_a_time():
+    """``_view_flags`` (every pair of a view at once) flags what :func:`occluded_edges` and ``_whole_sides_cut`` flag
+    object by object against its nearer boxes: random boxes, stds, straight occluders, objects without a box."""
+    from monovisual3d.methods.bayes.config import BayesConfig
+    from monovisual3d.methods.bayes.problem import Problem, ViewData
+
+    rng = np.random.default_rng(12)
+    n = 40
+    corner = rng.uniform(0, 500, (n, 2))
+    boxes = np.hstack([corner, corner + rng.uniform(20, 160, (n, 2))])
+    boxes[5] = np.nan
+    observed = boxes + rng.normal(0, 4, boxes.shape)
+    std, depth = rng.uniform(0, 6, (n, 2)), rng.uniform(0.5, 1.0, n)
+    straight = rng.random(n) < 0.4
+    assoc = [int(k) if rng.random() < 0.8 else -1 for k in range(n)]  # object k holds box k of the view, or none
+    view = ViewData(0, np.eye(4), observed, (), None)
+    problem = Problem(CAM, BayesConfig(), SensorModel(), (view,))
+    meets = _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None])
+    flagged = 0
+    for whole in (False, True):
+        shifted, censored = _view_flags(problem, (boxes, depth, std), meets, 0, assoc, straight, whole)
+        for i in range(n):
+            near = meets[i]
+            margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
+            want = occluded_edges(boxes[i], boxes[near], margin)
+            assert shifted[i].tolist() == want.tolist()
+            if whole and assoc[i] >= 0:
+                cut = _whole_sides_cut(problem, boxes[i], observed[i], boxes[near], margin, straight[near])
+                assert censored[i].tolist() == cut.tolist()
+                flagged += int(cut.any())
+            elif not whole:
+                assert censored[i].tolist() == want.tolist()
+    assert flagged >= 3 and shifted.any()

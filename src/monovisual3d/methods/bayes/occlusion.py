@@ -83,17 +83,34 @@ def occluded_edges(pred: NDArray[np.float64], nearer: NDArray[np.float64], margi
     >>> occluded_edges(np.array([10.0, 0, 50, 40]), np.array([[40.0, 5, 80, 30]])).tolist()
     [False, False, True, False]
     """
-    x1, y1, x2, y2 = pred
+    return _occluded_pairs(*_against(pred, nearer, margin_px)).any(axis=0)
+
+
+def _against(
+    box: NDArray[np.float64], nearer: NDArray[np.float64], margin_px: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``box`` (4,) paired with each of ``nearer`` (N, 4), with the margins (N, 2): the pairwise tests' arguments."""
+    nearer = np.asarray(nearer, dtype=float).reshape(-1, 4)
+    m = np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))
+    return np.broadcast_to(np.asarray(box, dtype=float), nearer.shape), nearer, m
+
+
+def _finite_pairs(*boxes: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Pairs (P,) whose boxes (each (P, 4)) are all finite: a box with a NaN flags nothing."""
+    return np.logical_and.reduce([np.all(np.isfinite(b), axis=1) for b in boxes])
+
+
+def _occluded_pairs(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """:func:`occluded_edges` pair by pair: the edges (P, 4) of each box ``pred`` (P, 4) whose extreme point the
+    silhouette of its ``nearer`` box (P, 4), shrunk by ``margin`` (P, 2), covers."""
+    x1, y1, x2, y2 = pred.T
     cx, cy = (x1 + x2) / 2, (y1 + y2) / 2
-    points = np.array([[x1, cy], [cx, y1], [x2, cy], [cx, y2]])  # the extreme points, edge by edge
-    ok = np.all(np.isfinite(nearer), axis=1)
-    n, m = nearer[ok], np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))[ok]
-    if not len(n) or not np.all(np.isfinite(pred)):
-        return np.zeros(4, dtype=bool)
-    centre = (n[:, :2] + n[:, 2:]) / 2
-    half = np.maximum((n[:, 2:] - n[:, :2]) / 2 - m, 1e-9)
-    inside = np.sum(((points[:, None, :] - centre[None]) / half[None]) ** 2, axis=2) < 1.0  # (4, N)
-    return np.any(inside, axis=1)
+    points = np.stack([np.stack(p, axis=-1) for p in ((x1, cy), (cx, y1), (x2, cy), (cx, y2))], axis=1)  # (P, 4, 2)
+    centre = (nearer[:, :2] + nearer[:, 2:]) / 2
+    half = np.maximum((nearer[:, 2:] - nearer[:, :2]) / 2 - margin, 1e-9)
+    with np.errstate(invalid="ignore"):  # NaN boxes: ruled out below
+        inside = np.sum(((points - centre[:, None]) / half[:, None]) ** 2, axis=2) < 1.0
+    return inside & _finite_pairs(pred, nearer)[:, None]
 
 
 def covered_sides(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin_px: ArrayLike = 0.0) -> NDArray[np.bool_]:
@@ -111,23 +128,27 @@ def covered_sides(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin
     >>> covered_sides(np.array([100.0, 50, 160, 200]), np.array([[150.0, 60, 230, 210]])).tolist()  # its top shows
     [False, False, False, False]
     """
-    x1, y1, x2, y2 = pred
-    ok = np.all(np.isfinite(nearer), axis=1)
-    n, m = nearer[ok], np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))[ok]
-    if not len(n) or not np.all(np.isfinite(pred)):
-        return np.zeros(4, dtype=bool)
+    return _covered_pairs(*_against(pred, nearer, margin_px)).any(axis=0)
+
+
+def _covered_pairs(pred: NDArray[np.float64], n: NDArray[np.float64], m: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """:func:`covered_sides` pair by pair: the edges (P, 4) of each box ``pred`` (P, 4) whose whole side its nearer
+    box ``n`` (P, 4), with the margin ``m`` (P, 2), covers."""
+    x1, y1, x2, y2 = pred.T
     nx1, ny1, nx2, ny2 = n[:, 0] + m[:, 0], n[:, 1] + m[:, 1], n[:, 2] - m[:, 0], n[:, 3] - m[:, 1]
     # spanning is judged with the margin the other way: a side sticking out by less than the noise is not seen
     spans_y = (n[:, 1] - m[:, 1] <= y1) & (n[:, 3] + m[:, 1] >= y2)
     spans_x = (n[:, 0] - m[:, 0] <= x1) & (n[:, 2] + m[:, 0] >= x2)
-    return np.array(
+    out = np.stack(
         [
-            np.any(spans_y & (nx1 < x1) & (nx2 > x1)),
-            np.any(spans_x & (ny1 < y1) & (ny2 > y1)),
-            np.any(spans_y & (nx1 < x2) & (nx2 > x2)),
-            np.any(spans_x & (ny1 < y2) & (ny2 > y2)),
-        ]
+            spans_y & (nx1 < x1) & (nx2 > x1),
+            spans_x & (ny1 < y1) & (ny2 > y1),
+            spans_y & (nx1 < x2) & (nx2 > x2),
+            spans_x & (ny1 < y2) & (ny2 > y2),
+        ],
+        axis=1,
     )
+    return out & _finite_pairs(pred, n)[:, None]
 
 
 def ends_at_occluder(
@@ -148,14 +169,19 @@ def ends_at_occluder(
     >>> ends_at_occluder(np.array([100.0, 50, 190, 200]), np.array([[150.0, 40, 230, 210]]), 0.0, sigma).tolist()
     [False, False, False, False]
     """
-    ok = np.all(np.isfinite(nearer), axis=1)
-    n = nearer[ok]
-    m = np.broadcast_to(np.asarray(margin_px, dtype=float), (len(nearer), 2))[ok]
-    if not len(n) or not np.all(np.isfinite(observed)):
-        return np.zeros(4, dtype=bool)
-    tol = m[:, [0, 1, 0, 1]] + EDGE_AT_OCCLUDER_SIGMAS * np.asarray(sigma_px, dtype=float)[None, :]
+    obs, n, m = _against(observed, nearer, margin_px)
+    return _ends_pairs(obs, n, m, np.broadcast_to(np.asarray(sigma_px, dtype=float), n.shape)).any(axis=0)
+
+
+def _ends_pairs(
+    observed: NDArray[np.float64], n: NDArray[np.float64], m: NDArray[np.float64], sigma: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """:func:`ends_at_occluder` pair by pair: boxes ``observed`` (P, 4) with edge noise ``sigma`` (P, 4), nearer boxes
+    ``n`` (P, 4) with margins ``m`` (P, 2)."""
+    tol = m[:, [0, 1, 0, 1]] + EDGE_AT_OCCLUDER_SIGMAS * sigma
     facing = n[:, [2, 3, 0, 1]]  # the nearer box's edge facing each edge of the observed box
-    return np.any(np.abs(facing - np.asarray(observed, dtype=float)[None, :]) <= tol, axis=0)
+    with np.errstate(invalid="ignore"):
+        return (np.abs(facing - observed) <= tol) & _finite_pairs(observed, n)[:, None]
 
 
 def _meeting(boxes: NDArray[np.float64], pad_px: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -188,11 +214,24 @@ def _whole_sides_cut(
     An elongated occluder's side is straight along the side it covers: a box of the visible part ends at its box's
     edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge lies anywhere inside its box).
     """
-    out = covered_sides(predicted, nearer[~straight], margin_px[~straight])
-    if straight.any():
-        sigma = box_edge_sigma_px(problem.model, observed)
-        for box, m in zip(nearer[straight], margin_px[straight]):  # each occluder covers and ends the edge itself
-            out |= covered_sides(predicted, box[None], m[None]) & ends_at_occluder(observed, box[None], m[None], sigma)
+    pred, n, m = _against(predicted, nearer, margin_px)
+    obs = np.broadcast_to(np.asarray(observed, dtype=float), n.shape)
+    return _whole_sides_pairs(problem, pred, obs, n, m, np.asarray(straight, dtype=bool)).any(axis=0)
+
+
+def _whole_sides_pairs(
+    problem: Problem,
+    predicted: NDArray[np.float64],
+    observed: NDArray[np.float64],
+    nearer: NDArray[np.float64],
+    margin: NDArray[np.float64],
+    straight: NDArray[np.bool_],
+) -> NDArray[np.bool_]:
+    """:func:`_whole_sides_cut` pair by pair, every argument with a leading pair axis (P, ...): (P, 4)."""
+    out = _covered_pairs(predicted, nearer, margin)
+    if straight.any():  # each straight occluder covers and ends the edge itself
+        sigma = box_edge_sigma_px(problem.model, observed[straight])
+        out[straight] &= _ends_pairs(observed[straight], nearer[straight], margin[straight], sigma)
     return out
 
 
@@ -235,28 +274,49 @@ def occlusion_flags(
         _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None]) & counted[None, :]
         for boxes, depth, std in preds
     ]
+    assoc = [associations_list(problem, o) for o in objects]
+    flags = [
+        _view_flags(problem, pred, m, v, [a[v] for a in assoc], elongated, whole_sides)
+        for v, (pred, m) in enumerate(zip(preds, meets))
+    ]
     out: list[tuple[list[Observation], frozenset[int]] | None] = []
     for i, o in enumerate(objects):
-        assoc = associations_list(problem, o)
-        if o.extra.get("pose_corrected") or sum(a >= 0 for a in assoc) < cfg.min_views:
+        if o.extra.get("pose_corrected") or sum(a >= 0 for a in assoc[i]) < cfg.min_views:
             out.append(None)
             continue
         obs, cut = [], set()
-        for ob, v in zip(observations(problem, assoc, o.position), [v for v, j in enumerate(assoc) if j >= 0]):
-            boxes, depth, std = preds[v]
-            near = meets[v][i]
-            if not near.any():
-                ob.censored = np.zeros(4, dtype=bool)
-                obs.append(ob)
-                continue
-            margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
-            shifted = occluded_edges(boxes[i], boxes[near], margin)
-            if whole_sides:
-                ob.censored = _whole_sides_cut(problem, boxes[i], ob.bbox_xyxy, boxes[near], margin, elongated[near])
-            else:
-                ob.censored = shifted
-            if shifted.any() or ob.censored.any():
+        for ob, v in zip(observations(problem, assoc[i], o.position), [v for v, j in enumerate(assoc[i]) if j >= 0]):
+            shifted, censored = flags[v]
+            ob.censored = censored[i].copy()
+            if shifted[i].any() or ob.censored.any():
                 cut.add(problem.views[v].index)
             obs.append(ob)
         out.append((obs, frozenset(cut)))
     return out
+
+
+def _view_flags(
+    problem: Problem,
+    predicted: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    meets: NDArray[np.bool_],
+    v: int,
+    assoc: list[int],
+    elongated: NDArray[np.bool_],
+    whole_sides: bool,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """:func:`occlusion_flags` in view ``v`` for every object at once, from the objects' ``predicted`` boxes and stds,
+    ``meets`` (N, N) and their boxes ``assoc`` (N,) in the view (-1: none): the edges (N, 4) a nearer object cuts at
+    their extreme point, and those censored (the same, or with ``whole_sides`` those whose whole side it covers)."""
+    boxes, _, std = predicted
+    i, j = np.nonzero(meets)  # i farther, j nearer
+    margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[j], std[i])
+    shifted = np.zeros((len(boxes), 4), dtype=bool)
+    np.logical_or.at(shifted, i, _occluded_pairs(boxes[i], boxes[j], margin))
+    if not whole_sides:
+        return shifted, shifted
+    observed = np.full((len(boxes), 4), np.nan)
+    held = np.asarray(assoc, dtype=np.intp)
+    observed[held >= 0] = problem.views[v].boxes[held[held >= 0]]
+    censored = np.zeros((len(boxes), 4), dtype=bool)
+    np.logical_or.at(censored, i, _whole_sides_pairs(problem, boxes[i], observed[i], boxes[j], margin, elongated[j]))
+    return shifted, censored
