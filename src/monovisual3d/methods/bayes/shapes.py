@@ -158,20 +158,19 @@ def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int]
     height / width; positive: taller than the sphere's box). A cut box shows the cut, not the object's aspect."""
     cam, border = problem.camera, problem.model.border_px
     by_index = {vd.index: vd for vd in problem.views}
-    deviations = []
-    for v, j in obj.associations.items():
-        if v in cut:
-            continue
-        vd = by_index[v]
-        x1, y1, x2, y2 = vd.boxes[j]
-        if x1 <= border or y1 <= border or x2 >= cam.width - border or y2 >= cam.height - border:
-            continue
-        p_opt = vd.T_optical_base[:3, :3] @ obj.position + vd.T_optical_base[:3, 3]
-        px1, py1, px2, py2 = predict_sphere_boxes(cam, p_opt[None, :], np.array([float(obj.radius)]))[0][0, 0]
-        if not np.all(np.isfinite([px1, py1, px2, py2])) or min(x2 - x1, y2 - y1) <= 0:
-            continue
-        deviations.append(np.log((y2 - y1) / (x2 - x1)) - np.log((py2 - py1) / (px2 - px1)))
-    return np.asarray(deviations, dtype=float)
+    seen = [(by_index[v], by_index[v].boxes[j]) for v, j in obj.associations.items() if v not in cut]
+    seen = [
+        (vd, b) for vd, b in seen if b[0] > border and b[1] > border and b[2] < cam.width - border and b[3] < cam.height - border
+    ]
+    if not seen:
+        return np.zeros(0)
+    boxes = np.array([b for _, b in seen])
+    p_opt = np.array([vd.T_optical_base[:3, :3] @ obj.position + vd.T_optical_base[:3, 3] for vd, _ in seen])
+    pred = predict_sphere_boxes(cam, p_opt, np.full((len(seen), 1), float(obj.radius)))[0][:, 0]  # (K, 4)
+    w, h = boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]
+    ok = np.all(np.isfinite(pred), axis=1) & (np.minimum(w, h) > 0)
+    pred = pred[ok]
+    return np.log(h[ok] / w[ok]) - np.log((pred[:, 3] - pred[:, 1]) / (pred[:, 2] - pred[:, 0]))
 
 
 def looks_round(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> bool:
