@@ -458,6 +458,7 @@ def fit_shape_by_bic(
     T_base_optical: ArrayLike,
     boxes_xyxy: ArrayLike,
     shapes: Sequence[str] = SHAPES,
+    every_model: bool = True,
     **options: Any,
 ) -> tuple[EllipsoidFit, dict[str, EllipsoidFit]]:
     """Fit every model of ``shapes`` and keep the one with the lowest :attr:`EllipsoidFit.bic`.
@@ -469,7 +470,11 @@ def fit_shape_by_bic(
     Parameters
     ----------
     camera, T_base_optical, boxes_xyxy : see :func:`fit_ellipsoid_to_boxes`
-    shapes : the candidate models, e.g. ``("sphere", "spheroid")``
+    shapes : the candidate models, e.g. ``("sphere", "spheroid")``, fitted in this order
+    every_model : bool, default True; False: a model is not fitted when its BIC cannot reach the lowest so far, its
+        penalty ``P ln(E)`` alone (``chi2 >= 0``) being higher (for an ellipsoid model, higher than the lowest of the
+        ellipsoid models, which a solid must beat clearly: see ``bayes``'s shape stage). The same ``best``, with
+        ``fits`` holding only the models fitted.
     **options : passed to :func:`fit_ellipsoid_to_boxes`
 
     Returns
@@ -485,6 +490,8 @@ def fit_shape_by_bic(
     fits: dict[str, EllipsoidFit] = {}
     first_error: InputError | None = None
     for shape in shapes:
+        if not every_model and _hopeless(shape, fits, options.get("free_orientation", False)):
+            continue
         try:
             fits[shape] = fit_ellipsoid_to_boxes(camera, T_base_optical, boxes_xyxy, shape=shape, **options)
         except InputError as exc:
@@ -495,6 +502,16 @@ def fit_shape_by_bic(
         assert first_error is not None
         raise first_error
     return min(fits.values(), key=lambda f: f.bic), fits
+
+
+def _hopeless(shape: str, fits: dict[str, EllipsoidFit], free_orientation: bool) -> bool:
+    """Whether a ``shape`` fit's BIC cannot fall below the lowest of ``fits`` (of its ellipsoid models, for an ellipsoid
+    model), its penalty ``P ln(E)`` alone exceeding it: all the fits use the same ``E`` edges."""
+    rivals = [f for m, f in fits.items() if shape in SOLIDS or m not in SOLIDS]
+    if not rivals:
+        return False
+    penalty = len(fit_parameters(shape, free_orientation=free_orientation)) * math.log(max(rivals[0].n_edges, 1))
+    return penalty > min(f.bic for f in rivals)
 
 
 class PinholeBoxes:

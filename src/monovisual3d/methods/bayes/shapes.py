@@ -318,6 +318,7 @@ def _fitted(
             poses,
             boxes,
             shapes=shapes,
+            every_model=False,  # the same best; a model that cannot win is not fitted (a dense row's cut fruit)
             up=cfg.up_vector,
             size_range=cfg.semi_axis_range,
             box_sigma=problem.model.alpha,
