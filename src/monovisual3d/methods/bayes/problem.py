@@ -10,7 +10,7 @@ boxes are already explained by an accepted object is passed explicitly as a
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,12 +55,24 @@ class Problem:
     config: BayesConfig
     model: SensorModel
     views: tuple[ViewData, ...]
+    #: The last ``taken`` set of :meth:`available` and its answer (an extraction asks hundreds of times between takes).
+    _last_available: dict[frozenset[tuple[int, int]], list[NDArray[np.bool_]]] = field(
+        default_factory=dict, init=False, compare=False, repr=False
+    )
 
     def available(self, taken: Iterable[tuple[int, int]] = ()) -> list[NDArray[np.bool_]]:
-        """Per view, which boxes are not in ``taken``: list of ndarray, shape (B_v,), bool."""
+        """Per view, which boxes are not in ``taken``: list of ndarray, shape (B_v,), bool, read-only."""
+        key = taken if isinstance(taken, frozenset) else frozenset(taken)
+        cached = self._last_available.get(key)
+        if cached is not None:
+            return cached
         out = [np.ones(len(vd.boxes), dtype=bool) for vd in self.views]
-        for v, j in taken:
+        for v, j in key:
             out[v][j] = False
+        for a in out:
+            a.flags.writeable = False
+        self._last_available.clear()
+        self._last_available[key] = out
         return out
 
     def depth(self, v: int, p_base: NDArray[np.floating]) -> float:
