@@ -44,10 +44,9 @@ def main() -> None:
     parser.add_argument("n_boxes", type=int, help="random boxes per view")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    session = load_session(random_session(args.n_boxes, args.seed))
     t0 = time.perf_counter()
     try:
-        result = localize(session)
+        result = localize(load_session(random_session(args.n_boxes, args.seed)))
     except InputError as exc:
         print(f"{args.n_boxes} boxes/view: refused after {time.perf_counter() - t0:.1f} s: {exc}")
         return

@@ -161,21 +161,32 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
 
 
 def test_rows_using_a_box_are_those_a_scan_finds():
-    """The extraction's box index (the starting associations, then those of the rows rescored, in merged runs) finds
-    exactly the rows whose current association holds a box, as a scan over all rows does."""
+    """The extraction's box index (the starting associations, then those of the rows rescored or appended, in merged
+    runs) finds exactly the rows whose current association holds a box, as a scan over all rows does; most
+    hypotheses hold no box (the index looks only at those that hold one)."""
     from monovisual3d.methods.bayes.extract import _Work
 
     rng = np.random.default_rng(11)
-    assoc = rng.integers(-1, 12, (3, 400, 6)).astype(np.int16)
-    work = _Work.from_scores(rng.normal(size=(400, 6)), np.full((400, 6), 3, np.int32), assoc, 2)
-    for _ in range(30):
-        changed = np.flatnonzero(rng.random(400) < rng.choice([0.01, 0.1]))  # rows rescored: their boxes change
-        new = rng.integers(-1, 15, (3, len(changed), 6)).astype(np.int16)
-        work.rescore(changed, rng.normal(size=(len(changed), 6)), np.full((len(changed), 6), 3, np.int32), new, 2)
-        rows, v, boxes = rng.random(400) < 0.7, int(rng.integers(3)), rng.choice(15, 2, replace=False)
+
+    def scored(m):  # associations (3, m, 6), most -1, and the views each hypothesis holds a box in
+        a = np.where(rng.random((3, m, 6)) < 0.3, rng.integers(0, 15, (3, m, 6)), -1).astype(np.int16)
+        return a, (a >= 0).sum(axis=0).astype(np.int32)
+
+    assoc, n_assoc = scored(400)
+    work = _Work.from_scores(rng.normal(size=(400, 6)), n_assoc, assoc, 2)
+    for step in range(40):
+        n = len(work.total)
+        if step % 4 == 3:  # new rows (a cell's children)
+            new, n_new = scored(int(rng.integers(1, 30)))
+            work.append(rng.normal(size=n_new.shape), n_new, new, 2)
+        else:  # rows rescored: their boxes change
+            changed = np.flatnonzero(rng.random(n) < rng.choice([0.01, 0.1]))
+            new, n_new = scored(len(changed))
+            work.rescore(changed, rng.normal(size=(len(changed), 6)), n_new, new, 2)
+        rows, v, boxes = rng.random(len(work.total)) < 0.7, int(rng.integers(3)), rng.choice(15, 2, replace=False)
         scan = np.flatnonzero(rows & np.isin(work.assoc[v], boxes).any(axis=1))
         assert_array_equal(work.using(v, boxes, rows), scan)
-    assert len(work.users[0].runs) < 8  # merged as they grow
+    assert len(work.total) > 400 and len(work.users[0].runs) < 10  # rows appended; runs merged as they grow
 
 
 def test_too_many_boxes_in_a_view_are_refused_before_any_work():

@@ -190,12 +190,40 @@ def test_predicted_boxes_and_stds_batched_equal_one_object_at_a_time():
     assert _predicted(problem, [], 0)[0].shape == (0, 4)
 
 
-def test_flags_of_all_objects_at_once_equal_the_tests_one_object_at_a_time():
-    """``_view_flags`` (every pair of a view at once) flags what :func:`occluded_edges` and ``_whole_sides_cut`` flag
-    object by object against its nearer boxes: random boxes, stds, straight occluders, objects without a box."""
-    from monovisual3d.methods.bayes.config import BayesConfig
-    from monovisual3d.methods.bayes.problem import Problem, ViewData
+def _pair_flags(pred, observed, nearer, margin, straight, sigma):
+    """The occlusion tests for one (object, nearer object) pair written edge by edge in plain Python (the reference of
+    the vectorised ones): the edges whose extreme point the nearer silhouette covers, and those a shape fit leaves out."""
+    x1, y1, x2, y2 = pred
+    n1, n2, n3, n4 = nearer
+    mx, my = margin
+    if not all(np.isfinite(v) for v in (*pred, *nearer)):
+        return [False] * 4, [False] * 4
+    cx, cy, hx, hy = (n1 + n3) / 2, (n2 + n4) / 2, max((n3 - n1) / 2 - mx, 1e-9), max((n4 - n2) / 2 - my, 1e-9)
+    points = [(x1, (y1 + y2) / 2), ((x1 + x2) / 2, y1), (x2, (y1 + y2) / 2), ((x1 + x2) / 2, y2)]
+    shifted = [((px - cx) / hx) ** 2 + ((py - cy) / hy) ** 2 < 1.0 for px, py in points]
+    spans_y, spans_x = n2 - my <= y1 and n4 + my >= y2, n1 - mx <= x1 and n3 + mx >= x2
+    covered = [
+        spans_y and n1 + mx < x1 < n3 - mx,
+        spans_x and n2 + my < y1 < n4 - my,
+        spans_y and n1 + mx < x2 < n3 - mx,
+        spans_x and n2 + my < y2 < n4 - my,
+    ]
+    if straight:  # the edge must also end at the occluder's facing edge
+        facing, tol = (n3, n4, n1, n2), (mx, my, mx, my)
+        ok = all(np.isfinite(observed))
+        covered = [c and ok and abs(f - o) <= t + 3.0 * s for c, f, o, t, s in zip(covered, facing, observed, tol, sigma)]
+    return shifted, covered
 
+
+def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
+    """``_view_flags`` (every pair of a view at once) flags what the tests written edge by edge for one pair flag,
+    combined over each object's nearer objects: random boxes, stds, straight occluders, objects without a box."""
+    from monovisual3d.methods.bayes.config import BayesConfig
+    from monovisual3d.methods.bayes.occlusion import EDGE_AT_OCCLUDER_SIGMAS
+    from monovisual3d.methods.bayes.problem import Problem, ViewData
+    from monovisual3d.methods.bayes.sensor import box_edge_sigma_px
+
+    assert EDGE_AT_OCCLUDER_SIGMAS == 3.0  # as the reference writes it
     rng = np.random.default_rng(12)
     n = 40
     corner = rng.uniform(0, 500, (n, 2))
@@ -208,18 +236,43 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_object_at_a_time():
     view = ViewData(0, np.eye(4), observed, (), None)
     problem = Problem(CAM, BayesConfig(), SensorModel(), (view,))
     meets = _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None])
-    flagged = 0
+    for i in range(n):  # an observed edge near a straight occluder's facing edge: both sides of the tolerance
+        js = np.flatnonzero(meets[i] & straight)
+        if len(js) and i % 2:
+            k = int(rng.integers(4))
+            sigma_k = box_edge_sigma_px(SensorModel(), observed[i])[k]
+            observed[i, k] = boxes[js[0], (k + 2) % 4] + rng.uniform(-6, 6) * sigma_k
+    counts = np.zeros(2, dtype=int)
     for whole in (False, True):
         shifted, censored = _view_flags(problem, (boxes, depth, std), meets, 0, assoc, straight, whole)
         for i in range(n):
-            near = meets[i]
-            margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[near], std[i][None])
-            want = occluded_edges(boxes[i], boxes[near], margin)
-            assert shifted[i].tolist() == want.tolist()
+            want_shifted, want_covered = np.zeros(4, dtype=bool), np.zeros(4, dtype=bool)
+            sigma = box_edge_sigma_px(problem.model, observed[i])
+            for j in np.flatnonzero(meets[i]):
+                margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[j], std[i])
+                s_ij, c_ij = _pair_flags(boxes[i], observed[i], boxes[j], margin, straight[j], sigma)
+                want_shifted |= s_ij
+                want_covered |= c_ij
+            assert shifted[i].tolist() == want_shifted.tolist()
             if whole and assoc[i] >= 0:
-                cut = _whole_sides_cut(problem, boxes[i], observed[i], boxes[near], margin, straight[near])
-                assert censored[i].tolist() == cut.tolist()
-                flagged += int(cut.any())
+                assert censored[i].tolist() == want_covered.tolist()
             elif not whole:
-                assert censored[i].tolist() == want.tolist()
-    assert flagged >= 3 and shifted.any()
+                assert censored[i].tolist() == want_shifted.tolist()
+            counts += [want_shifted.any(), whole and assoc[i] >= 0 and want_covered.any()]
+    assert counts[0] >= 10 and counts[1] >= 3  # both tests flag edges here
+    # a farther box whose right side a tall nearer box covers, its observed right edge d sigmas from the occluder's left
+    pair = np.array([[100.0, 50, 160, 200], [150.0, 40, 230, 210]])
+    std2, depth2 = np.full((2, 2), 0.5), np.array([1.0, 0.5])
+    meets2 = _meeting(pair, OCCLUSION_MARGIN_SIGMAS * std2) & (depth2[None, :] < depth2[:, None])
+    seen = []
+    for d in (0.5, 2.0, 2.5, 4.5, 6.0):
+        obs = np.array([[100.0, 50, 150.0, 200], pair[1]])
+        margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std2[1], std2[0])
+        obs[0, 2] = 150.0 + d * box_edge_sigma_px(SensorModel(), obs[0])[2] + margin[0]
+        sigma = box_edge_sigma_px(SensorModel(), obs[0])  # of the box as observed (a little wider)
+        problem2 = Problem(CAM, BayesConfig(), SensorModel(), (ViewData(0, np.eye(4), obs, (), None),))
+        _, cut = _view_flags(problem2, (pair, depth2, std2), meets2, 0, [0, 1], np.array([False, True]), True)
+        want = _pair_flags(pair[0], obs[0], pair[1], margin, True, sigma)[1]
+        assert cut[0].tolist() == want
+        seen.append(bool(cut[0, 2]))
+    assert seen == [True, True, True, False, False]  # within 3 sigmas of the occluder's edge (plus the margin)

@@ -40,7 +40,7 @@ def _predicted(
     if not n:
         return boxes, np.zeros(0), np.zeros((0, 2))
     R, t = vd.T_optical_base[:3, :3], vd.T_optical_base[:3, 3]
-    p_opt = np.array([o.position for o in objects], dtype=float) @ R.T + t  # (N, 3)
+    p_opt = np.array([R @ o.position + t for o in objects], dtype=float)  # (N, 3), as one object's
     radii = np.array([float(o.radius) for o in objects])  # type: ignore[arg-type]
     spheres = np.array([o.extra.get("semi_up") is None for o in objects])
     boxes[spheres] = predict_sphere_boxes(cam, p_opt[spheres], radii[spheres, None])[0][:, 0]
@@ -54,12 +54,15 @@ def _predicted(
     if known.any():
         x, y, z = p_opt[known].T
         zero = np.zeros_like(z)
-        J = np.stack(
-            [np.stack([cam.fx / z, zero, -cam.fx * x / z**2], -1), np.stack([zero, cam.fy / z, -cam.fy * y / z**2], -1)], 1
+        J = (
+            np.stack(
+                [np.stack([cam.fx + zero, zero, -cam.fx * x / z], -1), np.stack([zero, cam.fy + zero, -cam.fy * y / z], -1)], 1
+            )
+            / z[:, None, None]
         )
-        JR = J @ R  # (M, 2, 3): the projected centre's Jacobian with respect to the base-frame position
         cov = np.array([objects[i].covariance for i in np.flatnonzero(known)], dtype=float)
-        std[known] = np.sqrt(np.maximum(np.einsum("mij,mjk,mik->mi", JR, cov, JR), 0.0))
+        var = np.diagonal(J @ R @ cov @ R.T @ np.swapaxes(J, 1, 2), axis1=1, axis2=2)  # of the projected centre
+        std[known] = np.sqrt(np.maximum(var, 0.0))
     return boxes, depth, std
 
 

@@ -62,18 +62,17 @@ class Problem:
 
     def available(self, taken: Iterable[tuple[int, int]] = ()) -> list[NDArray[np.bool_]]:
         """Per view, which boxes are not in ``taken``: list of ndarray, shape (B_v,), bool, read-only."""
-        key = taken if isinstance(taken, frozenset) else frozenset(taken)
+        key = taken if isinstance(taken, frozenset) else frozenset((int(v), int(j)) for v, j in taken)
         cached = self._last_available.get(key)
-        if cached is not None:
-            return cached
-        out = [np.ones(len(vd.boxes), dtype=bool) for vd in self.views]
-        for v, j in key:
-            out[v][j] = False
-        for a in out:
-            a.flags.writeable = False
-        self._last_available.clear()
-        self._last_available[key] = out
-        return out
+        if cached is None:
+            cached = [np.ones(len(vd.boxes), dtype=bool) for vd in self.views]
+            for v, j in key:
+                cached[v][j] = False
+            for a in cached:
+                a.flags.writeable = False
+            self._last_available.clear()
+            self._last_available[key] = cached
+        return list(cached)  # a new list of the shared read-only arrays
 
     def depth(self, v: int, p_base: NDArray[np.floating]) -> float:
         """Depth (optical z, metres) of the point ``p_base`` (shape (3,), base frame) in view ``v``."""

@@ -159,8 +159,11 @@ def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int]
     cam, border = problem.camera, problem.model.border_px
     by_index = {vd.index: vd for vd in problem.views}
     seen = [(by_index[v], by_index[v].boxes[j]) for v, j in obj.associations.items() if v not in cut]
+    # kept as the test "on the border" is written, so that a NaN edge is not on it
     seen = [
-        (vd, b) for vd, b in seen if b[0] > border and b[1] > border and b[2] < cam.width - border and b[3] < cam.height - border
+        (vd, b)
+        for vd, b in seen
+        if not (b[0] <= border or b[1] <= border or b[2] >= cam.width - border or b[3] >= cam.height - border)
     ]
     if not seen:
         return np.zeros(0)
