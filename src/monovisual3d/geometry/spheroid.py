@@ -35,19 +35,20 @@ def predict_spheroid_boxes(
     ----------
     camera : Camera
     p_optical : ndarray, shape (N, 3), centres, metres, optical frame
-    radii : array_like, shape (K,), metres, semi-axis across ``up``
-    semi_up : array_like, shape (K,), metres, semi-axis along ``up``
-    up_optical : array_like, shape (3,) or (K, 3), unit, the symmetry axis in the optical frame (one per bin: lying
-        bins have a horizontal axis)
+    radii : array_like, shape (K,), metres, semi-axis across ``up``; or shape (N, K), bins per centre
+    semi_up : array_like, shape (K,) or (N, K), metres, semi-axis along ``up``
+    up_optical : array_like, shape (3,), (K, 3) or (N, K, 3), unit, the symmetry axis in the optical frame (one per
+        bin: lying bins have a horizontal axis; or one per centre and bin)
 
     Returns
     -------
     boxes : ndarray, shape (N, K, 4), pixels ``(x1, y1, x2, y2)`` (NaN where not entirely in front)
     visible : ndarray, shape (N, K), bool: in front and overlapping the image
     """
-    a = np.asarray(radii, dtype=float)[None, :]
-    b = np.asarray(semi_up, dtype=float)[None, :]
-    u = np.asarray(up_optical, dtype=float).reshape(-1, 3).T[:, None, :]  # (3, 1, 1 or K)
+    a, b = (np.asarray(x, dtype=float) for x in (radii, semi_up))
+    a, b = (x[None, :] if x.ndim == 1 else x for x in (a, b))  # (1 or N, K)
+    up = np.asarray(up_optical, dtype=float)
+    u = np.moveaxis(up, -1, 0) if up.ndim == 3 else up.reshape(-1, 3).T[:, None, :]  # (3, N, K) or (3, 1, 1 or K)
     X, Y, Z = p_optical[:, 0:1], p_optical[:, 1:2], p_optical[:, 2:3]
     a2, d = a * a, b * b - a * a
     c11 = X * X - (a2 + d * u[0] * u[0])
@@ -75,7 +76,7 @@ def predict_spheroid_boxes(
     boxes = np.where(front[..., None], boxes, np.nan)
     sphere = np.broadcast_to(d == 0, front.shape)
     if sphere.any():
-        sphere_boxes, _ = predict_sphere_boxes(camera, np.asarray(p_optical, dtype=float), np.asarray(radii, dtype=float))
+        sphere_boxes, _ = predict_sphere_boxes(camera, np.asarray(p_optical, dtype=float), np.broadcast_to(a, front.shape))
         boxes = np.where(sphere[..., None], sphere_boxes, boxes)
         front = np.where(sphere, Z > a, front)
     visible = front & (boxes[..., 2] > 0) & (boxes[..., 0] < camera.width) & (boxes[..., 3] > 0) & (boxes[..., 1] < camera.height)

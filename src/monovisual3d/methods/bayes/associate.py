@@ -28,9 +28,8 @@ def _predicted_boxes(problem: Problem, v: int, objects: list[DetectedObject]) ->
     radii = np.array([float(o.radius) for o in objects])
     semi_up = np.array([semi_up_of(o) or float(o.radius) for o in objects])
     up_optical = np.array([spheroid_axis(problem, axis_of(o)) for o in objects], dtype=float).reshape(-1, 3) @ T[:3, :3].T
-    boxes, _ = predict_spheroid_boxes(problem.camera, p_optical, radii, semi_up, up_optical)  # every centre x every shape
-    mine = np.arange(len(objects))
-    return boxes[mine, mine]
+    boxes, _ = predict_spheroid_boxes(problem.camera, p_optical, radii[:, None], semi_up[:, None], up_optical[:, None])
+    return boxes[:, 0]  # each centre with its own shape
 
 
 def _pair_gates(
