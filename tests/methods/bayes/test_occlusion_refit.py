@@ -16,7 +16,7 @@ from monovisual3d.methods.bayes.occlusion import (
     _meeting,
     _predicted,
     _view_flags,
-    _whole_sides_cut,
+    _whole_sides_pairs,
     covered_sides,
     occluded_edges,
 )
@@ -141,8 +141,13 @@ def test_an_edge_behind_a_tall_occluder_is_left_out_only_where_it_ends_at_that_o
     predicted = np.array([100.0, 50, 160, 200])
     nearer = np.array([[150.0, 40, 230, 210], [190.0, 400, 250, 500]])  # both tall, both nearer
     margin, tall = np.full((2, 2), OCCLUSION_MARGIN_SIGMAS * np.hypot(1.0, 1.0)), np.array([True, True])
-    visible_part = _whole_sides_cut(problem, predicted, np.array([100.0, 50, 150, 200]), nearer, margin, tall)
-    amodal = _whole_sides_cut(problem, predicted, np.array([100.0, 50, 190, 200]), nearer, margin, tall)
+
+    def cut(observed):  # the edges either nearer box leaves out
+        pairs = [np.broadcast_to(x, nearer.shape) for x in (predicted, observed)]
+        return _whole_sides_pairs(problem, pairs[0], pairs[1], nearer, margin, tall).any(axis=0)
+
+    visible_part = cut(np.array([100.0, 50, 150, 200]))
+    amodal = cut(np.array([100.0, 50, 190, 200]))
     assert visible_part.tolist() == [False, False, True, False]
     assert amodal.tolist() == [False, False, False, False]
 

@@ -201,27 +201,6 @@ def _meeting(boxes: NDArray[np.float64], pad_px: NDArray[np.float64]) -> NDArray
     return out
 
 
-def _whole_sides_cut(
-    problem: Problem,
-    predicted: NDArray[np.float64],
-    observed: NDArray[np.float64],
-    nearer: NDArray[np.float64],
-    margin_px: NDArray[np.float64],
-    straight: NDArray[np.bool_],
-) -> NDArray[np.bool_]:
-    """The edges (4,) of an object's observed box (4,) a shape fit must leave out in one view: those whose whole side
-    a nearer predicted box (``nearer`` (M, 4), with the pairs' margins ``margin_px`` (M, 2)) covers around the
-    object's ``predicted`` box (4,); behind an elongated occluder (``straight`` (M,)) only where the edge ends at that
-    occluder's facing edge.
-
-    An elongated occluder's side is straight along the side it covers: a box of the visible part ends at its box's
-    edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge lies anywhere inside its box).
-    """
-    pred, n, m = _against(predicted, nearer, margin_px)
-    obs = np.broadcast_to(np.asarray(observed, dtype=float), n.shape)
-    return _whole_sides_pairs(problem, pred, obs, n, m, np.asarray(straight, dtype=bool)).any(axis=0)
-
-
 def _whole_sides_pairs(
     problem: Problem,
     predicted: NDArray[np.float64],
@@ -230,7 +209,14 @@ def _whole_sides_pairs(
     margin: NDArray[np.float64],
     straight: NDArray[np.bool_],
 ) -> NDArray[np.bool_]:
-    """:func:`_whole_sides_cut` pair by pair, every argument with a leading pair axis (P, ...): (P, 4)."""
+    """The edges (P, 4) of each object's observed box ``observed`` (P, 4) a shape fit must leave out in one view: those
+    whose whole side the pair's nearer predicted box ``nearer`` (P, 4), with the pair's margin ``margin`` (P, 2), covers
+    around the object's ``predicted`` box (P, 4); behind an elongated occluder (``straight`` (P,)) only where the edge
+    ends at that occluder's facing edge.
+
+    An elongated occluder's side is straight along the side it covers: a box of the visible part ends at its box's
+    edge, and an edge well inside it is an amodal box's own edge (a round one's cut edge lies anywhere inside its box).
+    """
     out = _covered_pairs(predicted, nearer, margin)
     if straight.any():  # each straight occluder covers and ends the edge itself
         sigma = box_edge_sigma_px(problem.model, observed[straight])
