@@ -3,7 +3,7 @@
 - :func:`swap_pass`: overlapping objects swap their boxes in a view when that
   fits both better (a fruit given the box of the fruit in front of it).
 - :func:`steal_pass`: a fruit left with one view gets back a box a neighbour
-  took when the neighbour can do without it.
+  took when the neighbour can do without it, or with its own box there.
 
 Both return new lists; the ``taken`` set is passed and returned explicitly.
 """
@@ -171,6 +171,44 @@ def _steal_candidates(problem: Problem, hyp: Hypotheses, taken: Taken) -> NDArra
     return (total0 >= cfg.accept - cfg.prune_slack) & (n0 >= cfg.min_views) & (n_free >= 1) & (n_held >= 1)
 
 
+def _replacement(problem: Problem, o: DetectedObject, v: int, free: NDArray[np.bool_], used: set[tuple[int, int]]) -> int:
+    """The free box of view ``v`` (``free``: per box, whether nothing holds it; ``used``: boxes given away already)
+    that best fits the prediction of ``o`` there within the sensor model's gate, or -1 (none)."""
+    vd, cam = problem.views[v], problem.camera
+    js = np.array([j for j in np.flatnonzero(free) if (v, int(j)) not in used], dtype=np.intp)
+    if not len(js):
+        return -1
+    pred = _predicted_boxes(problem, v, [o])[0]
+    px = pose_px(problem, problem.depth(v, np.asarray(o.position, dtype=float)))
+    s = box_scores(np.broadcast_to(pred, (len(js), 4)), vd.boxes[js], problem.model, cam.width, cam.height, px)
+    best = int(np.argmax(s))
+    return int(js[best]) if s[best] > problem.model.miss_term else -1
+
+
+def _loser_refit(
+    problem: Problem,
+    o: DetectedObject,
+    keep: list[int],
+    lost: list[int],
+    free: list[NDArray[np.bool_]],
+    used: set[tuple[int, int]],
+) -> tuple[DetectedObject | None, set[tuple[int, int]]]:
+    """A holder refit without the boxes of views ``lost``, or with a free box of its own there instead (the box the
+    candidate's neighbour would have had, left free when the extraction gave the holder the candidate's), whichever
+    scores higher; and the free boxes it then takes."""
+    plain = fit_fixed(problem, o.position, float(o.radius), keep, semi_up_of(o), axis_of(o))  # type: ignore[arg-type]
+    swapped = list(keep)
+    for v in lost:
+        swapped[v] = _replacement(problem, o, v, free[v], used)
+    extra = {(v, swapped[v]) for v in lost if swapped[v] >= 0}
+    if not extra:
+        return plain, set()
+    alt = fit_fixed(problem, o.position, float(o.radius), swapped, semi_up_of(o), axis_of(o))  # type: ignore[arg-type]
+    if alt is not None and (plain is None or alt.score > plain.score):
+        return alt, extra
+    return plain, set()
+
+
 def _try_steal(
     problem: Problem,
     objects: list[DetectedObject],
@@ -181,27 +219,32 @@ def _try_steal(
     wanted: list[int],
     semi_up: float | None = None,
     axis: NDArray[np.float64] | None = None,
-) -> tuple[DetectedObject, dict[int, DetectedObject]] | None:
-    """The candidate refined with the boxes it wants (held ones released), and the holders refit without them."""
+) -> tuple[DetectedObject, dict[int, DetectedObject], set[tuple[int, int]]] | None:
+    """The candidate refined with the boxes it wants (held ones released), the holders refit without them (or with a
+    free box of their own in that view), and the free boxes those holders take."""
     cfg = problem.config
     stolen = {(v, j) for v, j in enumerate(wanted) if j >= 0 and (v, j) in holder}
     new = refine_and_check(problem, taken - stolen, centre, radius, wanted, semi_up, axis)
     if new is None:
         return None
     mine = boxes_of(problem, new)
+    free = problem.available((taken - stolen) | mine)
     losers: dict[int, DetectedObject] = {}
+    used: set[tuple[int, int]] = set()
     for i in sorted({holder[b] for b in mine if b in holder}):
-        keep = [-1 if (v, j) in mine else j for v, j in enumerate(associations_list(problem, objects[i]))]
-        o = objects[i]
-        refit = fit_fixed(problem, o.position, float(o.radius), keep, semi_up_of(o), axis_of(o))  # type: ignore[arg-type]
+        own = associations_list(problem, objects[i])
+        lost = [v for v, j in enumerate(own) if (v, j) in mine]
+        keep = [-1 if v in lost else j for v, j in enumerate(own)]
+        refit, extra = _loser_refit(problem, objects[i], keep, lost, free, used)
         if refit is None or refit.score < cfg.accept:
             return None
         losers[i] = refit
+        used |= extra
     if not losers:
         return None
     gain = new.score + sum(o.score for o in losers.values()) - sum(objects[i].score for i in losers)
     # a new object must pay for itself, as in the extraction: its score counts above ``accept``
-    return (new, losers) if gain > cfg.accept else None
+    return (new, losers, used) if gain > cfg.accept else None
 
 
 def steal_pass(
@@ -216,9 +259,11 @@ def steal_pass(
     an accepted object holds (where the extraction split the last search level
     lazily, that level is scored in the children of the cells using a free box:
     :func:`.search.last_level`). For the best ``lookahead`` of them, the holders
-    give up those boxes and are refit without them, the candidate is refined
-    with the boxes left to it, and the move is kept when both stay acceptable
-    and the summed score grows by more than ``accept``.
+    give up those boxes and are refit without them, or with the free box that
+    best fits their prediction in that view if that scores higher (the holder's
+    own box, left free when the extraction gave it the candidate's), the
+    candidate is refined with the boxes left to it, and the move is kept when
+    both stay acceptable and the summed score grows by more than ``accept``.
     """
     cfg = problem.config
     if not objects or hyp.scores[0].size == 0 or len(taken) == sum(len(vd.boxes) for vd in problem.views):
@@ -242,11 +287,12 @@ def steal_pass(
         move = _try_steal(problem, objects, taken, holder, centres[c], float(radii[k]), wanted, b, u)
         if move is None:
             continue
-        new, losers = move
+        new, losers, replacements = move
         for i, o in losers.items():
             objects[i] = o
+            holder.update({b: i for b in boxes_of(problem, o) & replacements})
         objects.append(new)
         mine = boxes_of(problem, new)
-        taken = taken | mine
+        taken = taken | mine | replacements
         holder.update({b: len(objects) - 1 for b in mine})
     return objects, taken
