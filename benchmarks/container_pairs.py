@@ -49,8 +49,11 @@ alone, ``solid_shape_bias.py``), which sets the subsets' error with whole boxes;
 those a little (the predicted boxes of two estimates overlap more than the objects do).
 
 Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEED LAST_SEED] [ELEVATION_DEG] [--visible]
-(default: cuboid 0.005 500 505 20; ``--visible``: the farther container's box ends where the nearer one hides it,
-as a detector of visible parts draws it, :func:`monovisual3d.sim.noise.visible_part_boxes`).
+[--tray] (default: cuboid 0.005 500 505 20; ``--visible``: the farther container's box ends where the nearer one hides
+it, as a detector of visible parts draws it, :func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's
+whole scene, a flat 200 x 160 x 30 mm cuboid tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs,
+printed on two more lines: the tray, and all three objects). Extra options to ``localize`` go after ``--``, as
+``key=value`` (e.g. ``-- size_range=0.01,0.15``).
 """
 
 import itertools
@@ -62,6 +65,8 @@ from scipy.optimize import linear_sum_assignment
 from solid_shape_bias import CAMERAS, TARGET, object_boxes, views
 
 import monovisual3d as mv
+from monovisual3d.geometry.orientation import rotation_upright
+from monovisual3d.geometry.solids import cuboid_bbox
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes
 
@@ -70,6 +75,9 @@ HALF_WIDTH_M, HALF_HEIGHT_M, SPACING_M = 0.025, 0.06, 0.057
 #: An estimate further than this from its container does not count as finding it (metres).
 FOUND_M = 0.03
 N_VIEWS, SUBSET = 8, 3
+#: ``--tray``: a flat cuboid tray (half-sides, metres) behind the pair and lower (offset from the pair's middle, metres),
+#: as in ``containers_tray.py``; its yaw is random.
+TRAY_HALF_SIDES_M, TRAY_OFFSET_M = (0.10, 0.08, 0.015), (0.07, 0.0, -0.045)
 
 
 def errors_mm(estimates: np.ndarray, centres: np.ndarray) -> list[float]:
@@ -83,10 +91,27 @@ def errors_mm(estimates: np.ndarray, centres: np.ndarray) -> list[float]:
     return out
 
 
-def main(kind: str, sigma: float, seeds: range, elevation: float, visible: bool = False) -> None:
+def _line(name: str, a: np.ndarray, s: np.ndarray) -> str:
+    """8-view mean and max, the subsets' mean, median and p90 (mm), and the misses of both."""
+    return (
+        f"{name}: 8 views mean {np.nanmean(a):.1f} max {np.nanmax(a):.1f} mm, missed {int(np.isnan(a).sum())}/{len(a)} | "
+        f"3-view subsets mean {np.nanmean(s):.1f} median {np.nanmedian(s):.1f} p90 {np.nanpercentile(s, 90):.1f} mm, "
+        f"missed {int(np.isnan(s).sum())}/{len(s)}"
+    )
+
+
+def main(
+    kind: str,
+    sigma: float,
+    seeds: range,
+    elevation: float,
+    visible: bool = False,
+    tray: bool = False,
+    options: dict[str, str] | None = None,
+) -> None:
     cam = CAMERAS["1280x720"]
-    all_views: list[float] = []
-    subsets: list[float] = []
+    all_views: list[list[float]] = []
+    subsets: list[list[float]] = []
     counts: list[int] = []
     for seed in seeds:
         rng = np.random.default_rng(seed)
@@ -94,6 +119,10 @@ def main(kind: str, sigma: float, seeds: range, elevation: float, visible: bool 
         centres = np.array([middle - [0.0, SPACING_M / 2, 0.0], middle + [0.0, SPACING_M / 2, 0.0]])
         poses = views(rng, N_VIEWS, elevation, middle)
         box_fns = [object_boxes(kind, HALF_WIDTH_M, HALF_HEIGHT_M, rng) for _ in centres]
+        if tray:
+            R_tray = rotation_upright(rng.uniform(0.0, np.pi))
+            box_fns.append(lambda cam, poses, c, R=R_tray: cuboid_bbox(cam, poses, c, TRAY_HALF_SIDES_M, R))
+            centres = np.vstack([centres, middle + TRAY_OFFSET_M])
         boxes = np.stack([f(cam, poses, c) for f, c in zip(box_fns, centres)], axis=1)  # (views, objects, 4)
         if visible:
             T_optical_base = np.linalg.inv(poses)
@@ -109,24 +138,30 @@ def main(kind: str, sigma: float, seeds: range, elevation: float, visible: bool 
             )
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                result = mv.localize(session)
-            (all_views if len(subset) == N_VIEWS else subsets).extend(errors_mm(result.positions.reshape(-1, 3), centres))
+                result = mv.localize(session, **(options or {}))
+            (all_views if len(subset) == N_VIEWS else subsets).append(errors_mm(result.positions.reshape(-1, 3), centres))
             counts.append(len(result.objects))
-    a, s = np.array(all_views), np.array(subsets)
-    print(
-        f"{kind}{' visible' if visible else ''} noise {sigma:g} elevation {elevation:g}: 8 views mean {np.nanmean(a):.1f} max {np.nanmax(a):.1f} mm, "
-        f"missed {int(np.isnan(a).sum())}/{len(a)} | 3-view subsets mean {np.nanmean(s):.1f} median "
-        f"{np.nanmedian(s):.1f} p90 {np.nanpercentile(s, 90):.1f} mm, missed {int(np.isnan(s).sum())}/{len(s)} | "
-        f"objects per run {np.mean(counts):.2f}"
-    )
+    a, s = np.array(all_views), np.array(subsets)  # (runs, objects)
+    case = f"{kind}{' visible' if visible else ''} noise {sigma:g} elevation {elevation:g}"
+    print(f"{_line(case, a[:, :2].ravel(), s[:, :2].ravel())} | objects per run {np.mean(counts):.2f}")
+    if tray:
+        print(_line("  tray", a[:, 2], s[:, 2]))
+        print(_line("  all three", a.ravel(), s.ravel()))
 
 
 if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if a != "--visible"]
+    argv = sys.argv[1:]
+    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
+    argv = argv[: argv.index("--")] if "--" in argv else argv
+    args = [a for a in argv if a not in ("--visible", "--tray")]
+    if any("=" not in kv for kv in extra):
+        sys.exit(f"container_pairs.py: options after -- must be key=value (e.g. size_range=0.01,0.15), got {extra}")
     main(
         args[0] if args else "cuboid",
         float(args[1]) if len(args) > 1 else 0.005,
         range(int(args[2]), int(args[3])) if len(args) > 3 else range(500, 505),
         float(args[4]) if len(args) > 4 else 20.0,
-        "--visible" in sys.argv[1:],
+        "--visible" in argv,
+        "--tray" in argv,
+        dict(kv.split("=", 1) for kv in extra),
     )

@@ -21,6 +21,9 @@ SHAPES = ("auto", "sphere", "spheroid", "ellipsoid")
 #: Elongated search bins use every this-many-th radius bin: their coarser size steps (~30 % with the default
 #: bins) cost a fraction of a nat per edge, the refinement fixes the size, and the search costs less.
 ELONGATED_RADIUS_STRIDE = 2
+#: Ratio of neighbouring radius bins when ``n_radii`` is None: 2 ** (1 / 5), about 15 % (a sphere's box edges then move
+#: by at most 7 % of its size between bins, about one sensor sigma); the default 10-160 mm has 21 bins.
+RADIUS_BIN_RATIO = 2.0**0.2
 #: Compute backends of the ``bayes`` method: the fused numba kernels (default) and the numpy reference.
 BACKENDS = ("numba", "numpy")
 
@@ -54,8 +57,11 @@ class BayesConfig:
     coarse_resolution : float, metres, cell size of the first search level (``resolution`` if that is coarser;
         coarser still when the workspace would not fit in ``max_memory``)
     radius_min : float, metres, smallest object radius
-    radius_max : float, metres, largest object radius
-    n_radii : int, log-spaced radius bins between radius_min and radius_max
+    radius_max : float, metres, largest object radius of the search (160 mm, as the shape fits' largest semi-axis: the
+        search scores its other shapes only where a sphere passes at its first level, and a flat 20 x 16 x 3 cm tray
+        seen from near its own height passed with no sphere under 80 mm: ``benchmarks/container_pairs.py ... --tray``)
+    n_radii : int or None, log-spaced radius bins between radius_min and radius_max (None: neighbours about 15 %
+        apart, :data:`RADIUS_BIN_RATIO`: 21 bins over the default 10-160 mm, 16 over 20-150 mm)
     elongations : tuple or str, ratios (>= 1) of the semi-axis along ``up`` to the one across it of the search's
         hypotheses, e.g. "1,2.5": every second radius bin is also scored as upright spheroids of these elongations
         (bins longer along ``up`` than the largest semi-axis of size_range are left out), so a tall box (bottle, container, hanging
@@ -107,7 +113,7 @@ class BayesConfig:
     shape : str, object model: sphere, spheroid (two equal semi-axes), ellipsoid (three) or auto (per object by BIC;
         round fruit stay spheres)
     size_range : tuple or str or None, metres, (min, max) semi-axis length, e.g. "0.01,0.12"; when given it also
-        sets radius_min/radius_max of the search. Default: semi-axes of 5-160 mm (cherry tomatoes to cucumbers)
+        sets radius_min/radius_max of the search. Default: semi-axes of 5-160 mm (cherry tomatoes to cucumbers, trays)
         and search radii radius_min-radius_max
     up : tuple or str, base frame vertical of the upright spheroid/ellipsoid models, e.g. "0,0,1"
     free_orientation : bool, fit the spheroid/ellipsoid orientation freely instead of upright plus yaw (needs views
@@ -128,8 +134,8 @@ class BayesConfig:
     resolution: float = 0.01
     coarse_resolution: float = 0.04
     radius_min: float = 0.01
-    radius_max: float = 0.08
-    n_radii: int = 16
+    radius_max: float = 0.16
+    n_radii: int | None = None
     elongations: tuple[float, ...] | str = (1.0, 2.5)
     lying_yaws: int = 4
     lying_elongations: tuple[float, ...] | str | None = None
@@ -174,6 +180,8 @@ class BayesConfig:
         self._check_shape_fields()
         for name in ("n_radii", "lookahead", "min_views", "max_hypotheses"):
             v = getattr(self, name)
+            if name == "n_radii" and v is None:
+                continue  # set from the radius range below
             if not (is_real(v) and float(v).is_integer() and v >= 1):
                 raise InputError(f"{name}: got {v!r}, expected an integer >= 1")
             object.__setattr__(self, name, int(v))
@@ -193,6 +201,9 @@ class BayesConfig:
             )
         if not self.radius_min < self.radius_max:
             raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
+        if self.n_radii is None:
+            steps = math.log(self.radius_max / self.radius_min) / math.log(RADIUS_BIN_RATIO)
+            object.__setattr__(self, "n_radii", math.ceil(steps - 1e-9) + 1)
         for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin", "elongation_slack", "elongation_cost"):
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v >= 0):
