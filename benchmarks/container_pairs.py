@@ -53,10 +53,12 @@ Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEE
 it, as a detector of visible parts draws it, :func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's
 whole scene, a flat 200 x 160 x 30 mm cuboid tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs,
 printed on two more lines: the tray, and all three objects). Extra options to ``localize`` go after ``--``, as
-``key=value`` (e.g. ``-- size_range=0.01,0.15``).
+``key=value``, the value read as JSON where it parses (e.g. ``-- radius_max=0.08 n_radii=16`` or
+``-- size_range=0.01,0.15``).
 """
 
 import itertools
+import json
 import sys
 import warnings
 
@@ -89,6 +91,14 @@ def errors_mm(estimates: np.ndarray, centres: np.ndarray) -> list[float]:
             if d[i, j] < FOUND_M:
                 out[j] = 1e3 * d[i, j]
     return out
+
+
+def _option_value(text: str) -> object:
+    """A ``key=value`` option's value: a JSON number, list, boolean or null when it parses as one, else the text."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
 
 
 def _line(name: str, a: np.ndarray, s: np.ndarray) -> str:
@@ -163,5 +173,5 @@ if __name__ == "__main__":
         float(args[4]) if len(args) > 4 else 20.0,
         "--visible" in argv,
         "--tray" in argv,
-        dict(kv.split("=", 1) for kv in extra),
+        {k: _option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},
     )

@@ -61,7 +61,8 @@ class BayesConfig:
         search scores its other shapes only where a sphere passes at its first level, and a flat 20 x 16 x 3 cm tray
         seen from near its own height passed with no sphere under 80 mm: ``benchmarks/container_pairs.py ... --tray``)
     n_radii : int or None, log-spaced radius bins between radius_min and radius_max (None: neighbours about 15 %
-        apart, :data:`RADIUS_BIN_RATIO`: 21 bins over the default 10-160 mm, 16 over 20-150 mm)
+        apart: 21 bins over the default 10-160 mm, 16 over 20-150 mm, 19 over 10-120 mm; fitted radii are accepted up
+        to twice radius_max, as before)
     elongations : tuple or str, ratios (>= 1) of the semi-axis along ``up`` to the one across it of the search's
         hypotheses, e.g. "1,2.5": every second radius bin is also scored as upright spheroids of these elongations
         (bins longer along ``up`` than the largest semi-axis of size_range are left out), so a tall box (bottle, container, hanging
