@@ -58,11 +58,11 @@ printed on two more lines: the tray, and all three objects). Extra options to ``
 """
 
 import itertools
-import json
 import sys
 import warnings
 
 import numpy as np
+from option_ab import option_value
 from scipy.optimize import linear_sum_assignment
 from solid_shape_bias import CAMERAS, TARGET, object_boxes, views
 
@@ -91,14 +91,6 @@ def errors_mm(estimates: np.ndarray, centres: np.ndarray) -> list[float]:
             if d[i, j] < FOUND_M:
                 out[j] = 1e3 * d[i, j]
     return out
-
-
-def _option_value(text: str) -> object:
-    """A ``key=value`` option's value: a JSON number, list, boolean or null when it parses as one, else the text."""
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
 
 
 def _line(name: str, a: np.ndarray, s: np.ndarray) -> str:
@@ -173,5 +165,5 @@ if __name__ == "__main__":
         float(args[4]) if len(args) > 4 else 20.0,
         "--visible" in argv,
         "--tray" in argv,
-        {k: _option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},
+        {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},
     )

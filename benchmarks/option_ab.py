@@ -37,7 +37,8 @@ from monovisual3d.sim.scenes import paper_scene, shapes_scene
 from monovisual3d.sim.simulate import simulate
 
 
-def _value(text: str) -> Any:
+def option_value(text: str) -> Any:
+    """A ``KEY=VALUE`` option's value: a JSON number, list, boolean or null where it parses as one, else the text."""
     try:
         return json.loads(text)
     except json.JSONDecodeError:
@@ -47,7 +48,7 @@ def _value(text: str) -> Any:
 def _variants(pairs: list[str]) -> dict[str, dict[str, Any]]:
     if not pairs or any("=" not in p for p in pairs):
         sys.exit(f"option_ab.py: after -- give options as KEY=VALUE (e.g. radius_max=0.08), got {pairs}")
-    changed = {k: _value(v) for k, v in (p.split("=", 1) for p in pairs)}
+    changed = {k: option_value(v) for k, v in (p.split("=", 1) for p in pairs)}
     return {"default": {}, " ".join(pairs): changed}
 
 
