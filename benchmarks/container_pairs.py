@@ -70,7 +70,7 @@ import monovisual3d as mv
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox
 from monovisual3d.session import Detection, Session, View, Workspace
-from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes
+from monovisual3d.sim.noise import perturb_boxes, perturb_pose, visible_part_boxes
 
 #: Half-sides (cuboid) or radius (cylinder) and half-height, metres; centre spacing, metres.
 HALF_WIDTH_M, HALF_HEIGHT_M, SPACING_M = 0.025, 0.06, 0.057
@@ -110,8 +110,11 @@ def main(
     visible: bool = False,
     tray: bool = False,
     options: dict[str, str] | None = None,
+    pose_error: tuple[float, float] = (0.0, 0.0),
+    workspace: bool = True,
 ) -> None:
     cam = CAMERAS["1280x720"]
+    tracks = (options or {}).get("method") == "quadric"  # the anchor is given the association
     all_views: list[list[float]] = []
     subsets: list[list[float]] = []
     counts: list[int] = []
@@ -132,11 +135,12 @@ def main(
             boxes = visible_part_boxes(boxes, depths)
         if sigma > 0:
             boxes = perturb_boxes(boxes.reshape(-1, 4), sigma, rng).reshape(boxes.shape)
+        reported = np.stack([perturb_pose(T, 1e-3 * pose_error[0], np.radians(pose_error[1]), rng) for T in poses])
         for subset in itertools.chain([tuple(range(N_VIEWS))], itertools.combinations(range(N_VIEWS), SUBSET)):
             session = Session(
                 cam,
-                tuple(View(poses[k], tuple(Detection(b) for b in boxes[k])) for k in subset),
-                Workspace(TARGET - 0.2, TARGET + 0.2),
+                tuple(View(reported[k], tuple(Detection(b, track=j if tracks else None) for j, b in enumerate(boxes[k]))) for k in subset),
+                Workspace(TARGET - 0.2, TARGET + 0.2) if workspace else None,
             )
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -145,6 +149,8 @@ def main(
             counts.append(len(result.objects))
     a, s = np.array(all_views), np.array(subsets)  # (runs, objects)
     case = f"{kind}{' visible' if visible else ''} noise {sigma:g} elevation {elevation:g}"
+    case += f" pose error {pose_error[0]:g} mm {pose_error[1]:g} deg" if any(pose_error) else ""
+    case += "" if workspace else " no workspace"
     print(f"{_line(case, a[:, :2].ravel(), s[:, :2].ravel())} | objects per run {np.mean(counts):.2f}")
     if tray:
         print(_line("  tray", a[:, 2], s[:, 2]))
@@ -155,7 +161,8 @@ if __name__ == "__main__":
     argv = sys.argv[1:]
     extra = argv[argv.index("--") + 1 :] if "--" in argv else []
     argv = argv[: argv.index("--")] if "--" in argv else argv
-    args = [a for a in argv if a not in ("--visible", "--tray")]
+    pose = next((a.split("=", 1)[1] for a in argv if a.startswith("--pose-error=")), "0,0")
+    args = [a for a in argv if a not in ("--visible", "--tray", "--no-workspace") and not a.startswith("--pose-error=")]
     if any("=" not in kv for kv in extra):
         sys.exit(f"container_pairs.py: options after -- must be key=value (e.g. size_range=0.01,0.15), got {extra}")
     main(
@@ -166,4 +173,6 @@ if __name__ == "__main__":
         "--visible" in argv,
         "--tray" in argv,
         {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},
+        tuple(float(x) for x in pose.split(",")),  # type: ignore[arg-type]
+        "--no-workspace" not in argv,
     )
