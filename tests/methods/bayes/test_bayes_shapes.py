@@ -25,6 +25,7 @@ from monovisual3d.methods.bayes.shapes import (
     fit_shape,
     looks_round,
     possibly_cut,
+    sticks_out,
 )
 from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, Session, View, Workspace
@@ -288,3 +289,15 @@ def test_cli_shape_outputs_in_the_result_json(tmp_path):
     assert res.exit_code == 0, res.output
     (o,) = json.loads(res.stdout)["objects"]
     assert o["shape"] == "spheroid" and len(o["semi_axes"]) == 3 and len(o["quaternion_xyzw"]) == 4 and o["volume_m3"] > 0
+
+
+def test_a_box_larger_than_its_sphere_sticks_out_and_a_cut_one_does_not():
+    """No occluder makes a box larger: a sphere estimate smaller than the object leaves edges outside its predicted
+    boxes (sticks_out), one larger than it leaves them inside (possibly_cut, not sticks_out)."""
+    true = Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)
+    problem, small = _object_at(true, 0.02)  # 3 edge sigmas outside
+    _, large = _object_at(true, 0.05)  # 3.6 inside
+    assert sticks_out(problem, small) and not possibly_cut(problem, small)
+    assert possibly_cut(problem, large) and not sticks_out(problem, large)
+    _, exact = _object_at(true, 0.03)
+    assert not sticks_out(problem, exact) and not possibly_cut(problem, exact)
