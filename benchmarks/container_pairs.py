@@ -139,7 +139,10 @@ def main(
         for subset in itertools.chain([tuple(range(N_VIEWS))], itertools.combinations(range(N_VIEWS), SUBSET)):
             session = Session(
                 cam,
-                tuple(View(reported[k], tuple(Detection(b, track=j if tracks else None) for j, b in enumerate(boxes[k]))) for k in subset),
+                tuple(
+                    View(reported[k], tuple(Detection(b, track=j if tracks else None) for j, b in enumerate(boxes[k])))
+                    for k in subset
+                ),
                 Workspace(TARGET - 0.2, TARGET + 0.2) if workspace else None,
             )
             with warnings.catch_warnings():

@@ -20,6 +20,16 @@ pair, fitted with every model of the shape stage, when it beats the pair as the 
 :data:`MIN_GAIN_NATS`. Plant rows, whose fruit are round, never pay for it.
 
 ``python benchmarks/container_pairs.py cuboid 0.005 500 503 0 --visible`` measures it (the module docstring there).
+
+Then any two objects may trade one view's boxes where the geometry lets both still triangulate: after the trade, the
+rays through each one's box centres meet at a point that projects near every box's centre (:func:`centres_agree_many`,
+screened for all pairs at once by :func:`epipolar_trades`). From three distinct viewpoints that holds only for boxes
+where the object projects; from two (three views, two of them close together) any two boxes on one epipolar line
+pass, and two lying objects' boxes traded in the odd view make two sphere ghosts that the search and the sphere-level
+swap pass cannot tell from the truth. The trade is judged with every shape model (the solids too: a lying box is an
+upright cuboid) and must beat the pair both as the shape stage left it and refitted as it holds its boxes by
+:data:`MIN_GAIN_NATS`. ``python benchmarks/tabletop_subsets.py 1000 1200 --two-viewpoints`` measures it; in a plant
+row no trade passes the geometry (12-96 fruit: 0 of 3-450 screened pairs).
 """
 
 from __future__ import annotations
@@ -49,6 +59,16 @@ TRADE_SHAPES = ("spheroid",)
 #: width changes with the view where the object is not round in plan (a box), unlike the search's spheroids'; lying
 #: objects have yawed hypotheses in the search already.
 TALL_RATIO = 1.25
+#: Two objects may trade a view's boxes, wherever they stand, when after the trade the rays through each one's box
+#: centres meet at a point that projects within this fraction of each box's half-sizes of its centre: a whole box's
+#: centre lies within a few per cent of its object's projection (perspective), and a cut of a fifth of the box moves it
+#: by a quarter. With two distinct viewpoints any two boxes on one epipolar line pass; with three or more, only boxes
+#: where the object projects.
+CENTRE_TOLERANCE = 0.25
+#: :func:`epipolar_trades` lets through a box up to this many times the two views' tolerances (:data:`CENTRE_TOLERANCE`,
+#: as angles) off the epipolar line: the point of :func:`centres_agree` may lie that far off either ray, and a view
+#: may see it from twice the other's distance.
+SCREEN_MARGIN = 2.0
 #: Boxes of two objects stand side by side when they share at least this fraction of the lower one's height.
 MIN_SHARED_HEIGHT = 0.5
 #: Boxes of two objects meet in a view when they overlap, or when their facing edges are within this many edge sigmas.
@@ -150,23 +170,35 @@ def _held_value(problem: Problem, objs: list[DetectedObject]) -> float:
     return sum(shape_value(problem, o, a, n, hidden_to=c) for o, a, n, c in zip(objs, answers, n_edges, cut))
 
 
-def _best_trade(problem: Problem, a: DetectedObject, b: DetectedObject, shared: list[int]) -> list[DetectedObject] | None:
-    """``a`` and ``b`` as the shape models fit them, holding what they hold or after the trade of one shared view's
-    boxes, whichever those models prefer by more than :data:`MIN_GAIN_NATS` to the pair as it is; None: none is."""
+def _best_trade(
+    problem: Problem,
+    a: DetectedObject,
+    b: DetectedObject,
+    shared: list[int],
+    judge: tuple[str, ...] | None = TRADE_SHAPES,
+    refit: bool = True,
+) -> list[DetectedObject] | None:
+    """``a`` and ``b`` as the shape models fit them, after the trade of one ``shared`` view's boxes (or, with
+    ``refit``, holding what they hold), whichever the models ``judge`` (None: every model) prefer by more than
+    :data:`MIN_GAIN_NATS` to the pair as it is; None: none is. Without ``refit`` the pair refitted as it holds its boxes
+    is a bar a trade must clear, not a move: a trade must win by the association, not by a refit."""
     ja, jb = associations_list(problem, a), associations_list(problem, b)
-    best, best_pair = _held_value(problem, [a, b]) + MIN_GAIN_NATS, None
-    for v in [-1, *shared]:  # -1: no trade, the pair refitted
+    bar = _held_value(problem, [a, b]) + MIN_GAIN_NATS
+    best, best_pair, best_fitted = bar, None, None
+    for v in [-1, *shared] if refit else shared:  # -1: no trade, the pair refitted
         ta, tb = list(ja), list(jb)
         if v >= 0:
             ta[v], tb[v] = jb[v], ja[v]
         pair = [_holding(problem, a, ta), _holding(problem, b, tb)]
-        value = _value(problem, pair)[0]
+        value, fitted = _value(problem, pair, judge)
         if value > best:
-            best, best_pair = value, pair
-    if best_pair is None:
+            best, best_pair, best_fitted = value, pair, fitted
+    if best_pair is None or (not refit and _value(problem, [a, b], judge)[0] + MIN_GAIN_NATS >= best):
         return None
+    if judge is None:  # already fitted with every model
+        return best_fitted
     value, fitted = _value(problem, best_pair, None)
-    return fitted if value > -math.inf else None
+    return fitted if value > bar else None  # fitted with every model, the pair must still win
 
 
 def is_tall(o: DetectedObject) -> bool:
@@ -176,10 +208,86 @@ def is_tall(o: DetectedObject) -> bool:
     return o.shape not in (None, "sphere") and s is not None and bool(s[2] >= TALL_RATIO * max(s[0], s[1]))
 
 
+def centres_agree(problem: Problem, assoc: list[int]) -> bool:
+    """Whether the rays through the centres of the boxes ``assoc`` (one per view of ``problem.views``, -1: none) meet
+    as one object's do (:func:`centres_agree_many` of one association)."""
+    return bool(centres_agree_many(problem, np.asarray(assoc, dtype=np.intp)[None])[0])
+
+
+def centres_agree_many(problem: Problem, assocs: NDArray[np.intp]) -> NDArray[np.bool_]:
+    """Per association (T, V) (a box index per view of ``problem.views``, -1: none; at least two views each), whether
+    the rays through its boxes' centres meet as one object's do: their least-squares point lies in front of every
+    camera and projects within :data:`CENTRE_TOLERANCE` of each box's half-sizes of its centre, shape (T,)."""
+    n, n_views = assocs.shape
+    held = assocs >= 0
+    uv, half = np.zeros((n, n_views, 2)), np.ones((n, n_views, 2))
+    d_base, eyes = np.zeros((n, n_views, 3)), np.zeros((n_views, 3))
+    R = np.array([vd.T_optical_base[:3, :3] for vd in problem.views]).reshape(n_views, 3, 3)
+    t = np.array([vd.T_optical_base[:3, 3] for vd in problem.views]).reshape(n_views, 3)
+    for v, vd in enumerate(problem.views):
+        b = vd.boxes[assocs[held[:, v], v]].reshape(-1, 4)
+        uv[held[:, v], v], half[held[:, v], v] = 0.5 * (b[:, :2] + b[:, 2:]), 0.5 * (b[:, 2:] - b[:, :2])
+        d_base[held[:, v], v] = problem.camera.rays(uv[held[:, v], v]) @ R[v]  # R^T d
+        eyes[v] = -R[v].T @ t[v]
+    P = (np.eye(3) - d_base[..., :, None] * d_base[..., None, :]) * held[..., None, None]  # projectors across the rays
+    A, rhs = P.sum(axis=1), np.einsum("tkij,kj->ti", P, eyes)
+    ok = np.linalg.cond(A) < 1e12
+    point = np.zeros((n, 3))
+    point[ok] = np.linalg.solve(A[ok], rhs[ok][..., None])[..., 0]
+    p_optical = np.einsum("kij,tj->tki", R, point) + t[None]  # (T, V, 3)
+    in_front = np.all((p_optical[..., 2] > 0) | ~held, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        offset = np.abs(problem.camera.project(p_optical) - uv)
+    close = np.all(np.all(offset <= CENTRE_TOLERANCE * half, axis=2) | ~held, axis=1)
+    return ok & in_front & close
+
+
+def epipolar_trades(problem: Problem, objects: list[DetectedObject]) -> NDArray[np.bool_]:
+    """Which trades the epipolar geometry allows, shape (M, M, V): ``[i, k, v]`` where objects ``i`` and ``k`` both
+    hold a box in view ``v`` and the centre of ``k``'s box there lies near the epipolar line of ``i``'s box centre in
+    each other view ``i`` holds (within :data:`SCREEN_MARGIN` times the two boxes' :data:`CENTRE_TOLERANCE` of their
+    larger half-sizes; a camera at the same place as view ``v``'s says nothing), and the other way round: a screen,
+    for every pair at once, that lets through every trade :func:`centres_agree` allows and few others."""
+    assoc = np.array([associations_list(problem, o) for o in objects], dtype=np.intp).reshape(len(objects), -1)
+    n, n_views = assoc.shape
+    rays, tol, eyes = np.zeros((n, n_views, 3)), np.zeros((n, n_views)), np.zeros((n_views, 3))
+    for v, vd in enumerate(problem.views):
+        R, t = vd.T_optical_base[:3, :3], vd.T_optical_base[:3, 3]
+        eyes[v] = -R.T @ t
+        held = assoc[:, v] >= 0
+        b = vd.boxes[assoc[held, v]].reshape(-1, 4)
+        rays[held, v] = problem.camera.rays(0.5 * (b[:, :2] + b[:, 2:])) @ R  # base frame
+        tol[held, v] = CENTRE_TOLERANCE * 0.5 * np.max(b[:, 2:] - b[:, :2], axis=1) / problem.camera.fx
+    ok = (assoc[:, None, :] >= 0) & (assoc[None, :, :] >= 0)
+    for v in range(n_views):
+        for u in range(n_views):
+            baseline = eyes[v] - eyes[u]
+            if u == v or np.linalg.norm(baseline) < 1e-9:
+                continue
+            normal = np.cross(baseline, rays[:, u])  # (M, 3): the epipolar plane of i's ray in view u
+            normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+            off = np.abs(normal @ rays[:, v].T)  # (M, M): sine of the angle of k's ray in v out of i's plane
+            # the point the rays meet may lie off i's ray in u too, as seen from v up to twice as far
+            ok[:, :, v] &= (assoc[:, u] < 0)[:, None] | (off <= SCREEN_MARGIN * (tol[None, :, v] + tol[:, u, None]))
+    return ok & ok.transpose(1, 0, 2)
+
+
+def _traded(problem: Problem, a: DetectedObject, b: DetectedObject, v: int) -> tuple[list[int], list[int]]:
+    """The associations (over ``problem.views``) of ``a`` and ``b`` after they trade their boxes in view ``v``."""
+    ta, tb = associations_list(problem, a), associations_list(problem, b)
+    ta[v], tb[v] = tb[v], ta[v]
+    return ta, tb
+
+
 def shape_swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
-    """Trade boxes between, or refit, pairs of objects side by side, one of them tall, where the shape models say so
+    """Trade boxes between, or refit, pairs of objects side by side, one of them tall, where the shape models say so;
+    then trade a view's boxes between pairs of objects that the geometry lets trade, where every shape model says so
     (the module docstring)."""
-    objects = list(objects)
+    return _distant_trades(problem, _tall_pairs(problem, list(objects)))
+
+
+def _tall_pairs(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+    """The pass over pairs side by side, one of them tall (:func:`is_tall`, :func:`boxes_meet`)."""
     tall = [is_tall(o) for o in objects]
     for i in range(len(objects)):
         for k in range(i + 1, len(objects)) if tall[i] else [k for k in np.flatnonzero(tall) if k > i]:
@@ -187,4 +295,27 @@ def shape_swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[Det
             traded = _best_trade(problem, objects[i], objects[k], shared) if shared else None
             if traded is not None:
                 objects[i], objects[k] = traded
+    return objects
+
+
+def _distant_trades(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+    """The pass over every pair whose trade of a view's boxes the box centres allow (:func:`epipolar_trades`, then
+    :func:`centres_agree_many`); an object that traded is not offered another trade (its screen is stale)."""
+    if len(objects) < 2:
+        return objects
+    upper = np.triu(np.ones((len(objects),) * 2, dtype=bool), 1)
+    trades = np.argwhere(upper[:, :, None] & epipolar_trades(problem, objects))
+    if len(trades) == 0:
+        return objects
+    assocs = np.array([x for i, k, v in trades for x in _traded(problem, objects[i], objects[k], v)], dtype=np.intp)
+    trades = trades[centres_agree_many(problem, assocs).reshape(-1, 2).all(axis=1)]
+    moved: set[int] = set()
+    for i, k in sorted({(int(i), int(k)) for i, k, _ in trades}):
+        if i in moved or k in moved:
+            continue
+        views = [int(v) for i2, k2, v in trades if (i2, k2) == (i, k)]
+        traded = _best_trade(problem, objects[i], objects[k], views, None, refit=False)
+        if traded is not None:
+            objects[i], objects[k] = traded
+            moved |= {i, k}
     return objects
