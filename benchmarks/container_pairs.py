@@ -82,13 +82,13 @@ N_VIEWS, SUBSET = 8, 3
 TRAY_HALF_SIDES_M, TRAY_OFFSET_M = (0.10, 0.08, 0.015), (0.07, 0.0, -0.045)
 
 
-def errors_mm(estimates: np.ndarray, centres: np.ndarray) -> list[float]:
-    """Per true centre, the distance (mm) to its Hungarian-paired estimate, NaN when missed."""
+def errors_mm(estimates: np.ndarray, centres: np.ndarray, found_m: float = FOUND_M) -> list[float]:
+    """Per true centre, the distance (mm) to its Hungarian-paired estimate, NaN when missed (beyond ``found_m``)."""
     out = [float("nan")] * len(centres)
     if len(estimates):
         d = np.linalg.norm(estimates[:, None] - centres[None], axis=2)
         for i, j in zip(*linear_sum_assignment(d)):
-            if d[i, j] < FOUND_M:
+            if d[i, j] < found_m:
                 out[j] = 1e3 * d[i, j]
     return out
 

@@ -26,8 +26,8 @@ import sys
 import warnings
 
 import numpy as np
+from container_pairs import errors_mm as container_errors_mm
 from option_ab import option_value
-from scipy.optimize import linear_sum_assignment
 
 import monovisual3d as mv
 from monovisual3d.camera import Camera
@@ -85,14 +85,8 @@ def scene(rng: np.random.Generator, azimuths_deg: np.ndarray | None = None) -> t
 
 
 def errors_mm(estimates: np.ndarray, centres: np.ndarray) -> list[float]:
-    """Per object, the distance (mm) to its Hungarian-paired estimate, NaN when missed."""
-    out = [float("nan")] * len(centres)
-    if len(estimates):
-        d = np.linalg.norm(estimates[:, None] - centres[None], axis=2)
-        for i, j in zip(*linear_sum_assignment(d)):
-            if d[i, j] < FOUND_M:
-                out[j] = 1e3 * d[i, j]
-    return out
+    """Per object, the distance (mm) to its Hungarian-paired estimate, NaN when missed (beyond ``FOUND_M``)."""
+    return container_errors_mm(estimates, centres, FOUND_M)
 
 
 def two_viewpoints(seeds: range, sigma: float, options: dict) -> None:
