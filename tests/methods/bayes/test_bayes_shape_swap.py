@@ -118,8 +118,9 @@ def _spheres_seen(rng: np.random.Generator, n_views: int, n_objects: int):
 
 
 def test_epipolar_trades_hold_every_trade_the_box_centres_allow():
-    """The vectorised epipolar screen is a necessary condition of :func:`centres_agree` after a trade (it may let
-    more through, never fewer), symmetric in the pair, and objects holding their own exact boxes agree."""
+    """The vectorised epipolar screen is a necessary condition of :func:`centres_agree` after a trade on views 0.5-0.7 m
+    away (it may let more through, never fewer), symmetric in the pair, and objects holding their own exact boxes
+    agree."""
     allowed_total = 0
     for seed in range(20):
         rng = np.random.default_rng(seed)
@@ -134,8 +135,8 @@ def test_epipolar_trades_hold_every_trade_the_box_centres_allow():
                     ta[v], tb[v] = k, i
                     if i != k and centres_agree(problem, ta) and centres_agree(problem, tb):
                         assert allowed[i, k, v], (seed, i, k, v)
-        allowed_total += int(allowed.sum())
-    assert allowed_total > 0  # the screen lets trades through: the property above is not empty
+                        allowed_total += 1
+    assert allowed_total > 0  # the property above is not empty: some trades pass centres_agree
 
 
 def test_three_distinct_views_allow_no_trade_between_spheres_apart():
@@ -153,7 +154,7 @@ def test_three_distinct_views_allow_no_trade_between_spheres_apart():
 
 def test_two_lying_objects_trading_the_odd_view_are_untangled():
     """Shipped table-top session (simulated, seed 1010 of ``benchmarks/tabletop_subsets.py --two-viewpoints``): four
-    objects lying (240 x 110 x 120 mm ellipsoids) and two bottles, three views of which two stand 3 degrees apart.
+    objects lying (240 x 110 x 120 mm ellipsoids) and two bottles, three views of which two stand 3 degrees of azimuth apart.
     The search and the sphere-level swap pass pair two lying objects' boxes crosswise in the odd view, two spheres 178
     and 415 mm off; the trade those boxes' centres allow, judged with the shape models, wins by 7 nats."""
     from pathlib import Path

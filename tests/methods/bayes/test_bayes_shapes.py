@@ -295,9 +295,26 @@ def test_a_box_larger_than_its_sphere_sticks_out_and_a_cut_one_does_not():
     """No occluder makes a box larger: a sphere estimate smaller than the object leaves edges outside its predicted
     boxes (sticks_out), one larger than it leaves them inside (possibly_cut, not sticks_out)."""
     true = Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)
-    problem, small = _object_at(true, 0.02)  # 3 edge sigmas outside
-    _, large = _object_at(true, 0.05)  # 3.6 inside
+    problem, small = _object_at(true, 0.018)  # about 4 edge sigmas outside
+    _, large = _object_at(true, 0.06)  # about 4 inside
     assert sticks_out(problem, small) and not possibly_cut(problem, small)
     assert possibly_cut(problem, large) and not sticks_out(problem, large)
     _, exact = _object_at(true, 0.03)
     assert not sticks_out(problem, exact) and not possibly_cut(problem, exact)
+
+
+def test_a_lying_object_broadside_in_one_view_only_takes_its_shape():
+    """Shipped table-top session (simulated, seed 800 of ``benchmarks/tabletop_subsets.py``, views 0, 4, 5): one lying
+    240 x 110 x 120 mm ellipsoid is wide in one view and near-square in the two others; its wide box sticks out of the
+    sphere the search found by 6.7 edge sigmas, which no cut does. Kept as that sphere it was 57 mm off; fitted, under
+    4 mm (the others unchanged)."""
+    from pathlib import Path
+
+    from monovisual3d.truth import load_objects
+
+    data = Path(__file__).parent / "data"
+    truth = load_objects(data / "one_broadside_view.truth.json")
+    est = mv.localize(mv.load_session(data / "one_broadside_view.session.json"), size_range=(0.02, 0.15)).positions
+    d = np.linalg.norm(est[:, None] - truth.positions[None], axis=2)
+    assert len(est) == 6 and sorted(d.argmin(axis=1)) == list(range(6))
+    assert d[:, 5].min() < 0.01, d[:, 5].min()

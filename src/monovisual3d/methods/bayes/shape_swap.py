@@ -65,10 +65,16 @@ TALL_RATIO = 1.25
 #: by a quarter. With two distinct viewpoints any two boxes on one epipolar line pass; with three or more, only boxes
 #: where the object projects.
 CENTRE_TOLERANCE = 0.25
-#: :func:`epipolar_trades` lets through a box up to this many times the two views' tolerances (:data:`CENTRE_TOLERANCE`,
-#: as angles) off the epipolar line: the point of :func:`centres_agree` may lie that far off either ray, and a view
-#: may see it from twice the other's distance.
+#: :func:`epipolar_trades` lets through a box up to this many times the two views' tolerances (:data:`CENTRE_TOLERANCE`
+#: of the half-sizes' diagonal, as angles) off the epipolar line: the point of :func:`centres_agree` may lie that far
+#: off either ray, seen from a view up to twice as far (a robot's views of one plant differ less; a fuzz of random
+#: scenes 0.5-0.7 m away needed at most 1.5 with fy = 0.67 fx, 1.9 at 0.4-1.2 m).
 SCREEN_MARGIN = 2.0
+#: :func:`centres_agree_many` refuses rays whose normal matrix has a larger condition number: parallel rays (views
+#: from one place) fix no point.
+MAX_CONDITION = 1e12
+#: Two cameras closer than this (metres) stand at one place: no epipolar line (:func:`epipolar_trades`).
+SAME_PLACE_M = 1e-9
 #: Boxes of two objects stand side by side when they share at least this fraction of the lower one's height.
 MIN_SHARED_HEIGHT = 0.5
 #: Boxes of two objects meet in a view when they overlap, or when their facing edges are within this many edge sigmas.
@@ -174,18 +180,19 @@ def _best_trade(
     problem: Problem,
     a: DetectedObject,
     b: DetectedObject,
-    shared: list[int],
+    views: list[int],
     judge: tuple[str, ...] | None = TRADE_SHAPES,
     refit: bool = True,
 ) -> list[DetectedObject] | None:
-    """``a`` and ``b`` as the shape models fit them, after the trade of one ``shared`` view's boxes (or, with
-    ``refit``, holding what they hold), whichever the models ``judge`` (None: every model) prefer by more than
+    """``a`` and ``b`` as the shape models fit them, after the trade of one of ``views``'s boxes (or, with ``refit``,
+    holding what they hold), whichever the models ``judge`` (None: every model) prefer by more than
     :data:`MIN_GAIN_NATS` to the pair as it is; None: none is. Without ``refit`` the pair refitted as it holds its boxes
-    is a bar a trade must clear, not a move: a trade must win by the association, not by a refit."""
+    is a bar a trade must clear, not a move: a trade must win by the association, not by a refit. The winner, fitted
+    with every model, must still beat the pair as it is by that margin."""
     ja, jb = associations_list(problem, a), associations_list(problem, b)
     bar = _held_value(problem, [a, b]) + MIN_GAIN_NATS
     best, best_pair, best_fitted = bar, None, None
-    for v in [-1, *shared] if refit else shared:  # -1: no trade, the pair refitted
+    for v in [-1, *views] if refit else views:  # -1: no trade, the pair refitted
         ta, tb = list(ja), list(jb)
         if v >= 0:
             ta[v], tb[v] = jb[v], ja[v]
@@ -231,7 +238,8 @@ def centres_agree_many(problem: Problem, assocs: NDArray[np.intp]) -> NDArray[np
         eyes[v] = -R[v].T @ t[v]
     P = (np.eye(3) - d_base[..., :, None] * d_base[..., None, :]) * held[..., None, None]  # projectors across the rays
     A, rhs = P.sum(axis=1), np.einsum("tkij,kj->ti", P, eyes)
-    ok = np.linalg.cond(A) < 1e12
+    ok = np.all(np.isfinite(A), axis=(1, 2))
+    ok[ok] = np.linalg.cond(A[ok]) < MAX_CONDITION
     point = np.zeros((n, 3))
     point[ok] = np.linalg.solve(A[ok], rhs[ok][..., None])[..., 0]
     p_optical = np.einsum("kij,tj->tki", R, point) + t[None]  # (T, V, 3)
@@ -246,9 +254,10 @@ def epipolar_trades(problem: Problem, objects: list[DetectedObject]) -> NDArray[
     """Which trades the epipolar geometry allows, shape (M, M, V): ``[i, k, v]`` where objects ``i`` and ``k`` both
     hold a box in view ``v`` and the centre of ``k``'s box there lies near the epipolar line of ``i``'s box centre in
     each other view ``i`` holds (within :data:`SCREEN_MARGIN` times the two boxes' :data:`CENTRE_TOLERANCE` of their
-    larger half-sizes; a camera at the same place as view ``v``'s says nothing), and the other way round: a screen,
-    for every pair at once, that lets through every trade :func:`centres_agree` allows and few others."""
-    assoc = np.array([associations_list(problem, o) for o in objects], dtype=np.intp).reshape(len(objects), -1)
+    half-sizes' diagonal; a camera at the same place as view ``v``'s says nothing), and the other way round: a screen,
+    for every pair at once, that lets through the trades :func:`centres_agree` allows (all of them where no view sees
+    the point from more than twice another's distance) and few others."""
+    assoc = np.array([associations_list(problem, o) for o in objects], dtype=np.intp).reshape(len(objects), len(problem.views))
     n, n_views = assoc.shape
     rays, tol, eyes = np.zeros((n, n_views, 3)), np.zeros((n, n_views)), np.zeros((n_views, 3))
     for v, vd in enumerate(problem.views):
@@ -257,15 +266,17 @@ def epipolar_trades(problem: Problem, objects: list[DetectedObject]) -> NDArray[
         held = assoc[:, v] >= 0
         b = vd.boxes[assoc[held, v]].reshape(-1, 4)
         rays[held, v] = problem.camera.rays(0.5 * (b[:, :2] + b[:, 2:])) @ R  # base frame
-        tol[held, v] = CENTRE_TOLERANCE * 0.5 * np.max(b[:, 2:] - b[:, :2], axis=1) / problem.camera.fx
+        half = 0.5 * np.hypot(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1])  # the half-sizes' diagonal
+        tol[held, v] = CENTRE_TOLERANCE * half / min(problem.camera.fx, problem.camera.fy)
     ok = (assoc[:, None, :] >= 0) & (assoc[None, :, :] >= 0)
     for v in range(n_views):
         for u in range(n_views):
             baseline = eyes[v] - eyes[u]
-            if u == v or np.linalg.norm(baseline) < 1e-9:
+            if u == v or np.linalg.norm(baseline) < SAME_PLACE_M:
                 continue
             normal = np.cross(baseline, rays[:, u])  # (M, 3): the epipolar plane of i's ray in view u
-            normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+            length = np.linalg.norm(normal, axis=1, keepdims=True)
+            normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
             off = np.abs(normal @ rays[:, v].T)  # (M, M): sine of the angle of k's ray in v out of i's plane
             # the point the rays meet may lie off i's ray in u too, as seen from v up to twice as far
             ok[:, :, v] &= (assoc[:, u] < 0)[:, None] | (off <= SCREEN_MARGIN * (tol[None, :, v] + tol[:, u, None]))

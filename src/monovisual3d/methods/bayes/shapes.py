@@ -138,10 +138,10 @@ OUTLIER_SIGMAS = 3.0
 #: it slower to take a mildly elongated fruit's shape from exact boxes.
 HIDDEN_CUT_SIGMAS = 3.0
 #: An edge of an object's box this many sensor sigmas outside its sphere's prediction cannot be a cut (occlusion only
-#: shrinks a box) and box noise puts one there 0.13 % of the time: an object with such an edge and one elongated box
-#: is fitted as the objects with two are (:func:`sticks_out`). A box lying on a table, seen broadside in one of three
-#: views and end-on (square) in the two others, has one elongated box; kept a sphere, it came out 50-60 mm off
-#: (``python benchmarks/tabletop_subsets.py``).
+#: shrinks a box); box noise puts an edge there 0.13 % of the time (1.6 % for one of three views' 12 edges): an object
+#: with an elongated box and such an edge (on any of its boxes) is fitted as the objects with two elongated boxes are
+#: (:func:`sticks_out`). A box lying on a table, seen broadside in one of three views and end-on (square) in the two
+#: others, has one elongated box; kept a sphere, it came out 50-60 mm off (``python benchmarks/tabletop_subsets.py``).
 OUTSIDE_SIGMAS = 3.0
 #: Views a sphere needs for :func:`one_sided_refit`: from two, its 8 edges barely determine its 4 parameters, and an
 #: edge cannot be told a cut from noise by the others; letting inward edges go there moves the depth (in simulated
@@ -463,7 +463,9 @@ def fit_shape(
     whose boxes are cut) whose every uncut box has its sphere's aspect stays a sphere without the lying fits; one
     elongated one way whose boxes are cut, by a nearer object or by something unseen (:func:`possibly_cut`: a leaf),
     takes the fitted shape only when that beats the sphere under the sensor model (:func:`beats`), which scores a cut
-    box as occluded (in a dense row, neighbours cut a fruit's boxes to tall slivers that a small near spheroid fits)."""
+    box as occluded (in a dense row, neighbours cut a fruit's boxes to tall slivers that a small near spheroid fits).
+    An object with only one elongated box is fitted as one elongated both ways when an edge sticks out of its sphere's
+    prediction (:func:`sticks_out`: no cut makes a box larger), even where a nearer object is predicted to cut it."""
     cfg = problem.config
     n_views = len(obj.associations)
     if cfg.shape == "sphere" or n_views < 2:
@@ -484,7 +486,7 @@ def fit_shape(
         if fit is None or np.all(deviations > 0) or set(_lying_shapes(n_views)) <= set(upright):
             return as_sphere(obj) if fit is None else fit[0][0]  # taller in every view: upright, round in plan
         answer = fit[0]  # wider in every view: lying (seen from one side) or flat
-    else:  # elongated both ways: lying, or a sphere whose boxes are cut
+    else:  # elongated both ways (lying, or a sphere whose boxes are cut), or one box only but outgrown
         answer = _sphere_answer(obj)
         uncut = aspect_deviations(problem, obj, cut) if cut else deviations
         if cut and not outgrown and not (np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)):
