@@ -474,8 +474,11 @@ def fit_shape(
         fit = _fitted(problem, obj, (cfg.shape,), censored)
         return as_sphere(obj) if fit is None else fit[0][0]
     deviations = aspect_deviations(problem, obj)
-    outgrown = bool(np.any(np.abs(deviations) > ROUNDNESS_THRESHOLD)) and sticks_out(problem, obj)
-    if round_aspects(deviations) and not outgrown:
+
+    def outgrown() -> bool:  # asked only where it decides: a box prediction per object
+        return bool(np.any(np.abs(deviations) > ROUNDNESS_THRESHOLD)) and sticks_out(problem, obj)
+
+    if round_aspects(deviations) and not outgrown():
         return as_sphere(obj)
     if elongated_one_way(deviations):
         upright = _upright_shapes(n_views, cfg.solids)
@@ -489,7 +492,8 @@ def fit_shape(
     else:  # elongated both ways (lying, or a sphere whose boxes are cut), or one box only but outgrown
         answer = _sphere_answer(obj)
         uncut = aspect_deviations(problem, obj, cut) if cut else deviations
-        if cut and not outgrown and not (np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)):
+        both_ways = np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)
+        if cut and not both_ways and not outgrown():
             return answer[0]  # the boxes nearer objects do not cut are not elongated both ways: the cuts made it look so
     new = _fitted(problem, obj, _lying_shapes(n_views), censored)
     if new is None or not beats(problem, obj, new[0], answer, new[1]):
