@@ -30,6 +30,7 @@ from .extract import extract
 from .problem import Problem
 from .refine import Observation
 from .search import search
+from .second_look import second_look
 from .shape_swap import shape_swap_pass
 from .shapes import shape_stage
 
@@ -84,6 +85,8 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     objects = shape_stage(problem, objects)
     if cfg.swap and cfg.shape == "auto":
         objects = shape_swap_pass(problem, objects)
+    if cfg.second_look and cfg.shape == "auto":
+        objects = second_look(problem, objects)
     timing["shape"] = time.perf_counter() - t3
     objects.sort(key=lambda o: -o.score)
     return Estimate(objects, corrections, timing, hyp.stats())

@@ -261,18 +261,25 @@ def solid_boxes(camera: Camera, poses: NDArray[np.float64], e: Ellipsoid, solid:
     return ellipsoid_bbox(camera, poses, e.centre_base, e.semi_axes, e.rotation, clip=False)
 
 
-def sensor_score(
+def sensor_scores(
     problem: Problem, poses: NDArray[np.float64], boxes: NDArray[np.float64], e: Ellipsoid, solid: str | None = None
-) -> float:
-    """Log-likelihood ratio (nats) of the boxes (K, 4) seen from ``poses`` (K, 4, 4) given the ellipsoid ``e`` (the
+) -> NDArray[np.float64]:
+    """Log-likelihood ratio (nats) of each box (K, 4) seen from ``poses`` (K, 4, 4) given the ellipsoid ``e`` (the
     solid ``solid`` with its semi-axes, :func:`solid_boxes`): the ``bayes`` sensor model's box scores (occlusion and
-    truncation included), a miss at worst, summed."""
+    truncation included), a miss (``SensorModel.miss_term``: the box not explained) at worst, shape (K,)."""
     cam, model = problem.camera, problem.model
     pred = solid_boxes(cam, poses, e, solid)
     T_optical_base = np.linalg.inv(poses)
     depth = T_optical_base[:, 2, :3] @ e.centre_base + T_optical_base[:, 2, 3]
     s = box_scores(pred, boxes, model, cam.width, cam.height, np.asarray(pose_px(problem, depth), dtype=float))
-    return float(np.sum(np.maximum(np.nan_to_num(s, nan=-np.inf), model.miss_term)))
+    return np.maximum(np.nan_to_num(np.asarray(s, dtype=float), nan=-np.inf), model.miss_term)
+
+
+def sensor_score(
+    problem: Problem, poses: NDArray[np.float64], boxes: NDArray[np.float64], e: Ellipsoid, solid: str | None = None
+) -> float:
+    """:func:`sensor_scores` summed (nats)."""
+    return float(np.sum(sensor_scores(problem, poses, boxes, e, solid)))
 
 
 #: A shape answer of the stage: the object, its ellipsoid and its number of fitted parameters.

@@ -1,0 +1,126 @@
+"""Leaf occlusion: the Cramer-Rao bound when the estimator does not know which box edges are cut.
+
+The accuracy benchmark's ``greenhouse-noise`` bound (:func:`monovisual3d.bench.accuracy.cut_crlb_rms_sq`) leaves out
+every edge a leaf cuts, as if the estimator were told which ones. An estimator that is not told sees each edge with
+a mixture density: uncut (the simulator's box noise about the silhouette's edge) or cut inward by some depth. Here
+that density is taken from the simulator itself: per edge, the cut depth in units of the edge's noise scale
+(``box_sigma`` times the visible box's size), zero where the visible edge lies within
+:data:`~monovisual3d.geometry.bounds.CUT_PX` of the silhouette's (as the known-cut bound counts it), pooled over every
+fruit of the seeds; the two edges of an axis keep the simulator's correlated noise, their cuts are taken as
+independent. The Fisher information of an edge pair's location under that mixture is computed by numerical
+integration on a grid (fine against the noise, so that the depth distribution stays continuous), and each fruit's
+bound is then ``sum_views J^T I_mix J`` inverted, with the known-cut bound's Jacobians and noise scales.
+
+Both bounds average over the fruit; the mixture bound uses the expected information over cut patterns, the
+known-cut bound each fruit's own. If not knowing the cuts cost much information, the mixture bound would lie well
+above the known-cut one.
+
+Usage: python benchmarks/unknown_cut_bound.py [CONDITION FIRST LAST]   (default greenhouse-noise 0 20)
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+from scipy.signal import fftconvolve
+
+from monovisual3d.bench.accuracy import conditions, simulated_session
+from monovisual3d.geometry.bounds import BORDER_PX, cut_edges, ellipsoid_box_jacobian, ellipsoid_crlb
+from monovisual3d.sim.scenes import default_camera
+
+#: Grid step of the numerical integration and its half-width beyond the cuts, in units of the edge noise scale.
+STEP, PAD = 0.04, 8.0
+#: Cut depths beyond this (noise-scale units; slivers of a fruit behind a leaf) are spread evenly over
+#: [TAIL_FROM, CAP]: such an edge is clearly cut either way, and the grid stays small.
+TAIL_FROM, CAP = 50.0, 60.0
+#: The simulator's edge-noise covariance of an axis's two edges, in units of (box_sigma * size)^2 (bounds module).
+PAIR_COVARIANCE = np.array([[1.25, 0.75], [0.75, 1.25]])
+
+
+def mixture_information(depths: np.ndarray) -> tuple[np.ndarray, float]:
+    """Fisher information (noise-scale units) of an axis's two edge locations (2, 2) and of one edge alone, when each
+    edge is cut inward by a depth drawn from ``depths`` (samples, 0: uncut), independently."""
+    d = depths.copy()
+    far = d > CAP
+    d[far] = TAIL_FROM + (CAP - TAIL_FROM) * (np.arange(far.sum()) + 0.5) / max(far.sum(), 1)
+    g = np.bincount(np.rint(d / STEP).astype(int)).astype(float)
+    g /= g.sum()
+    ax = np.arange(-PAD, PAD + STEP / 2, STEP)
+    u = np.stack(np.meshgrid(ax, ax, indexing="ij"), axis=-1)
+    inv = np.linalg.inv(PAIR_COVARIANCE)
+    density = np.exp(-0.5 * np.einsum("...i,ij,...j->...", u, inv, u)) / (2 * np.pi * np.sqrt(np.linalg.det(PAIR_COVARIANCE)))
+    mass = density * STEP**2
+    slope = -np.einsum("ij,...j->...i", inv, u) * mass[..., None]
+    cuts = np.outer(g, g[::-1])  # the first edge moves in by +depth, the second by -depth
+    p = fftconvolve(cuts, mass)
+    grads = [fftconvolve(cuts, slope[..., k]) for k in range(2)]
+    ok = p > 1e-300
+    pair = np.array([[np.sum(a[ok] * b[ok] / p[ok]) for b in grads] for a in grads])
+    var = PAIR_COVARIANCE[0, 0]
+    x = np.arange(-1.2 * PAD, 1.2 * PAD + STEP / 2, STEP)
+    m1 = np.exp(-0.5 * x**2 / var) / np.sqrt(2 * np.pi * var) * STEP
+    p1, s1 = np.convolve(g, m1), np.convolve(g, -x / var * m1)
+    ok1 = p1 > 1e-300
+    return pair, float(np.sum(s1[ok1] ** 2 / p1[ok1]))
+
+
+def main(name: str, seeds: range) -> None:
+    cond = next(c for c in conditions(False) if c.name == name)
+    sigma, camera = cond.noise.box_sigma, default_camera()
+    fruit = []  # per fruit: Jacobians (V, 4, P), visible boxes (V, 4), usable edges (V, 4), known-cut bound (m^2)
+    depths = []
+    for seed in seeds:
+        scene = cond.scene(seed)
+        _, svs = simulated_session(scene, cond.noise, seed, masks=False)
+        for f, obj in enumerate(scene.fruits):
+            views = [sv for sv in svs if f in set(sv.source.tolist())]
+            if not views:
+                continue
+            e = obj.ellipsoid
+            T = np.array([sv.T_base_optical_true for sv in views])
+            seen = np.array([sv.rendering.boxes_xyxy[f] for sv in views], dtype=float)
+            full, J = ellipsoid_box_jacobian(camera, T, e, e.shape)
+            size = np.array([camera.width, camera.height], dtype=float)
+            inside = np.concatenate([full[:, :2] > BORDER_PX, full[:, 2:] < size - BORDER_PX], axis=1)
+            usable = np.isfinite(full) & inside & np.all(np.isfinite(J), axis=2)
+            cut = cut_edges(full, seen)
+            known = ellipsoid_crlb(camera, T, e, sigma, e.shape, censored=cut, noise_boxes_xyxy=seen).centre_rms_sq
+            inward = np.concatenate([seen[:, :2] - full[:, :2], full[:, 2:] - seen[:, 2:]], axis=1)
+            scale = sigma * np.concatenate([seen[:, 2:] - seen[:, :2]] * 2, axis=1)
+            depths.append(np.where(cut, inward / scale, 0.0)[usable])
+            fruit.append((J, seen, usable, known))
+    d = np.concatenate(depths)
+    pair, single = mixture_information(d)
+    print(
+        f"{name} seeds {seeds.start}-{seeds.stop - 1}: {len(fruit)} fruit, {d.size} usable edges, {np.mean(d > 0):.3f} cut; "
+        f"cut depth (noise-scale units) median {np.median(d[d > 0]):.1f}, p90 {np.percentile(d[d > 0], 90):.1f}"
+    )
+    print(
+        f"information of an edge pair, uncut {np.round(np.linalg.inv(PAIR_COVARIANCE), 3).tolist()}, mixture {np.round(pair, 3).tolist()};"
+    )
+    print(f"of one edge, uncut {1 / PAIR_COVARIANCE[0, 0]:.3f}, mixture {single:.3f}")
+    known_sq, mixed_sq = [], []
+    for J, seen, usable, known in fruit:
+        F = np.zeros((J.shape[2], J.shape[2]))
+        for v in range(len(J)):
+            for i, k in ((0, 2), (1, 3)):
+                s2 = (sigma * (seen[v, k] - seen[v, i])) ** 2
+                if usable[v, i] and usable[v, k]:
+                    F += J[v, [i, k]].T @ pair @ J[v, [i, k]] / s2
+                elif usable[v, i] or usable[v, k]:
+                    j = i if usable[v, i] else k
+                    F += np.outer(J[v, j], J[v, j]) * single / s2
+        if not np.isfinite(known) or np.linalg.cond(F) > 1e12:
+            continue  # the known-cut bound's own exclusions (too few edges), and fruit the mixture cannot see either
+        known_sq.append(known)
+        mixed_sq.append(float(np.trace(np.linalg.inv(F)[:3, :3])))
+    k, m = np.sqrt(np.mean(known_sq)), np.sqrt(np.mean(mixed_sq))
+    print(
+        f"RMS centre bound over {len(known_sq)} fruit: cuts known {1e3 * k:.2f} mm, cuts unknown (mixture) {1e3 * m:.2f} mm, ratio {m / k:.3f}"
+    )
+
+
+if __name__ == "__main__":
+    args = sys.argv[1:]
+    main(args[0] if args else "greenhouse-noise", range(int(args[1]), int(args[2])) if len(args) > 2 else range(0, 20))
