@@ -38,6 +38,23 @@ def test_a_lying_object_broadside_in_one_view_only_is_built_from_its_free_boxes(
     np.testing.assert_allclose(np.delete(found, 2), np.delete(without, 2), atol=1e-6)  # the others are untouched
 
 
+def test_a_ghost_of_two_objects_boxes_gives_them_up_to_the_two_objects():
+    # Seed 810 of benchmarks/tabletop_subsets.py, views (1, 4, 5): the search pairs object 3's box in the first view
+    # with object 0's in the third into one object seen twice, and leaves the two objects' other boxes free; built from
+    # those and the ghost's boxes, the two objects are worth far more than the ghost.
+    session = mv.load_session(DATA / "ghost_of_two_tabletop.session.json")
+    truth = load_objects(DATA / "ghost_of_two_tabletop.truth.json").positions
+
+    def nearest_mm(**options):
+        est = mv.localize(session, size_range=SIZE_RANGE_M, **options).positions.reshape(-1, 3)
+        return 1e3 * np.linalg.norm(est[:, None] - truth[None], axis=2).min(axis=0)
+
+    without = nearest_mm(second_look=False)
+    assert without[0] > 50 and without[3] > 50
+    found = nearest_mm()
+    assert found.max() < 10, found
+
+
 def _problem(boxes_per_view):
     camera = default_camera()
     views = tuple(

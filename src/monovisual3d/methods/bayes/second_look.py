@@ -18,6 +18,11 @@ where the fitted object would be in the image without a box counting a miss. A g
 the object as it was by :data:`.shape_swap.MIN_GAIN_NATS` (a free box costs nothing as clutter); a new one when it is
 worth ``BayesConfig.accept``, as an extracted object must be. The best candidates go first, and a box is taken once.
 
+Then an object seen in fewer than :data:`MIN_VIEWS` views may give its boxes up: the search can pair one object's box
+in one view with another's in a second into one object seen twice (both triangulate from two views), leaving the two
+objects' other boxes free. New objects built as above from its boxes and the free ones replace it when together they
+are worth :data:`.shape_swap.MIN_GAIN_NATS` more than it (:func:`_released`).
+
 Its cost is bounded: the combinations are screened for all at once (no pass where more than :data:`MAX_SCREENED`
 would be), and at most :data:`MAX_CANDIDATES` of those that pass are fitted (grown objects first, in the order of
 ``objects``). In plant rows of 12-96 fruit and every ``bench accuracy`` condition (false positives, leaf occlusion)
@@ -121,8 +126,14 @@ def _candidates(problem: Problem, objects: list[DetectedObject], free: list[NDAr
 
 
 def second_look(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
-    """Grow objects by, and build new objects from, the boxes no object holds where the shape models say so (the module
-    docstring); ``objects`` itself when fewer than :data:`MIN_VIEWS` views hold free boxes."""
+    """Grow objects by, and build new objects from, the boxes no object holds, then replace weak objects by new ones
+    of their boxes and the free ones, where the shape models say so (the module docstring)."""
+    return _released(problem, _grown_and_new(problem, objects))
+
+
+def _grown_and_new(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+    """Objects grown by free boxes and new objects of free boxes (the module docstring); ``objects`` itself when no
+    view holds free boxes or too many combinations would be screened."""
     free = free_boxes(problem, objects)
     with_free = sum(len(f) > 0 for f in free)
     if with_free == 0 or (with_free < MIN_VIEWS and not objects):
@@ -154,6 +165,47 @@ def second_look(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
             grown.add(i)
         else:
             out.append(obj)
+    return out
+
+
+def _released(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+    """Each object seen in fewer than :data:`MIN_VIEWS` views replaced by new objects of its boxes and the free ones
+    (each worth ``accept``, in :data:`MIN_VIEWS` or more views, one of its boxes at least) when together they are worth
+    :data:`.shape_swap.MIN_GAIN_NATS` more than it: a ghost of two objects' boxes in two views, whose other boxes
+    were left free."""
+    out = list(objects)
+    budget = MAX_SCREENED
+    for i in [i for i, o in enumerate(objects) if 0 < len(o.associations) < MIN_VIEWS]:
+        free = free_boxes(problem, [o for k, o in enumerate(out) if k != i])
+        own = associations_list(problem, out[i])
+        n = np.prod([len(f) + 1.0 for f in free])
+        if sum(len(f) > 0 for f in free) < MIN_VIEWS or n > budget:
+            continue
+        budget -= int(n)
+        options = [[-1, *f.tolist()] for f in free]
+        combos = [
+            a
+            for a in itertools.product(*options)
+            if sum(j >= 0 for j in a) >= MIN_VIEWS and any(j >= 0 and j == own[v] for v, j in enumerate(a))
+        ]
+        if not combos:
+            continue
+        agree = centres_agree_many(problem, np.array(combos, dtype=np.intp))
+        scored = []
+        for assoc in [list(a) for a, ok in zip(combos, agree) if ok][:MAX_CANDIDATES]:
+            value, fitted = _fitted_value(problem, _new_seed(), assoc)
+            if fitted is not None and value > problem.config.accept:
+                scored.append((value, assoc, fitted))
+        chosen, taken, total = [], set(), 0.0
+        for value, assoc, fitted in sorted(scored, key=lambda c: -c[0]):
+            boxes = {(v, j) for v, j in enumerate(assoc) if j >= 0}
+            if not boxes & taken:
+                chosen.append(dataclasses.replace(fitted, score=float(value)))
+                taken |= boxes
+                total += value
+        if chosen and total > _value_as_is(problem, out[i]) + MIN_GAIN_NATS:
+            out[i] = chosen[0]
+            out += chosen[1:]
     return out
 
 
