@@ -11,9 +11,11 @@ independent. The Fisher information of an edge pair's location under that mixtur
 integration on a grid (fine against the noise, so that the depth distribution stays continuous), and each fruit's
 bound is then ``sum_views J^T I_mix J`` inverted, with the known-cut bound's Jacobians and noise scales.
 
-Both bounds average over the fruit; the mixture bound uses the expected information over cut patterns, the
-known-cut bound each fruit's own. If not knowing the cuts cost much information, the mixture bound would lie well
-above the known-cut one.
+The mixture bound uses the information expected over cut patterns, the benchmark's known-cut bound each fruit's own
+pattern, which by Jensen's inequality weighs heavily cut fruit more; so the known-cut bound is also given averaged
+as the mixture is (each edge cut with the pooled probability, its information then lost): the cost of not knowing
+which edges are cut is the mixture bound against that one. An estimator that is not told cannot beat one that is,
+so a mixture bound below the benchmark's known-cut bound cannot show the target out of reach.
 
 Usage: python benchmarks/unknown_cut_bound.py [CONDITION FIRST LAST]   (default greenhouse-noise 0 20)
 """
@@ -65,6 +67,32 @@ def mixture_information(depths: np.ndarray) -> tuple[np.ndarray, float]:
     return pair, float(np.sum(s1[ok1] ** 2 / p1[ok1]))
 
 
+def known_information(q: float) -> tuple[np.ndarray, float]:
+    """Fisher information (noise-scale units) of an axis's two edge locations (2, 2) and of one edge alone when each
+    edge is cut with probability ``q``, independently, and the estimator is told which (a cut edge then tells
+    nothing), in expectation over the cut patterns."""
+    single = 1.0 / PAIR_COVARIANCE[0, 0]
+    pair = (1 - q) ** 2 * np.linalg.inv(PAIR_COVARIANCE) + q * (1 - q) * single * np.eye(2)
+    return pair, (1 - q) * single
+
+
+def fruit_bound_sq(J: np.ndarray, seen: np.ndarray, usable: np.ndarray, sigma: float, pair: np.ndarray, single: float) -> float:
+    """Trace of the centre bound (m^2) of one fruit whose edge pairs carry ``pair`` and lone edges ``single`` (noise-
+    scale units); NaN where the information is singular."""
+    F = np.zeros((J.shape[2], J.shape[2]))
+    for v in range(len(J)):
+        for i, k in ((0, 2), (1, 3)):
+            s2 = (sigma * (seen[v, k] - seen[v, i])) ** 2
+            if usable[v, i] and usable[v, k]:
+                F += J[v, [i, k]].T @ pair @ J[v, [i, k]] / s2
+            elif usable[v, i] or usable[v, k]:
+                j = i if usable[v, i] else k
+                F += np.outer(J[v, j], J[v, j]) * single / s2
+    if np.linalg.cond(F) > 1e12:
+        return float("nan")
+    return float(np.trace(np.linalg.inv(F)[:3, :3]))
+
+
 def main(name: str, seeds: range) -> None:
     cond = next(c for c in conditions(False) if c.name == name)
     sigma, camera = cond.noise.box_sigma, default_camera()
@@ -100,24 +128,18 @@ def main(name: str, seeds: range) -> None:
         f"information of an edge pair, uncut {np.round(np.linalg.inv(PAIR_COVARIANCE), 3).tolist()}, mixture {np.round(pair, 3).tolist()};"
     )
     print(f"of one edge, uncut {1 / PAIR_COVARIANCE[0, 0]:.3f}, mixture {single:.3f}")
-    known_sq, mixed_sq = [], []
+    known_pair, known_single = known_information(float(np.mean(d > 0)))
+    rows = []
     for J, seen, usable, known in fruit:
-        F = np.zeros((J.shape[2], J.shape[2]))
-        for v in range(len(J)):
-            for i, k in ((0, 2), (1, 3)):
-                s2 = (sigma * (seen[v, k] - seen[v, i])) ** 2
-                if usable[v, i] and usable[v, k]:
-                    F += J[v, [i, k]].T @ pair @ J[v, [i, k]] / s2
-                elif usable[v, i] or usable[v, k]:
-                    j = i if usable[v, i] else k
-                    F += np.outer(J[v, j], J[v, j]) * single / s2
-        if not np.isfinite(known) or np.linalg.cond(F) > 1e12:
-            continue  # the known-cut bound's own exclusions (too few edges), and fruit the mixture cannot see either
-        known_sq.append(known)
-        mixed_sq.append(float(np.trace(np.linalg.inv(F)[:3, :3])))
-    k, m = np.sqrt(np.mean(known_sq)), np.sqrt(np.mean(mixed_sq))
+        mixed = fruit_bound_sq(J, seen, usable, sigma, pair, single)
+        averaged = fruit_bound_sq(J, seen, usable, sigma, known_pair, known_single)
+        if np.isfinite(known) and np.isfinite(mixed) and np.isfinite(averaged):  # the known-cut bound's own exclusions
+            rows.append((known, averaged, mixed))
+    k, a, m = np.sqrt(np.mean(rows, axis=0))
     print(
-        f"RMS centre bound over {len(known_sq)} fruit: cuts known {1e3 * k:.2f} mm, cuts unknown (mixture) {1e3 * m:.2f} mm, ratio {m / k:.3f}"
+        f"RMS centre bound over {len(rows)} fruit: cuts known, each fruit's own (the benchmark's) {1e3 * k:.2f} mm; "
+        f"cuts known, averaged over patterns {1e3 * a:.2f} mm; cuts unknown (mixture) {1e3 * m:.2f} mm "
+        f"(+{100 * (m / a - 1):.1f} % over the averaged known-cut bound)"
     )
 
 

@@ -268,7 +268,7 @@ def test_single_lying_container_is_found_in_every_seed():
 
 @pytest.mark.parametrize(("elevation_deg", "yaw_deg"), [(3.0, 60.0), (5.0, 0.0), (5.0, 60.0), (8.0, 0.0), (8.0, 40.0)])
 def test_flat_tray_seen_from_near_its_height_is_found(elevation_deg, yaw_deg):
-    """A 20 x 16 x 3 cm cuboid tray seen from 5-8 degrees above its plane from three views over 120 degrees at 0.6 m,
+    """A 20 x 16 x 3 cm cuboid tray seen from 3-8 degrees above its plane from three views over 120 degrees at 0.6 m,
     exact boxes 3-5 times wider than tall. The search scores its spheroids only where a sphere passes at the first
     level, and no sphere of the old largest radius (80 mm) explains a 20 cm wide box: nothing was found. With the
     search's radii up to the shape fits' 160 mm the tray is found (the shape stage, under the sensor model's 5 % edge

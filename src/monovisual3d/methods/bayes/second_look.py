@@ -5,8 +5,7 @@ wide box. A lying object seen broadside (wide) in one view and end-on (tall, or 
 these well: no hypothesis reaches ``accept``, or one takes its boxes of two close views and lands far off. Its boxes
 are then left free, and the shape models, which fit a yawed ellipsoid to any three boxes, were never asked.
 
-:func:`second_look` runs after the shape stage and its swap pass. Where at least :data:`MIN_VIEWS` views hold free
-boxes, it offers
+:func:`second_look` runs after the shape stage and its swap pass, wherever a view holds free boxes. It offers
 
 - every object a free box in each view it has none in, where the rays through its box centres still meet
   (:func:`.shape_swap.centres_agree_many`), and
@@ -14,18 +13,22 @@ boxes, it offers
 
 fits each with every model of the shape stage (:func:`.shapes.fitted_answer`) and values it under the sensor model
 (:func:`.shapes.shape_value`: the box scores less the Bayesian information criterion's cost per parameter), each view
-where the fitted object would be in the image without a box counting a miss. A grown object is kept when it beats
-the object as it was by :data:`.shape_swap.MIN_GAIN_NATS` (a free box costs nothing as clutter); a new one when it is
-worth ``BayesConfig.accept``, as an extracted object must be. The best candidates go first, and a box is taken once.
+where the fitted object would be in the image without a box counting a miss (views without any detection are not in
+the problem, as for the search), and every box it holds explained (not scored as a miss). A grown object is kept when
+it beats the object refitted as it was by :data:`.shape_swap.MIN_GAIN_NATS` (a free box costs nothing as clutter; an
+object whose own refit fails must be worth ``BayesConfig.accept``); a new one when it is worth ``accept``, as an
+extracted object must be. The candidates with the most boxes are fitted first, and one whose boxes are a subset of a
+kept one's is not fitted (it would leave a box free); the largest margins are taken first, and a box is taken once.
+The kept objects' ``score`` is that value (nats).
 
 Then an object seen in fewer than :data:`MIN_VIEWS` views may give its boxes up: the search can pair one object's box
 in one view with another's in a second into one object seen twice (both triangulate from two views), leaving the two
 objects' other boxes free. New objects built as above from its boxes and the free ones replace it when together they
 are worth :data:`.shape_swap.MIN_GAIN_NATS` more than it (:func:`_released`).
 
-Its cost is bounded: the combinations are screened for all at once (no pass where more than :data:`MAX_SCREENED`
-would be), and at most :data:`MAX_CANDIDATES` of those that pass are fitted (grown objects first, in the order of
-``objects``). In plant rows of 12-96 fruit and every ``bench accuracy`` condition (false positives, leaf occlusion)
+Its cost is bounded: the combinations are screened for all at once (no more than :data:`MAX_SCREENED` in one pass),
+and at most :data:`MAX_FITS` shape fits are made in all (every box of one or two lying objects left free in 3-14
+views: 1-2 fits, 0.1-0.45 s). In plant rows of 12-96 fruit and every ``bench accuracy`` condition (false positives, leaf occlusion)
 no combination passes the screen: free boxes there are false positives or fruit cut below ``accept``, whose box
 centres do not meet.
 ``python benchmarks/tabletop_subsets.py 810 816`` measures it (lying objects, three views at random azimuths).
@@ -47,10 +50,11 @@ from .shapes import Answer, fitted_answer, object_boxes, sensor_scores, shape_va
 
 #: Views a new object needs: the yawed ellipsoid of a lying object is fitted from three views (``shapes``).
 MIN_VIEWS = 3
-#: At most this many combinations of free boxes are fitted (each costs a fit with every shape model).
-MAX_CANDIDATES = 64
-#: At most this many combinations are screened (for all at once); more (a cluttered scene, many views), and the pass
-#: does not run: the combinations grow as the product of the views' free boxes.
+#: At most this many shape fits in one pass (each with every model of the shape stage: 10-50 ms for three views of
+#: a table top, up to 0.5 s for ten views or more), the combinations with the most boxes first.
+MAX_FITS = 16
+#: At most this many combinations are screened in one pass (for all at once: about 0.3 s for 16,000); where more would
+#: be (a cluttered scene, many views: they grow as the product of the views' free boxes), that part does not run.
 MAX_SCREENED = 20_000
 
 
@@ -102,15 +106,52 @@ def _holding(o: DetectedObject, problem: Problem, assoc: list[int]) -> DetectedO
     return DetectedObject(o.position, o.score, o.radius, o.covariance, held, o.n_cells, o.extra)
 
 
-def _value_as_is(problem: Problem, o: DetectedObject) -> float:
-    """The value (nats) of an object of the shape stage as it holds its boxes, judged as :func:`_fitted_value` judges
-    a fit: refitted with every model, so that a grown object wins by its new box, not by the refit."""
-    return _fitted_value(problem, o, associations_list(problem, o))[0]
+@dataclasses.dataclass
+class _Budget:
+    """What the pass may still spend: combinations to screen, and shape fits (each with every model)."""
+
+    screened: int = MAX_SCREENED
+    fits: int = MAX_FITS
+
+    def screen(self, n: float) -> bool:
+        """Whether ``n`` more combinations may be screened (and count them)."""
+        if n > self.screened:
+            return False
+        self.screened -= int(n)
+        return True
+
+
+def _fit(problem: Problem, budget: _Budget, seed: DetectedObject, assoc: list[int]) -> tuple[float, DetectedObject | None]:
+    """:func:`_fitted_value` while the budget lasts (-inf and None after)."""
+    if budget.fits <= 0:
+        return -np.inf, None
+    budget.fits -= 1
+    return _fitted_value(problem, seed, assoc)
+
+
+def _bar(problem: Problem, budget: _Budget, o: DetectedObject) -> float:
+    """What ``o`` grown must be worth (nats): ``o`` refitted as it holds its boxes, judged as :func:`_fitted_value`
+    judges a fit (so that it wins by its new box, not by the refit), and :data:`.shape_swap.MIN_GAIN_NATS` more; where
+    that refit fails or leaves one of its boxes unexplained, ``accept``, as a new object."""
+    value = _fit(problem, budget, o, associations_list(problem, o))[0]
+    return value + MIN_GAIN_NATS if np.isfinite(value) else problem.config.accept
+
+
+def _by_size(assocs: list[list[int]]) -> list[int]:
+    """Order of associations with the most boxes first (a subset of a combination is a worse candidate: it leaves a
+    box free and counts a miss there)."""
+    return sorted(range(len(assocs)), key=lambda k: -sum(j >= 0 for j in assocs[k]))
+
+
+def _within(i: int, assoc: list[int], kept: list[tuple[int, list[int]]]) -> bool:
+    """Whether the boxes of candidate ``(i, assoc)`` are a subset of those of a kept candidate of the same object (or
+    of a new object, ``i`` -1): it would leave a box of that one free, so it is not fitted."""
+    return any(k == i and all(j < 0 or j == a[v] for v, j in enumerate(assoc)) for k, a in kept)
 
 
 def _candidates(problem: Problem, objects: list[DetectedObject], free: list[NDArray[np.intp]]) -> list[tuple[int, list[int]]]:
     """Associations to fit: ``(i, assoc)`` for object ``i`` grown by free boxes, ``(-1, assoc)`` for a new object of
-    free boxes; only those whose box-centre rays meet, the first :data:`MAX_CANDIDATES`."""
+    free boxes (in :data:`MIN_VIEWS` views or more); only those whose box-centre rays meet, the most boxes first."""
     out: list[tuple[int, list[int]]] = []
     for i, o in enumerate(objects):
         base = associations_list(problem, o)
@@ -122,32 +163,34 @@ def _candidates(problem: Problem, objects: list[DetectedObject], free: list[NDAr
         return out
     agree = centres_agree_many(problem, np.array([a for _, a in out], dtype=np.intp))
     kept = [c for c, ok in zip(out, agree) if ok]
-    return kept[:MAX_CANDIDATES]
+    return [kept[k] for k in _by_size([a for _, a in kept])]
 
 
 def second_look(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
-    """Grow objects by, and build new objects from, the boxes no object holds, then replace weak objects by new ones
-    of their boxes and the free ones, where the shape models say so (the module docstring)."""
-    return _released(problem, _grown_and_new(problem, objects))
+    """Grow objects by, and build new objects from, the boxes no object holds, then replace objects seen in fewer than
+    :data:`MIN_VIEWS` views by new ones of their boxes and the free ones, where the shape models say so (the module
+    docstring); at most :data:`MAX_FITS` shape fits in all."""
+    budget = _Budget()
+    return _released(problem, _grown_and_new(problem, objects, budget), budget)
 
 
-def _grown_and_new(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: _Budget) -> list[DetectedObject]:
     """Objects grown by free boxes and new objects of free boxes (the module docstring); ``objects`` itself when no
     view holds free boxes or too many combinations would be screened."""
     free = free_boxes(problem, objects)
     with_free = sum(len(f) > 0 for f in free)
     if with_free == 0 or (with_free < MIN_VIEWS and not objects):
         return objects
-    if np.prod([len(f) + 1.0 for f in free]) * (len(objects) + 1) > MAX_SCREENED:
+    if not budget.screen(np.prod([len(f) + 1.0 for f in free]) * (len(objects) + 1)):
         return objects
-    cands = _candidates(problem, objects, free)
-    if not cands:
-        return objects
-    bars = {i: _value_as_is(problem, objects[i]) + MIN_GAIN_NATS for i in {i for i, _ in cands if i >= 0}}
     scored = []
-    for i, assoc in cands:
-        seed = objects[i] if i >= 0 else _new_seed()
-        value, fitted = _fitted_value(problem, seed, assoc)
+    bars: dict[int, float] = {}
+    for i, assoc in _candidates(problem, objects, free):
+        if _within(i, assoc, [(k, a) for _, k, a, _, _ in scored]):
+            continue
+        if i >= 0 and i not in bars:
+            bars[i] = _bar(problem, budget, objects[i])
+        value, fitted = _fit(problem, budget, objects[i] if i >= 0 else _new_seed(), assoc)
         bar = bars[i] if i >= 0 else problem.config.accept
         if fitted is not None and value > bar:
             scored.append((value - bar, i, assoc, fitted, value))
@@ -168,32 +211,32 @@ def _grown_and_new(problem: Problem, objects: list[DetectedObject]) -> list[Dete
     return out
 
 
-def _released(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def _released(problem: Problem, objects: list[DetectedObject], budget: _Budget) -> list[DetectedObject]:
     """Each object seen in fewer than :data:`MIN_VIEWS` views replaced by new objects of its boxes and the free ones
     (each worth ``accept``, in :data:`MIN_VIEWS` or more views, one of its boxes at least) when together they are worth
     :data:`.shape_swap.MIN_GAIN_NATS` more than it: a ghost of two objects' boxes in two views, whose other boxes
     were left free."""
     out = list(objects)
-    budget = MAX_SCREENED
     for i in [i for i, o in enumerate(objects) if 0 < len(o.associations) < MIN_VIEWS]:
         free = free_boxes(problem, [o for k, o in enumerate(out) if k != i])
         own = associations_list(problem, out[i])
-        n = np.prod([len(f) + 1.0 for f in free])
-        if sum(len(f) > 0 for f in free) < MIN_VIEWS or n > budget:
+        if sum(len(f) > 0 for f in free) < MIN_VIEWS or not budget.screen(np.prod([len(f) + 1.0 for f in free])):
             continue
-        budget -= int(n)
         options = [[-1, *f.tolist()] for f in free]
         combos = [
-            a
+            list(a)
             for a in itertools.product(*options)
             if sum(j >= 0 for j in a) >= MIN_VIEWS and any(j >= 0 and j == own[v] for v, j in enumerate(a))
         ]
         if not combos:
             continue
         agree = centres_agree_many(problem, np.array(combos, dtype=np.intp))
+        combos = [a for a, ok in zip(combos, agree) if ok]
         scored = []
-        for assoc in [list(a) for a, ok in zip(combos, agree) if ok][:MAX_CANDIDATES]:
-            value, fitted = _fitted_value(problem, _new_seed(), assoc)
+        for assoc in [combos[k] for k in _by_size(combos)]:
+            if _within(-1, assoc, [(-1, a) for _, a, _ in scored]):
+                continue
+            value, fitted = _fit(problem, budget, _new_seed(), assoc)
             if fitted is not None and value > problem.config.accept:
                 scored.append((value, assoc, fitted))
         chosen, taken, total = [], set(), 0.0
@@ -203,7 +246,7 @@ def _released(problem: Problem, objects: list[DetectedObject]) -> list[DetectedO
                 chosen.append(dataclasses.replace(fitted, score=float(value)))
                 taken |= boxes
                 total += value
-        if chosen and total > _value_as_is(problem, out[i]) + MIN_GAIN_NATS:
+        if chosen and total > _fit(problem, budget, out[i], own)[0] + MIN_GAIN_NATS:
             out[i] = chosen[0]
             out += chosen[1:]
     return out
