@@ -44,8 +44,8 @@ from numpy.typing import NDArray
 
 from ...result import DetectedObject
 from .problem import Problem
-from .scoring import associations_list
-from .shape_swap import MIN_GAIN_NATS, centres_agree_many
+from .scoring import associations_list, boxes_of
+from .shape_swap import MIN_GAIN_NATS, centres_agree_many, holding
 from .shapes import Answer, fitted_answer, object_boxes, sensor_scores, shape_value, solid_boxes
 
 #: Views a new object needs: the yawed ellipsoid of a lying object is fitted from three views (``shapes``).
@@ -60,12 +60,10 @@ MAX_SCREENED = 20_000
 
 def free_boxes(problem: Problem, objects: list[DetectedObject]) -> list[NDArray[np.intp]]:
     """Per view of ``problem.views``, the indices of the boxes no object holds."""
-    held = [set() for _ in problem.views]  # type: list[set[int]]
-    for o in objects:
-        for v, j in enumerate(associations_list(problem, o)):
-            if j >= 0:
-                held[v].add(j)
-    return [np.array([j for j in range(len(vd.boxes)) if j not in held[v]], dtype=np.intp) for v, vd in enumerate(problem.views)]
+    held = set().union(*(boxes_of(problem, o) for o in objects))
+    return [
+        np.array([j for j in range(len(vd.boxes)) if (v, j) not in held], dtype=np.intp) for v, vd in enumerate(problem.views)
+    ]
 
 
 def _misses(problem: Problem, answer: Answer, assoc: list[int]) -> float:
@@ -76,9 +74,7 @@ def _misses(problem: Problem, answer: Answer, assoc: list[int]) -> float:
         return 0.0
     poses = np.array([np.linalg.inv(problem.views[v].T_optical_base) for v in empty])
     pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
-    depth = np.array(
-        [problem.views[v].T_optical_base[2, :3] @ answer[1].centre_base + problem.views[v].T_optical_base[2, 3] for v in empty]
-    )
+    depth = np.array([problem.depth(v, answer[1].centre_base) for v in empty])
     size = np.array([problem.camera.width, problem.camera.height], dtype=float)
     inside = (depth > 0) & np.all(pred[:, 2:] > 0, axis=1) & np.all(pred[:, :2] < size, axis=1)
     return float(np.count_nonzero(inside)) * problem.model.miss_term
@@ -88,7 +84,7 @@ def _fitted_value(problem: Problem, seed: DetectedObject, assoc: list[int]) -> t
     """``seed`` holding the boxes ``assoc`` (over ``problem.views``), fitted with every shape model, and its value
     (nats; -inf and None without a fit, or when the fit leaves a box it holds unexplained: a box scored as a miss is
     no part of the object)."""
-    obj = _holding(seed, problem, assoc)
+    obj = holding(problem, seed, assoc)
     fit = fitted_answer(problem, obj)
     if fit is None:
         return -np.inf, None
@@ -98,12 +94,6 @@ def _fitted_value(problem: Problem, seed: DetectedObject, assoc: list[int]) -> t
         return -np.inf, None
     value = shape_value(problem, answer[0], answer, n_edges) + _misses(problem, answer, assoc)
     return value, answer[0]
-
-
-def _holding(o: DetectedObject, problem: Problem, assoc: list[int]) -> DetectedObject:
-    """``o`` holding the boxes ``assoc`` (over ``problem.views``, -1: none)."""
-    held = {problem.views[v].index: j for v, j in enumerate(assoc) if j >= 0}
-    return DetectedObject(o.position, o.score, o.radius, o.covariance, held, o.n_cells, o.extra)
 
 
 @dataclasses.dataclass

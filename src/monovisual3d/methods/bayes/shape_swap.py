@@ -155,7 +155,7 @@ def _value(
     return total, [f[0][0] for f in fits]  # type: ignore[index]
 
 
-def _holding(problem: Problem, o: DetectedObject, assoc: list[int]) -> DetectedObject:
+def holding(problem: Problem, o: DetectedObject, assoc: list[int]) -> DetectedObject:
     """``o`` holding the boxes ``assoc`` (over ``problem.views``, -1: none) instead of its own."""
     held = {problem.views[v].index: j for v, j in enumerate(assoc) if j >= 0}
     return DetectedObject(o.position, o.score, o.radius, o.covariance, held, o.n_cells, o.extra)
@@ -196,7 +196,7 @@ def _best_trade(
         ta, tb = list(ja), list(jb)
         if v >= 0:
             ta[v], tb[v] = jb[v], ja[v]
-        pair = [_holding(problem, a, ta), _holding(problem, b, tb)]
+        pair = [holding(problem, a, ta), holding(problem, b, tb)]
         value, fitted = _value(problem, pair, judge)
         if value > best:
             best, best_pair, best_fitted = value, pair, fitted
