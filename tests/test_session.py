@@ -173,6 +173,16 @@ def test_partly_outside_box_is_clipped_with_warning(valid_session: dict[str, Any
     assert_allclose(s.views[0].boxes_xyxy, [[0.0, 400.0, 50.0, 480.0]])
 
 
+def test_a_box_edge_near_the_float_range_end_is_clipped_with_a_plain_warning(valid_session: dict[str, Any]) -> None:
+    # found by the detection-file property test: the message's rounding overflowed (a RuntimeWarning) at -1e308
+    data = with_edits(valid_session, ("views/0/detections/0/bbox_xyxy", [-1e308, 400.0, 50.0, 470.0]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.warns(InputWarning, match=r"\[-1e\+308, 400\.0, 50\.0, 470\.0\] extends past .* clipped to \[0\.0, 400"):
+            s = load_session(data)
+    assert_allclose(s.views[0].boxes_xyxy, [[0.0, 400.0, 50.0, 470.0]])
+
+
 def test_box_touching_the_image_edge_is_not_clipped(valid_session: dict[str, Any]) -> None:
     data = with_edits(valid_session, ("views/0/detections/0/bbox_xyxy", [0.0, 0.0, 640.0, 480.0]))
     with warnings.catch_warnings():

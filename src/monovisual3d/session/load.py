@@ -196,6 +196,11 @@ def _view_from_dict(data: Any, where: str, camera: Camera, pose_frame: str, sour
     return View(T_base_optical=T, detections=dets, image=image, stamp=stamp)
 
 
+def _rounded(values: NDArray[np.float64]) -> list[float]:
+    """Pixel values to two decimals for a message (Python's round: no overflow near the float range's ends)."""
+    return [round(float(x), 2) for x in values]
+
+
 def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> Detection:
     expect_object(data, where)
     reject_unknown(data, {"bbox_xyxy", "score", "label", "mask", "class_id", "track"}, where)
@@ -212,7 +217,7 @@ def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> 
     if not np.array_equal(clipped, box):
         warnings.warn(
             InputWarning(
-                f"{prefix}{where}.bbox_xyxy: {np.round(box, 2).tolist()} extends past the {W}x{H} image; clipped to {np.round(clipped, 2).tolist()}"
+                f"{prefix}{where}.bbox_xyxy: {_rounded(box)} extends past the {W}x{H} image; clipped to {_rounded(clipped)}"
             ),
             stacklevel=4,
         )
