@@ -139,6 +139,13 @@ def _within(i: int, assoc: list[int], kept: list[tuple[int, list[int]]]) -> bool
     return any(k == i and all(j < 0 or j == a[v] for v, j in enumerate(assoc)) for k, a in kept)
 
 
+def _new_combinations(free: list[NDArray[np.intp]]) -> list[list[int]]:
+    """Every association (over ``problem.views``, -1: none) of one free box or none per view, in :data:`MIN_VIEWS`
+    views or more: the boxes a new object may hold."""
+    options = [[-1, *f.tolist()] for f in free]
+    return [list(a) for a in itertools.product(*options) if sum(j >= 0 for j in a) >= MIN_VIEWS]
+
+
 def _candidates(problem: Problem, objects: list[DetectedObject], free: list[NDArray[np.intp]]) -> list[tuple[int, list[int]]]:
     """Associations to fit: ``(i, assoc)`` for object ``i`` grown by free boxes, ``(-1, assoc)`` for a new object of
     free boxes (in :data:`MIN_VIEWS` views or more); only those whose box-centre rays meet, the most boxes first."""
@@ -147,8 +154,7 @@ def _candidates(problem: Problem, objects: list[DetectedObject], free: list[NDAr
         base = associations_list(problem, o)
         options = [[j] if j >= 0 else [-1, *free[v].tolist()] for v, j in enumerate(base)]
         out += [(i, list(a)) for a in itertools.product(*options) if list(a) != base]
-    options = [[-1, *f.tolist()] for f in free]
-    out += [(-1, list(a)) for a in itertools.product(*options) if sum(j >= 0 for j in a) >= MIN_VIEWS]
+    out += [(-1, a) for a in _new_combinations(free)]
     if not out:
         return out
     agree = centres_agree_many(problem, np.array([a for _, a in out], dtype=np.intp))
@@ -212,12 +218,7 @@ def _released(problem: Problem, objects: list[DetectedObject], budget: _Budget) 
         own = associations_list(problem, out[i])
         if sum(len(f) > 0 for f in free) < MIN_VIEWS or not budget.screen(np.prod([len(f) + 1.0 for f in free])):
             continue
-        options = [[-1, *f.tolist()] for f in free]
-        combos = [
-            list(a)
-            for a in itertools.product(*options)
-            if sum(j >= 0 for j in a) >= MIN_VIEWS and any(j >= 0 and j == own[v] for v, j in enumerate(a))
-        ]
+        combos = [a for a in _new_combinations(free) if any(j >= 0 and j == own[v] for v, j in enumerate(a))]
         if not combos:
             continue
         agree = centres_agree_many(problem, np.array(combos, dtype=np.intp))
