@@ -49,10 +49,13 @@ alone, ``solid_shape_bias.py``), which sets the subsets' error with whole boxes;
 those a little (the predicted boxes of two estimates overlap more than the objects do).
 
 Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEED LAST_SEED] [ELEVATION_DEG] [--visible]
-[--tray] (default: cuboid 0.005 500 505 20; ``--visible``: the farther container's box ends where the nearer one hides
-it, as a detector of visible parts draws it, :func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's
-whole scene, a flat 200 x 160 x 30 mm cuboid tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs,
-printed on two more lines: the tray, and all three objects). Extra options to ``localize`` go after ``--``, as
+[--tray] [--pose-error=MM,DEG] [--no-workspace] (default: cuboid 0.005 500 505 20; ``--visible``: the farther
+container's box ends where the nearer one hides it, as a detector of visible parts draws it,
+:func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's whole scene, a flat 200 x 160 x 30 mm cuboid
+tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs, printed on two more lines: the tray, and all
+three objects; ``--pose-error=MM,DEG``: each view's reported pose off the true one by
+:func:`monovisual3d.sim.noise.perturb_pose`, per axis, as an arm's kinematics and hand-eye calibration leave it;
+``--no-workspace``: the search's default region instead of a 40 cm cube around the pair). Extra options to ``localize`` go after ``--``, as
 ``key=value``, the value read as JSON where it parses (e.g. ``-- radius_max=0.08 n_radii=16`` or
 ``-- size_range=0.01,0.15``).
 """

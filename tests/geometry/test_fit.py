@@ -207,6 +207,25 @@ def test_censored_edges_are_left_out_of_the_fit():
         fit_ellipsoid_to_boxes(cam, poses, boxes, shape="spheroid", censored=np.zeros(3, dtype=bool))
 
 
+def test_a_censored_edge_still_bounds_the_object_from_inside() -> None:
+    """A hidden edge says the object reaches at least that far: a tall container whose bottom edges a nearer object
+    hides in every view is not a sphere of its width sitting at its top (which fits every other edge), as when those
+    edges were left out; the edges stay out of ``n_edges``, and a prediction beyond a hidden edge costs nothing."""
+    true = Ellipsoid.spheroid([0.6, 0.02, 0.45], 0.025, 0.06)
+    boxes = true.bbox(CAM, P)
+    censored = np.zeros(boxes.shape, dtype=bool)
+    censored[:, 3] = True  # the bottom edge (y2) of every view
+    best, fits = fit_shape_by_bic(CAM, P, boxes, shapes=("sphere", "spheroid"), censored=censored)
+    assert best.model == "spheroid" and best.n_edges == boxes.size - len(P)
+    assert_allclose(best.ellipsoid.centre_base, true.centre_base, atol=1e-5)
+    assert fits["sphere"].chi2 > 100  # the sphere cannot reach down to the hidden edges without missing the others
+    short = boxes.copy()
+    short[:, 3] -= 0.3 * (boxes[:, 3] - boxes[:, 1])  # boxes of the visible part: the container continues behind
+    fit = fit_ellipsoid_to_boxes(CAM, P, short, shape="spheroid", censored=censored, loss="linear")
+    assert_allclose(fit.ellipsoid.centre_base, true.centre_base, atol=1e-5)
+    assert fit.chi2 < 1e-8
+
+
 def test_a_model_left_out_for_its_penalty_could_not_have_won() -> None:
     """``every_model=False`` keeps the best fit of every model fitted: on noisy boxes of spheres, spheroids and boxes
     cut short, the same best model and numbers, and each model left out has a penalty ``P ln E`` above the lowest BIC

@@ -37,6 +37,7 @@ from scipy.optimize import least_squares
 from ..camera import Camera
 from ..errors import InputError
 from .ellipsoid import SHAPES, Ellipsoid, ellipsoid_bbox
+from .fit_edges import edge_noise_px, hidden_edges, one_sided_edges, usable_edges
 from .fit_starts import fit_starts
 from .levenberg import LOSSES, Solution, levenberg_marquardt, named_loss
 from .orientation import DEFAULT_UP, check_up, rotation_upright
@@ -49,8 +50,6 @@ if TYPE_CHECKING:
 DEFAULT_SIZE_RANGE = (0.005, 0.25)
 #: An observed edge within this many pixels of the image border counts as truncated.
 DEFAULT_BORDER_PX = 1.0
-#: sqrt(1.25): per-edge std of the simulator's relative box noise, in units of box_sigma * size.
-EDGE_NOISE_FACTOR = math.sqrt(1.25)
 #: Residual (in sigmas) given to an edge whose prediction is undefined (object behind the camera).
 UNDEFINED_RESIDUAL = 1e4
 #: Loss of the first pass of every fit (then ``loss`` from its solution).
@@ -263,7 +262,8 @@ def fit_ellipsoid_to_boxes(
     initial : Ellipsoid, optional starting point (default: centre triangulated from the box centres,
         sizes from the box sizes)
     censored : array_like, shape (K, 4), bool, optional: edges known to be cut (a nearer object hides the object
-        there), left out as truncated ones are
+        there): the object reaches at least that far, so such an edge counts one-sided, only where the prediction
+        falls inside it (:func:`one_sided_edges`); it is not counted in ``n_edges``
 
     Returns
     -------
@@ -283,20 +283,24 @@ def fit_ellipsoid_to_boxes(
     names = fit_parameters(shape, free_orientation=free_orientation)
     u = check_up(up)
     lo, hi = _size_range(size_range)
-    T, b, used, sigma = _usable_edges(
+    T, b, used, sigma = usable_edges(
         camera, T_base_optical, boxes_xyxy, names, shape, box_sigma, edge_sigma_px, border_px, censored
     )
-    batch, jacobian = _edge_residuals(camera, T, used, b[used], sigma, shape, u, free_orientation)
+    hidden = hidden_edges(camera, b, border_px, censored)
+    counted = used | hidden
+    sigma_all = edge_noise_px(b, box_sigma, edge_sigma_px)[counted]
+    batch, jacobian = _edge_residuals(camera, T, counted, b[counted], sigma_all, shape, u, free_orientation, hidden[counted])
     starts = fit_starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
     best = _least_squares_from(starts, batch, jacobian, names, lo, hi, loss, robust_scale)
     c, s, R = ellipsoid_from_parameters(best.x, shape, up=u, free_orientation=free_orientation)
     r = best.fun
+    seen = ~hidden[counted]
     return EllipsoidFit(
         ellipsoid=Ellipsoid.from_rotation(c, s, R),
         model=shape,
         names=names,
         centre_covariance=_centre_covariance(best.jac),
-        residuals_px=r * sigma,
+        residuals_px=r[seen] * sigma,
         sigma_px=sigma,
         chi2=float(np.sum(r * r)),
         cost=float(best.cost),
@@ -304,42 +308,6 @@ def fit_ellipsoid_to_boxes(
         n_views=int(np.sum(used.any(axis=1))),
         success=bool(best.success),
     )
-
-
-def _usable_edges(
-    camera: Camera,
-    T_base_optical: ArrayLike,
-    boxes_xyxy: ArrayLike,
-    names: tuple[str, ...],
-    shape: str,
-    box_sigma: float,
-    edge_sigma_px: float,
-    border_px: float,
-    censored: ArrayLike | None = None,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
-    """Poses (K, 4, 4), boxes (K, 4), the mask (K, 4) of edges used (finite, off the image border, not ``censored``)
-    and the noise sigma (E,) of each used edge, pixels; checks there are enough edges for ``names``."""
-    if not (box_sigma >= 0 and edge_sigma_px >= 0 and box_sigma + edge_sigma_px > 0):
-        raise InputError(f"box_sigma, edge_sigma_px: got {box_sigma!r}, {edge_sigma_px!r}, expected >= 0 and not both 0")
-    T = np.asarray(T_base_optical, dtype=float).reshape(-1, 4, 4)
-    b = np.asarray(boxes_xyxy, dtype=float).reshape(-1, 4)
-    if len(T) != len(b):
-        raise InputError(f"boxes_xyxy: got {len(b)} boxes for {len(T)} poses, expected one box per view")
-    size = np.array([camera.width, camera.height], dtype=float)
-    used = np.isfinite(b) & np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
-    if censored is not None:
-        cut = np.asarray(censored, dtype=bool)
-        if cut.shape != b.shape:
-            raise InputError(f"censored: got shape {cut.shape}, expected {b.shape} (one flag per box edge)")
-        used &= ~cut
-    n_edges = int(used.sum())
-    if n_edges < len(names):
-        raise InputError(
-            f"boxes_xyxy: {n_edges} usable box edges (not on the image border) cannot fix the {len(names)} parameters of a {shape}"
-        )
-    wh = np.concatenate([b[:, 2:] - b[:, :2]] * 2, axis=1)
-    sigma = np.sqrt((EDGE_NOISE_FACTOR * box_sigma * wh) ** 2 + edge_sigma_px**2)[used]
-    return T, b, used, sigma
 
 
 def _edge_residuals(
@@ -351,16 +319,21 @@ def _edge_residuals(
     shape: str,
     u: NDArray[np.float64],
     free_orientation: bool,
+    hidden: NDArray[np.bool_] | None = None,
 ) -> tuple[Callable[[NDArray[np.float64]], NDArray[np.float64]], Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
-    """The normalised residuals (N, E) of parameter vectors (N, P) and their central-difference Jacobian (E, P) at one."""
+    """The normalised residuals (N, E) of parameter vectors (N, P) and their central-difference Jacobian (E, P) at one;
+    ``hidden`` (E,): the edges that count one-sided (:func:`one_sided_edges`)."""
     R0 = rotation_upright(0.0, u)
     boxes_of = PinholeBoxes(camera, T) if camera.distortion_model == "none" else None
+    edge_index = np.nonzero(used)[1]
 
     def normalised(thetas: NDArray[np.float64]) -> NDArray[np.float64]:
         """Normalised residuals (N, E) of parameter vectors (N, P), all boxes in one batched call."""
         c, s, R = _decode(thetas, shape, u, R0, free_orientation)
         pred = _predicted_boxes(camera, T, boxes_of, shape, c, s, R)[:, used]
         r = (pred - observed) / sigma
+        if hidden is not None and hidden.any():
+            r = np.where(hidden, one_sided_edges(r, edge_index), r)
         return np.where(np.isfinite(r), r, UNDEFINED_RESIDUAL)
 
     def jacobian(theta: NDArray[np.float64]) -> NDArray[np.float64]:

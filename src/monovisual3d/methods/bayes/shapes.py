@@ -7,7 +7,7 @@ associated as what it is. This stage first refits each object, the edges a neare
 prediction taken as a possible cut by an occluder the search does not see (a leaf: :func:`one_sided_refit`), then refines the
 shape: it fits each object's associated boxes with the shape
 model (:func:`monovisual3d.geometry.fit.fit_shape_by_bic`, robust, truncated
-edges left out):
+edges left out, an edge a nearer object hides one-sided: the object reaches at least that far):
 
 - ``sphere``: the sphere estimate is kept (the shape fields are filled in);
 - ``spheroid`` / ``ellipsoid``: that model is fitted;
@@ -388,7 +388,8 @@ def fitted_answer(
 ) -> tuple[Answer, int] | None:
     """The lowest-BIC fit of ``shapes`` (default: every model ``auto`` may fit, upright and lying, the solids with
     ``BayesConfig.solids``) to the object's boxes as an :data:`Answer` with the edges it used (a sphere fitted, not
-    the search's), the ``censored`` edges (K, 4) left out; None: too few usable edges."""
+    the search's), the ``censored`` edges (K, 4) one-sided (only a prediction inside one costs; not counted as
+    edges); None: too few usable edges."""
     if shapes is None:
         n_views = len(obj.associations)
         shapes = tuple(dict.fromkeys(_upright_shapes(n_views, problem.config.solids) + _lying_shapes(n_views)))

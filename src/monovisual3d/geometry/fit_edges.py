@@ -1,0 +1,85 @@
+"""Which box edges a shape fit uses, and how: usable (finite, off the image border), hidden by a nearer object
+(one-sided: the object reaches at least that far), and the noise of each.
+
+An edge on the image border is truncated: it is left out. An edge a nearer object hides (``censored``) is not the
+object's edge either, but the object continues behind the occluder, so a prediction inside that edge is wrong while
+one beyond it says nothing (:func:`one_sided_edges`); the ``bayes`` sensor model and its sphere refit count such an edge
+the same way (``methods.bayes.refine``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..camera import Camera
+from ..errors import InputError
+
+#: sqrt(1.25): per-edge std of the simulator's relative box noise, in units of box_sigma * size.
+EDGE_NOISE_FACTOR = math.sqrt(1.25)
+
+
+def usable_edges(
+    camera: Camera,
+    T_base_optical: ArrayLike,
+    boxes_xyxy: ArrayLike,
+    names: tuple[str, ...],
+    shape: str,
+    box_sigma: float,
+    edge_sigma_px: float,
+    border_px: float,
+    censored: ArrayLike | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """Poses (K, 4, 4), boxes (K, 4), the mask (K, 4) of edges used (finite, off the image border, not ``censored``)
+    and the noise sigma (E,) of each used edge, pixels; checks there are enough edges for ``names``."""
+    if not (box_sigma >= 0 and edge_sigma_px >= 0 and box_sigma + edge_sigma_px > 0):
+        raise InputError(f"box_sigma, edge_sigma_px: got {box_sigma!r}, {edge_sigma_px!r}, expected >= 0 and not both 0")
+    T = np.asarray(T_base_optical, dtype=float).reshape(-1, 4, 4)
+    b = np.asarray(boxes_xyxy, dtype=float).reshape(-1, 4)
+    if len(T) != len(b):
+        raise InputError(f"boxes_xyxy: got {len(b)} boxes for {len(T)} poses, expected one box per view")
+    size = np.array([camera.width, camera.height], dtype=float)
+    used = np.isfinite(b) & np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
+    if censored is not None:
+        cut = np.asarray(censored, dtype=bool)
+        if cut.shape != b.shape:
+            raise InputError(f"censored: got shape {cut.shape}, expected {b.shape} (one flag per box edge)")
+        used &= ~cut
+    n_edges = int(used.sum())
+    if n_edges < len(names):
+        raise InputError(
+            f"boxes_xyxy: {n_edges} usable box edges (not on the image border) cannot fix the {len(names)} parameters of a {shape}"
+        )
+    return T, b, used, edge_noise_px(b, box_sigma, edge_sigma_px)[used]
+
+
+def edge_noise_px(b: NDArray[np.float64], box_sigma: float, edge_sigma_px: float) -> NDArray[np.float64]:
+    """The noise std of every edge of the boxes ``b`` (K, 4), pixels, shape (K, 4)."""
+    wh = np.concatenate([b[:, 2:] - b[:, :2]] * 2, axis=1)
+    return np.sqrt((EDGE_NOISE_FACTOR * box_sigma * wh) ** 2 + edge_sigma_px**2)
+
+
+def hidden_edges(camera: Camera, b: NDArray[np.float64], border_px: float, censored: ArrayLike | None) -> NDArray[np.bool_]:
+    """The ``censored`` edges (K, 4) of the boxes ``b`` that still say something: finite and off the image border
+    (the object reaches at least that far)."""
+    if censored is None:
+        return np.zeros(b.shape, dtype=bool)
+    size = np.array([camera.width, camera.height], dtype=float)
+    seen = np.isfinite(b) & np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
+    return seen & np.asarray(censored, dtype=bool)
+
+
+def one_sided_edges(r: NDArray[np.float64], edge_index: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Normalised residuals ``r`` (predicted minus observed, (..., E)) of edges a nearer object hides, with
+    ``edge_index`` (E,) their place in a box (0-3: ``x1, y1, x2, y2``), kept only where the prediction falls inside
+    the observed edge (the object reaches at least that far behind its occluder; beyond it, the edge says nothing).
+
+    Examples
+    --------
+    >>> one_sided_edges(np.array([2.0, -2.0, 2.0, -2.0]), np.array([0, 1, 2, 3])).tolist()
+    [2.0, 0.0, 0.0, -2.0]
+    """
+    low_edge = np.asarray(edge_index) < 2  # x1, y1: inside means predicted > observed
+    return np.where(low_edge, np.maximum(r, 0.0), np.minimum(r, 0.0))
