@@ -226,6 +226,19 @@ def test_a_censored_edge_still_bounds_the_object_from_inside() -> None:
     assert fit.chi2 < 1e-8
 
 
+def test_an_edge_on_the_image_border_still_bounds_the_object_from_inside() -> None:
+    """A tall object whose top lies beyond the image's top border in every view (a hanging fruit seen from close by):
+    the border edges say it reaches at least there, so it is not a sphere of its width at its bottom, which fits every
+    other edge exactly (35 mm off when border edges were left out)."""
+    true = Ellipsoid.spheroid([0.6, 0.02, 0.765], 0.025, 0.06)
+    boxes = true.bbox(CAM, P)
+    assert np.all(boxes[:, 1] <= 1.0) and np.all(boxes[:, 3] > 1.0)  # tops on the border, bottoms in the image
+    best, fits = fit_shape_by_bic(CAM, P, boxes, shapes=("sphere", "spheroid"))
+    assert best.model == "spheroid" and best.n_edges == boxes.size - len(P)
+    assert_allclose(best.ellipsoid.centre_base, true.centre_base, atol=1e-5)
+    assert fits["sphere"].chi2 > 10
+
+
 def test_a_model_left_out_for_its_penalty_could_not_have_won() -> None:
     """``every_model=False`` keeps the best fit of every model fitted: on noisy boxes of spheres, spheroids and boxes
     cut short, the same best model and numbers, and each model left out has a penalty ``P ln E`` above the lowest BIC

@@ -21,14 +21,13 @@ def test_one_sided_edges_keep_a_prediction_inside_the_edge_only() -> None:
     assert_allclose(one_sided_edges(r, np.arange(4)), [[1.5, 0.0, 0.0, -1.5], [0.0, 0.5, -0.5, 0.0]])
 
 
-def test_hidden_edges_are_the_censored_ones_off_the_border() -> None:
-    """A censored edge on the image border is truncated (says nothing); one elsewhere counts one-sided; none without
-    flags."""
+def test_hidden_edges_are_the_border_ones_and_the_censored() -> None:
+    """Edges on the image border and censored ones bound the object from inside only; without flags, the border ones."""
     censored = np.zeros(BOXES.shape, dtype=bool)
-    censored[0, 3] = censored[1, 0] = True  # box 1's x1 lies on the left border
+    censored[0, 3] = censored[1, 0] = True  # box 1's x1 lies on the left border anyway
     h = hidden_edges(CAM, BOXES, 1.0, censored)
-    assert h.tolist() == [[False, False, False, True], [False] * 4, [False] * 4]
-    assert not hidden_edges(CAM, BOXES, 1.0, None).any()
+    assert h.tolist() == [[False, False, False, True], [True, False, False, True], [False] * 4]
+    assert hidden_edges(CAM, BOXES, 1.0, None).tolist() == [[False] * 4, [True, False, False, True], [False] * 4]
 
 
 def test_usable_edges_leave_out_the_border_and_the_censored() -> None:

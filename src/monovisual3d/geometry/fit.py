@@ -7,7 +7,8 @@ observed box width for x edges, height for y edges; 1.118 = sqrt(1.25) is the
 per-edge std of the simulator's relative box noise). A robust loss on each edge
 (one of scipy's, solved as :func:`scipy.optimize.least_squares` does; ``cauchy`` by default, after a first pass with
 ``soft_l1`` that finds the basin) keeps one loose or clipped-by-a-leaf edge from dragging the fit. Edges that lie on the image border
-(truncated objects) say nothing about the object and are left out.
+(truncated objects) or that a nearer object hides (``censored``) only say that the object reaches at least that far:
+they count one-sided, where the prediction falls inside them (:mod:`.fit_edges`).
 
 Models and parameters (``up`` the base frame's vertical; sizes are fitted as logarithms,
 bounded by ``size_range``):
@@ -258,12 +259,12 @@ def fit_ellipsoid_to_boxes(
     edge_sigma_px : float, pixels, absolute per-edge noise added in quadrature
     loss : str, robust loss, one of :data:`.levenberg.LOSSES` (scipy's; ``linear`` for plain least squares)
     robust_scale : float, sigmas at which the robust loss starts to discount an edge
-    border_px : float, observed edges this close to the image border are truncated and left out
+    border_px : float, observed edges this close to the image border are truncated: they count one-sided (the
+        object reaches at least that far, :func:`.fit_edges.one_sided_edges`) and not in ``n_edges``
     initial : Ellipsoid, optional starting point (default: centre triangulated from the box centres,
         sizes from the box sizes)
     censored : array_like, shape (K, 4), bool, optional: edges known to be cut (a nearer object hides the object
-        there): the object reaches at least that far, so such an edge counts one-sided, only where the prediction
-        falls inside it (:func:`one_sided_edges`); it is not counted in ``n_edges``
+        there): they count one-sided, as border edges do
 
     Returns
     -------

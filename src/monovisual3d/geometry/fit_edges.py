@@ -1,10 +1,10 @@
-"""Which box edges a shape fit uses, and how: usable (finite, off the image border), hidden by a nearer object
-(one-sided: the object reaches at least that far), and the noise of each.
+"""Which box edges a shape fit uses, and how: seen (finite, off the image border), hidden (at the image border, or
+behind a nearer object: one-sided, the object reaches at least that far), and the noise of each.
 
-An edge on the image border is truncated: it is left out. An edge a nearer object hides (``censored``) is not the
-object's edge either, but the object continues behind the occluder, so a prediction inside that edge is wrong while
-one beyond it says nothing (:func:`one_sided_edges`); the ``bayes`` sensor model and its sphere refit count such an edge
-the same way (``methods.bayes.refine``).
+An edge on the image border or one a nearer object hides (``censored``) is not the object's edge, but the object
+continues beyond it, so a prediction inside that edge is wrong while one beyond it says nothing
+(:func:`one_sided_edges`); the ``bayes`` sensor model and its sphere refit count such edges the same way
+(``methods.bayes.likelihood``, ``methods.bayes.refine``). Hidden edges are not counted in a fit's ``n_edges``.
 """
 
 from __future__ import annotations
@@ -62,17 +62,19 @@ def edge_noise_px(b: NDArray[np.float64], box_sigma: float, edge_sigma_px: float
 
 
 def hidden_edges(camera: Camera, b: NDArray[np.float64], border_px: float, censored: ArrayLike | None) -> NDArray[np.bool_]:
-    """The ``censored`` edges (K, 4) of the boxes ``b`` that still say something: finite and off the image border
-    (the object reaches at least that far)."""
-    if censored is None:
-        return np.zeros(b.shape, dtype=bool)
+    """The edges (K, 4) of the boxes ``b`` that bound the object from inside only (the object reaches at least that
+    far): finite ones within ``border_px`` of the image border (truncated), and the ``censored`` ones (hidden by a
+    nearer object)."""
     size = np.array([camera.width, camera.height], dtype=float)
-    seen = np.isfinite(b) & np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
-    return seen & np.asarray(censored, dtype=bool)
+    seen = np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
+    out = np.isfinite(b) & ~seen
+    if censored is not None:
+        out |= np.isfinite(b) & seen & np.asarray(censored, dtype=bool)
+    return out
 
 
 def one_sided_edges(r: NDArray[np.float64], edge_index: NDArray[np.intp]) -> NDArray[np.float64]:
-    """Normalised residuals ``r`` (predicted minus observed, (..., E)) of edges a nearer object hides, with
+    """Normalised residuals ``r`` (predicted minus observed, (..., E)) of hidden edges (:func:`hidden_edges`), with
     ``edge_index`` (E,) their place in a box (0-3: ``x1, y1, x2, y2``), kept only where the prediction falls inside
     the observed edge (the object reaches at least that far behind its occluder; beyond it, the edge says nothing).
 
