@@ -77,7 +77,7 @@ class EllipsoidFit:
         centre under the edge noise model (NaN when singular)
     residuals_px : ndarray, shape (E,), predicted minus observed edge of every used edge, pixels
     sigma_px : ndarray, shape (E,), the noise std of each used edge, pixels (``residuals_px / sigma_px``: normalised)
-    chi2 : float, sum of squared normalised residuals of the used edges
+    chi2 : float, sum of squared normalised residuals of the used edges, and of the hidden edges' one-sided ones
     cost : float, the robust cost minimised
     n_edges : int, edges used
     n_views : int, views with at least one used edge
