@@ -57,6 +57,9 @@ def main(argv: list[str]) -> None:
     sigma = float(argv[4]) if len(argv) > 4 else 0.005
     e = errors_mm(seeds, pose, kind, sigma)  # type: ignore[arg-type]
     found = e[np.isfinite(e)]
+    if not found.size:
+        print(f"{kind}, pose error {pose[0]:g} mm {pose[1]:g} deg: no object in any of {len(e)} runs")
+        return
     print(
         f"{kind}, noise {sigma:g}, pose error {pose[0]:g} mm {pose[1]:g} deg, seeds {seeds.start}-{seeds.stop - 1}: "
         f"no object {int(np.isnan(e).sum())}/{len(e)}; error mean {found.mean():.1f}, p90 {np.percentile(found, 90):.1f}, "

@@ -112,7 +112,9 @@ def test_robust_loss_resists_one_bad_edge() -> None:
         )
 
 
-def test_edges_on_the_image_border_are_left_out() -> None:
+def test_edges_on_the_image_border_are_not_counted_and_do_not_pull() -> None:
+    """A box clipped by the image border: its border edge is not counted in ``n_edges`` and does not pull the fit
+    inward (it counts one-sided); taken at face value, it does."""
     truth = Ellipsoid.spheroid([0.6, 0.03, 0.44], 0.03, 0.05)
     # a view that cuts the fruit at its left border
     T = look_at([0.15, 0.0, 0.44], [0.6, -0.25, 0.44])
@@ -189,8 +191,8 @@ def test_bic_keeps_the_paper_spheres_spheres() -> None:
         fit_shape_by_bic(CAM, P[:1], b, shapes=("spheroid", "ellipsoid"))
 
 
-def test_censored_edges_are_left_out_of_the_fit():
-    """An edge cut by an occluder, flagged as censored, no longer pulls the fit: the cut box's other edges and the
+def test_censored_edges_do_not_pull_the_fit():
+    """An edge cut by an occluder, flagged as censored, counts one-sided and no longer pulls the fit inward: the cut box's other edges and the
     other views fix the spheroid exactly; a flag array of the wrong shape is refused."""
     cam, poses = default_camera(), paper_poses()
     true = Ellipsoid.spheroid([0.6, 0.02, 0.45], 0.022, 0.06)
@@ -224,6 +226,13 @@ def test_a_censored_edge_still_bounds_the_object_from_inside() -> None:
     fit = fit_ellipsoid_to_boxes(CAM, P, short, shape="spheroid", censored=censored, loss="linear")
     assert_allclose(fit.ellipsoid.centre_base, true.centre_base, atol=1e-5)
     assert fit.chi2 < 1e-8
+    # residuals are those of the seen edges, in row-major order, with a hidden edge in the middle of the array
+    noisy = boxes * (1 + np.random.default_rng(3).normal(0, 0.01, boxes.shape))
+    middle = np.zeros(boxes.shape, dtype=bool)
+    middle[1, 1] = True
+    fit = fit_ellipsoid_to_boxes(CAM, P, noisy, shape="spheroid", censored=middle)
+    assert len(fit.residuals_px) == fit.n_edges == boxes.size - 1
+    assert_allclose(fit.residuals_px, (fit.ellipsoid.bbox(CAM, P) - noisy)[~middle], atol=1e-6)
 
 
 def test_an_edge_on_the_image_border_still_bounds_the_object_from_inside() -> None:

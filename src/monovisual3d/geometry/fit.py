@@ -314,7 +314,7 @@ def fit_ellipsoid_to_boxes(
 def _edge_residuals(
     camera: Camera,
     T: NDArray[np.float64],
-    used: NDArray[np.bool_],
+    counted: NDArray[np.bool_],
     observed: NDArray[np.float64],
     sigma: NDArray[np.float64],
     shape: str,
@@ -323,15 +323,16 @@ def _edge_residuals(
     hidden: NDArray[np.bool_] | None = None,
 ) -> tuple[Callable[[NDArray[np.float64]], NDArray[np.float64]], Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
     """The normalised residuals (N, E) of parameter vectors (N, P) and their central-difference Jacobian (E, P) at one;
-    ``hidden`` (E,): the edges that count one-sided (:func:`one_sided_edges`)."""
+    ``counted`` (K, 4): the edges whose residuals are returned, in row-major order; ``hidden`` (E,): those of them
+    that count one-sided (:func:`one_sided_edges`)."""
     R0 = rotation_upright(0.0, u)
     boxes_of = PinholeBoxes(camera, T) if camera.distortion_model == "none" else None
-    edge_index = np.nonzero(used)[1]
+    edge_index = np.nonzero(counted)[1]
 
     def normalised(thetas: NDArray[np.float64]) -> NDArray[np.float64]:
         """Normalised residuals (N, E) of parameter vectors (N, P), all boxes in one batched call."""
         c, s, R = _decode(thetas, shape, u, R0, free_orientation)
-        pred = _predicted_boxes(camera, T, boxes_of, shape, c, s, R)[:, used]
+        pred = _predicted_boxes(camera, T, boxes_of, shape, c, s, R)[:, counted]
         r = (pred - observed) / sigma
         if hidden is not None and hidden.any():
             r = np.where(hidden, one_sided_edges(r, edge_index), r)

@@ -1,5 +1,6 @@
-"""Which box edges a shape fit uses, and how: seen (finite, off the image border), hidden (at the image border, or
-behind a nearer object: one-sided, the object reaches at least that far), and the noise of each.
+"""Which box edges a shape fit uses, and how: seen (finite, off the image border, not hidden by a nearer object),
+hidden (at the image border, or behind a nearer object: one-sided, the object reaches at least that far), and the
+noise of each.
 
 An edge on the image border or one a nearer object hides (``censored``) is not the object's edge, but the object
 continues beyond it, so a prediction inside that edge is wrong while one beyond it says nothing
@@ -50,7 +51,8 @@ def usable_edges(
     n_edges = int(used.sum())
     if n_edges < len(names):
         raise InputError(
-            f"boxes_xyxy: {n_edges} usable box edges (not on the image border) cannot fix the {len(names)} parameters of a {shape}"
+            f"boxes_xyxy: {n_edges} usable box edges (finite, off the image border, not censored) cannot fix the "
+            f"{len(names)} parameters of a {shape}"
         )
     return T, b, used, edge_noise_px(b, box_sigma, edge_sigma_px)[used]
 
@@ -69,14 +71,18 @@ def hidden_edges(camera: Camera, b: NDArray[np.float64], border_px: float, censo
     seen = np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
     out = np.isfinite(b) & ~seen
     if censored is not None:
-        out |= np.isfinite(b) & seen & np.asarray(censored, dtype=bool)
+        cut = np.asarray(censored, dtype=bool)
+        if cut.shape != b.shape:
+            raise InputError(f"censored: got shape {cut.shape}, expected {b.shape} (one flag per box edge)")
+        out |= np.isfinite(b) & seen & cut
     return out
 
 
 def one_sided_edges(r: NDArray[np.float64], edge_index: NDArray[np.intp]) -> NDArray[np.float64]:
     """Normalised residuals ``r`` (predicted minus observed, (..., E)) of hidden edges (:func:`hidden_edges`), with
     ``edge_index`` (E,) their place in a box (0-3: ``x1, y1, x2, y2``), kept only where the prediction falls inside
-    the observed edge (the object reaches at least that far behind its occluder; beyond it, the edge says nothing).
+    the observed edge (the object reaches at least that far, behind its occluder or beyond the image border; a
+    prediction beyond the edge costs nothing).
 
     Examples
     --------

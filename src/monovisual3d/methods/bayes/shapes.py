@@ -6,8 +6,8 @@ associated as what it is. This stage first refits each object, the edges a neare
 (:func:`occlusion_refit`; the extraction's refinement took them as full edges) and, for a sphere, an edge inside its
 prediction taken as a possible cut by an occluder the search does not see (a leaf: :func:`one_sided_refit`), then refines the
 shape: it fits each object's associated boxes with the shape
-model (:func:`monovisual3d.geometry.fit.fit_shape_by_bic`, robust, truncated
-edges left out, an edge a nearer object hides one-sided: the object reaches at least that far):
+model (:func:`monovisual3d.geometry.fit.fit_shape_by_bic`, robust; an edge on the image border or one a nearer
+object hides counts one-sided: the object reaches at least that far):
 
 - ``sphere``: the sphere estimate is kept (the shape fields are filled in);
 - ``spheroid`` / ``ellipsoid``: that model is fitted;
