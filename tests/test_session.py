@@ -595,3 +595,16 @@ def test_far_camera_position_warns_about_millimetres():
     data["views"][0]["pose"]["position"] = [100.0, 0.0, 450.0]
     with pytest.warns(InputWarning, match=r"views\[0\]\.pose\.position: camera 461 m from the base origin; positions are metres"):
         load_session(data)
+
+
+@pytest.mark.parametrize(
+    "box", [[300.0, float("nan"), 340.0, 260.0], [340.0, 220.0, 300.0, 260.0], [300.0, 220.0, 340.0], [0, 0, float("inf"), 5]]
+)
+def test_a_detection_built_in_code_refuses_a_box_no_detector_draws(box: list[float]) -> None:
+    """A ``Detection`` made in code (not read from a file) is checked too: NaN, infinite, inverted or short boxes raise
+    a one-line error naming the field; a box of zero width is kept (a detector may draw one at the image border)."""
+    from monovisual3d.session import Detection
+
+    with pytest.raises(InputError, match=r"^Detection\.bbox_xyxy: got .*expected 4 finite pixel coordinates"):
+        Detection(np.array(box, dtype=float))
+    assert Detection(np.array([5.0, 6.0, 5.0, 9.0])).bbox_xyxy.tolist() == [5.0, 6.0, 5.0, 9.0]

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera import Camera
+from ..errors import InputError
 from ..frames import position_quaternion_from_transform
 
 
@@ -55,6 +56,16 @@ class Detection:
     track: int | None = None
 
     __eq__ = _fields_equal  # ndarray fields: compare by value, not elementwise
+
+    def __post_init__(self) -> None:
+        """Refuse a box that no detector draws (built in code, not read from a file, which checks more): four finite
+        numbers with ``x1 <= x2`` and ``y1 <= y2``."""
+        box = np.asarray(self.bbox_xyxy, dtype=float)
+        if box.shape != (4,) or not np.all(np.isfinite(box)) or box[2] < box[0] or box[3] < box[1]:
+            raise InputError(
+                f"Detection.bbox_xyxy: got {np.asarray(self.bbox_xyxy).tolist()}, expected 4 finite pixel coordinates "
+                "(x1, y1, x2, y2) with x1 <= x2 and y1 <= y2"
+            )
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"bbox_xyxy": [float(v) for v in self.bbox_xyxy]}
