@@ -213,6 +213,9 @@ def test_depthai_sockets_and_ignored_terms(fixtures):
     data["cameraData"][0][1]["distortionCoeff"][8] = 0.002
     with pytest.warns(InputWarning, match=r"ignoring non-zero terms s1 \(max \|value\| 0.002\)"):
         camera_from_depthai(data)
+    data["cameraData"][0][1]["distortionCoeff"] = data["cameraData"][0][1]["distortionCoeff"][:14] + [0.0] * 7 + [0.004]
+    with pytest.warns(InputWarning, match=r"ignoring non-zero terms s1, c21 \(max \|value\| 0.004\)"):  # beyond OpenCV's 14
+        camera_from_depthai(data)
     data["cameraData"][0][1]["cameraType"] = 1
     data["cameraData"][0][1]["distortionCoeff"] = [0.01, -0.02, 0.003, -0.001] + [0.0] * 10
     assert camera_from_depthai(data).distortion_model == "equidistant"

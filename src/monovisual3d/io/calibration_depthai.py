@@ -98,7 +98,8 @@ def _distortion(cam: dict[str, Any], where: str, D: NDArray[np.float64]) -> tupl
         D = np.concatenate([D, np.zeros(n - D.size)])
     tail = D[n:]
     if np.any(tail != 0):
-        names = OPENCV_COEFF_NAMES[n : n + tail.size] if model != "equidistant" else [f"c{i}" for i in range(n, D.size)]
+        known = OPENCV_COEFF_NAMES if model != "equidistant" else ()
+        names = [known[k] if k < len(known) else f"c{k}" for k in range(n, D.size)]  # beyond OpenCV's 14: by index
         warnings.warn(
             InputWarning(
                 f"{where}.distortionCoeff: ignoring non-zero terms {', '.join(names[i] for i in np.flatnonzero(tail))} "
