@@ -41,13 +41,7 @@ def usable_edges(
     b = np.asarray(boxes_xyxy, dtype=float).reshape(-1, 4)
     if len(T) != len(b):
         raise InputError(f"boxes_xyxy: got {len(b)} boxes for {len(T)} poses, expected one box per view")
-    size = np.array([camera.width, camera.height], dtype=float)
-    used = np.isfinite(b) & np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
-    if censored is not None:
-        cut = np.asarray(censored, dtype=bool)
-        if cut.shape != b.shape:
-            raise InputError(f"censored: got shape {cut.shape}, expected {b.shape} (one flag per box edge)")
-        used &= ~cut
+    used = np.isfinite(b) & _off_border(camera, b, border_px) & ~_flags(censored, b)
     n_edges = int(used.sum())
     if n_edges < len(names):
         raise InputError(
@@ -67,15 +61,23 @@ def hidden_edges(camera: Camera, b: NDArray[np.float64], border_px: float, censo
     """The edges (K, 4) of the boxes ``b`` that bound the object from inside only (the object reaches at least that
     far): finite ones within ``border_px`` of the image border (truncated), and the ``censored`` ones (hidden by a
     nearer object)."""
+    return np.isfinite(b) & (~_off_border(camera, b, border_px) | _flags(censored, b))
+
+
+def _off_border(camera: Camera, b: NDArray[np.float64], border_px: float) -> NDArray[np.bool_]:
+    """Which edges (K, 4) of the boxes ``b`` lie more than ``border_px`` inside the image."""
     size = np.array([camera.width, camera.height], dtype=float)
-    seen = np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
-    out = np.isfinite(b) & ~seen
-    if censored is not None:
-        cut = np.asarray(censored, dtype=bool)
-        if cut.shape != b.shape:
-            raise InputError(f"censored: got shape {cut.shape}, expected {b.shape} (one flag per box edge)")
-        out |= np.isfinite(b) & seen & cut
-    return out
+    return np.concatenate([b[:, :2] > border_px, b[:, 2:] < size - border_px], axis=1)
+
+
+def _flags(censored: ArrayLike | None, b: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """The ``censored`` flags (K, 4), one per edge of the boxes ``b`` (none set when None)."""
+    if censored is None:
+        return np.zeros(b.shape, dtype=bool)
+    cut = np.asarray(censored, dtype=bool)
+    if cut.shape != b.shape:
+        raise InputError(f"censored: got shape {cut.shape}, expected {b.shape} (one flag per box edge)")
+    return cut
 
 
 def one_sided_edges(r: NDArray[np.float64], edge_index: NDArray[np.intp]) -> NDArray[np.float64]:
