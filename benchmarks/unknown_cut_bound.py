@@ -23,6 +23,9 @@ Usage: python benchmarks/unknown_cut_bound.py [CONDITION FIRST LAST]   (default 
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.signal import fftconvolve
@@ -93,11 +96,33 @@ def fruit_bound_sq(J: np.ndarray, seen: np.ndarray, usable: np.ndarray, sigma: f
     return float(np.trace(np.linalg.inv(F)[:3, :3]))
 
 
-def main(name: str, seeds: range) -> None:
+@dataclass(frozen=True)
+class FruitBoxes:
+    """One simulated fruit and the boxes it truly has (the simulator's association; views without its box left out).
+
+    ``T_base_optical`` (V, 4, 4) true poses; ``seen`` (V, 4) its visible boxes before noise, ``boxes`` (V, 4) the
+    detector's, ``full`` (V, 4) its unoccluded silhouette boxes (unclipped), pixels; ``J`` (V, 4, P) their derivatives;
+    ``usable`` (V, 4) edges inside the image; ``cut`` (V, 4) edges an occluder cuts; ``known_sq`` the benchmark's
+    known-cut bound (m^2); ``depths`` the usable edges' cut depths in noise-scale units (0: uncut)."""
+
+    ellipsoid: Any
+    radius: float
+    T_base_optical: np.ndarray
+    seen: np.ndarray
+    boxes: np.ndarray
+    full: np.ndarray
+    J: np.ndarray
+    usable: np.ndarray
+    cut: np.ndarray
+    known_sq: float
+    depths: np.ndarray
+
+
+def fruit_boxes(name: str, seeds: range) -> Iterator[FruitBoxes]:
+    """Every fruit seen in some view of the condition ``name``'s sessions for ``seeds``."""
     cond = next(c for c in conditions(False) if c.name == name)
     sigma, camera = cond.noise.box_sigma, default_camera()
-    fruit = []  # per fruit: Jacobians (V, 4, P), visible boxes (V, 4), usable edges (V, 4), known-cut bound (m^2)
-    depths = []
+    size = np.array([camera.width, camera.height], dtype=float)
     for seed in seeds:
         scene = cond.scene(seed)
         _, svs = simulated_session(scene, cond.noise, seed, masks=False)
@@ -108,17 +133,23 @@ def main(name: str, seeds: range) -> None:
             e = obj.ellipsoid
             T = np.array([sv.T_base_optical_true for sv in views])
             seen = np.array([sv.rendering.boxes_xyxy[f] for sv in views], dtype=float)
+            boxes = np.array([np.asarray(sv.boxes_xyxy, dtype=float)[list(sv.source).index(f)] for sv in views])
             full, J = ellipsoid_box_jacobian(camera, T, e, e.shape)
-            size = np.array([camera.width, camera.height], dtype=float)
             inside = np.concatenate([full[:, :2] > BORDER_PX, full[:, 2:] < size - BORDER_PX], axis=1)
             usable = np.isfinite(full) & inside & np.all(np.isfinite(J), axis=2)
             cut = cut_edges(full, seen)
             known = ellipsoid_crlb(camera, T, e, sigma, e.shape, censored=cut, noise_boxes_xyxy=seen).centre_rms_sq
             inward = np.concatenate([seen[:, :2] - full[:, :2], full[:, 2:] - seen[:, 2:]], axis=1)
             scale = sigma * np.concatenate([seen[:, 2:] - seen[:, :2]] * 2, axis=1)
-            depths.append(np.where(cut, inward / scale, 0.0)[usable])
-            fruit.append((J, seen, usable, known))
-    d = np.concatenate(depths)
+            depths = np.where(cut, inward / scale, 0.0)[usable]
+            yield FruitBoxes(e, float(scene.radii[f]), T, seen, boxes, full, J, usable, cut, float(known), depths)
+
+
+def main(name: str, seeds: range) -> None:
+    sigma = next(c for c in conditions(False) if c.name == name).noise.box_sigma
+    records = list(fruit_boxes(name, seeds))
+    fruit = [(b.J, b.seen, b.usable, b.known_sq) for b in records]
+    d = np.concatenate([b.depths for b in records])
     pair, single = mixture_information(d)
     print(
         f"{name} seeds {seeds.start}-{seeds.stop - 1}: {len(fruit)} fruit, {d.size} usable edges, {np.mean(d > 0):.3f} cut; "
