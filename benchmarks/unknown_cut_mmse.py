@@ -14,19 +14,19 @@ units; Lomax: median ``s``), both fitted to the cut depths of calibration seeds.
 radius it reports
 
 - the posterior mean (the estimator of least mean squared error under this model), by importance sampling over a
-  mixture of Student t densities at the posterior's modes, and
-- the posterior mode (MAP: what a robust least-squares fit is), and
+  mixture of Student t densities at the posterior's modes;
+- the posterior mode (MAP: what a robust least-squares fit is);
 - the default method's final sphere fit on the same boxes (``shapes.one_sided_refit``'s loss, the association
   given, started from the truth),
 
 each as its RMS centre error over the benchmark's RMS bound, as the accuracy benchmark computes its ratio. The modes
 are searched from the truth, from that fit and from points 15 and 30 mm nearer and farther than the fit along the
 mean viewing direction: a numerical device only (the posterior mean does not depend on where its modes were found;
-without the truth among the starts it moves by 0.01-0.02 on each seed set).
+without the truth among the starts it moved by 0.00-0.02 on each seed set, as much as with other random draws).
 
 The model is not the simulator exactly (leaves cut neighbouring edges together, and the same side of a fruit in
 nearby views), so the posterior mean here is not a lower bound on every estimator; it is the best this much
-knowledge of the simulator buys, association included.
+knowledge of the simulator buys, association included. Results, on four seed sets: ``docs/accuracy.md``.
 
 Usage: python benchmarks/unknown_cut_mmse.py [CONDITION CAL_FIRST CAL_LAST FIRST LAST]
 (default greenhouse-noise 2000 2040 0 20: the noise statistics from seeds 2000-2039, the fruit of seeds 0-19)
