@@ -43,6 +43,22 @@ TAIL_FROM, CAP = 50.0, 60.0
 PAIR_COVARIANCE = np.array([[1.25, 0.75], [0.75, 1.25]])
 
 
+def pair_noise_density(step: float, pad: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The grid ``ax`` (n,), offsets ``u`` (n, n, 2) and density (n, n) of an axis's two edge offsets under the box noise
+    alone (noise-scale units, :data:`PAIR_COVARIANCE`), on ``[-pad, pad]`` squared in steps of ``step``."""
+    ax = np.arange(-pad, pad + step / 2, step)
+    u = np.stack(np.meshgrid(ax, ax, indexing="ij"), axis=-1)
+    inv = np.linalg.inv(PAIR_COVARIANCE)
+    density = np.exp(-0.5 * np.einsum("...i,ij,...j->...", u, inv, u)) / (2 * np.pi * np.sqrt(np.linalg.det(PAIR_COVARIANCE)))
+    return ax, u, density
+
+
+def edge_noise_density(x: np.ndarray) -> np.ndarray:
+    """Density of one edge's offset ``x`` (noise-scale units) under the box noise alone."""
+    var = PAIR_COVARIANCE[0, 0]
+    return np.exp(-0.5 * x**2 / var) / np.sqrt(2 * np.pi * var)
+
+
 def mixture_information(depths: np.ndarray) -> tuple[np.ndarray, float]:
     """Fisher information (noise-scale units) of an axis's two edge locations (2, 2) and of one edge alone, when each
     edge is cut inward by a depth drawn from ``depths`` (samples, 0: uncut), independently."""
@@ -51,10 +67,8 @@ def mixture_information(depths: np.ndarray) -> tuple[np.ndarray, float]:
     d[far] = TAIL_FROM + (CAP - TAIL_FROM) * (np.arange(far.sum()) + 0.5) / max(far.sum(), 1)
     g = np.bincount(np.rint(d / STEP).astype(int)).astype(float)
     g /= g.sum()
-    ax = np.arange(-PAD, PAD + STEP / 2, STEP)
-    u = np.stack(np.meshgrid(ax, ax, indexing="ij"), axis=-1)
+    _, u, density = pair_noise_density(STEP, PAD)
     inv = np.linalg.inv(PAIR_COVARIANCE)
-    density = np.exp(-0.5 * np.einsum("...i,ij,...j->...", u, inv, u)) / (2 * np.pi * np.sqrt(np.linalg.det(PAIR_COVARIANCE)))
     mass = density * STEP**2
     slope = -np.einsum("ij,...j->...i", inv, u) * mass[..., None]
     cuts = np.outer(g, g[::-1])  # the first edge moves in by +depth, the second by -depth
@@ -64,7 +78,7 @@ def mixture_information(depths: np.ndarray) -> tuple[np.ndarray, float]:
     pair = np.array([[np.sum(a[ok] * b[ok] / p[ok]) for b in grads] for a in grads])
     var = PAIR_COVARIANCE[0, 0]
     x = np.arange(-1.2 * PAD, 1.2 * PAD + STEP / 2, STEP)
-    m1 = np.exp(-0.5 * x**2 / var) / np.sqrt(2 * np.pi * var) * STEP
+    m1 = edge_noise_density(x) * STEP
     p1, s1 = np.convolve(g, m1), np.convolve(g, -x / var * m1)
     ok1 = p1 > 1e-300
     return pair, float(np.sum(s1[ok1] ** 2 / p1[ok1]))

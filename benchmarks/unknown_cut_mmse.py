@@ -41,7 +41,7 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.signal import fftconvolve
 from scipy.stats import multivariate_t
-from unknown_cut_bound import PAIR_COVARIANCE, FruitBoxes, fruit_boxes
+from unknown_cut_bound import FruitBoxes, edge_noise_density, fruit_boxes, pair_noise_density
 
 from monovisual3d.bench.accuracy import conditions
 from monovisual3d.camera import Camera
@@ -92,15 +92,11 @@ class EdgeDensity:
         self.model = model
         d = STEP * np.arange(int(TABLE_CUT / STEP) + 1)
         g = np.where(d > 0, model.p_cut * model.s / (model.s + d) ** 2 * STEP, 1.0 - model.p_cut)
-        ax = np.arange(-NOISE_PAD, NOISE_PAD + STEP / 2, STEP)
-        u = np.stack(np.meshgrid(ax, ax, indexing="ij"), axis=-1)
-        inv = np.linalg.inv(PAIR_COVARIANCE)
-        noise = np.exp(-0.5 * np.einsum("...i,ij,...j->...", u, inv, u)) / (2 * np.pi * np.sqrt(np.linalg.det(PAIR_COVARIANCE)))
+        ax, _, noise = pair_noise_density(STEP, NOISE_PAD)
         pair = fftconvolve(np.outer(g, g[::-1]), noise)
         self.pair = np.log(np.maximum(pair, 1e-300))
         self.first0, self.second0 = -NOISE_PAD, -(TABLE_CUT + NOISE_PAD)
-        var = PAIR_COVARIANCE[0, 0]
-        self.single = np.log(np.maximum(np.convolve(g, np.exp(-0.5 * ax**2 / var) / np.sqrt(2 * np.pi * var)), 1e-300))
+        self.single = np.log(np.maximum(np.convolve(g, edge_noise_density(ax)), 1e-300))
         self.deep = TABLE_CUT  # beyond this an offset is a deep cut
 
     def alone(self, u: np.ndarray) -> np.ndarray:
