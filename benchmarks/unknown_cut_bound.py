@@ -117,8 +117,11 @@ class FruitBoxes:
     ``T_base_optical`` (V, 4, 4) true poses; ``seen`` (V, 4) its visible boxes before noise, ``boxes`` (V, 4) the
     detector's, ``full`` (V, 4) its unoccluded silhouette boxes (unclipped), pixels; ``J`` (V, 4, P) their derivatives;
     ``usable`` (V, 4) edges inside the image; ``cut`` (V, 4) edges an occluder cuts; ``known_sq`` the benchmark's
-    known-cut bound (m^2); ``depths`` the usable edges' cut depths in noise-scale units (0: uncut)."""
+    known-cut bound (m^2); ``depths`` the usable edges' cut depths in noise-scale units (0: uncut); ``seed`` and
+    ``index`` (in ``scene.fruits``) say which fruit it is."""
 
+    seed: int
+    index: int
     ellipsoid: Any
     radius: float
     T_base_optical: np.ndarray
@@ -156,7 +159,7 @@ def fruit_boxes(name: str, seeds: range) -> Iterator[FruitBoxes]:
             inward = np.concatenate([seen[:, :2] - full[:, :2], full[:, 2:] - seen[:, 2:]], axis=1)
             scale = sigma * np.concatenate([seen[:, 2:] - seen[:, :2]] * 2, axis=1)
             depths = np.where(cut, inward / scale, 0.0)[usable]
-            yield FruitBoxes(e, float(scene.radii[f]), T, seen, boxes, full, J, usable, cut, float(known), depths)
+            yield FruitBoxes(seed, f, e, float(scene.radii[f]), T, seen, boxes, full, J, usable, cut, float(known), depths)
 
 
 def main(name: str, seeds: range) -> None:

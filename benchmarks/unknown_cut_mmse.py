@@ -3,15 +3,16 @@
 The ``greenhouse-noise`` row's bound (:func:`monovisual3d.bench.accuracy.cut_crlb_rms_sq`) is told which box edges
 leaves cut. ``unknown_cut_bound.py`` shows that not being told costs only about 3 % of Fisher information; but the
 Fisher information is local, and the fruit that keep the default method above the bound are fruit whose boxes, cut
-by 2-4 sigmas on several edges, are explained better by a sphere 15-25 mm away than by the true one (the threshold
-effect, which no local bound sees). This script measures what the best estimator does on those very boxes.
+a few noise scales deep on several edges, are explained better by a sphere 10-40 mm away than by the true one (the
+threshold effect, which no local bound sees; the script prints such fruit). It measures what the best estimator does
+on those very boxes.
 
 Per fruit it is told the true association (the boxes the simulator gave that fruit) and the statistics of the
 simulator, not which edges are cut. Its likelihood is the simulator's box noise (an axis's two edges with the
 centre-and-size covariance of ``unknown_cut_bound.PAIR_COVARIANCE``, scaled by the observed box) convolved with an
 independent inward cut of each edge: with probability ``p_cut`` a depth with density ``s / (s + d)^2`` (noise-scale
-units; Lomax: median ``s``), both fitted to the cut depths of calibration seeds. Under a flat prior on centre and
-radius it reports
+units, one noise scale being ``box_sigma`` times the box's size; Lomax: median ``s``), both fitted to the cut depths
+of calibration seeds. Its prior is flat in the centre and uniform over the simulator's fruit radii. It reports
 
 - the posterior mean (the estimator of least mean squared error under this model), by importance sampling over a
   mixture of Student t densities at the posterior's modes;
@@ -19,23 +20,26 @@ radius it reports
 - the default method's final sphere fit on the same boxes (``shapes.one_sided_refit``'s loss, the association
   given, started from the truth),
 
-each as its RMS centre error over the benchmark's RMS bound, as the accuracy benchmark computes its ratio. The modes
-are searched from the truth, from that fit and from points 15 and 30 mm nearer and farther than the fit along the
-mean viewing direction: a numerical device only (the posterior mean does not depend on where its modes were found;
-without the truth among the starts it moved by 0.00-0.02 on each seed set, as much as with other random draws).
+each as its RMS centre error over the benchmark's RMS bound, as the accuracy benchmark computes its ratio, per seed set
+and pooled (sums of squared errors over sums of squared bounds), and for the fruit whose default fit lies farthest
+above its bound, the default's loss and the log posterior at the truth and at their optimum. The modes are searched
+from the truth, from that fit and from points 15 and 30 mm nearer and farther than the fit along the mean viewing
+direction: a numerical device only (the posterior mean does not depend on where its modes were found).
 
 The model is not the simulator exactly (leaves cut neighbouring edges together, and the same side of a fruit in
-nearby views), so the posterior mean here is not a lower bound on every estimator; it is the best this much
-knowledge of the simulator buys, association included. Results, on four seed sets: ``docs/accuracy.md``.
+nearby views; fruit that other detected fruit hide are cuts to it), so the posterior mean here is not a lower bound on
+every estimator; it is the best this much knowledge of the simulator buys, association included. Results, on four
+seed sets: ``docs/accuracy.md``.
 
-Usage: python benchmarks/unknown_cut_mmse.py [CONDITION CAL_FIRST CAL_LAST FIRST LAST]
-(default greenhouse-noise 2000 2040 0 20: the noise statistics from seeds 2000-2039, the fruit of seeds 0-19)
+Usage: python benchmarks/unknown_cut_mmse.py [CONDITION CAL_FIRST CAL_LAST FIRST:LAST [FIRST:LAST ...]]
+(default greenhouse-noise 2000 2040 0:20: the cut statistics from seeds 2000-2039, the fruit of seeds 0-19)
 """
 
 from __future__ import annotations
 
 import sys
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
@@ -49,9 +53,9 @@ from monovisual3d.frames import invert_transform
 from monovisual3d.geometry.bounds import BORDER_PX
 from monovisual3d.geometry.sphere import pinhole_sphere_boxes
 from monovisual3d.methods.bayes.config import BayesConfig
-from monovisual3d.methods.bayes.refine import Observation, refine_sphere
+from monovisual3d.methods.bayes.refine import Observation, one_sided_residuals, refine_sphere, residuals
 from monovisual3d.methods.bayes.sensor import SensorModel, censored_edges
-from monovisual3d.sim.scenes import default_camera
+from monovisual3d.sim.scenes import GREENHOUSE_RADIUS_RANGE, default_camera
 
 #: Grid step of the density tables and the noise's half-width on them, noise-scale units.
 STEP, NOISE_PAD = 0.1, 8.0
@@ -64,6 +68,8 @@ N_SAMPLES, T_DOF, INFLATE = 20_000, 4.0, 2.0
 DEPTH_STARTS_M = (-0.03, -0.015, 0.015, 0.03)
 #: Two modes closer than this (metres) are one.
 SAME_MODE_M = 1e-3
+#: Fruit shown per seed set: those whose default fit lies farthest above their bound.
+WORST_SHOWN = 3
 
 
 @dataclass(frozen=True)
@@ -97,17 +103,23 @@ class EdgeDensity:
         self.pair = np.log(np.maximum(pair, 1e-300))
         self.first0, self.second0 = -NOISE_PAD, -(TABLE_CUT + NOISE_PAD)
         self.single = np.log(np.maximum(np.convolve(g, edge_noise_density(ax)), 1e-300))
-        self.deep = TABLE_CUT  # beyond this an offset is a deep cut
+        self.deep = TABLE_CUT - NOISE_PAD  # beyond this an offset is a deep cut (the tables hold its whole noise below)
 
     def alone(self, u: np.ndarray) -> np.ndarray:
-        """Log density of one edge's inward offset ``u``."""
-        i = np.clip(np.rint((u + NOISE_PAD) / STEP).astype(int), 0, len(self.single) - 1)
-        return np.where(u > self.deep, self.model.log_deep(u), self.single[i])
+        """Log density of one edge's inward offset ``u`` (linear between the table's points)."""
+        grid = -NOISE_PAD + STEP * np.arange(len(self.single))
+        return np.where(u > self.deep, self.model.log_deep(u), np.interp(u, grid, self.single))
 
     def both(self, u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
-        """Log density of the two edges' offsets ``u1`` (first edge) and ``u2`` (second)."""
-        i = np.clip(np.rint((u1 - self.first0) / STEP).astype(int), 0, self.pair.shape[0] - 1)
-        j = np.clip(np.rint((u2 - self.second0) / STEP).astype(int), 0, self.pair.shape[1] - 1)
+        """Log density of the two edges' offsets ``u1`` (first edge) and ``u2`` (second), bilinear between the table's
+        points."""
+        fi = np.clip((u1 - self.first0) / STEP, 0, self.pair.shape[0] - 1.001)
+        fj = np.clip((u2 - self.second0) / STEP, 0, self.pair.shape[1] - 1.001)
+        i, j = fi.astype(int), fj.astype(int)
+        a, b = fi - i, fj - j
+        table = (1 - a) * ((1 - b) * self.pair[i, j] + b * self.pair[i, j + 1]) + a * (
+            (1 - b) * self.pair[i + 1, j] + b * self.pair[i + 1, j + 1]
+        )
         deep1, deep2 = u1 > self.deep, -u2 > self.deep
         return np.where(
             deep1 & deep2,
@@ -115,13 +127,17 @@ class EdgeDensity:
             np.where(
                 deep1,
                 self.model.log_deep(u1) + self.alone(-u2),
-                np.where(deep2, self.model.log_deep(-u2) + self.alone(u1), self.pair[i, j]),
+                np.where(deep2, self.model.log_deep(-u2) + self.alone(u1), table),
             ),
         )
 
 
 class FruitPosterior:
-    """Log posterior (flat prior) of a sphere ``(x, y, z, r)`` (base frame, metres) given one fruit's boxes."""
+    """Log posterior of a sphere ``(x, y, z, r)`` (base frame, metres) given one fruit's boxes: flat in the centre,
+    the radius uniform over the simulator's :data:`~monovisual3d.sim.scenes.GREENHOUSE_RADIUS_RANGE`.
+
+    The prediction is clipped to the image, as the simulator clips a fruit's visible box before its noise; an observed
+    edge on the image border (clipped again after the noise) is left out."""
 
     def __init__(self, camera: Camera, fruit: FruitBoxes, density: EdgeDensity, box_sigma: float) -> None:
         T = np.array([invert_transform(T_bo) for T_bo in fruit.T_base_optical])
@@ -133,9 +149,16 @@ class FruitPosterior:
     def __call__(self, P: np.ndarray) -> np.ndarray:
         """Log posterior (N,) of parameter rows ``P`` (N, 4), up to a constant."""
         P = np.atleast_2d(P)
+        r_min, r_max = GREENHOUSE_RADIUS_RANGE
+        return np.where((P[:, 3] >= r_min) & (P[:, 3] <= r_max), self.log_likelihood(P), -np.inf)
+
+    def log_likelihood(self, P: np.ndarray) -> np.ndarray:
+        """Log likelihood (N,) of parameter rows ``P`` (N, 4), up to a constant (-inf for a sphere behind a camera)."""
+        P = np.atleast_2d(P)
         p_optical = np.einsum("mij,pj->pmi", self.R, P[:, :3]) + self.t
         with np.errstate(invalid="ignore", divide="ignore"):
             pred = pinhole_sphere_boxes(self.camera, p_optical, P[:, 3:4])
+        pred = np.clip(pred, 0.0, np.array([self.camera.width, self.camera.height] * 2, dtype=float))
         u = (self.boxes - pred) / self.scale
         impossible = ~np.all(np.isfinite(u), axis=(1, 2))  # a sphere reaching behind a camera
         u = np.where(np.isfinite(u), u, 0.0)
@@ -158,26 +181,32 @@ class FruitPosterior:
 def _mode(post: FruitPosterior, start: np.ndarray) -> tuple[np.ndarray, float]:
     """A local maximum of ``post`` from ``start`` and its log posterior."""
     simplex = start + np.vstack([np.zeros(4), np.eye(4) * 0.003])
-    res = minimize(
-        lambda x: -float(post(x)[0]),
-        start,
-        method="Nelder-Mead",
-        options={"xatol": 1e-5, "fatol": 1e-4, "maxiter": 4000, "initial_simplex": simplex},
-    )
+    with np.errstate(invalid="ignore"):  # a simplex with corners outside the prior (-inf)
+        res = minimize(
+            lambda x: -float(post(x)[0]),
+            start,
+            method="Nelder-Mead",
+            options={"xatol": 1e-5, "fatol": 1e-4, "maxiter": 4000, "initial_simplex": simplex},
+        )
     return res.x, -float(res.fun)
 
 
-def _laplace(post: FruitPosterior, x: np.ndarray, h: float = 2e-4) -> np.ndarray:
-    """The posterior's covariance at the mode ``x`` (Laplace), its variances clipped to 0.5-30 mm squared."""
+def _laplace(post: FruitPosterior, x: np.ndarray, h: float = 1e-3) -> np.ndarray:
+    """The posterior's covariance at the mode ``x`` (Laplace: the likelihood's curvature over ``h`` metres; the radius
+    prior's bounds left out), its standard deviations clipped to 0.5-30 mm (a direction of no or negative curvature gets
+    the widest)."""
     n, H = len(x), np.zeros((len(x), len(x)))
     E = np.eye(n) * h
     for a in range(n):
         for b in range(n):
             pts = np.array([x + E[a] + E[b], x + E[a] - E[b], x - E[a] + E[b], x - E[a] - E[b]])
-            f = post(pts)
+            f = post.log_likelihood(pts)
             H[a, b] = (f[0] - f[1] - f[2] + f[3]) / (4 * h * h)
-    w, V = np.linalg.eigh(np.linalg.pinv(-H))
-    return V @ np.diag(np.clip(w, 5e-4**2, 0.03**2)) @ V.T
+    if not np.all(np.isfinite(H)):
+        return np.diag(np.full(len(x), 0.03**2))
+    curvature, V = np.linalg.eigh(-(H + H.T) / 2)
+    variance = np.where(curvature > 0, 1.0 / np.maximum(curvature, 1e-300), np.inf)
+    return V @ np.diag(np.clip(variance, 5e-4**2, 0.03**2)) @ V.T
 
 
 def posterior_mean(
@@ -199,51 +228,89 @@ def posterior_mean(
     return (w[:, None] * S).sum(axis=0) / w.sum(), modes[0][0], float(w.sum() ** 2 / (w**2).sum())
 
 
-def default_fit(camera: Camera, fruit: FruitBoxes, truth: np.ndarray) -> np.ndarray:
+def default_fit(camera: Camera, fruit: FruitBoxes, truth: np.ndarray) -> tuple[np.ndarray, float, float]:
     """``(x, y, z, r)`` of the default method's final sphere fit (:func:`monovisual3d.methods.bayes.shapes.one_sided_refit`'s
-    loss) on the fruit's boxes, from ``truth``."""
+    loss) on the fruit's boxes, from ``truth``, and that loss (nats) at the fit and at the truth."""
     obs = [Observation(invert_transform(T_bo), box) for T_bo, box in zip(fruit.T_base_optical, fruit.boxes)]
     floors = (BayesConfig.cut_inward_floor, SensorModel.outward_floor)
     fit = refine_sphere(camera, obs, truth[:3], float(truth[3]), SensorModel(), use_masks=False, floors=floors)
-    return np.append(fit.centre, fit.radius)
+    at_truth = one_sided_residuals(residuals(np.append(truth[:3], np.log(truth[3])), camera, obs, SensorModel(), False), *floors)
+    return np.append(fit.centre, fit.radius), fit.cost, 0.5 * float(np.sum(at_truth**2))
 
 
-def main(name: str, calibration: range, seeds: range) -> None:
+def fruit_row(camera: Camera, fruit: FruitBoxes, density: EdgeDensity, sigma: float, rng: np.random.Generator) -> dict[str, Any]:
+    """One fruit's squared errors (m^2) of the posterior mean, the posterior mode and the default's fit, its bound, the
+    effective sample size, and what the two objectives say of the truth against their optimum."""
+    post = FruitPosterior(camera, fruit, density, sigma)
+    truth = np.append(fruit.ellipsoid.centre_base, fruit.radius)
+    look = fruit.T_base_optical[:, :3, 2].mean(axis=0)
+    look /= np.linalg.norm(look)
+    dist = np.linalg.norm(fruit.T_base_optical[:, :3, 3] - truth[:3], axis=1).mean()
+    fit, cost_fit, cost_truth = default_fit(camera, fruit, truth)
+    starts = [truth, fit] + [fit + np.append(look * dz, fit[3] * dz / dist) for dz in DEPTH_STARTS_M]
+    mean, mode, ess = posterior_mean(post, starts, rng)
+    e_mean, e_mode, e_fit = (float(np.sum((x[:3] - truth[:3]) ** 2)) for x in (mean, mode, fit))
+    return {
+        "fruit": (fruit.seed, fruit.index, len(fruit.boxes)),
+        "mean": e_mean,
+        "mode": e_mode,
+        "fit": e_fit,
+        "bound": fruit.known_sq,
+        "ess": ess,
+        "loss": (cost_truth, cost_fit),
+        "log_posterior": (float(post(truth)[0]), float(post(mode)[0])),
+    }
+
+
+def _ratio(rows: list[dict[str, Any]], key: str) -> float:
+    return float(np.sqrt(sum(r[key] for r in rows) / sum(r["bound"] for r in rows)))
+
+
+def report(label: str, rows: list[dict[str, Any]]) -> None:
+    """Print the ratios of ``rows`` and the fruit whose default fit is farthest above its bound."""
+    ess = np.array([r["ess"] for r in rows])
+    print(
+        f"{label}, {len(rows)} fruit: RMS over the known-cut bound ({1e3 * np.sqrt(np.mean([r['bound'] for r in rows])):.2f} mm): "
+        f"posterior mean {_ratio(rows, 'mean'):.3f}, posterior mode {_ratio(rows, 'mode'):.3f}, the default's final loss "
+        f"fitted from the truth {_ratio(rows, 'fit'):.3f} (effective samples median {np.median(ess):.0f}, least {ess.min():.0f})"
+    )
+    for r in sorted(rows, key=lambda r: r["bound"] - r["fit"])[:WORST_SHOWN]:
+        seed, index, views = r["fruit"]
+        print(
+            f"  seed {seed} fruit {index} ({views} views): error mean / mode / fit "
+            f"{1e3 * np.sqrt(r['mean']):.1f} / {1e3 * np.sqrt(r['mode']):.1f} / {1e3 * np.sqrt(r['fit']):.1f} mm, bound "
+            f"{1e3 * np.sqrt(r['bound']):.1f} mm; the default's loss at the truth {r['loss'][0]:.1f} nats, at its fit "
+            f"{r['loss'][1]:.1f}; log posterior at the truth {r['log_posterior'][0]:.1f}, at the mode {r['log_posterior'][1]:.1f}"
+        )
+
+
+def main(name: str, calibration: range, seed_sets: list[range]) -> None:
     cond = next(c for c in conditions(False) if c.name == name)
     camera, sigma = default_camera(), cond.noise.box_sigma
     model = CutModel.fit(np.concatenate([b.depths for b in fruit_boxes(name, calibration)]))
     density = EdgeDensity(model)
     rng = np.random.default_rng(0)
-    rows = []
-    for fruit in fruit_boxes(name, seeds):
-        if not np.isfinite(fruit.known_sq):  # the benchmark's own exclusions
-            continue
-        post = FruitPosterior(camera, fruit, density, sigma)
-        truth = np.append(fruit.ellipsoid.centre_base, fruit.radius)
-        look = fruit.T_base_optical[:, :3, 2].mean(axis=0)
-        look /= np.linalg.norm(look)
-        dist = np.linalg.norm(fruit.T_base_optical[:, :3, 3] - truth[:3], axis=1).mean()
-        fit = default_fit(camera, fruit, truth)
-        starts = [truth, fit] + [fit + np.append(look * dz, fit[3] * dz / dist) for dz in DEPTH_STARTS_M]
-        mean, mode, ess = posterior_mean(post, starts, rng)
-        errors = [np.sum((x[:3] - truth[:3]) ** 2) for x in (mean, mode, fit)]
-        rows.append((*errors, fruit.known_sq, ess))
-    e_mean, e_mode, e_fit, bound, ess = np.array(rows).T
     print(
-        f"{name} seeds {seeds.start}-{seeds.stop - 1}, {len(rows)} fruit; cut model from seeds "
-        f"{calibration.start}-{calibration.stop - 1}: p_cut {model.p_cut:.3f}, median depth {model.s:.1f} noise scales"
+        f"{name}: cut model from seeds {calibration.start}-{calibration.stop - 1}: p_cut {model.p_cut:.3f}, "
+        f"median depth {model.s:.1f} noise scales"
     )
-    print(
-        f"RMS over the known-cut bound ({1e3 * np.sqrt(bound.mean()):.2f} mm): posterior mean "
-        f"{np.sqrt(e_mean.mean() / bound.mean()):.3f}, posterior mode {np.sqrt(e_mode.mean() / bound.mean()):.3f}, "
-        f"the default's one-sided fit {np.sqrt(e_fit.mean() / bound.mean()):.3f} "
-        f"(importance sampling: effective samples median {np.median(ess):.0f}, least {ess.min():.0f})"
-    )
+    pooled = []
+    for seeds in seed_sets:
+        rows = [fruit_row(camera, f, density, sigma, rng) for f in fruit_boxes(name, seeds) if np.isfinite(f.known_sq)]
+        report(f"seeds {seeds.start}-{seeds.stop - 1}", rows)
+        pooled += rows
+    if len(seed_sets) > 1:
+        report("pooled", pooled)
+
+
+def _seed_range(text: str) -> range:
+    first, last = (int(v) for v in text.split(":"))
+    return range(first, last)
 
 
 if __name__ == "__main__":
     a = sys.argv[1:]
     if a:
-        main(a[0], range(int(a[1]), int(a[2])), range(int(a[3]), int(a[4])))
+        main(a[0], range(int(a[1]), int(a[2])), [_seed_range(t) for t in a[3:]])
     else:
-        main("greenhouse-noise", range(2000, 2040), range(0, 20))
+        main("greenhouse-noise", range(2000, 2040), [range(0, 20)])
