@@ -31,8 +31,9 @@ nearby views; fruit that other detected fruit hide are cuts to it), so the poste
 every estimator; it is the best this much knowledge of the simulator buys, association included. Results, on four
 seed sets: ``docs/accuracy.md``.
 
-Usage: python benchmarks/unknown_cut_mmse.py [CONDITION CAL_FIRST CAL_LAST FIRST:LAST [FIRST:LAST ...]]
-(default greenhouse-noise 2000 2040 0:20: the cut statistics from seeds 2000-2039, the fruit of seeds 0-19)
+Usage: python benchmarks/unknown_cut_mmse.py [CONDITION CAL_FIRST CAL_LAST FIRST:LAST [FIRST:LAST ...]] [--flat-radius]
+(default greenhouse-noise 2000 2040 0:20: the cut statistics from seeds 2000-2039, the fruit of seeds 0-19;
+``--flat-radius``: no radius prior, as the default method knows none)
 """
 
 from __future__ import annotations
@@ -134,12 +135,21 @@ class EdgeDensity:
 
 class FruitPosterior:
     """Log posterior of a sphere ``(x, y, z, r)`` (base frame, metres) given one fruit's boxes: flat in the centre,
-    the radius uniform over the simulator's :data:`~monovisual3d.sim.scenes.GREENHOUSE_RADIUS_RANGE`.
+    the radius uniform over ``radius_range`` (default the simulator's :data:`~monovisual3d.sim.scenes.GREENHOUSE_RADIUS_RANGE`;
+    None: flat, as the default method knows no more).
 
     The prediction is clipped to the image, as the simulator clips a fruit's visible box before its noise; an observed
     edge on the image border (clipped again after the noise) is left out."""
 
-    def __init__(self, camera: Camera, fruit: FruitBoxes, density: EdgeDensity, box_sigma: float) -> None:
+    def __init__(
+        self,
+        camera: Camera,
+        fruit: FruitBoxes,
+        density: EdgeDensity,
+        box_sigma: float,
+        radius_range: tuple[float, float] | None = GREENHOUSE_RADIUS_RANGE,
+    ) -> None:
+        self.radius_range = radius_range
         T = np.array([invert_transform(T_bo) for T_bo in fruit.T_base_optical])
         self.R, self.t, self.camera, self.density = T[:, :3, :3], T[:, :3, 3], camera, density
         self.boxes = fruit.boxes
@@ -149,7 +159,9 @@ class FruitPosterior:
     def __call__(self, P: np.ndarray) -> np.ndarray:
         """Log posterior (N,) of parameter rows ``P`` (N, 4), up to a constant."""
         P = np.atleast_2d(P)
-        r_min, r_max = GREENHOUSE_RADIUS_RANGE
+        if self.radius_range is None:
+            return self.log_likelihood(P)
+        r_min, r_max = self.radius_range
         return np.where((P[:, 3] >= r_min) & (P[:, 3] <= r_max), self.log_likelihood(P), -np.inf)
 
     def log_likelihood(self, P: np.ndarray) -> np.ndarray:
@@ -238,10 +250,12 @@ def default_fit(camera: Camera, fruit: FruitBoxes, truth: np.ndarray) -> tuple[n
     return np.append(fit.centre, fit.radius), fit.cost, 0.5 * float(np.sum(at_truth**2))
 
 
-def fruit_row(camera: Camera, fruit: FruitBoxes, density: EdgeDensity, sigma: float, rng: np.random.Generator) -> dict[str, Any]:
+def fruit_row(
+    camera: Camera, fruit: FruitBoxes, density: EdgeDensity, sigma: float, rng: np.random.Generator, radius_prior: bool
+) -> dict[str, Any]:
     """One fruit's squared errors (m^2) of the posterior mean, the posterior mode and the default's fit, its bound, the
     effective sample size, and what the two objectives say of the truth against their optimum."""
-    post = FruitPosterior(camera, fruit, density, sigma)
+    post = FruitPosterior(camera, fruit, density, sigma, GREENHOUSE_RADIUS_RANGE if radius_prior else None)
     truth = np.append(fruit.ellipsoid.centre_base, fruit.radius)
     look = fruit.T_base_optical[:, :3, 2].mean(axis=0)
     look /= np.linalg.norm(look)
@@ -284,7 +298,7 @@ def report(label: str, rows: list[dict[str, Any]]) -> None:
         )
 
 
-def main(name: str, calibration: range, seed_sets: list[range]) -> None:
+def main(name: str, calibration: range, seed_sets: list[range], radius_prior: bool = True) -> None:
     cond = next(c for c in conditions(False) if c.name == name)
     camera, sigma = default_camera(), cond.noise.box_sigma
     model = CutModel.fit(np.concatenate([b.depths for b in fruit_boxes(name, calibration)]))
@@ -292,11 +306,13 @@ def main(name: str, calibration: range, seed_sets: list[range]) -> None:
     rng = np.random.default_rng(0)
     print(
         f"{name}: cut model from seeds {calibration.start}-{calibration.stop - 1}: p_cut {model.p_cut:.3f}, "
-        f"median depth {model.s:.1f} noise scales"
+        f"median depth {model.s:.1f} noise scales; radius prior {GREENHOUSE_RADIUS_RANGE if radius_prior else 'flat'}"
     )
     pooled = []
     for seeds in seed_sets:
-        rows = [fruit_row(camera, f, density, sigma, rng) for f in fruit_boxes(name, seeds) if np.isfinite(f.known_sq)]
+        rows = [
+            fruit_row(camera, f, density, sigma, rng, radius_prior) for f in fruit_boxes(name, seeds) if np.isfinite(f.known_sq)
+        ]
         report(f"seeds {seeds.start}-{seeds.stop - 1}", rows)
         pooled += rows
     if len(seed_sets) > 1:
@@ -309,8 +325,9 @@ def _seed_range(text: str) -> range:
 
 
 if __name__ == "__main__":
-    a = sys.argv[1:]
+    a = [v for v in sys.argv[1:] if v != "--flat-radius"]
+    prior = "--flat-radius" not in sys.argv[1:]
     if a:
-        main(a[0], range(int(a[1]), int(a[2])), [_seed_range(t) for t in a[3:]])
+        main(a[0], range(int(a[1]), int(a[2])), [_seed_range(t) for t in a[3:]], prior)
     else:
-        main("greenhouse-noise", range(2000, 2040), [range(0, 20)])
+        main("greenhouse-noise", range(2000, 2040), [range(0, 20)], prior)
