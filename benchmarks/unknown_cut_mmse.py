@@ -207,13 +207,10 @@ def _laplace(post: FruitPosterior, x: np.ndarray, h: float = 1e-3) -> np.ndarray
     """The posterior's covariance at the mode ``x`` (Laplace: the likelihood's curvature over ``h`` metres; the radius
     prior's bounds left out), its standard deviations clipped to 0.5-30 mm (a direction of no or negative curvature gets
     the widest)."""
-    n, H = len(x), np.zeros((len(x), len(x)))
-    E = np.eye(n) * h
-    for a in range(n):
-        for b in range(n):
-            pts = np.array([x + E[a] + E[b], x + E[a] - E[b], x - E[a] + E[b], x - E[a] - E[b]])
-            f = post.log_likelihood(pts)
-            H[a, b] = (f[0] - f[1] - f[2] + f[3]) / (4 * h * h)
+    E = np.eye(len(x)) * h
+    pp, pm = E[:, None] + E[None], E[:, None] - E[None]  # (n, n, 4): the four corners of each pair, in one call
+    f = post.log_likelihood((x + np.stack([pp, pm, -pm, -pp], axis=2)).reshape(-1, len(x))).reshape(len(x), len(x), 4)
+    H = (f[..., 0] - f[..., 1] - f[..., 2] + f[..., 3]) / (4 * h * h)
     if not np.all(np.isfinite(H)):
         return np.diag(np.full(len(x), 0.03**2))
     curvature, V = np.linalg.eigh(-(H + H.T) / 2)
@@ -244,9 +241,10 @@ def default_fit(camera: Camera, fruit: FruitBoxes, truth: np.ndarray) -> tuple[n
     """``(x, y, z, r)`` of the default method's final sphere fit (:func:`monovisual3d.methods.bayes.shapes.one_sided_refit`'s
     loss) on the fruit's boxes, from ``truth``, and that loss (nats) at the fit and at the truth."""
     obs = [Observation(invert_transform(T_bo), box) for T_bo, box in zip(fruit.T_base_optical, fruit.boxes)]
-    floors = (BayesConfig.cut_inward_floor, SensorModel.outward_floor)
-    fit = refine_sphere(camera, obs, truth[:3], float(truth[3]), SensorModel(), use_masks=False, floors=floors)
-    at_truth = one_sided_residuals(residuals(np.append(truth[:3], np.log(truth[3])), camera, obs, SensorModel(), False), *floors)
+    sensor = SensorModel()
+    floors = (BayesConfig.cut_inward_floor, sensor.outward_floor)
+    fit = refine_sphere(camera, obs, truth[:3], float(truth[3]), sensor, use_masks=False, floors=floors)
+    at_truth = one_sided_residuals(residuals(np.append(truth[:3], np.log(truth[3])), camera, obs, sensor, False), *floors)
     return np.append(fit.centre, fit.radius), fit.cost, 0.5 * float(np.sum(at_truth**2))
 
 
