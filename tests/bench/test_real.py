@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ from typer.testing import CliRunner
 
 from monovisual3d.bench import real
 from monovisual3d.cli import app
-from monovisual3d.errors import InputError
+from monovisual3d.errors import InputError, InputWarning
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
 import lfd_scene  # noqa: E402  (the LfD array writer of the io tests)
@@ -63,6 +64,11 @@ def test_cli_json_and_errors(folder: Path, tmp_path: Path, monkeypatch: pytest.M
     assert res.exit_code == 0, res.output
     data = json.loads(out.read_text())
     assert data["benchmark"] == "real" and set(data["results"]) == {"quadric (tracks)"}
+    assert data["image_size"] == [640, 480]
+    res = runner.invoke(app, ["bench", "real", str(folder), "--methods", "quadric (tracks)", "--image-size", "800x600"])
+    assert res.exit_code == 0 and "800x600 images" in res.output, res.output
+    res = runner.invoke(app, ["bench", "real", str(folder), "--image-size", "800"])
+    assert res.exit_code == 2 and "--image-size: got '800', expected WIDTHxHEIGHT" in res.output, res.output
     res = runner.invoke(app, ["bench", "real", str(folder), "--methods", "nope"])
     assert res.exit_code == 2 and "methods: unknown 'nope'" in res.output
     res = runner.invoke(app, ["bench", "real", str(tmp_path / "absent")])
@@ -75,6 +81,10 @@ def test_cli_json_and_errors(folder: Path, tmp_path: Path, monkeypatch: pytest.M
 @pytest.mark.skipif(not (ALDOMA / "bounding_boxes.npy").is_file(), reason="the shared Aldoma set is not here")
 def test_quadric_with_track_ids_reproduces_lfd_on_aldoma() -> None:
     """Our LfD, given the association, against LfD's published code on the same files (6.1 mm; 12.5 mm, p90 21 mm)."""
-    res = real.run_real(ALDOMA, methods=("quadric (tracks)",))["results"]["quadric (tracks)"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = real.run_real(ALDOMA, methods=("quadric (tracks)",))["results"]["quadric (tracks)"]
+    said = [str(w.message) for w in caught if issubclass(w.category, InputWarning)]
+    assert len(said) == 1 and "views[4].detections[3].bbox_xyxy" in said[0] and "clipped" in said[0]  # once, not per run
     assert res["all"]["missed"] == 0 and res["all"]["mean_mm"] < 6.5
     assert res["subsets"]["mean_mm"] < 13.5 and res["subsets"]["p90_mm"] < 26.0

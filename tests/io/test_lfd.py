@@ -13,7 +13,8 @@ from typer.testing import CliRunner
 
 from monovisual3d import load_session
 from monovisual3d.cli import app
-from monovisual3d.errors import InputError
+from monovisual3d.errors import InputError, InputWarning
+from monovisual3d.io.image_size import image_size_from_principal_point
 from monovisual3d.io.lfd import read_lfd, read_lfd_arrays
 from monovisual3d.io.schema import validate_session_schema
 from monovisual3d.truth import load_objects
@@ -167,6 +168,32 @@ def test_missing_file_and_folder(tmp_path: Path) -> None:
 def test_image_size_given_or_from_the_principal_point(written) -> None:
     folder = written[0]
     assert (read_lfd(folder, image_size=(800, 600))[0].camera.width, read_lfd(folder)[0].camera.width) == (800, 640)
+
+
+def test_an_off_centre_principal_point_takes_the_standard_size_with_a_warning(written) -> None:
+    """A calibrated principal point lies a few pixels off the centre: the image is still 640 x 480, and a box edge on
+    its border still counts as truncated; the assumption is said once."""
+    folder = written[0]
+    K = np.load(folder / "intrinsics.npy")
+    K[0, 2], K[1, 2] = 326.2, 233.4  # 2 (c + 0.5) = 653.4 x 467.8
+    np.save(folder / "intrinsics.npy", K)
+    with pytest.warns(InputWarning, match=r"taking 640x480, the standard size nearest .*653x468.*--image-size"):
+        session, _ = read_lfd(folder)
+    assert (session.camera.width, session.camera.height) == (640, 480)
+    assert_allclose([session.camera.cx, session.camera.cy], [326.7, 233.9])
+
+
+@pytest.mark.parametrize(
+    ("c", "size"),
+    [((320.0, 240.0), (640, 480)), ((641.9, 364.2), (1280, 720)), ((610.0, 360.0), (1280, 720)), ((500.0, 300.0), (1000, 600))],
+)
+def test_image_size_from_principal_point(c, size) -> None:
+    assert image_size_from_principal_point(*c) == size
+
+
+def test_image_size_from_principal_point_rejects_nan() -> None:
+    with pytest.raises(InputError, match="principal point .* expected finite"):
+        image_size_from_principal_point(float("nan"), 240.0)
 
 
 # ---------------------------------------------------------------------- the session's track field

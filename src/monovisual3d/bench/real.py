@@ -106,13 +106,15 @@ def score(estimates: np.ndarray, truth: np.ndarray, gates: np.ndarray) -> tuple[
 _WARM: set[tuple[str, str]] = set()
 
 
-def measure(folder: str, label: str, views: tuple[int, ...], reach: float) -> dict[str, Any]:
+def measure(
+    folder: str, label: str, views: tuple[int, ...], reach: float, image_size: tuple[int, int] | None = None
+) -> dict[str, Any]:
     """One run: method ``label`` of :data:`RUNS` on the given views: per true object the error (m, NaN: no estimate),
     missed, extra, runtime (s), number of warnings."""
     method, options, tracks = RUNS[label]
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the loader's note about a box clipped to the image, once per run
-        session, truth = read_lfd(folder, keep_association=tracks)
+        warnings.simplefilter("ignore")  # the loader's notes (a box clipped to the image), said once by run_real
+        session, truth = read_lfd(folder, keep_association=tracks, image_size=image_size)
     assert truth is not None
     centres = np.array([o["position"] for o in truth["objects"]])
     gates = np.maximum([o["radius"] for o in truth["objects"]], MIN_GATE_M)
@@ -164,6 +166,7 @@ def run_real(
     methods: tuple[str, ...] = tuple(RUNS),
     subset_size: int = 3,
     reach: float = REACH_M,
+    image_size: tuple[int, int] | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: Callable[[str], None] | None = None,
@@ -171,7 +174,9 @@ def run_real(
     """Run the benchmark; returns a JSON-ready dict (results per method: ``all`` views and ``subsets``).
 
     With ``workers`` (local processes) or ``scheduler`` (a running Dask cluster) the runs are spread over
-    Dask (:func:`monovisual3d.batch.spread.spread_map`); the errors are the same.
+    Dask (:func:`monovisual3d.batch.spread.spread_map`); the errors are the same. ``image_size`` (width, height),
+    pixels: the images' size, when not the standard size nearest twice the principal point
+    (:func:`~monovisual3d.io.lfd.session_from_lfd`); the loader's warnings are said once, here.
     """
     from ..batch.spread import check_spread, spread_map
 
@@ -181,14 +186,12 @@ def run_real(
         raise InputError(f"--methods: unknown {unknown[0]!r}, expected some of {[*RUNS, *RUN_ALIASES]}")
     check_spread(workers, scheduler)
     path = resolve_folder(folder)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        session, _ = read_lfd(path)
+    session, _ = read_lfd(path, truth=False, image_size=image_size)
     n = len(session.views)
     if not 1 <= subset_size <= n:
         raise InputError(f"subset_size: got {subset_size}, expected 1 to the {n} views of {one_line(str(path))}")
     sets = view_sets(n, subset_size)
-    items = [(str(path), m, v, float(reach)) for m in methods for v in sets]
+    items = [(str(path), m, v, float(reach), image_size) for m in methods for v in sets]
 
     def tick(i: int, _: Any) -> None:
         if progress is not None:
@@ -204,6 +207,7 @@ def run_real(
         "subset_size": subset_size,
         "subsets": len(sets) - 1,
         "reach_m": reach,
+        "image_size": [session.camera.width, session.camera.height],
         "size_range_m": list(SIZE_RANGE_M),
         "runs": {m: {"method": RUNS[m][0], **RUNS[m][1]} for m in methods},
         "gate": "errors over all Hungarian pairs; missed: no estimate within the true volume-equivalent radius (>= 20 mm)",
@@ -224,7 +228,7 @@ def format_markdown(results: dict[str, Any]) -> str:
     m = results["machine"]
     k, n = results["subset_size"], results["views"]
     lines = [
-        f"Data: {results['data']} ({n} views); reach {results['reach_m']:g} m; {results['gate']}. "
+        f"Data: {results['data']} ({n} views, {'x'.join(map(str, results['image_size']))} images); reach {results['reach_m']:g} m; {results['gate']}. "
         f"Machine: {m['cpu']}, {m['cores']} cores; {m['date_utc'][:10]}, load average {m.get('load_average_1m', float('nan')):.1f}",
         "",
         f"| method | {n} views: mean mm | max mm | missed | {k}-view subsets ({results['subsets']}): mean mm | median mm | "

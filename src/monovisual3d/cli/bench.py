@@ -142,6 +142,10 @@ def real(
     ] = "bayes,paper,quadric (tracks),quadric (bayes)",
     reach: Annotated[float, typer.Option(min=0.01, help="Search reach of every method, metres.")] = 1.0,
     subset_size: Annotated[int, typer.Option("--subset-size", min=1, help="Views per subset.")] = 3,
+    image_size: Annotated[
+        str | None,
+        typer.Option("--image-size", help="Image size WxH (default: the standard size nearest twice the principal point)."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results (with machine metadata) as JSON.")] = False,
     output: ResultsOutput = None,
     workers: SpreadWorkers = None,
@@ -151,6 +155,7 @@ def real(
     from rich.progress import Progress
 
     from ..bench.real import format_markdown, run_real, to_json
+    from ..io.image_size import parse_image_size
     from ._app import check_output, write_output
 
     check_output(output, folder)
@@ -161,6 +166,7 @@ def real(
             methods=tuple(m.strip() for m in methods.split(",")),
             subset_size=subset_size,
             reach=reach,
+            image_size=None if image_size is None else parse_image_size(image_size),
             workers=workers,
             scheduler=scheduler,
             progress=lambda msg: bar.update(task, description=msg),

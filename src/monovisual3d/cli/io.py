@@ -222,7 +222,8 @@ def import_lfd_cmd(
         bool, typer.Option("--keep-association", help="Write each box's object index as its track id (default: pooled).")
     ] = False,
     image_size: Annotated[
-        str | None, typer.Option("--image-size", help="Image size WxH (default: twice the principal point).")
+        str | None,
+        typer.Option("--image-size", help="Image size WxH (default: the standard size nearest twice the principal point)."),
     ] = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,

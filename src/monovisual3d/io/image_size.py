@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
+import numpy as np
 from numpy.typing import ArrayLike
 
 from ..camera import Camera
@@ -12,6 +13,35 @@ from ..checks import as_array, as_int
 from ..errors import InputError, excerpt
 
 RESIZE_MODES = ("auto", "stretch", "crop")
+#: Image sizes (width, height) of common camera sensors and video modes, pixels: the candidates when a calibration
+#: gives a principal point but no image size.
+STANDARD_IMAGE_SIZES = (
+    (320, 240),
+    (640, 360),
+    (640, 400),
+    (640, 480),
+    (752, 480),
+    (800, 600),
+    (848, 480),
+    (960, 540),
+    (1024, 768),
+    (1280, 720),
+    (1280, 800),
+    (1280, 960),
+    (1280, 1024),
+    (1440, 1080),
+    (1600, 1200),
+    (1920, 1080),
+    (1920, 1200),
+    (2048, 1536),
+    (2448, 2048),
+    (2592, 1944),
+    (3840, 2160),
+    (4096, 2160),
+)
+#: How far twice the principal point may lie from a standard size, as a fraction of each side, for that size to be
+#: taken: a calibrated principal point lies within a few per cent of the image centre (lens and sensor misalignment).
+PRINCIPAL_POINT_TOL = 0.05
 
 
 def camera_for_image_size(camera: Camera, image_size: tuple[int, int], resize: str = "auto") -> Camera:
@@ -93,6 +123,31 @@ def crop_camera(camera: Camera, crop_xyxy: ArrayLike) -> Camera:
         camera.distortion_model,
         camera.distortion_coefficients,
     )
+
+
+def image_size_from_principal_point(cx: float, cy: float) -> tuple[int, int]:
+    """The image size a calibration's principal point ``(cx, cy)`` (pixels, centres at integer + 0.5) implies.
+
+    The standard size (:data:`STANDARD_IMAGE_SIZES`) nearest ``(2 cx, 2 cy)`` when both sides lie within
+    :data:`PRINCIPAL_POINT_TOL` of it (the largest relative deviation of the two decides), else ``(2 cx, 2 cy)``
+    rounded. Where the image border lies matters: a box edge on it is truncated and counts one-sided.
+
+    Examples
+    --------
+    >>> image_size_from_principal_point(641.9, 364.2)
+    (1280, 720)
+    >>> image_size_from_principal_point(500.0, 300.0)
+    (1000, 600)
+    """
+    w, h = 2.0 * cx, 2.0 * cy
+    if not (np.isfinite(w) and np.isfinite(h)):
+        raise InputError(f"principal point ({cx:g}, {cy:g}): expected finite pixel coordinates")
+    sizes = np.array(STANDARD_IMAGE_SIZES, dtype=float)
+    off = np.max(np.abs(sizes - (w, h)) / sizes, axis=1)
+    k = int(np.argmin(off))
+    if off[k] <= PRINCIPAL_POINT_TOL:
+        return STANDARD_IMAGE_SIZES[k]
+    return round(w), round(h)
 
 
 def size_pair(size: Any, where: str) -> tuple[int, int]:

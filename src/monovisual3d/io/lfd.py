@@ -12,7 +12,9 @@ A folder of numpy ``.npy`` arrays, for ``n`` views and ``m`` objects (float64 un
 
 The base frame is the files' world frame. The principal point and every box move by half a pixel to our
 convention (pixel centres at integer + 0.5); this shifts the image coordinates only, not the geometry.
-The image size is not in the files: it is given, or taken as twice the principal point (``2 (c + 0.5)``).
+The image size is not in the files: it is given, or taken as the standard sensor size nearest twice the principal
+point (``2 (c + 0.5)``; a calibrated principal point lies a few pixels off the image centre), with a warning where
+that is not twice the principal point itself.
 
 Boxes are pooled per view and sorted by ``x_min`` (then ``y_min``), so their order says nothing about
 which object they belong to; ``keep_association`` writes each box's column ``j`` as its ``track`` id.
@@ -21,6 +23,7 @@ Every problem is one line naming the file, the entry and what was expected (``In
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,11 +31,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import InputError, one_line
+from ..errors import InputError, InputWarning, one_line
 from ..geometry.ellipsoid import Ellipsoid
 from ..methods.quadric.dual import ellipsoid_from_dual_quadric
 from ..session import Session
 from ..session.load import session_from_dict
+from .image_size import image_size_from_principal_point
 
 #: Largest deviation of ``R R^T`` from the identity accepted in a pose (files store rotations to ~7 digits).
 ROTATION_TOL = 1e-3
@@ -193,14 +197,25 @@ def session_from_lfd(arrays: LfdArrays, *, keep_association: bool = False, image
     ----------
     arrays : LfdArrays
     keep_association : bool, write each box's object index as its ``track`` id
-    image_size : (width, height) in pixels, or None: twice the principal point (``2 (cx + 0.5)``, ``2 (cy + 0.5)``)
+    image_size : (width, height) in pixels, or None: the standard size nearest twice the principal point
+        (``2 (cx + 0.5)``, ``2 (cy + 0.5)``; :func:`~monovisual3d.io.image_size.image_size_from_principal_point`),
+        with a warning where that is not twice the principal point rounded
     """
     K = arrays.K
     fx, fy, cx, cy = float(K[0, 0]), float(K[1, 1]), float(K[0, 2]) + PIXEL_SHIFT, float(K[1, 2]) + PIXEL_SHIFT
     if image_size is None:
-        image_size = (round(2 * cx), round(2 * cy))
+        image_size = image_size_from_principal_point(cx, cy)
         if min(image_size) < 1:
             raise InputError(f"{arrays.source}: principal point ({cx:g}, {cy:g}) gives no image size; give the image size")
+        if image_size != (round(2 * cx), round(2 * cy)):
+            warnings.warn(
+                InputWarning(
+                    f"{arrays.source}: no image size given; taking {image_size[0]}x{image_size[1]}, the standard size "
+                    f"nearest twice the principal point ({2 * cx:.0f}x{2 * cy:.0f}); give the image size "
+                    "(--image-size) if the images differ"
+                ),
+                stacklevel=2,
+            )
     views = []
     for f in range(len(arrays.visibility)):
         T_base_optical = np.linalg.inv(arrays.T_optical_base[f])
