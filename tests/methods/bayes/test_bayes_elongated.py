@@ -297,6 +297,29 @@ def test_flat_tray_seen_from_near_its_height_is_found(elevation_deg, yaw_deg):
     assert np.linalg.norm(rescued.objects[0].position - c) < 0.012
 
 
+@pytest.mark.parametrize(("elevation_deg", "yaw_deg"), [(10.0, 0.0), (10.0, 40.0), (30.0, 0.0)])
+def test_a_size_range_bounds_the_size_not_a_flat_objects_thickness(elevation_deg, yaw_deg):
+    """``size_range=(0.02, 0.15)`` (objects of 2-15 cm semi-axis) and a 20 x 16 x 3 cm tray: its 15 mm half-thickness
+    is below MIN. With MIN a bound of every fitted semi-axis the tray came out 20-30 mm thick and 1-15 mm off; MIN bounds
+    the search's radii, and the fit finds the exact cuboid."""
+    from monovisual3d.geometry.solids import cuboid_bbox
+    from monovisual3d.session import Detection, Session, View
+
+    c, e = TARGET, np.radians(elevation_deg)
+    azimuths = np.radians([-90.0, -30.0, 30.0])
+    offsets = [np.array([-np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)]) for a in azimuths]
+    poses = np.array([look_at(c + 0.6 * d, c) for d in offsets])
+    boxes = cuboid_bbox(CAM, poses, c, (0.10, 0.08, 0.015), rotation_upright(np.radians(yaw_deg)))
+    session = Session(CAM, tuple(View(T, (Detection(b),)) for T, b in zip(poses, boxes)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        found = run(session, BayesConfig(size_range=(0.02, 0.15)))
+    assert len(found.objects) == 1
+    o = found.objects[0]
+    assert np.linalg.norm(o.position - c) < 0.001
+    assert_allclose(np.sort(o.semi_axes), [0.015, 0.08, 0.10], atol=0.001)
+
+
 def test_radius_bins_default_to_steps_of_about_15_percent():
     cfg = BayesConfig()
     assert (cfg.radius_min, cfg.radius_max, cfg.n_radii) == (0.01, 0.16, 21)

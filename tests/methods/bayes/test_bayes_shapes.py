@@ -244,7 +244,9 @@ def test_shape_sphere_is_the_sphere_model():
 
 def test_size_range_sets_the_search_radii_and_up_is_normalised():
     cfg = BayesConfig(size_range="0.02,0.12", up="0,0,2")
-    assert (cfg.radius_min, cfg.radius_max) == (0.02, 0.12) and cfg.semi_axis_range == (0.02, 0.12)
+    assert (cfg.radius_min, cfg.radius_max) == (0.02, 0.12) and cfg.semi_axis_range == (0.005, 0.12)
+    assert BayesConfig(size_range="0.003,0.05").semi_axis_range == (0.003, 0.05)
+    assert BayesConfig().semi_axis_range == (0.005, 0.16) and BayesConfig(radius_max=0.3).semi_axis_range == (0.005, 0.3)
     assert cfg.up == (0.0, 0.0, 1.0)
     assert BayesConfig(size_range=(0.01, 0.05)).to_dict()["size_range"] == [0.01, 0.05]
 

@@ -24,6 +24,9 @@ ELONGATED_RADIUS_STRIDE = 2
 #: Ratio of neighbouring radius bins when ``n_radii`` is None: 2 ** (1 / 5), about 15 % (a sphere's box edges then move
 #: by at most 7 % of its size between bins, about one sensor sigma); the default 10-160 mm has 21 bins.
 RADIUS_BIN_RATIO = 2.0**0.2
+#: Semi-axis bounds of the shape fits when no ``size_range`` is given, metres: 5 mm (a tray's or a lid's half-thickness)
+#: to 160 mm (a tray's half-length); widened to the search's radii where those reach further.
+FIT_SEMI_AXIS_RANGE_M = (0.005, 0.16)
 #: Compute backends of the ``bayes`` method: the fused numba kernels (default) and the numpy reference.
 BACKENDS = ("numba", "numpy")
 
@@ -116,9 +119,10 @@ class BayesConfig:
     pose_sigma_deg : float, degrees, stated 1-sigma error of each view's camera rotation per axis (0: exact)
     shape : str, object model: sphere, spheroid (two equal semi-axes), ellipsoid (three) or auto (per object by BIC;
         round fruit stay spheres)
-    size_range : tuple or str or None, metres, (min, max) semi-axis length, e.g. "0.01,0.12"; when given it also
-        sets radius_min/radius_max of the search. Default: semi-axes of 5-160 mm (cherry tomatoes to cucumbers, trays)
-        and search radii radius_min-radius_max
+    size_range : tuple or str or None, metres, (min, max) object size as a semi-axis length, e.g. "0.01,0.12": it sets
+        radius_min/radius_max of the search and the largest semi-axis of a shape fit; a fitted semi-axis may be
+        smaller than min, down to 5 mm (a flat object's thickness, :attr:`semi_axis_range`). Default: semi-axes of
+        5-160 mm (cherry tomatoes to cucumbers, trays) and search radii radius_min-radius_max
     up : tuple or str, base frame vertical of the upright spheroid/ellipsoid models, e.g. "0,0,1"
     free_orientation : bool, fit the spheroid/ellipsoid orientation freely instead of upright plus yaw (needs views
         that constrain it, e.g. 4 or more around the fruit)
@@ -272,10 +276,15 @@ class BayesConfig:
 
     @property
     def semi_axis_range(self) -> tuple[float, float]:
-        """Bounds of the shape fit's semi-axes, metres: ``size_range``, else 5-160 mm (at least the search radii)."""
+        """Bounds of the shape fit's semi-axes, metres: up to ``size_range``'s MAX (else 160 mm, at least the search's
+        largest radius), down to 5 mm or the smallest radius searched, whichever is smaller.
+
+        ``size_range``'s MIN bounds the search's radii, the objects' sizes, not every semi-axis of their shape: a tray
+        200 mm long is 30 mm thick (docs/real.md, "The size range and flat objects")."""
+        thinnest, longest = FIT_SEMI_AXIS_RANGE_M
         if self.size_range is not None:
-            return self.size_range  # type: ignore[return-value]
-        return (min(0.005, self.radius_min), max(0.16, self.radius_max))
+            return (min(thinnest, self.size_range[0]), self.size_range[1])  # type: ignore[index]
+        return (min(thinnest, self.radius_min), max(longest, self.radius_max))
 
     @property
     def search_start(self) -> float:
