@@ -57,6 +57,20 @@ def test_runs_on_a_written_set(folder: Path) -> None:
     assert json.loads(real.to_json(res))["machine"]["cores"] >= 1
 
 
+def test_every_run_reads_the_images_at_the_given_size(folder: Path) -> None:
+    """With a 350 px wide image the boxes reaching past x = 350 are clipped in every run (so the error changes), and
+    the clipping is said once, by the read before the runs."""
+    default = real.run_real(folder, methods=("quadric (tracks)",))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        narrow = real.run_real(folder, methods=("quadric (tracks)",), image_size=(350, 480))
+    assert narrow["image_size"] == [350, 480] and default["image_size"] == [640, 480]
+    clipped = [str(w.message) for w in caught if "clipped" in str(w.message)]
+    assert len(clipped) == 3, clipped  # three boxes reach past x = 350, each said once
+    a, b = (np.array(r["results"]["quadric (tracks)"]["per_object_all_mm"]) for r in (default, narrow))
+    assert np.all(np.abs(a - b) > 0.1), (a, b)
+
+
 def test_cli_json_and_errors(folder: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     runner = CliRunner()
     out = tmp_path / "r.json"

@@ -170,25 +170,62 @@ def test_image_size_given_or_from_the_principal_point(written) -> None:
     assert (read_lfd(folder, image_size=(800, 600))[0].camera.width, read_lfd(folder)[0].camera.width) == (800, 640)
 
 
-def test_an_off_centre_principal_point_takes_the_standard_size_with_a_warning(written) -> None:
-    """A calibrated principal point lies a few pixels off the centre: the image is still 640 x 480, and a box edge on
-    its border still counts as truncated; the assumption is said once."""
+def test_an_off_centre_principal_point_takes_the_standard_size_and_a_box_past_it_is_truncated(written) -> None:
+    """A calibrated principal point lies a few pixels off the centre: the image is still 640 x 480, the assumption is
+    said, and a box that the image's right border cuts is clipped there and counts one-sided (with the image taken as
+    twice the principal point, 653 px wide, it would be a whole box ending 7 px inside it)."""
+    from monovisual3d.methods.bayes.sensor import SensorModel, censored_edges
+
     folder = written[0]
     K = np.load(folder / "intrinsics.npy")
     K[0, 2], K[1, 2] = 326.2, 233.4  # 2 (c + 0.5) = 653.4 x 467.8
     np.save(folder / "intrinsics.npy", K)
-    with pytest.warns(InputWarning, match=r"taking 640x480, the standard size nearest .*653x468.*--image-size"):
+    boxes = np.load(folder / "bounding_boxes.npy")
+    boxes[0, 2] = 645.5  # object 0's x_max in view 0: 6 px past the 640 px border (within BOX_OVERHANG_PX)
+    np.save(folder / "bounding_boxes.npy", boxes)
+    with pytest.warns(InputWarning) as said:
         session, _ = read_lfd(folder)
+    text = [str(w.message) for w in said]
+    assert any("taking 640x480 (the common sensor size nearest twice the principal point, 653x468)" in t for t in text)
+    assert any("clipped to" in t for t in text)
     assert (session.camera.width, session.camera.height) == (640, 480)
     assert_allclose([session.camera.cx, session.camera.cy], [326.7, 233.9])
+    cut = session.views[0].boxes_xyxy[np.argmax(session.views[0].boxes_xyxy[:, 2])]
+    assert cut[2] == 640.0
+    assert censored_edges(cut, 640, 480, SensorModel().border_px).tolist() == [False, False, True, False]
+
+
+def test_without_a_common_size_the_image_is_twice_the_principal_point_with_a_warning(written) -> None:
+    folder = written[0]
+    K = np.load(folder / "intrinsics.npy")
+    K[0, 2], K[1, 2] = 499.5, 299.5
+    np.save(folder / "intrinsics.npy", K)
+    with pytest.warns(InputWarning, match=r"taking 1000x600 \(no common sensor size is near twice the principal point"):
+        session, _ = read_lfd(folder)
+    assert (session.camera.width, session.camera.height) == (1000, 600)
+
+
+def test_a_given_image_size_is_checked(written) -> None:
+    with pytest.raises(InputError, match=r"image_size \(--image-size\): expected \(width, height\)"):
+        read_lfd(written[0], image_size=(640, 480, 3))  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(
-    ("c", "size"),
-    [((320.0, 240.0), (640, 480)), ((641.9, 364.2), (1280, 720)), ((610.0, 360.0), (1280, 720)), ((500.0, 300.0), (1000, 600))],
+    ("c", "extent", "size"),
+    [
+        ((320.0, 240.0), (0.0, 0.0), ((640, 480), "exact")),
+        ((641.9, 364.2), (0.0, 0.0), ((1280, 720), "standard")),
+        ((630.0, 355.0), (0.0, 0.0), ((1280, 720), "standard")),
+        ((336.0, 188.0), (0.0, 0.0), ((672, 376), "exact")),  # ZED VGA, not 640 x 360
+        ((728.0, 544.0), (0.0, 0.0), ((1456, 1088), "exact")),
+        ((364.0, 636.0), (0.0, 0.0), ((720, 1280), "standard")),  # portrait
+        ((320.0, 240.0), (645.4, 485.4), ((640, 480), "exact")),  # a box a few pixels past the border
+        ((326.0, 184.0), (660.0, 300.0), ((672, 376), "standard")),  # 640 x 360 is nearer but a box reaches 660 px
+        ((500.0, 300.0), (0.0, 0.0), ((1000, 600), "principal point")),
+    ],
 )
-def test_image_size_from_principal_point(c, size) -> None:
-    assert image_size_from_principal_point(*c) == size
+def test_image_size_from_principal_point(c, extent, size) -> None:
+    assert image_size_from_principal_point(*c, extent) == size
 
 
 def test_image_size_from_principal_point_rejects_nan() -> None:

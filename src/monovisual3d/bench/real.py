@@ -186,7 +186,7 @@ def run_real(
         raise InputError(f"--methods: unknown {unknown[0]!r}, expected some of {[*RUNS, *RUN_ALIASES]}")
     check_spread(workers, scheduler)
     path = resolve_folder(folder)
-    session, _ = read_lfd(path, truth=False, image_size=image_size)
+    session, _ = read_lfd(path, image_size=image_size)  # the truth too: a bad gt.npy is one line here, not in a worker
     n = len(session.views)
     if not 1 <= subset_size <= n:
         raise InputError(f"subset_size: got {subset_size}, expected 1 to the {n} views of {one_line(str(path))}")

@@ -13,35 +13,43 @@ from ..checks import as_array, as_int
 from ..errors import InputError, excerpt
 
 RESIZE_MODES = ("auto", "stretch", "crop")
-#: Image sizes (width, height) of common camera sensors and video modes, pixels: the candidates when a calibration
-#: gives a principal point but no image size.
+#: Image sizes (width, height) of common camera sensors and video modes, pixels (landscape; portrait is the same turned):
+#: the candidates when a calibration gives a principal point but no image size.
 STANDARD_IMAGE_SIZES = (
     (320, 240),
     (640, 360),
     (640, 400),
     (640, 480),
+    (672, 376),
     (752, 480),
     (800, 600),
     (848, 480),
     (960, 540),
     (1024, 768),
+    (1224, 1024),
     (1280, 720),
     (1280, 800),
     (1280, 960),
     (1280, 1024),
     (1440, 1080),
+    (1456, 1088),
     (1600, 1200),
     (1920, 1080),
     (1920, 1200),
     (2048, 1536),
     (2448, 2048),
+    (2560, 1440),
     (2592, 1944),
     (3840, 2160),
     (4096, 2160),
 )
 #: How far twice the principal point may lie from a standard size, as a fraction of each side, for that size to be
-#: taken: a calibrated principal point lies within a few per cent of the image centre (lens and sensor misalignment).
-PRINCIPAL_POINT_TOL = 0.05
+#: taken: a calibrated principal point lies within one or two per cent of the image centre (lens and sensor
+#: misalignment), closer than most neighbouring standard sizes are to each other.
+PRINCIPAL_POINT_TOL = 0.03
+#: How far, pixels, a box may reach past the border of a candidate size that is still taken: hand-drawn and
+#: detector boxes overshoot the border by a few pixels (one Aldoma box ends 5.4 px below its 480 px image).
+BOX_OVERHANG_PX = 8.0
 
 
 def camera_for_image_size(camera: Camera, image_size: tuple[int, int], resize: str = "auto") -> Camera:
@@ -125,29 +133,44 @@ def crop_camera(camera: Camera, crop_xyxy: ArrayLike) -> Camera:
     )
 
 
-def image_size_from_principal_point(cx: float, cy: float) -> tuple[int, int]:
+def image_size_from_principal_point(
+    cx: float, cy: float, extent_px: tuple[float, float] = (0.0, 0.0)
+) -> tuple[tuple[int, int], str]:
     """The image size a calibration's principal point ``(cx, cy)`` (pixels, centres at integer + 0.5) implies.
 
-    The standard size (:data:`STANDARD_IMAGE_SIZES`) nearest ``(2 cx, 2 cy)`` when both sides lie within
-    :data:`PRINCIPAL_POINT_TOL` of it (the largest relative deviation of the two decides), else ``(2 cx, 2 cy)``
-    rounded. Where the image border lies matters: a box edge on it is truncated and counts one-sided.
+    The standard size (:data:`STANDARD_IMAGE_SIZES`, either way up) nearest ``(2 cx, 2 cy)`` among those within
+    :data:`PRINCIPAL_POINT_TOL` of it on both sides (the larger relative deviation decides) that hold the boxes,
+    ``extent_px`` = the largest ``(x2, y2)``, within :data:`BOX_OVERHANG_PX`; else ``(2 cx, 2 cy)`` rounded. Where the
+    image border lies matters: a box edge on it is truncated and counts one-sided.
+
+    Returns
+    -------
+    size : (width, height), pixels
+    how : ``"exact"`` (twice the principal point is that standard size), ``"standard"`` (the nearest standard size)
+        or ``"principal point"`` (no standard size fits: twice the principal point)
 
     Examples
     --------
     >>> image_size_from_principal_point(641.9, 364.2)
-    (1280, 720)
+    ((1280, 720), 'standard')
+    >>> image_size_from_principal_point(336.0, 188.0)
+    ((672, 376), 'exact')
     >>> image_size_from_principal_point(500.0, 300.0)
-    (1000, 600)
+    ((1000, 600), 'principal point')
     """
     w, h = 2.0 * cx, 2.0 * cy
     if not (np.isfinite(w) and np.isfinite(h)):
         raise InputError(f"principal point ({cx:g}, {cy:g}): expected finite pixel coordinates")
-    sizes = np.array(STANDARD_IMAGE_SIZES, dtype=float)
+    landscape = np.array(STANDARD_IMAGE_SIZES, dtype=float)
+    sizes = np.concatenate([landscape, landscape[:, ::-1]])
     off = np.max(np.abs(sizes - (w, h)) / sizes, axis=1)
+    holds = np.all(sizes + BOX_OVERHANG_PX >= np.asarray(extent_px, dtype=float), axis=1)
+    off = np.where(holds, off, np.inf)
     k = int(np.argmin(off))
     if off[k] <= PRINCIPAL_POINT_TOL:
-        return STANDARD_IMAGE_SIZES[k]
-    return round(w), round(h)
+        size = (int(sizes[k, 0]), int(sizes[k, 1]))
+        return size, "exact" if size == (round(w), round(h)) else "standard"
+    return (round(w), round(h)), "principal point"
 
 
 def size_pair(size: Any, where: str) -> tuple[int, int]:

@@ -12,9 +12,9 @@ A folder of numpy ``.npy`` arrays, for ``n`` views and ``m`` objects (float64 un
 
 The base frame is the files' world frame. The principal point and every box move by half a pixel to our
 convention (pixel centres at integer + 0.5); this shifts the image coordinates only, not the geometry.
-The image size is not in the files: it is given, or taken as the standard sensor size nearest twice the principal
-point (``2 (c + 0.5)``; a calibrated principal point lies a few pixels off the image centre), with a warning where
-that is not twice the principal point itself.
+The image size is not in the files: it is given, or taken as the common sensor size nearest twice the principal
+point (``2 (c + 0.5)``; a calibrated principal point lies a few pixels off the image centre) that holds the boxes, else
+twice the principal point, with a warning unless twice the principal point is itself a common size.
 
 Boxes are pooled per view and sorted by ``x_min`` (then ``y_min``), so their order says nothing about
 which object they belong to; ``keep_association`` writes each box's column ``j`` as its ``track`` id.
@@ -36,7 +36,7 @@ from ..geometry.ellipsoid import Ellipsoid
 from ..methods.quadric.dual import ellipsoid_from_dual_quadric
 from ..session import Session
 from ..session.load import session_from_dict
-from .image_size import image_size_from_principal_point
+from .image_size import image_size_from_principal_point, size_pair
 
 #: Largest deviation of ``R R^T`` from the identity accepted in a pose (files store rotations to ~7 digits).
 ROTATION_TOL = 1e-3
@@ -190,6 +190,26 @@ def read_lfd_arrays(folder: str | Path, *, truth: bool = True) -> LfdArrays:
     return LfdArrays(K.astype(float), T, _boxes(boxes, vis, folder), vis, gt, one_line(str(folder)))
 
 
+def _image_size(arrays: LfdArrays, cx: float, cy: float) -> tuple[int, int]:
+    """The images' size when not given (:func:`~monovisual3d.io.image_size.image_size_from_principal_point`), with a
+    warning unless twice the principal point is a standard size."""
+    seen = arrays.boxes_xyxy[arrays.visibility] + PIXEL_SHIFT
+    extent = (float(seen[:, 2].max()), float(seen[:, 3].max())) if len(seen) else (0.0, 0.0)
+    size, how = image_size_from_principal_point(cx, cy, extent)
+    if min(size) < 1:
+        raise InputError(f"{arrays.source}: principal point ({cx:g}, {cy:g}) gives no image size; give the image size")
+    if how != "exact":
+        taken = "the common sensor size nearest" if how == "standard" else "no common sensor size is near"
+        warnings.warn(
+            InputWarning(
+                f"{arrays.source}: no image size given; taking {size[0]}x{size[1]} ({taken} twice the principal point, "
+                f"{2 * cx:.0f}x{2 * cy:.0f}); give the image size (image_size, --image-size) if the images differ"
+            ),
+            stacklevel=3,
+        )
+    return size
+
+
 def session_from_lfd(arrays: LfdArrays, *, keep_association: bool = False, image_size: tuple[int, int] | None = None) -> Session:
     """The session of LfD arrays: boxes pooled per view and sorted by ``x_min`` (``track`` = column with ``keep_association``).
 
@@ -197,25 +217,17 @@ def session_from_lfd(arrays: LfdArrays, *, keep_association: bool = False, image
     ----------
     arrays : LfdArrays
     keep_association : bool, write each box's object index as its ``track`` id
-    image_size : (width, height) in pixels, or None: the standard size nearest twice the principal point
-        (``2 (cx + 0.5)``, ``2 (cy + 0.5)``; :func:`~monovisual3d.io.image_size.image_size_from_principal_point`),
-        with a warning where that is not twice the principal point rounded
+    image_size : (width, height) in pixels, or None: the common sensor size nearest twice the principal point
+        (``2 (cx + 0.5)``, ``2 (cy + 0.5)``) that holds the boxes, else twice the principal point
+        (:func:`~monovisual3d.io.image_size.image_size_from_principal_point`), with a warning unless twice the
+        principal point is itself a common size
     """
     K = arrays.K
     fx, fy, cx, cy = float(K[0, 0]), float(K[1, 1]), float(K[0, 2]) + PIXEL_SHIFT, float(K[1, 2]) + PIXEL_SHIFT
     if image_size is None:
-        image_size = image_size_from_principal_point(cx, cy)
-        if min(image_size) < 1:
-            raise InputError(f"{arrays.source}: principal point ({cx:g}, {cy:g}) gives no image size; give the image size")
-        if image_size != (round(2 * cx), round(2 * cy)):
-            warnings.warn(
-                InputWarning(
-                    f"{arrays.source}: no image size given; taking {image_size[0]}x{image_size[1]}, the standard size "
-                    f"nearest twice the principal point ({2 * cx:.0f}x{2 * cy:.0f}); give the image size "
-                    "(--image-size) if the images differ"
-                ),
-                stacklevel=2,
-            )
+        image_size = _image_size(arrays, cx, cy)
+    else:
+        image_size = size_pair(image_size, "image_size (--image-size)")
     views = []
     for f in range(len(arrays.visibility)):
         T_base_optical = np.linalg.inv(arrays.T_optical_base[f])

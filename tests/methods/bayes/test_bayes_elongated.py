@@ -300,7 +300,7 @@ def test_flat_tray_seen_from_near_its_height_is_found(elevation_deg, yaw_deg):
 @pytest.mark.parametrize(("elevation_deg", "yaw_deg"), [(10.0, 0.0), (10.0, 40.0), (30.0, 0.0)])
 def test_a_size_range_bounds_the_size_not_a_flat_objects_thickness(elevation_deg, yaw_deg):
     """``size_range=(0.02, 0.15)`` (objects of 2-15 cm semi-axis) and a 20 x 16 x 3 cm tray: its 15 mm half-thickness
-    is below MIN. With MIN a bound of every fitted semi-axis the tray came out 20-30 mm thick and 1-15 mm off; MIN bounds
+    is below MIN. With MIN a bound of every fitted semi-axis the tray's came out 20-30 mm and its centre 1-15 mm off; MIN bounds
     the search's radii, and the fit finds the exact cuboid."""
     from monovisual3d.geometry.solids import cuboid_bbox
     from monovisual3d.session import Detection, Session, View

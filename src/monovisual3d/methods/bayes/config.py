@@ -121,7 +121,7 @@ class BayesConfig:
         round fruit stay spheres)
     size_range : tuple or str or None, metres, (min, max) object size as a semi-axis length, e.g. "0.01,0.12": it sets
         radius_min/radius_max of the search and the largest semi-axis of a shape fit; a fitted semi-axis may be
-        smaller than min, down to 5 mm (a flat object's thickness, :attr:`semi_axis_range`). Default: semi-axes of
+        smaller than min, down to 5 mm (a flat object's half-thickness, :attr:`semi_axis_range`). Default: semi-axes of
         5-160 mm (cherry tomatoes to cucumbers, trays) and search radii radius_min-radius_max
     up : tuple or str, base frame vertical of the upright spheroid/ellipsoid models, e.g. "0,0,1"
     free_orientation : bool, fit the spheroid/ellipsoid orientation freely instead of upright plus yaw (needs views
@@ -280,7 +280,8 @@ class BayesConfig:
         largest radius), down to 5 mm or the smallest radius searched, whichever is smaller.
 
         ``size_range``'s MIN bounds the search's radii, the objects' sizes, not every semi-axis of their shape: a tray
-        200 mm long is 30 mm thick (docs/real.md, "The size range and flat objects")."""
+        200 mm long is 30 mm thick, a half-thickness of 15 mm (docs/real.md, "The size range and flat objects"). The
+        largest semi-axis is not held above MIN either: the search's radii already are."""
         thinnest, longest = FIT_SEMI_AXIS_RANGE_M
         if self.size_range is not None:
             return (min(thinnest, self.size_range[0]), self.size_range[1])  # type: ignore[index]
