@@ -49,11 +49,11 @@ alone, ``solid_shape_bias.py``), which sets the subsets' error with whole boxes;
 those a little (the predicted boxes of two estimates overlap more than the objects do).
 
 Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEED LAST_SEED] [ELEVATION_DEG] [--visible]
-[--tray] [--pose-error=MM,DEG] [--no-workspace] (default: cuboid 0.005 500 505 20; ``--visible``: the farther
+[--tray | --on-tray] [--pose-error=MM,DEG] [--no-workspace] (default: cuboid 0.005 500 505 20; ``--visible``: the farther
 container's box ends where the nearer one hides it, as a detector of visible parts draws it,
 :func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's whole scene, a flat 200 x 160 x 30 mm cuboid
 tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs, printed on two more lines: the tray, and all
-three objects; ``--pose-error=MM,DEG``: each view's reported pose off the true one by
+three objects; ``--on-tray``: the same tray with the pair standing on it; ``--pose-error=MM,DEG``: each view's reported pose off the true one by
 :func:`monovisual3d.sim.noise.perturb_pose`, per axis, as an arm's kinematics and hand-eye calibration leave it;
 ``--no-workspace``: the search's default region instead of a 40 cm cube around the pair). Extra options to ``localize`` go after ``--``, as
 ``key=value``, the value read as JSON where it parses (e.g. ``-- radius_max=0.08 n_radii=16`` or
@@ -83,6 +83,8 @@ N_VIEWS, SUBSET = 8, 3
 #: ``--tray``: a flat cuboid tray (half-sides, metres) behind the pair and lower (offset from the pair's middle, metres),
 #: as in ``containers_tray.py``; its yaw is random.
 TRAY_HALF_SIDES_M, TRAY_OFFSET_M = (0.10, 0.08, 0.015), (0.07, 0.0, -0.045)
+#: ``--on-tray``: the tray's offset when the pair stands on it (centred under them, its top at their bottoms), metres.
+ON_TRAY_OFFSET_M = (0.0, 0.0, -(HALF_HEIGHT_M + TRAY_HALF_SIDES_M[2]))
 
 
 def errors_mm(estimates: np.ndarray, centres: np.ndarray, found_m: float = FOUND_M) -> list[float]:
@@ -115,6 +117,7 @@ def main(
     options: dict[str, str] | None = None,
     pose_error: tuple[float, float] = (0.0, 0.0),
     workspace: bool = True,
+    on_tray: bool = False,
 ) -> None:
     cam = CAMERAS["1280x720"]
     tracks = (options or {}).get("method") == "quadric"  # the anchor is given the association
@@ -130,7 +133,7 @@ def main(
         if tray:
             R_tray = rotation_upright(rng.uniform(0.0, np.pi))
             box_fns.append(lambda cam, poses, c, R=R_tray: cuboid_bbox(cam, poses, c, TRAY_HALF_SIDES_M, R))
-            centres = np.vstack([centres, middle + TRAY_OFFSET_M])
+            centres = np.vstack([centres, middle + (ON_TRAY_OFFSET_M if on_tray else TRAY_OFFSET_M)])
         boxes = np.stack([f(cam, poses, c) for f, c in zip(box_fns, centres)], axis=1)  # (views, objects, 4)
         if visible:
             T_optical_base = np.linalg.inv(poses)
@@ -168,7 +171,8 @@ if __name__ == "__main__":
     extra = argv[argv.index("--") + 1 :] if "--" in argv else []
     argv = argv[: argv.index("--")] if "--" in argv else argv
     pose = next((a.split("=", 1)[1] for a in argv if a.startswith("--pose-error=")), "0,0")
-    args = [a for a in argv if a not in ("--visible", "--tray", "--no-workspace") and not a.startswith("--pose-error=")]
+    flags = ("--visible", "--tray", "--no-workspace", "--on-tray")
+    args = [a for a in argv if a not in flags and not a.startswith("--pose-error=")]
     if any("=" not in kv for kv in extra):
         sys.exit(f"container_pairs.py: options after -- must be key=value (e.g. size_range=0.01,0.15), got {extra}")
     main(
@@ -177,8 +181,9 @@ if __name__ == "__main__":
         range(int(args[2]), int(args[3])) if len(args) > 3 else range(500, 505),
         float(args[4]) if len(args) > 4 else 20.0,
         "--visible" in argv,
-        "--tray" in argv,
+        "--tray" in argv or "--on-tray" in argv,
         {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},
         tuple(float(x) for x in pose.split(",")),  # type: ignore[arg-type]
         "--no-workspace" not in argv,
+        "--on-tray" in argv,
     )
