@@ -134,6 +134,9 @@ class BayesConfig:
         ``outward_floor`` (off: the extraction's symmetric loss, ``inward_floor`` on both sides)
     cut_inward_floor : float, nats, the inward floor of ``one_sided_refit`` (chosen on simulated greenhouse seeds
         2000-2029, not the benchmark's: see ``methods/bayes/shapes.py``)
+    isolated_margin : float, metres: an object seen in two views whose depth lies more than this outside the depths of
+        the objects seen in three or more (at least 3 of them), in every view, is dropped: false-positive boxes whose
+        rays meet away from the scene (:mod:`.isolated`; inf: never)
     backend : str, numba (fused compiled kernels) or numpy (the readable reference)
     threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
     max_memory : int or str, bytes (or text such as 2GiB): memory budget of the call
@@ -181,6 +184,7 @@ class BayesConfig:
     solids: bool = True
     one_sided_refit: bool = True
     cut_inward_floor: float = 1.5
+    isolated_margin: float = 0.1
     backend: str = "numba"
     threads: int | None = None
     max_memory: int | str = DEFAULT_MAX_BYTES
@@ -213,10 +217,19 @@ class BayesConfig:
         if self.n_radii is None:
             steps = math.log(self.radius_max / self.radius_min) / math.log(RADIUS_BIN_RATIO)
             object.__setattr__(self, "n_radii", math.ceil(steps - 1e-9) + 1)
-        for name in ("pose_sigma_mm", "pose_sigma_deg", "prune_slack", "lookahead_margin", "elongation_slack", "elongation_cost"):
+        for name in (
+            "pose_sigma_mm",
+            "pose_sigma_deg",
+            "prune_slack",
+            "lookahead_margin",
+            "elongation_slack",
+            "elongation_cost",
+        ):
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
+        if not (is_real(self.isolated_margin) and self.isolated_margin >= 0):
+            raise InputError(f"isolated_margin: got {self.isolated_margin!r}, expected a number of metres >= 0 (inf: never)")
         if not (is_real(self.dominance_margin) and self.dominance_margin >= 0):
             raise InputError(f"dominance_margin: got {self.dominance_margin!r}, expected a number of nats >= 0 (inf: never)")
         if not (is_real(self.accept) and math.isfinite(self.accept)):

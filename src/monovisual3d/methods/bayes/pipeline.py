@@ -8,7 +8,8 @@
    (config fields ``swap`` and ``steal``);
 4. with a stated pose uncertainty, :func:`bundle` refines all objects jointly with a pose
    correction per view (:mod:`.bundle`);
-5. :func:`.shapes.shape_stage` gives each object its shape (sphere, spheroid or ellipsoid).
+5. :func:`.shapes.shape_stage` gives each object its shape (sphere, spheroid or ellipsoid);
+6. :func:`.isolated.drop_isolated` drops weakly seen objects that lie apart in depth from every well-seen one.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from ...result import DetectedObject
 from .associate import steal_pass, swap_pass
 from .bundle import bundle_adjust, correction_transform
 from .extract import extract
+from .isolated import drop_isolated
 from .problem import Problem
 from .refine import Observation
 from .search import search
@@ -88,8 +90,9 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     if cfg.second_look and cfg.shape == "auto":
         objects = second_look(problem, objects)
     timing["shape"] = time.perf_counter() - t3
+    objects, dropped = drop_isolated(problem, objects)
     objects.sort(key=lambda o: -o.score)
-    return Estimate(objects, corrections, timing, hyp.stats())
+    return Estimate(objects, corrections, timing, {**hyp.stats(), "isolated_dropped": dropped})
 
 
 def check_work(problem: Problem) -> None:
