@@ -175,7 +175,7 @@ def run_real(
 
     With ``workers`` (local processes) or ``scheduler`` (a running Dask cluster) the runs are spread over
     Dask (:func:`monovisual3d.batch.spread.spread_map`); the errors are the same. ``image_size`` (width, height),
-    pixels: the images' size, when not the standard size nearest twice the principal point
+    pixels: the images' size, when not the one the loader infers from the principal point and the boxes
     (:func:`~monovisual3d.io.lfd.session_from_lfd`); the loader's warnings are said once, here.
     """
     from ..batch.spread import check_spread, spread_map

@@ -144,7 +144,10 @@ def real(
     subset_size: Annotated[int, typer.Option("--subset-size", min=1, help="Views per subset.")] = 3,
     image_size: Annotated[
         str | None,
-        typer.Option("--image-size", help="Image size WxH (default: the standard size nearest twice the principal point)."),
+        typer.Option(
+            "--image-size",
+            help="Image size WxH (default: the common size nearest twice the principal point that holds the boxes).",
+        ),
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results (with machine metadata) as JSON.")] = False,
     output: ResultsOutput = None,

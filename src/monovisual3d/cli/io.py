@@ -223,7 +223,10 @@ def import_lfd_cmd(
     ] = False,
     image_size: Annotated[
         str | None,
-        typer.Option("--image-size", help="Image size WxH (default: the standard size nearest twice the principal point)."),
+        typer.Option(
+            "--image-size",
+            help="Image size WxH (default: the common size nearest twice the principal point that holds the boxes).",
+        ),
     ] = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,
