@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from ._app import app, console, handle_errors, plain
-from .options import ResultsOutput, SpreadScheduler, SpreadWorkers, spread_flags
+from .options import LfdImageSize, ResultsOutput, SpreadScheduler, SpreadWorkers, spread_flags
 
 bench_app = typer.Typer(
     help="Benchmarks: accuracy on simulated scenes, real data (LfD layout), dense rows (scale), speed, start-up, next-best-view and batch.",
@@ -142,13 +142,7 @@ def real(
     ] = "bayes,paper,quadric (tracks),quadric (bayes)",
     reach: Annotated[float, typer.Option(min=0.01, help="Search reach of every method, metres.")] = 1.0,
     subset_size: Annotated[int, typer.Option("--subset-size", min=1, help="Views per subset.")] = 3,
-    image_size: Annotated[
-        str | None,
-        typer.Option(
-            "--image-size",
-            help="Image size WxH (default: the common size nearest twice the principal point that holds the boxes).",
-        ),
-    ] = None,
+    image_size: LfdImageSize = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results (with machine metadata) as JSON.")] = False,
     output: ResultsOutput = None,
     workers: SpreadWorkers = None,

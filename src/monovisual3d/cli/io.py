@@ -9,7 +9,7 @@ import typer
 
 from ..errors import InputError, one_line
 from ._app import app, check_output, command_budget, console, handle_errors, json_text, plain, write_output
-from .options import MaxMemory, TimeLimit
+from .options import LfdImageSize, MaxMemory, TimeLimit
 
 if TYPE_CHECKING:
     from ..io.summary import ImportResult
@@ -221,13 +221,7 @@ def import_lfd_cmd(
     keep_association: Annotated[
         bool, typer.Option("--keep-association", help="Write each box's object index as its track id (default: pooled).")
     ] = False,
-    image_size: Annotated[
-        str | None,
-        typer.Option(
-            "--image-size",
-            help="Image size WxH (default: the common size nearest twice the principal point that holds the boxes).",
-        ),
-    ] = None,
+    image_size: LfdImageSize = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,
 ) -> None:

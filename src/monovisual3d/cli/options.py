@@ -215,6 +215,13 @@ MaxMemory = Annotated[
     str | None,
     typer.Option("--max-memory", help="Memory the command may add, e.g. 2GiB (default: no cap); beyond it, an error."),
 ]
+#: ``--image-size`` of ``import-lfd`` and ``bench real``: the LfD layout has no image size (``io.lfd``).
+LfdImageSize = Annotated[
+    str | None,
+    typer.Option(
+        "--image-size", help="Image size WxH (default: the common size nearest twice the principal point that holds the boxes)."
+    ),
+]
 #: ``--output`` of the benchmarks: where their JSON results go.
 ResultsOutput = Annotated[
     Path | None, typer.Option("--output", "-o", help="Write the results (with machine metadata) as JSON here.")
