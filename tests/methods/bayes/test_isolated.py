@@ -1,4 +1,4 @@
-"""Objects seen in two views that lie apart in depth from the well-seen ones: dropped (``isolated_margin``)."""
+"""Objects seen in two or three views that lie apart in depth from the well-seen ones: dropped (``isolated_margin``)."""
 
 from __future__ import annotations
 
@@ -49,10 +49,46 @@ def test_a_two_view_object_far_behind_the_plant_is_flagged_one_near_it_is_not() 
     behind = PLANT.mean(axis=0) + 0.35 * ray / np.linalg.norm(ray)
     objs = [_object(p, 3) for p in PLANT] + [_object(behind, 2), _object(PLANT[0] + [0.0, 0.0, 0.06], 2)]
     assert isolated_in_depth(problem, objs).tolist() == [False, False, False, True, False]
-    # the same far object seen in three views is kept, and so is everything with fewer than 3 well-seen objects
-    assert not isolated_in_depth(problem, objs[:3] + [_object(behind, 3)]).any()
+    # everything is kept with fewer than 3 well-seen objects
     assert not isolated_in_depth(problem, objs[:2] + [_object(behind, 2)]).any()
     assert not isolated_in_depth(_problem(BayesConfig(isolated_margin=float("inf"))), objs).any()
+
+
+def test_a_three_view_object_is_flagged_only_farther_out_than_the_others_span() -> None:
+    """Seen in three views, an object must lie outside the others' depths by more than ``isolated_margin`` and more
+    than their depth range (``SPREAD_FACTOR`` times) in every view; seen in four, it is kept."""
+    problem = _problem(BayesConfig())
+    ray = PLANT.mean(axis=0) - POSES[0][:3, 3]
+    ray /= np.linalg.norm(ray)
+    plant = [_object(p, 3) for p in PLANT]
+    spread = np.ptp(depths_per_view(problem, plant), axis=0).max()
+    assert 0.02 < spread < 0.1  # the plant is shallower than the margin
+    far = PLANT.mean(axis=0) - 0.3 * ray  # 0.3 m in front of the plant, along the first camera's ray
+    near = PLANT.mean(axis=0) - 0.13 * ray  # just beyond the margin in the first view, not in every view
+    assert isolated_in_depth(problem, plant + [_object(far, 3)]).tolist() == [False] * 3 + [True]
+    assert not isolated_in_depth(problem, plant + [_object(near, 3)]).any()
+    assert not isolated_in_depth(problem, plant + [_object(far, 4)]).any()
+    # a deep scene (a table top): the same offset lies within the others' spread, and the object is kept
+    deep = plant + [_object(PLANT[0] + 0.35 * ray, 3)]
+    assert not isolated_in_depth(problem, deep + [_object(far, 3)])[-1]
+    # the objects of the plant, each judged against the other two plus the far one, are never flagged
+    assert not isolated_in_depth(problem, plant + [_object(far, 3)])[:3].any()
+
+
+def test_a_two_view_object_is_judged_by_its_depth_in_the_views_that_see_it() -> None:
+    """Moved off the plant so that its depth changes in views 0 and 1 but not in view 2, an object is flagged when it
+    holds boxes in views 0 and 1 (its boxes' rays meet away from the scene), kept when one of its boxes is in view 2."""
+    problem = _problem(BayesConfig())
+    z = np.array([T[:3, 2] for T in POSES])  # each view's optical axis, base frame
+    u = z[0] - (z[0] @ z[2]) * z[2]
+    u /= np.linalg.norm(u)  # along it, the depth changes in views 0 and 1, not in view 2
+    off = PLANT.mean(axis=0) - 0.4 * u
+    plant = [_object(p, 3) for p in PLANT]
+    d = depths_per_view(problem, plant + [_object(off, 2)])
+    assert np.all(d[3, :2] < d[:3, :2].min(axis=0) - 0.1) and d[:3, 2].min() < d[3, 2] < d[:3, 2].max()
+    seen_01 = DetectedObject(off, 10.0, 0.025, associations={0: 0, 1: 0})
+    seen_12 = DetectedObject(off, 10.0, 0.025, associations={1: 0, 2: 0})
+    assert isolated_in_depth(problem, plant + [seen_01, seen_12]).tolist() == [False] * 3 + [True, False]
 
 
 def test_localize_drops_a_fruit_seen_twice_far_behind_the_plant_and_says_so() -> None:

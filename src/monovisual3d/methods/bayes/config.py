@@ -135,8 +135,9 @@ class BayesConfig:
     cut_inward_floor : float, nats, the inward floor of ``one_sided_refit`` (chosen on simulated greenhouse seeds
         2000-2029, not the benchmark's: see ``methods/bayes/shapes.py``)
     isolated_margin : float, metres: an object seen in two views whose depth lies more than this outside the depths of
-        the objects seen in three or more (at least 3 of them), in every view, is dropped: false-positive boxes whose
-        rays meet away from the scene (:mod:`.isolated`; inf: never)
+        the objects seen in three or more (at least 3 of them), in both its views, is dropped: false-positive boxes whose
+        rays meet away from the scene; one seen in three views when it lies outside the others' depths by more than
+        this and more than their depth range (:mod:`.isolated`; inf: never)
     backend : str, numba (fused compiled kernels) or numpy (the readable reference)
     threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
     max_memory : int or str, bytes (or text such as 2GiB): memory budget of the call
