@@ -116,4 +116,4 @@ def box_residuals_fused(
     return out
 
 
-_box_residuals_kernel = numba.njit(cache=True)(_box_residuals_kernel)
+_box_residuals_kernel = numba.njit(cache=True, error_model="numpy")(_box_residuals_kernel)
