@@ -382,12 +382,15 @@ def test_batched_box_residuals_equal_the_per_observation_ones():
 
 def test_lookahead_avoids_a_greedy_ghost(tmp_path):
     # demo seed 4: a fruit shows 16 px in one view and boxes are noisy; plain greedy extraction
-    # (lookahead=1) pairs boxes of three different fruit into a size-consistent ghost
+    # (lookahead=1) pairs boxes of three different fruit into a size-consistent ghost, which the regroup pass
+    # (after the extraction) also undoes
     from monovisual3d.experiments.demo import run_demo
 
-    greedy = run_demo(tmp_path / "g", seed=4, figure=False, lookahead=1).metrics
+    greedy = run_demo(tmp_path / "g", seed=4, figure=False, lookahead=1, regroup=False).metrics
+    regrouped = run_demo(tmp_path / "r", seed=4, figure=False, lookahead=1).metrics
     default = run_demo(tmp_path / "d", seed=4, figure=False).metrics
     assert greedy.recall < 1.0
+    assert regrouped.recall == 1.0 and regrouped.precision == 1.0
     assert default.recall == 1.0 and default.precision == 1.0
     assert default.euclidean_max < 0.03
 

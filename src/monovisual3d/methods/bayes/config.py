@@ -112,6 +112,9 @@ class BayesConfig:
         shape stage (``shape`` auto), trade a view's boxes between, or refit, two objects side by side, one of them tall,
         when the shape models prefer it (:mod:`.shape_swap`)
     steal : bool, after extraction, give a fruit back the box a neighbour took when the neighbour can do without it
+    regroup : bool, after the steal pass, extract again an object and the neighbours holding the boxes that other
+        hypotheses on its boxes want, its own association banned, where that explains the boxes better (three
+        fruit's boxes taken as one object: :mod:`.regroup`)
     second_look : bool, with shape auto, after the shape stage grow objects by, and build new ones from, the boxes no
         object holds, where every shape model's fit says so (a lying object broadside in one view, end-on in another,
         for which the search has no hypothesis: :mod:`.second_look`)
@@ -175,6 +178,7 @@ class BayesConfig:
     lazy_last_level: bool | None = None
     swap: bool = True
     steal: bool = True
+    regroup: bool = True
     second_look: bool = True
     pose_sigma_mm: float = 0.0
     pose_sigma_deg: float = 0.0
@@ -239,7 +243,7 @@ class BayesConfig:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
         if not (is_real(self.cut_inward_floor) and math.isfinite(self.cut_inward_floor) and self.cut_inward_floor > 0):
             raise InputError(f"cut_inward_floor: got {self.cut_inward_floor!r}, expected a positive number of nats")
-        for name in ("use_masks", "swap", "steal", "second_look", "free_orientation", "solids", "one_sided_refit"):
+        for name in ("use_masks", "swap", "steal", "regroup", "second_look", "free_orientation", "solids", "one_sided_refit"):
             if not (isinstance(getattr(self, name), bool) or type(getattr(self, name)).__name__ == "bool_"):
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
         if self.lazy_last_level is not None and not isinstance(self.lazy_last_level, bool):

@@ -31,6 +31,7 @@ from .extract import extract
 from .isolated import drop_isolated
 from .problem import Problem
 from .refine import Observation
+from .regroup import regroup_pass
 from .search import search
 from .second_look import second_look
 from .shape_swap import shape_swap_pass
@@ -74,6 +75,8 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
         objects = swap_pass(problem, objects)
     if cfg.steal:
         objects, taken = steal_pass(problem, objects, taken, hyp)
+    if cfg.regroup:
+        objects, taken = regroup_pass(problem, objects, taken, hyp)
     t2 = time.perf_counter()
     timing = {"search_score": t1 - t0, "extract_refine": t2 - t1}
     corrections: list[dict[str, Any]] = []
