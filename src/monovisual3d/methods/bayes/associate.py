@@ -18,7 +18,7 @@ from ...result import DetectedObject
 from .likelihood import box_scores
 from .problem import Problem, Taken
 from .scoring import associations_list, axis_of, boxes_of, fit_fixed, pose_px, refine_and_check, semi_up_of, spheroid_axis
-from .search import Hypotheses, last_level
+from .search import Hypotheses, last_level, same_place_m
 
 #: The steal pass tries one candidate per this many accepted objects (at least ``lookahead``): each try is local, and
 #: with ``lookahead`` (3) tries for a whole scene a row of 128 fruit (``bench.scale.row_session(128, 5, 0)``) left a fruit
@@ -288,7 +288,7 @@ def steal_pass(
         if not np.isfinite(sc.max(initial=-np.inf)):
             break
         c, k = np.unravel_index(int(np.argmax(sc)), sc.shape)
-        tried |= np.linalg.norm(centres - centres[c], axis=1) <= max(2 * hyp.cell, radii[k])
+        tried |= np.linalg.norm(centres - centres[c], axis=1) <= same_place_m(hyp.cell, float(radii[k]))
         wanted = [int(a) for a in assoc0[:, c, k]]
         b, u = hyp.bin_semi_up(int(k)), hyp.bin_axis(int(k))
         move = _try_steal(problem, objects, taken, holder, centres[c], float(radii[k]), wanted, b, u)

@@ -113,8 +113,8 @@ class BayesConfig:
         when the shape models prefer it (:mod:`.shape_swap`)
     steal : bool, after extraction, give a fruit back the box a neighbour took when the neighbour can do without it
     regroup : bool, after the steal pass, extract again an object and the neighbours holding the boxes that other
-        hypotheses on its boxes want, its own association banned, where that explains the boxes better (three
-        fruit's boxes taken as one object: :mod:`.regroup`)
+        hypotheses on its boxes want, as if its boxes were different objects' or one were wrong, where that explains better
+        (three fruit's boxes taken as one object: :mod:`.regroup`); not run when the last search level is lazy
     second_look : bool, with shape auto, after the shape stage grow objects by, and build new ones from, the boxes no
         object holds, where every shape model's fit says so (a lying object broadside in one view, end-on in another,
         for which the search has no hypothesis: :mod:`.second_look`)

@@ -37,7 +37,7 @@ from scipy.spatial import cKDTree
 from ...result import DetectedObject
 from .problem import Problem, Taken
 from .scoring import boxes_of, refine_and_check, score_hypotheses, score_one
-from .search import Hypotheses, score_children
+from .search import Hypotheses, same_place_m, score_children
 
 
 def _extended(
@@ -336,7 +336,7 @@ def _candidates(
             b, u = hyp.bin_semi_up(int(k)), hyp.bin_axis(int(k))
             _, assoc_h = score_one(problem, taken, centre, radius, rows.cell, b, u)
             cache[key] = refine_and_check(problem, taken, centre, radius, assoc_h, b, u)
-        near = cells.within(centre, max(2 * rows.cell, radius))
+        near = cells.within(centre, same_place_m(rows.cell, radius))
         r = rows.row_of[near]
         trial[r[r >= 0]] = False
         out.append((cache[key], near))

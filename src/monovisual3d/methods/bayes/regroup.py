@@ -8,9 +8,11 @@ each leaves a holder with one box.
 
 :func:`regroup_pass` takes each object in turn and the best hypotheses of the search that use one of its boxes with
 another association. The object and the holders of the boxes those hypotheses want give up their boxes; the boxes so
-released, with the free ones, are extracted again greedily with the object's own association banned; the new objects
-replace the old ones when their summed score above ``accept`` is higher (each object pays ``accept``, as in the
-extraction, so that splitting evidence into more objects is not free).
+released, with the free ones, are extracted again as the extraction does, twice: as if the object's boxes belonged to
+different objects (no new object holds two of them: a crossing), and as if one of them were wrong (no new object holds
+exactly them: a fruit that took a neighbour's box). The better set of new objects replaces the old ones when its
+summed score above ``accept`` is higher (each object pays ``accept``, as in the extraction, so that splitting evidence
+into more objects is not free).
 """
 
 from __future__ import annotations
@@ -23,9 +25,10 @@ from numpy.typing import NDArray
 from ...result import DetectedObject
 from .problem import Problem, Taken
 from .scoring import associations_list, boxes_of, refine_and_check
-from .search import Hypotheses
+from .search import Hypotheses, same_place_m
 
-#: Hypotheses tried per object (the best, at distinct places) to find the objects to regroup with it.
+#: Hypotheses on an object's boxes tried per object (the best, at distinct places) to find the objects to regroup with
+#: it: one per box of a three-view object, the commonest crossing (each of its boxes has one rightful holder).
 CANDIDATES_PER_OBJECT = 3
 
 Box = tuple[int, int]
@@ -34,15 +37,15 @@ Box = tuple[int, int]
 @dataclass(frozen=True)
 class _Table:
     """The search's hypotheses that could be objects (enough views, a score near ``accept``), flattened, with the
-    hypotheses using each box (so that every step below costs in proportion to the hypotheses on the boxes it touches,
-    not to the whole table: linear in the fruit of a row).
+    hypotheses using each box, so that each step looks only at the hypotheses on the boxes it touches.
 
-    ``score`` (n,) nats, ``assoc`` (V, n) box per view (-1: none), ``cell`` and ``bin`` (n,) their indices in
-    ``hyp``; ``order[v]`` the hypotheses sorted by their box in view ``v``, ``start[v][j]`` where box ``j``'s begin.
+    ``score`` (n,) float64 nats; ``assoc`` (V, n) int16, box per view (-1: none); ``cell`` and ``bin`` (n,) their
+    cell and radius bin in ``hyp``; ``order[v]`` (n,) the hypotheses sorted by their box in view ``v``; ``start[v]``
+    (n_boxes_v + 1,) where each box's run in ``order[v]`` begins.
     """
 
     score: NDArray[np.float64]
-    assoc: NDArray[np.int32]
+    assoc: NDArray[np.int16]
     cell: NDArray[np.intp]
     bin: NDArray[np.intp]
     order: list[NDArray[np.intp]]
@@ -59,23 +62,35 @@ class _Table:
 
     @classmethod
     def build(
-        cls, score: NDArray[np.float64], assoc: NDArray[np.int32], cell: NDArray[np.intp], k: NDArray[np.intp], n_boxes: list[int]
+        cls,
+        score: NDArray[np.float64],
+        assoc: NDArray[np.int16],
+        cell: NDArray[np.intp],
+        bin_: NDArray[np.intp],
+        n_boxes: list[int],
     ) -> _Table:
-        """The table of ``score`` (n,), ``assoc`` (V, n), ``cell`` and ``k`` (n,), with ``n_boxes`` boxes per view."""
+        """The table of hypotheses ``score`` (n,) nats, ``assoc`` (V, n), ``cell`` and ``bin_`` (n,), with
+        ``n_boxes`` boxes in each of the V views."""
         order = [np.argsort(a, kind="stable") for a in assoc]
         start = [np.searchsorted(a[o], np.arange(n + 1)) for a, o, n in zip(assoc, order, n_boxes)]
-        return cls(score, assoc, cell, k, order, start)
+        return cls(score, assoc, cell, bin_, order, start)
 
     def users(self, boxes: set[Box]) -> NDArray[np.intp]:
         """The hypotheses (indices, sorted) that use at least one of ``boxes``."""
         parts = [self.order[v][self.start[v][j] : self.start[v][j + 1]] for v, j in boxes]
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=np.intp)
 
+    def n_boxes(self, among: NDArray[np.intp]) -> NDArray[np.int64]:
+        """How many boxes each hypothesis of ``among`` uses, shape (len(among),)."""
+        return np.count_nonzero(self.assoc[:, among] >= 0, axis=0)
+
     def using(self, boxes: set[Box], among: NDArray[np.intp]) -> NDArray[np.int64]:
-        """How many of ``boxes`` each hypothesis of ``among`` uses."""
+        """How many of ``boxes`` each hypothesis of ``among`` uses, shape (len(among),)."""
         count = np.zeros(len(among), dtype=np.int64)
-        for v, j in boxes:
-            count += self.assoc[v, among] == j
+        for v in range(len(self.assoc)):
+            js = [j for u, j in boxes if u == v]
+            if js:
+                count += np.isin(self.assoc[v, among], js)
         return count
 
 
@@ -93,7 +108,8 @@ def _grid_worth_of(problem: Problem, table: _Table, objects: list[DetectedObject
 
 def _grid_worth_again(table: _Table, live: NDArray[np.intp], accept: float) -> float:
     """The summed grid score above ``accept`` of a greedy extraction from the hypotheses ``live`` (nats), no
-    refinement: each step takes the best and drops those sharing a box with it."""
+    refinement: each step takes the best and drops those sharing a box with it. Optimistic: a hypothesis's grid
+    score may count boxes that other objects hold."""
     worth = 0.0
     while len(live):
         h = live[np.argmax(table.score[live])]
@@ -123,58 +139,86 @@ def _group(problem: Problem, hyp: Hypotheses, table: _Table, obj: DetectedObject
         best = int(np.argmax(table.score[cand]))
         h = cand[best]
         group |= {holders[(v, int(j))] for v, j in enumerate(table.assoc[:, h]) if (v, int(j)) in holders}
-        near = np.linalg.norm(centres - centres[best], axis=1) <= max(2 * hyp.cell, float(hyp.radii[table.bin[h]]))
+        near = np.linalg.norm(centres - centres[best], axis=1) <= same_place_m(hyp.cell, float(hyp.radii[table.bin[h]]))
         cand, centres = cand[~near], centres[~near]
     return group
 
 
-def _reextract(
-    problem: Problem,
-    hyp: Hypotheses,
-    table: _Table,
-    pool: set[Box],
-    released: set[Box],
-    banned: set[Box],
-    taken: Taken,
-    old_grid_worth: float,
-) -> list[DetectedObject]:
-    """Objects extracted greedily from the boxes in ``pool`` (the rest stay ``taken``), each from a hypothesis using a
-    ``released`` box (those on free boxes alone the extraction refused already), none holding exactly ``banned``.
+@dataclass
+class _Pool:
+    """The boxes a re-extraction may give out (``boxes``; the rest are ``taken``) and the regrouped object's boxes
+    ``own``: with ``split``, no new object may hold two of them (they are taken to be different objects'); without,
+    no new object may hold exactly them (the object is taken to hold a wrong box)."""
 
-    Nothing where the same greedy extraction on the grid's scores falls more than ``lookahead_margin`` below
-    ``old_grid_worth``, the objects' own grid worth (:func:`_grid_worth_of`): the refinement would not close
-    that gap (as the extraction's look-ahead refines only candidates that close to the best)."""
+    boxes: set[Box]
+    taken: Taken
+    own: set[Box]
+    split: bool
+
+    def allows(self, obj: DetectedObject | None, problem: Problem) -> bool:
+        if obj is None:
+            return False
+        mine = boxes_of(problem, obj)
+        return len(mine & self.own) <= 1 if self.split else mine != self.own
+
+    def take(self, boxes: set[Box]) -> None:
+        self.boxes -= boxes
+        self.taken = self.taken | boxes
+
+
+def _refined(problem: Problem, hyp: Hypotheses, table: _Table, h: int, pool: _Pool) -> DetectedObject | None:
+    """Hypothesis ``h`` refined on the boxes of ``pool`` it wants (re-associating among those not taken)."""
+    c, k = int(table.cell[h]), int(table.bin[h])
+    wanted = [int(a) if (v, int(a)) in pool.boxes else -1 for v, a in enumerate(table.assoc[:, h])]
+    new = refine_and_check(
+        problem, pool.taken, hyp.centres_base[c], float(hyp.radii[k]), wanted, hyp.bin_semi_up(k), hyp.bin_axis(k)
+    )
+    return new if pool.allows(new, problem) else None
+
+
+def _reextract(
+    problem: Problem, hyp: Hypotheses, table: _Table, pool: _Pool, released: set[Box], old_grid_worth: float
+) -> list[DetectedObject] | None:
+    """Objects extracted greedily from ``pool``, each from a hypothesis using a ``released`` box (those on free boxes
+    alone the extraction refused already), as the extraction does: per step the best hypotheses at up to
+    ``lookahead`` distinct places within ``lookahead_margin`` of the best are refined and the best accepted one is
+    taken; the places of those that fail are dropped.
+
+    None (not tried) where the same greedy extraction on the grid's scores falls more than ``lookahead_margin`` below
+    ``old_grid_worth``, the objects' own grid worth (:func:`_grid_worth_of`): the refinement would not close that gap."""
     cfg = problem.config
     live = table.users(released)
-    live = live[table.using(pool, live) >= cfg.min_views]
-    banned_row = np.full(len(table.assoc), -1)
-    for v, j in banned:
-        banned_row[v] = j
-    live = live[~np.all(table.assoc[:, live] == banned_row[:, None], axis=0)]
+    live = live[table.using(pool.boxes, live) >= cfg.min_views]
+    own = table.using(pool.own, live)
+    live = live[own <= 1] if pool.split else live[(own < len(pool.own)) | (table.n_boxes(live) != len(pool.own))]
     if _grid_worth_again(table, live, cfg.accept) < old_grid_worth - cfg.lookahead_margin:
-        return []  # on the grid, the regrouping explains the boxes clearly worse: not worth refining
+        return None
     out: list[DetectedObject] = []
-    pool = set(pool)
+    cache: dict[int, DetectedObject | None] = {}
     while len(live):
-        order = live[np.argsort(-table.score[live], kind="stable")[: cfg.lookahead]]
-        order = order[table.score[order] >= table.score[order[0]] - cfg.lookahead_margin]
-        best: DetectedObject | None = None
-        for h in order:
-            c, k = int(table.cell[h]), int(table.bin[h])
-            wanted = [int(a) if (v, int(a)) in pool else -1 for v, a in enumerate(table.assoc[:, h])]
-            new = refine_and_check(
-                problem, taken, hyp.centres_base[c], float(hyp.radii[k]), wanted, hyp.bin_semi_up(k), hyp.bin_axis(k)
-            )
-            if new is not None and boxes_of(problem, new) != banned and (best is None or new.score > best.score):
-                best = new
-        if best is None:  # the best hypotheses left explain nothing acceptable: the rest score lower still
-            break
+        trial, tried = live, []
+        for _ in range(cfg.lookahead):
+            h = int(trial[np.argmax(table.score[trial])]) if len(trial) else -1
+            if h < 0 or table.score[h] < table.score[live].max() - cfg.lookahead_margin:
+                break
+            if h not in cache:
+                cache[h] = _refined(problem, hyp, table, h, pool)
+            radius = same_place_m(hyp.cell, float(hyp.radii[table.bin[h]]))
+            near = np.linalg.norm(hyp.centres_base[table.cell[trial]] - hyp.centres_base[table.cell[h]], axis=1) <= radius
+            tried.append((cache[h], trial[near]))
+            trial = trial[~near]
+        for obj, place in tried:
+            if obj is None:
+                live = np.setdiff1d(live, place)
+        accepted = [obj for obj, _ in tried if obj is not None]
+        if not accepted:
+            continue
+        best = max(accepted, key=lambda o: o.score)
         out.append(best)
         mine = boxes_of(problem, best)
-        pool -= mine
-        taken = taken | mine
-        live = np.setdiff1d(live, order)
-        live = live[table.using(mine, live) == 0]
+        pool.take(mine)
+        cache = {h: o for h, o in cache.items() if o is not None and o is not best and not mine & boxes_of(problem, o)}
+        live = live[table.using(pool.boxes, live) >= cfg.min_views]
     return out
 
 
@@ -182,7 +226,8 @@ def regroup_pass(
     problem: Problem, objects: list[DetectedObject], taken: Taken, hyp: Hypotheses
 ) -> tuple[list[DetectedObject], Taken]:
     """Each object with the holders of the boxes that the search's other hypotheses on its boxes want, extracted
-    again without the object's own association; kept where the boxes are then explained better (see the module).
+    again as if the object's boxes belonged to different objects or one of them were wrong; kept where the boxes
+    are then explained better (see the module).
 
     The objects a regrouping makes are visited in turn; at most as many regroupings are kept as there were objects.
     Nothing changes where the extraction scored the search's last level lazily (``hyp.child_cell``: a dense scene,
@@ -192,23 +237,31 @@ def regroup_pass(
         return objects, taken
     table = _Table.of(problem, hyp)
     current, alive = list(objects), [True] * len(objects)
-    all_boxes = {(v, j) for v, vd in enumerate(problem.views) for j in range(len(vd.boxes))}
+    holders = {b: g for g, o in enumerate(current) for b in boxes_of(problem, o)}
+    free = {(v, j) for v, vd in enumerate(problem.views) for j in range(len(vd.boxes))} - taken
     kept, i = 0, 0
     while i < len(current) and kept < len(objects):
-        holders = {b: g for g, o in enumerate(current) if alive[g] for b in boxes_of(problem, o)}
         group = {i} | _group(problem, hyp, table, current[i], holders) if alive[i] else set()
         if len(group) >= 2:
             old = [current[g] for g in group]
             released = set().union(*(boxes_of(problem, o) for o in old))
             grid_old = np.nan_to_num(_grid_worth_of(problem, table, old), nan=-np.inf)
-            pool = released | (all_boxes - taken)
-            new = _reextract(problem, hyp, table, pool, released, boxes_of(problem, current[i]), taken - released, grid_old)
-            if _worth(new, cfg.accept) > _worth(old, cfg.accept):
+            best_worth, new, pool = _worth(old, cfg.accept), None, None
+            for split in (True, False):  # the object's boxes are different objects', or one of them is wrong
+                trial = _Pool(released | free, taken - released, boxes_of(problem, current[i]), split)
+                found = _reextract(problem, hyp, table, trial, released, grid_old)
+                if found and _worth(found, cfg.accept) > best_worth:
+                    best_worth, new, pool = _worth(found, cfg.accept), found, trial
+            if new is not None and pool is not None:
                 for g in group:
                     alive[g] = False
-                taken = (taken - released) | set().union(*(boxes_of(problem, o) for o in new))
-                current += new
-                alive += [True] * len(new)
+                for b in released:
+                    holders.pop(b)
+                for o in new:
+                    holders.update({b: len(current) for b in boxes_of(problem, o)})
+                    current.append(o)
+                    alive.append(True)
+                taken, free = pool.taken, pool.boxes
                 kept += 1
         i += 1
     return [o for o, a in zip(current, alive) if a], taken

@@ -143,6 +143,14 @@ class Hypotheses:
         }
 
 
+def same_place_m(cell: float, radius: float) -> float:
+    """Metres within which hypotheses stand for the same object as one at that place: two cells of the search's
+    ``cell`` (metres; its resolution, below which the grid cannot tell places apart) or the object's ``radius``
+    (metres), whichever is larger. The extraction's look-ahead, the steal and the regroup passes try one candidate per
+    such place."""
+    return max(2 * cell, radius)
+
+
 def bytes_per_hypothesis(n_views: int) -> int:
     """Working memory of one scored hypothesis: the score arrays, the extraction's copy and temporaries."""
     return 2 * (8 + 4 + 2 * n_views + 1) + 16
