@@ -12,7 +12,7 @@ from monovisual3d.methods.bayes.regroup import _grid_worth_again, _Table
 def _table(scores, assoc) -> _Table:
     assoc = np.asarray(assoc, dtype=np.int32)
     n = assoc.shape[1]
-    return _Table.build(np.asarray(scores, dtype=float), assoc, np.arange(n), np.zeros(n, dtype=np.intp), [3] * len(assoc))
+    return _Table.build(np.asarray(scores, dtype=float), assoc, np.arange(n), np.zeros(n, dtype=np.intp))
 
 
 def test_table_finds_the_hypotheses_on_boxes_and_counts_the_boxes_they_use() -> None:

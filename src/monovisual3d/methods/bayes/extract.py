@@ -68,7 +68,7 @@ class _Work:
     ``eligible`` is ``total`` where the row is active and the hypothesis has ``min_views`` associated
     views, else -inf; ``row_best`` its maximum per row. Both are updated only in the rows that change
     (suppressed or rescored), so finding the best hypothesis costs one pass over the rows, not over all
-    hypotheses. ``users[v]`` indexes the associations of view ``v`` by box (:class:`_BoxUsers`), so that the rows
+    hypotheses. ``users[v]`` indexes the associations of view ``v`` by box (:class:`BoxUsers`), so that the rows
     using a box are found without a pass over all hypotheses.
     """
 
@@ -79,7 +79,7 @@ class _Work:
     eligible: NDArray[np.float64]
     row_best: NDArray[np.float64]
     stale: NDArray[np.bool_]
-    users: list[_BoxUsers]
+    users: list[BoxUsers]
     pending: NDArray[np.bool_]
     buffers: dict[str, NDArray[Any]] = field(default_factory=dict)
 
@@ -103,7 +103,7 @@ class _Work:
             total.copy(),
             np.zeros(n),
             np.zeros(n, dtype=bool),
-            [_BoxUsers.of(a, np.arange(n), _holders(n_assoc)) for a in assoc],
+            [BoxUsers.of(a, np.arange(n), _holders(n_assoc)) for a in assoc],
             np.zeros(n, dtype=bool) if pending is None else pending.copy(),
         )
         work.update(np.arange(n), min_views)
@@ -205,7 +205,7 @@ def _holders(n_assoc: NDArray[np.int32]) -> NDArray[np.intp]:
 
 
 @dataclass
-class _BoxUsers:
+class BoxUsers:
     """Which hypotheses associate each box of one view: sorted runs of (box, hypothesis) pairs, a hypothesis as its
     flat index ``row * K + bin``, and its association as it was when the run was added (a row rescored since has its
     new associations in a later run; :meth:`_Work.using` checks the current ones). Adding a run merges it with the
@@ -216,7 +216,7 @@ class _BoxUsers:
     runs: list[tuple[NDArray[np.int16], NDArray[np.intp]]]
 
     @classmethod
-    def of(cls, assoc_v: NDArray[np.int16], rows: NDArray[np.intp], held: NDArray[np.intp] | None = None) -> _BoxUsers:
+    def of(cls, assoc_v: NDArray[np.int16], rows: NDArray[np.intp], held: NDArray[np.intp] | None = None) -> BoxUsers:
         """The index of the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,) (``held``: see :meth:`add`)."""
         users = cls([])
         users.add(assoc_v, rows, held)
@@ -399,6 +399,20 @@ def _refresh(problem: Problem, rows: _Rows, work: _Work, taken: Taken, lazy: boo
         _split(problem, rows, work, taken, parents)
 
 
+def best_accepted(candidates: list[DetectedObject | None]) -> DetectedObject | None:
+    """The best-scoring of the look-ahead's refined candidates (None: refused), None if every one was refused."""
+    accepted = [c for c in candidates if c is not None]
+    return max(accepted, key=lambda o: o.score) if accepted else None
+
+
+def still_valid(
+    problem: Problem, cache: dict[Any, DetectedObject | None], taken_obj: DetectedObject
+) -> dict[Any, DetectedObject | None]:
+    """The cached refined candidates that stay valid once ``taken_obj`` is taken: accepted, and sharing no box with it."""
+    mine = boxes_of(problem, taken_obj)
+    return {key: o for key, o in cache.items() if o is not None and o is not taken_obj and not mine & boxes_of(problem, o)}
+
+
 def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[DetectedObject], Taken]:
     """Objects found greedily in ``hyp``, and the boxes they took.
 
@@ -425,12 +439,10 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
         for cand, near in candidates:
             if cand is None:
                 _kill(rows, work, near)
-        accepted = [cand for cand, _ in candidates if cand is not None]
-        if not accepted:
+        obj = best_accepted([cand for cand, _ in candidates])
+        if obj is None:
             continue
-        obj = max(accepted, key=lambda o: o.score)
         objects.append(obj)
-        mine = boxes_of(problem, obj)
-        cache = {key: o for key, o in cache.items() if o is not None and o is not obj and not mine & boxes_of(problem, o)}
+        cache = still_valid(problem, cache, obj)
         taken = _take(problem, rows, work, taken, obj, cells)
     return objects, taken

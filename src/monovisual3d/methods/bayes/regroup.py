@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...result import DetectedObject
+from .extract import BoxUsers, best_accepted, still_valid
 from .problem import Problem, Taken
 from .scoring import associations_list, boxes_of, refine_and_check
 from .search import Hypotheses, same_place_m
@@ -40,16 +41,14 @@ class _Table:
     hypotheses using each box, so that each step looks only at the hypotheses on the boxes it touches.
 
     ``score`` (n,) float64 nats; ``assoc`` (V, n) int16, box per view (-1: none); ``cell`` and ``bin`` (n,) their
-    cell and radius bin in ``hyp``; ``order[v]`` (n,) the hypotheses sorted by their box in view ``v``; ``start[v]``
-    (n_boxes_v + 1,) where each box's run in ``order[v]`` begins.
+    cell and radius bin in ``hyp``; ``by_box[v]`` the hypotheses using each box of view ``v`` (:class:`.extract.BoxUsers`).
     """
 
     score: NDArray[np.float64]
     assoc: NDArray[np.int16]
     cell: NDArray[np.intp]
     bin: NDArray[np.intp]
-    order: list[NDArray[np.intp]]
-    start: list[NDArray[np.intp]]
+    by_box: list[BoxUsers]
 
     @classmethod
     def of(cls, problem: Problem, hyp: Hypotheses) -> _Table:
@@ -58,26 +57,19 @@ class _Table:
         flat = np.flatnonzero((n_assoc >= cfg.min_views) & (total >= cfg.accept - cfg.prune_slack))
         cell, k = np.divmod(flat, total.shape[1])
         assoc = assoc.reshape(len(assoc), -1)[:, flat]
-        return cls.build(total.reshape(-1)[flat], assoc, cell, k, [len(vd.boxes) for vd in problem.views])
+        return cls.build(total.reshape(-1)[flat], assoc, cell, k)
 
     @classmethod
     def build(
-        cls,
-        score: NDArray[np.float64],
-        assoc: NDArray[np.int16],
-        cell: NDArray[np.intp],
-        bin_: NDArray[np.intp],
-        n_boxes: list[int],
+        cls, score: NDArray[np.float64], assoc: NDArray[np.int16], cell: NDArray[np.intp], bin_: NDArray[np.intp]
     ) -> _Table:
-        """The table of hypotheses ``score`` (n,) nats, ``assoc`` (V, n), ``cell`` and ``bin_`` (n,), with
-        ``n_boxes`` boxes in each of the V views."""
-        order = [np.argsort(a, kind="stable") for a in assoc]
-        start = [np.searchsorted(a[o], np.arange(n + 1)) for a, o, n in zip(assoc, order, n_boxes)]
-        return cls(score, assoc, cell, bin_, order, start)
+        """The table of hypotheses ``score`` (n,) nats, ``assoc`` (V, n), ``cell`` and ``bin_`` (n,)."""
+        rows = np.arange(len(score))
+        return cls(score, assoc, cell, bin_, [BoxUsers.of(a[:, None], rows) for a in assoc])
 
     def users(self, boxes: set[Box]) -> NDArray[np.intp]:
         """The hypotheses (indices, sorted) that use at least one of ``boxes``."""
-        parts = [self.order[v][self.start[v][j] : self.start[v][j + 1]] for v, j in boxes]
+        parts = [self.by_box[v].hypotheses(np.array([j])) for v, j in boxes]
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=np.intp)
 
     def n_boxes(self, among: NDArray[np.intp]) -> NDArray[np.int64]:
@@ -210,14 +202,12 @@ def _reextract(
         for obj, place in tried:
             if obj is None:
                 live = np.setdiff1d(live, place)
-        accepted = [obj for obj, _ in tried if obj is not None]
-        if not accepted:
+        best = best_accepted([obj for obj, _ in tried])
+        if best is None:
             continue
-        best = max(accepted, key=lambda o: o.score)
         out.append(best)
-        mine = boxes_of(problem, best)
-        pool.take(mine)
-        cache = {h: o for h, o in cache.items() if o is not None and o is not best and not mine & boxes_of(problem, o)}
+        pool.take(boxes_of(problem, best))
+        cache = still_valid(problem, cache, best)
         live = live[table.using(pool.boxes, live) >= cfg.min_views]
     return out
 
