@@ -188,10 +188,10 @@ def _reextract(
     out: list[DetectedObject] = []
     cache: dict[int, DetectedObject | None] = {}
     while len(live):
-        trial, tried = live, []
+        trial, tried, floor = live, [], table.score[live].max() - cfg.lookahead_margin
         for _ in range(cfg.lookahead):
             h = int(trial[np.argmax(table.score[trial])]) if len(trial) else -1
-            if h < 0 or table.score[h] < table.score[live].max() - cfg.lookahead_margin:
+            if h < 0 or table.score[h] < floor:
                 break
             if h not in cache:
                 cache[h] = _refined(problem, hyp, table, h, pool)
@@ -236,13 +236,13 @@ def regroup_pass(
             old = [current[g] for g in group]
             released = set().union(*(boxes_of(problem, o) for o in old))
             grid_old = np.nan_to_num(_grid_worth_of(problem, table, old), nan=-np.inf)
-            best_worth, new, pool = _worth(old, cfg.accept), None, None
+            best_worth, new, pool = _worth(old, cfg.accept), [], None
             for split in (True, False):  # the object's boxes are different objects', or one of them is wrong
                 trial = _Pool(released | free, taken - released, boxes_of(problem, current[i]), split)
-                found = _reextract(problem, hyp, table, trial, released, grid_old)
+                found = _reextract(problem, hyp, table, trial, released, grid_old) or []
                 if found and _worth(found, cfg.accept) > best_worth:
                     best_worth, new, pool = _worth(found, cfg.accept), found, trial
-            if new is not None and pool is not None:
+            if pool is not None:
                 for g in group:
                     alive[g] = False
                 for b in released:
