@@ -59,7 +59,7 @@ from monovisual3d.geometry.fit import fit_shape_by_bic
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox, cylinder_bbox
 from monovisual3d.methods.bayes.sensor import SensorModel
-from monovisual3d.methods.bayes.shapes import solid_evidence
+from monovisual3d.methods.bayes.solid_choice import solid_evidence
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_boxes
 

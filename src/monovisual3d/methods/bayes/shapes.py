@@ -26,7 +26,7 @@ With ``BayesConfig.solids``, an object elongated one way is also fitted as an up
 (:mod:`monovisual3d.geometry.solids`). The ellipsoid models predict a container's boxes wrong where its top rim
 sticks out, seen from above, and that biases its centre down by about 3 mm (``benchmarks/solid_shape_bias.py``).
 The solid is kept only when the boxes clearly prefer it to the best ellipsoid model, with the edge noise
-estimated from the fits (:func:`solid_evidence`, :data:`SOLID_EVIDENCE_NATS`): under noisy boxes the two are
+estimated from the fits (:func:`.solid_choice.solid_evidence`, :data:`.solid_choice.SOLID_EVIDENCE_NATS`): under noisy boxes the two are
 equally good and fruit stay ellipsoids. A solid reports its centre as the position, its radius or half-sides as
 ``semi_axes`` with the shape of the ellipsoid of the same semi-axes (``spheroid``, ``ellipsoid``), and
 ``extra["solid"]`` (``cylinder``, ``cuboid``).
@@ -48,7 +48,6 @@ Bayesian information criterion.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -66,9 +65,7 @@ from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
 from .scoring import axis_of, pose_px, semi_up_of, spheroid_axis
 from .sensor import box_edge_sigma_px, inward_edge_offsets
-
-if TYPE_CHECKING:
-    from ...geometry.fit import EllipsoidFit
+from .solid_choice import solid_if_clear, solid_may_win
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
 MIN_VIEWS_FOR_ELLIPSOID = 4
@@ -94,22 +91,13 @@ MIN_ELONGATED_BOXES = 2
 MIN_ELONGATED_FRACTION = 0.5
 #: Views from which ``solids`` also fits the yawed cuboid (7 parameters, as the ellipsoid; a square box's width changes
 #: with the yaw from view to view, a cylinder's does not). From 3 views it is weakly determined and kept only with
-#: clear evidence (:func:`solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
+#: clear evidence (:func:`.solid_choice.solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
 #: to 2.4-2.5 mm with exact boxes (benchmarks/solid_shape_bias.py).
 MIN_VIEWS_FOR_CUBOID = 3
 #: Parameters of a sphere: centre and radius.
 SPHERE_PARAMETERS = 4
 #: The shape a solid reports: that of the ellipsoid with the same semi-axes (its radius or half-sides).
 SOLID_SHAPES = {"cylinder": "spheroid", "cuboid": "ellipsoid"}
-#: Evidence (nats, :func:`solid_evidence`) a solid needs over the best ellipsoid model: prior odds of e : 1 for the
-#: ellipsoids, the models of fruit. Chosen on cylinder-against-spheroid fits to simulated upright 5 x 5 x 12 cm
-#: cylinders and spheroids (``python benchmarks/solid_shape_bias.py 9000 9060 --evidence``: 3 and 8 views, 0.3-2 % box
-#: noise): at 0 nats (the plain choice) spheroids with 1-2 % noise come out as cylinders 25-45 % of the time, 1-2 mm
-#: high; at 1 nat 7-13 %, and the summed vertical error of both kinds is the lowest of 0-3 nats, or within 0.07 mm of
-#: it; exact boxes still pick the right model every time.
-SOLID_EVIDENCE_NATS = 1.0
-#: Edges either fit misses by this many sensor sigmas (``alpha``) or more are outliers, left out of the evidence.
-OUTLIER_SIGMAS = 3.0
 
 #: Why ``BayesConfig.cut_inward_floor`` is 1.5 nats: the inward floor of the loss of the final sphere refit
 #: (:func:`one_sided_refit`), the outward one staying the
@@ -335,29 +323,34 @@ def _fitted(
     """The lowest-BIC fit of ``shapes`` to the object's boxes as an :data:`Answer` and the edges it used (None: too
     few usable edges), leaving out the ``censored`` edges (K, 4) (cut by nearer objects; in the order of
     :func:`object_boxes`); under ``auto`` a sphere fit of an object the search found as a sphere gives the search's
-    sphere (its refinement, with masks and pose noise, is the better sphere estimate) unless not ``search_sphere``."""
+    sphere (its refinement, with masks and pose noise, is the better sphere estimate) unless not ``search_sphere``.
+    The solids among ``shapes`` are fitted after the ellipsoid models, where they could win
+    (:func:`.solid_choice.solid_may_win`), and chosen by :func:`.solid_choice.solid_if_clear`."""
     from ...geometry.fit import fit_shape_by_bic
 
     cfg = problem.config
     poses, boxes = object_boxes(problem, obj)
-    try:
-        best, fits = fit_shape_by_bic(
-            problem.camera,
-            poses,
-            boxes,
-            shapes=shapes,
-            every_model=False,  # the same best; a model that cannot win is not fitted (a dense row's cut fruit)
-            up=cfg.up_vector,
-            size_range=cfg.semi_axis_range,
-            box_sigma=problem.model.alpha,
-            edge_sigma_px=problem.model.sigma0_px,
-            border_px=problem.model.border_px,
-            free_orientation=cfg.free_orientation,
-            censored=censored,
-        )
+    options = {
+        "up": cfg.up_vector,
+        "size_range": cfg.semi_axis_range,
+        "box_sigma": problem.model.alpha,
+        "edge_sigma_px": problem.model.sigma0_px,
+        "border_px": problem.model.border_px,
+        "free_orientation": cfg.free_orientation,
+        "censored": censored,
+    }
+    ellipsoids, solids = [s for s in shapes if s not in SOLIDS], [s for s in shapes if s in SOLIDS]
+    try:  # a model that cannot win is not fitted (a dense row's cut fruit): the same best
+        _, fits = fit_shape_by_bic(problem.camera, poses, boxes, shapes=ellipsoids, every_model=False, **options)
     except InputError:
         return None
-    best = _solid_only_if_clear(best, fits)
+    for solid in solids:
+        if solid_may_win(solid, fits, cfg.free_orientation):
+            try:
+                fits.update(fit_shape_by_bic(problem.camera, poses, boxes, shapes=(solid,), **options)[1])
+            except InputError:
+                continue
+    best = solid_if_clear(min(fits.values(), key=lambda f: f.bic), fits)
     if search_sphere and best.model == "sphere" and cfg.shape == "auto" and obj.extra.get("semi_up") is None:
         return _sphere_answer(obj), best.n_edges
     e = best.ellipsoid
@@ -415,39 +408,6 @@ def shape_value(
     return score - 0.5 * answer[2] * math.log(max(n_edges, 1))
 
 
-def solid_evidence(solid: EllipsoidFit, other: EllipsoidFit) -> float:
-    """Half the difference (nats) between the Bayesian information criteria of ``other`` and ``solid`` with the edge
-    noise estimated from the residuals (``E ln(chi2 / E) + P ln E`` for each; positive: the solid is preferred).
-
-    The edge noise of the sensor model (``alpha``) is a bound for poor detectors, under which a solid and an
-    ellipsoid of the same size are within a fraction of a sigma of each other on every edge: there, the plain
-    BIC picks either at random. With the noise taken from the fits themselves, near-perfect boxes of a cylinder
-    speak for it by hundreds of nats, noisy ones by about nothing. Edges either fit misses by
-    :data:`OUTLIER_SIGMAS` sensor sigmas or more (a leaf's cut, a merged false positive: the robust fits let them go)
-    are left out, so that they do not make the evidence; with no more edges left than parameters it is ``-inf``."""
-    rs, ro = solid.residuals_px / solid.sigma_px, other.residuals_px / other.sigma_px  # the same edges, normalised
-    inlier = (np.abs(rs) < OUTLIER_SIGMAS) & (np.abs(ro) < OUTLIER_SIGMAS)
-    e = int(inlier.sum())
-    if e <= max(solid.n_parameters, other.n_parameters):
-        return -math.inf
-    tiny = 1e-12  # chi2 of an exact fit: the evidence stays finite
-    chi2_solid, chi2_other = float(np.sum(rs[inlier] ** 2)), float(np.sum(ro[inlier] ** 2))
-    return 0.5 * (
-        e * math.log((chi2_other + tiny) / (chi2_solid + tiny)) + (other.n_parameters - solid.n_parameters) * math.log(e)
-    )
-
-
-def _solid_only_if_clear(best: EllipsoidFit, fits: dict[str, EllipsoidFit]) -> EllipsoidFit:
-    """``best``, or when it is a solid whose :func:`solid_evidence` against the best ellipsoid model does not exceed
-    :data:`SOLID_EVIDENCE_NATS`, that ellipsoid model (the solids join the models of fruit; they win when the boxes
-    say so clearly)."""
-    others = [f for m, f in fits.items() if m not in SOLIDS]
-    if best.model not in SOLIDS or not others:
-        return best
-    other = min(others, key=lambda f: f.bic)
-    return best if solid_evidence(best, other) > SOLID_EVIDENCE_NATS else other
-
-
 def _upright_shapes(n_views: int, solids: bool = False) -> tuple[str, ...]:
     """The models ``auto`` compares for an object elongated the same way in every view; with ``solids``
     (``BayesConfig.solids``) the upright solids too (a can, a bottle, a box)."""
@@ -503,8 +463,10 @@ def fit_shape(
         both_ways = np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)
         if cut and not both_ways and not outgrown():
             return answer[0]  # the boxes nearer objects do not cut are not elongated both ways: the cuts made it look so
-    new = _fitted(problem, obj, _lying_shapes(n_views), censored)
-    if new is None or not beats(problem, obj, new[0], answer, new[1]):
+    # a solid won by its evidence (a flat tray: :func:`.solid_choice.solid_if_clear`); a lying model must beat it that way first
+    solid = answer[0].extra.get("solid")
+    new = _fitted(problem, obj, _lying_shapes(n_views) + ((solid,) if solid else ()), censored)
+    if new is None or new[0][0].extra.get("solid") or not beats(problem, obj, new[0], answer, new[1]):
         return answer[0]
     return new[0][0]
 
