@@ -465,7 +465,7 @@ def fit_shape_by_bic(
     fits: dict[str, EllipsoidFit] = {}
     first_error: InputError | None = None
     for shape in shapes:
-        if not every_model and _hopeless(shape, fits, options.get("free_orientation", False)):
+        if not every_model and hopeless(shape, fits, options.get("free_orientation", False)):
             continue
         try:
             fits[shape] = fit_ellipsoid_to_boxes(camera, T_base_optical, boxes_xyxy, shape=shape, **options)
@@ -479,7 +479,7 @@ def fit_shape_by_bic(
     return min(fits.values(), key=lambda f: f.bic), fits
 
 
-def _hopeless(shape: str, fits: dict[str, EllipsoidFit], free_orientation: bool) -> bool:
+def hopeless(shape: str, fits: dict[str, EllipsoidFit], free_orientation: bool = False) -> bool:
     """Whether a ``shape`` fit's BIC cannot fall below the lowest of ``fits`` (of its ellipsoid models, for an ellipsoid
     model), its penalty ``P ln(E)`` alone exceeding it: all the fits use the same ``E`` edges."""
     rivals = [f for m, f in fits.items() if shape in SOLIDS or m not in SOLIDS]

@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
 import monovisual3d as mv
+import monovisual3d.geometry.fit as fit_module
 from monovisual3d.camera import Camera
 from monovisual3d.cli import app
 from monovisual3d.frames import look_at
@@ -91,22 +92,24 @@ def test_a_yawed_cuboid_from_six_views_is_found_at_its_centre():
 
 
 def test_a_flat_tray_from_three_views_is_a_cuboid_at_its_centre():
-    # a 200 x 160 x 30 mm tray seen from 0-10 degrees above: its boxes (300-450 px wide) are wide in every view, and
-    # their widths follow a rectangle's, not an ellipse's; the spheroid misses them by about 10 px and lands 10-25 mm
-    # off, which the sensor model's 5 % edge noise (17-22 px here) alone could not tell from the cuboid
-    half_sides = [0.10, 0.08, 0.015]
-    for seed, elevation in ((10, 0.0), (11, 10.0)):
+    # a 200 x 160 x 30 mm tray seen from its height: its boxes (250-450 px wide) are wide in every view, and their
+    # widths follow a rectangle's, not an ellipse's; the spheroid misses them by about 10 px and lands 5-14 mm off,
+    # which the sensor model's 5 % edge noise (15-25 px here) alone could not tell from the cuboid: before the solids
+    # could win by their evidence, 6 of these 12 seeds came out as cuboids within 3 mm
+    half_sides, found = [0.10, 0.08, 0.015], 0
+    for seed in range(10, 22):
         rng = np.random.default_rng(seed)
-        poses = _poses(rng, 3, elevation)
+        poses = _poses(rng, 3, 0.0)
         yaw = rng.uniform(0.0, np.pi)
         boxes = perturb_boxes(cuboid_bbox(CAM, poses, TARGET, half_sides, rotation_upright(yaw)), 0.002, rng)
         objects = _localize(poses, boxes)
         assert len(objects) == 1
         o = objects[0]
-        assert o.extra.get("solid") == "cuboid"
-        assert np.linalg.norm(o.position - TARGET) < 3e-3
-        with_ellipsoids = _localize(poses, boxes, solids=False)[0]
-        assert np.linalg.norm(with_ellipsoids.position - TARGET) > 5e-3  # the models of fruit cannot place it
+        found += o.extra.get("solid") == "cuboid" and np.linalg.norm(o.position - TARGET) < 3e-3
+        if seed == 10:
+            with_ellipsoids = _localize(poses, boxes, solids=False)[0]
+            assert np.linalg.norm(with_ellipsoids.position - TARGET) > 5e-3  # the models of fruit cannot place it
+    assert found >= 9
 
 
 def test_a_solid_is_fitted_only_where_it_could_win():
@@ -120,6 +123,17 @@ def test_a_solid_is_fitted_only_where_it_could_win():
         _, fits = fit_shape_by_bic(CAM, poses, boxes, shapes=("sphere", "spheroid"), box_sigma=0.05, size_range=(0.005, 0.15))
         assert 7 * np.log(fits["spheroid"].n_edges) > fits["spheroid"].bic  # by the BIC alone no cuboid could win
         assert solid_may_win("cuboid", fits) is expected
+    fitted: list[str] = []
+    real_fit = fit_module.fit_ellipsoid_to_boxes
+
+    def counting(*args, shape: str = "spheroid", **kwargs):
+        fitted.append(shape)
+        return real_fit(*args, shape=shape, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(fit_module, "fit_ellipsoid_to_boxes", counting)
+        (o,) = _localize(poses, spheroid)
+    assert o.shape == "spheroid" and "spheroid" in fitted and "cuboid" not in fitted  # the shape stage skipped it
 
 
 def test_an_upright_spheroid_stays_a_spheroid():

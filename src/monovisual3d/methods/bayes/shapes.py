@@ -340,6 +340,8 @@ def _fitted(
         "censored": censored,
     }
     ellipsoids, solids = [s for s in shapes if s not in SOLIDS], [s for s in shapes if s in SOLIDS]
+    if not ellipsoids:  # no ellipsoid model to weigh the solids against: fit them all
+        ellipsoids, solids = list(shapes), []
     try:  # a model that cannot win is not fitted (a dense row's cut fruit): the same best
         _, fits = fit_shape_by_bic(problem.camera, poses, boxes, shapes=ellipsoids, every_model=False, **options)
     except InputError:
