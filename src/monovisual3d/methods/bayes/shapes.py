@@ -56,6 +56,7 @@ from ...camera import Camera
 from ...errors import InputError
 from ...frames import invert_transform
 from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
+from ...geometry.fit import fit_shape_by_bic
 from ...geometry.solids import SOLIDS, cuboid_bbox, cylinder_bbox
 from ...geometry.sphere import predict_sphere_boxes
 from ...result import DetectedObject
@@ -326,8 +327,6 @@ def _fitted(
     sphere (its refinement, with masks and pose noise, is the better sphere estimate) unless not ``search_sphere``.
     The solids among ``shapes`` are fitted after the ellipsoid models, where they could win
     (:func:`.solid_choice.solid_may_win`), and chosen by :func:`.solid_choice.solid_if_clear`."""
-    from ...geometry.fit import fit_shape_by_bic
-
     cfg = problem.config
     poses, boxes = object_boxes(problem, obj)
     options = {
