@@ -235,6 +235,30 @@ def test_a_censored_edge_still_bounds_the_object_from_inside() -> None:
     assert_allclose(fit.residuals_px, (fit.ellipsoid.bbox(CAM, P) - noisy)[~middle], atol=1e-6)
 
 
+def test_a_hidden_edge_is_hidden_no_further_than_its_occluder() -> None:
+    """A tall object behind a nearer one, boxes of its visible part (the right 70 % hidden in every view): with the
+    hidden edges open-ended, a sphere 34 mm off whose right side reaches far behind the occluder fits almost as well
+    as the truth (the BIC's one parameter apart); with ``hidden_to`` at the occluder's far side it cannot reach past
+    it, the sphere no longer fits and the spheroid stays exact; a limit array of the wrong shape is refused."""
+    true = Ellipsoid.spheroid([0.6, 0.02, 0.45], 0.025, 0.06)
+    whole = true.bbox(CAM, P)
+    visible = whole.copy()
+    visible[:, 2] = whole[:, 0] + 0.3 * (whole[:, 2] - whole[:, 0])
+    censored = np.zeros(whole.shape, dtype=bool)
+    censored[:, 2] = True
+    occluder_far_side = np.where(censored, whole + 5.0, np.nan)  # the nearer box ends 5 px past the object's edge
+    shapes = ("sphere", "spheroid")
+    _, open_ended = fit_shape_by_bic(CAM, P, visible, shapes=shapes, censored=censored)
+    best, bounded = fit_shape_by_bic(CAM, P, visible, shapes=shapes, censored=censored, hidden_to=occluder_far_side)
+    assert open_ended["sphere"].chi2 < 5 and np.linalg.norm(open_ended["sphere"].ellipsoid.centre_base - true.centre_base) > 0.02
+    assert np.all(open_ended["sphere"].ellipsoid.bbox(CAM, P)[:, 2] > occluder_far_side[:, 2] + 20)
+    assert bounded["sphere"].chi2 > 100
+    assert best.model == "spheroid" and best.chi2 < 1e-8
+    assert_allclose(best.ellipsoid.centre_base, true.centre_base, atol=1e-5)
+    with pytest.raises(InputError, match=r"^hidden_to: got shape \(3,\), expected \(3, 4\)"):
+        fit_ellipsoid_to_boxes(CAM, P, visible, shape="spheroid", censored=censored, hidden_to=np.zeros(3))
+
+
 def test_an_edge_on_the_image_border_still_bounds_the_object_from_inside() -> None:
     """A tall object whose top lies beyond the image's top border in every view (a hanging fruit seen from close by):
     the border edges say it reaches at least there, so it is not a sphere of its width at its bottom, which fits every

@@ -21,6 +21,16 @@ def test_one_sided_edges_keep_a_prediction_inside_the_edge_only() -> None:
     assert_allclose(one_sided_edges(r, np.arange(4)), [[1.5, 0.0, 0.0, -1.5], [0.0, 0.5, -0.5, 0.0]])
 
 
+def test_one_sided_edges_cost_a_prediction_past_the_limit() -> None:
+    """With limits (how far each edge may be hidden), a prediction between the observed edge and its limit costs
+    nothing, one past the limit costs from it, one inside the edge as before; a NaN limit is no limit."""
+    r = np.array([[1.5, -3.0, 3.0, 0.5], [-0.5, -0.5, 0.5, 0.5]])  # predicted minus observed
+    r_limit = np.array([[2.5, -2.0, 2.0, -1.0], [1.0, np.nan, -1.0, np.nan]])  # predicted minus limit (past the edge)
+    expected = [[1.5, -2.0, 2.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
+    assert_allclose(one_sided_edges(r, np.arange(4), r_limit), expected)
+    assert_allclose(one_sided_edges(r, np.arange(4), np.full(r.shape, np.nan)), one_sided_edges(r, np.arange(4)))
+
+
 def test_hidden_edges_are_the_border_ones_and_the_censored() -> None:
     """Edges on the image border and censored ones bound the object from inside only; without flags, the border ones."""
     censored = np.zeros(BOXES.shape, dtype=bool)

@@ -243,6 +243,7 @@ def fit_ellipsoid_to_boxes(
     border_px: float = DEFAULT_BORDER_PX,
     initial: Ellipsoid | None = None,
     censored: ArrayLike | None = None,
+    hidden_to: ArrayLike | None = None,
 ) -> EllipsoidFit:
     """Fit a sphere, spheroid or ellipsoid to one object's boxes in K views.
 
@@ -265,6 +266,9 @@ def fit_ellipsoid_to_boxes(
         sizes from the box sizes)
     censored : array_like, shape (K, 4), bool, optional: edges known to be cut (a nearer object hides the object
         there): they count one-sided, as border edges do
+    hidden_to : array_like, shape (K, 4), pixels, optional: for a ``censored`` edge, how far the object can reach
+        behind its occluder (the nearer box's far side; NaN: no limit); a prediction past it costs from it
+        (:func:`.fit_edges.one_sided_edges`)
 
     Returns
     -------
@@ -290,7 +294,10 @@ def fit_ellipsoid_to_boxes(
     hidden = hidden_edges(camera, b, border_px, censored)
     counted = used | hidden
     sigma_all = edge_noise_px(b, box_sigma, edge_sigma_px)[counted]
-    batch, jacobian = _edge_residuals(camera, T, counted, b[counted], sigma_all, shape, u, free_orientation, hidden[counted])
+    limits = _hidden_limits(hidden_to, b, hidden, counted)
+    batch, jacobian = _edge_residuals(
+        camera, T, counted, b[counted], sigma_all, shape, u, free_orientation, hidden[counted], limits
+    )
     starts = fit_starts(camera, T, b, shape, u, free_orientation, lo, hi, initial)
     best = _least_squares_from(starts, batch, jacobian, names, lo, hi, loss, robust_scale)
     c, s, R = ellipsoid_from_parameters(best.x, shape, up=u, free_orientation=free_orientation)
@@ -321,10 +328,12 @@ def _edge_residuals(
     u: NDArray[np.float64],
     free_orientation: bool,
     hidden: NDArray[np.bool_] | None = None,
+    limits: NDArray[np.float64] | None = None,
 ) -> tuple[Callable[[NDArray[np.float64]], NDArray[np.float64]], Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
     """The normalised residuals (N, E) of parameter vectors (N, P) and their central-difference Jacobian (E, P) at one;
     ``counted`` (K, 4): the edges whose residuals are returned, in row-major order; ``hidden`` (E,): those of them
-    that count one-sided (:func:`one_sided_edges`)."""
+    that count one-sided (:func:`one_sided_edges`), ``limits`` (E,), pixels: how far each may be hidden (NaN: no
+    limit)."""
     R0 = rotation_upright(0.0, u)
     boxes_of = PinholeBoxes(camera, T) if camera.distortion_model == "none" else None
     edge_index = np.nonzero(counted)[1]
@@ -335,7 +344,8 @@ def _edge_residuals(
         pred = _predicted_boxes(camera, T, boxes_of, shape, c, s, R)[:, counted]
         r = (pred - observed) / sigma
         if hidden is not None and hidden.any():
-            r = np.where(hidden, one_sided_edges(r, edge_index), r)
+            r_limit = None if limits is None else (pred - limits) / sigma
+            r = np.where(hidden, one_sided_edges(r, edge_index, r_limit), r)
         return np.where(np.isfinite(r), r, UNDEFINED_RESIDUAL)
 
     def jacobian(theta: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -344,6 +354,19 @@ def _edge_residuals(
         return ((r[: len(theta)] - r[len(theta) :]) / (2 * h[:, None])).T
 
     return normalised, jacobian
+
+
+def _hidden_limits(
+    hidden_to: ArrayLike | None, b: NDArray[np.float64], hidden: NDArray[np.bool_], counted: NDArray[np.bool_]
+) -> NDArray[np.float64] | None:
+    """``hidden_to`` (K, 4), pixels, checked, at the ``counted`` edges (E,): NaN where an edge is seen or has no limit;
+    None without any."""
+    if hidden_to is None:
+        return None
+    limits = np.asarray(hidden_to, dtype=float)
+    if limits.shape != b.shape:
+        raise InputError(f"hidden_to: got shape {limits.shape}, expected {b.shape} (one limit per box edge)")
+    return np.where(hidden, limits, np.nan)[counted]
 
 
 def _predicted_boxes(

@@ -80,16 +80,29 @@ def _flags(censored: ArrayLike | None, b: NDArray[np.float64]) -> NDArray[np.boo
     return cut
 
 
-def one_sided_edges(r: NDArray[np.float64], edge_index: NDArray[np.intp]) -> NDArray[np.float64]:
+def one_sided_edges(
+    r: NDArray[np.float64], edge_index: NDArray[np.intp], r_limit: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
     """Normalised residuals ``r`` (predicted minus observed, (..., E)) of hidden edges (:func:`hidden_edges`), with
     ``edge_index`` (E,) their place in a box (0-3: ``x1, y1, x2, y2``), kept only where the prediction falls inside
     the observed edge (the object reaches at least that far, behind its occluder or beyond the image border; a
     prediction beyond the edge costs nothing).
 
+    ``r_limit`` (..., E), optional: the normalised residuals from how far the edge can be hidden (predicted minus
+    that limit; NaN: no limit), kept where the prediction reaches past it. A box of an object's visible part ends
+    at its occluder, and the object cannot reach past the occluder's far side, or that part would show and the box
+    would hold it.
+
     Examples
     --------
     >>> one_sided_edges(np.array([2.0, -2.0, 2.0, -2.0]), np.array([0, 1, 2, 3])).tolist()
     [2.0, 0.0, 0.0, -2.0]
+    >>> one_sided_edges(np.array([-5.0, 2.0]), np.array([0, 2]), np.array([-1.0, np.nan])).tolist()
+    [-1.0, 0.0]
     """
     low_edge = np.asarray(edge_index) < 2  # x1, y1: inside means predicted > observed
-    return np.where(low_edge, np.maximum(r, 0.0), np.minimum(r, 0.0))
+    inside = np.where(low_edge, np.maximum(r, 0.0), np.minimum(r, 0.0))
+    if r_limit is None:
+        return inside
+    past = np.where(low_edge, np.minimum(r_limit, 0.0), np.maximum(r_limit, 0.0))
+    return inside + np.where(np.isfinite(past), past, 0.0)

@@ -14,10 +14,10 @@ from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import Ellipsoid
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox
-from monovisual3d.methods.bayes import BayesConfig
+from monovisual3d.methods.bayes import BayesConfig, shape_swap
 from monovisual3d.methods.bayes.problem import build_problem
 from monovisual3d.methods.bayes.shape_swap import boxes_meet, centres_agree, epipolar_trades, is_tall
-from monovisual3d.methods.bayes.shapes import SPHERE_PARAMETERS, shape_value
+from monovisual3d.methods.bayes.shapes import SPHERE_PARAMETERS, fitted_answer, shape_value
 from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes
@@ -70,6 +70,37 @@ def test_only_upright_elongated_objects_are_tall():
     assert is_tall(obj("spheroid", [0.025, 0.025, 0.06]))
     assert not is_tall(obj("sphere", [0.03, 0.03, 0.03]))
     assert not is_tall(obj("ellipsoid", [0.06, 0.025, 0.025]))  # lying
+
+
+def test_the_pair_refit_keeps_the_farther_container_behind_the_nearer_box():
+    """Two upright boxes, three views from their height, exact boxes of the visible parts: the farther one's box ends
+    at the nearer box in every view. Fitted with those edges open-ended, a sphere 40 mm off wins, its box reaching
+    12-48 px past the nearer box, where it would show; the pair's refit hides each such edge no further than the nearer
+    box's far side, and the farther container's fit stays behind it and comes closer (20 mm: a spheroid's box is not
+    a cuboid's)."""
+    poses = np.array([look_at(TARGET + 0.6 * np.array([np.cos(a), np.sin(a), 0.0]), TARGET) for a in np.radians([19, 34, 125])])
+    whole = np.stack(
+        [cuboid_bbox(CAM, poses, c, HALF_SIDES_M, rotation_upright(np.radians(y))) for c, y in zip(CENTRES, (13, 37))], 1
+    )
+    depths = np.einsum("kj,nj->kn", np.linalg.inv(poses)[:, 2, :3], CENTRES) + np.linalg.inv(poses)[:, 2, 3:4]
+    problem = _problem(poses, visible_part_boxes(whole, depths))
+    pair = [DetectedObject(c, 0.0, 0.03, None, {0: i, 1: i, 2: i}, 1, {"semi_up": 0.06}) for i, c in enumerate(CENTRES)]
+    assert np.all(depths[:, 0] > depths[:, 1])  # the first container is the farther one in every view
+    hidden_to = shape_swap._cut_by_each_other(
+        problem, pair, [fitted_answer(problem, o, shapes=("spheroid",))[0][1] for o in pair]
+    )[0]
+    assert np.isfinite(hidden_to).sum(axis=1).tolist() == [1, 1, 1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the fits' bounded solver
+        open_ended = fitted_answer(problem, pair[0], np.isfinite(hidden_to), ("sphere", "spheroid"))[0]
+        refit = shape_swap._fits(problem, pair)[0][0]
+    error_mm = [1e3 * np.linalg.norm(a[1].centre_base - CENTRES[0]) for a in (open_ended, refit)]
+    assert open_ended[0].shape == "sphere" and error_mm[0] > 35
+    hidden = np.isfinite(hidden_to)
+    sign = np.array([-1.0, -1.0, 1.0, 1.0])  # past a low edge is lower, past a high edge higher
+    past = [((a[1].bbox(CAM, poses) - hidden_to) * sign)[hidden] for a in (open_ended, refit)]
+    assert np.all(past[0] > 10)  # the open-ended sphere would show beside the nearer box in every view (12-48 px)
+    assert past[1].max() < 1.0 and error_mm[1] < 25
 
 
 @pytest.mark.parametrize("azimuths_deg", [(-116.0, 116.0, 141.0), (-167.0, 116.0, 141.0)])

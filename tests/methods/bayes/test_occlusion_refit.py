@@ -222,7 +222,9 @@ def _pair_flags(pred, observed, nearer, margin, straight, sigma):
 
 def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
     """``_view_flags`` (every pair of a view at once) flags what the tests written edge by edge for one pair flag,
-    combined over each object's nearer objects: random boxes, stds, straight occluders, objects without a box."""
+    combined over each object's nearer objects: random boxes, stds, straight occluders, objects without a box; and
+    each edge it censors may be hidden as far as the farthest far side of the nearer boxes that hide it (as seen, or
+    as predicted where the nearer object holds no box), widened by the pair's margin."""
     from monovisual3d.methods.bayes.config import BayesConfig
     from monovisual3d.methods.bayes.occlusion import EDGE_AT_OCCLUDER_SIGMAS
     from monovisual3d.methods.bayes.problem import Problem, ViewData
@@ -249,20 +251,26 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
             observed[i, k] = boxes[js[0], (k + 2) % 4] + rng.uniform(-6, 6) * sigma_k
     counts = np.zeros(2, dtype=int)
     for whole in (False, True):
-        shifted, censored = _view_flags(problem, (boxes, depth, std), meets, 0, assoc, straight, whole)
+        shifted, censored, hidden_to = _view_flags(problem, (boxes, depth, std), meets, 0, assoc, straight, whole)
         for i in range(n):
             want_shifted, want_covered = np.zeros(4, dtype=bool), np.zeros(4, dtype=bool)
+            want_to = np.array([np.inf, np.inf, -np.inf, -np.inf])
             sigma = box_edge_sigma_px(problem.model, observed[i])
             for j in np.flatnonzero(meets[i]):
                 margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[j], std[i])
                 s_ij, c_ij = _pair_flags(boxes[i], observed[i], boxes[j], margin, straight[j], sigma)
                 want_shifted |= s_ij
                 want_covered |= c_ij
+                far_side = (observed[j] if assoc[j] >= 0 else boxes[j]) + np.r_[-margin, margin]
+                for k in np.flatnonzero(c_ij):
+                    want_to[k] = min(want_to[k], far_side[k]) if k < 2 else max(want_to[k], far_side[k])
             assert shifted[i].tolist() == want_shifted.tolist()
             if whole and assoc[i] >= 0:
                 assert censored[i].tolist() == want_covered.tolist()
+                assert_allclose(hidden_to[i], np.where(want_covered, want_to, np.nan))
             elif not whole:
                 assert censored[i].tolist() == want_shifted.tolist()
+                assert np.isnan(hidden_to[i]).all()
             counts += [want_shifted.any(), whole and assoc[i] >= 0 and want_covered.any()]
     assert counts[0] >= 10 and counts[1] >= 3  # both tests flag edges here
     # a farther box whose right side a tall nearer box covers, its observed right edge d sigmas from the occluder's left
@@ -276,7 +284,7 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
         obs[0, 2] = 150.0 + d * box_edge_sigma_px(SensorModel(), obs[0])[2] + margin[0]
         sigma = box_edge_sigma_px(SensorModel(), obs[0])  # of the box as observed (a little wider)
         problem2 = Problem(CAM, BayesConfig(), SensorModel(), (ViewData(0, np.eye(4), obs, (), None),))
-        _, cut = _view_flags(problem2, (pair, depth2, std2), meets2, 0, [0, 1], np.array([False, True]), True)
+        _, cut, _ = _view_flags(problem2, (pair, depth2, std2), meets2, 0, [0, 1], np.array([False, True]), True)
         want = _pair_flags(pair[0], obs[0], pair[1], margin, True, sigma)[1]
         assert cut[0].tolist() == want
         seen.append(bool(cut[0, 2]))

@@ -3,7 +3,8 @@
 An object's box edge is cut where a nearer object covers it. :func:`occluded_edges` asks whether a nearer
 silhouette covers the extreme point that sets the edge (a round fruit's outline), :func:`covered_sides` whether a
 nearer box covers the whole side (a tall object's edge stays while any part of its side shows);
-:func:`occlusion_flags` applies either to every object of a result, from the objects' predicted boxes.
+:func:`occlusion_flags` applies either to every object of a result, from the objects' predicted boxes, and says how far
+each edge a shape fit leaves out may be hidden (the far side of the nearer box).
 """
 
 from __future__ import annotations
@@ -249,7 +250,7 @@ def occlusion_flags(
     position covariances), so that chance overlaps of noisy estimates cut nothing (:func:`occluded_edges`). With
     ``whole_sides`` only the edges whose whole side it covers are flagged (:func:`covered_sides`: the edges a shape fit
     must leave out), while the views are those where either test flags an edge (where the box's aspect is not the
-    object's).
+    object's), and each observation's ``hidden_to`` says how far each such edge may be hidden (:func:`_hidden_to`).
     Only the nearer objects marked ``trusted`` count (default: all). ``predicted``: :func:`predicted_views` of
     ``objects``, when already computed.
     """
@@ -275,8 +276,8 @@ def occlusion_flags(
             continue
         obs, cut = [], set()
         for ob, v in zip(observations(problem, assoc[i], o.position), [v for v, j in enumerate(assoc[i]) if j >= 0]):
-            shifted, censored = flags[v]
-            ob.censored = censored[i].copy()
+            shifted, censored, hidden_to = flags[v]
+            ob.censored, ob.hidden_to = censored[i].copy(), hidden_to[i].copy()
             if shifted[i].any() or ob.censored.any():
                 cut.add(problem.views[v].index)
             obs.append(ob)
@@ -292,20 +293,43 @@ def _view_flags(
     assoc: list[int],
     elongated: NDArray[np.bool_],
     whole_sides: bool,
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.float64]]:
     """:func:`occlusion_flags` in view ``v`` for every object at once, from the objects' ``predicted`` boxes and stds,
     ``meets`` (N, N) and their boxes ``assoc`` (N,) in the view (-1: none): the edges (N, 4) a nearer object cuts at
-    their extreme point, and those censored (the same, or with ``whole_sides`` those whose whole side it covers)."""
+    their extreme point, those censored (the same, or with ``whole_sides`` those whose whole side it covers), and with
+    ``whole_sides`` how far each censored edge may be hidden (:func:`_hidden_to`; NaN elsewhere)."""
     boxes, _, std = predicted
     i, j = np.nonzero(meets)  # i farther, j nearer
     margin = OCCLUSION_MARGIN_SIGMAS * np.hypot(std[j], std[i])
     shifted = np.zeros((len(boxes), 4), dtype=bool)
     np.logical_or.at(shifted, i, _occluded_pairs(boxes[i], boxes[j], margin))
+    hidden_to = np.full((len(boxes), 4), np.nan)
     if not whole_sides:
-        return shifted, shifted
+        return shifted, shifted, hidden_to
     observed = np.full((len(boxes), 4), np.nan)
     held = np.asarray(assoc, dtype=np.intp)
     observed[held >= 0] = problem.views[v].boxes[held[held >= 0]]
     censored = np.zeros((len(boxes), 4), dtype=bool)
-    np.logical_or.at(censored, i, _whole_sides_pairs(problem, boxes[i], observed[i], boxes[j], margin, elongated[j]))
-    return shifted, censored
+    pairs = _whole_sides_pairs(problem, boxes[i], observed[i], boxes[j], margin, elongated[j])
+    np.logical_or.at(censored, i, pairs)
+    occluder = np.where(np.isfinite(observed[j]), observed[j], boxes[j])  # its box as seen, else as predicted
+    return shifted, censored, _hidden_to(len(boxes), i, pairs, occluder, margin)
+
+
+def _hidden_to(
+    n: int, i: NDArray[np.intp], pairs: NDArray[np.bool_], occluder: NDArray[np.float64], margin: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """How far each edge (n, 4) of ``n`` objects' boxes may be hidden, pixels: the far side of the nearer box
+    ``occluder`` (P, 4) of each pair (farther object ``i`` (P,)) that hides it (``pairs`` (P, 4)), widened by the
+    pair's ``margin`` (P, 2); the farthest of several; NaN where no nearer box hides the edge.
+
+    A box of an object's visible part ends at its occluder; the object cannot reach past the occluder's far side, or
+    that part would show and the box would hold it."""
+    widened = occluder + np.concatenate([-margin, margin], axis=1)
+    out = np.full((n, 4), np.nan)
+    low, high = np.full((n, 2), np.inf), np.full((n, 2), -np.inf)
+    np.minimum.at(low, i, np.where(pairs[:, :2], widened[:, :2], np.inf))
+    np.maximum.at(high, i, np.where(pairs[:, 2:], widened[:, 2:], -np.inf))
+    out[:, :2] = np.where(np.isfinite(low), low, np.nan)
+    out[:, 2:] = np.where(np.isfinite(high), high, np.nan)
+    return out

@@ -44,6 +44,9 @@ class Observation:
     censored : ndarray of bool, shape (4,), or None: edges ``x1, y1, x2, y2`` known to be cut by a nearer
         object (occlusion); like an edge on the image border, such an edge only says that the object reaches
         at least that far, so only its outward residual counts. None: only the border's edges are censored
+    hidden_to : ndarray, shape (4,), pixels, or None: how far each censored edge may be hidden (the far side of the
+        nearer box that hides it; NaN: no limit), for the shape fits
+        (:func:`~monovisual3d.geometry.fit.fit_ellipsoid_to_boxes`)
     """
 
     T_optical_base: NDArray[np.float64]
@@ -51,6 +54,7 @@ class Observation:
     contour_uv: NDArray[np.float64] | None = None
     extra_sigma_px: float = 0.0
     censored: NDArray[np.bool_] | None = None
+    hidden_to: NDArray[np.float64] | None = None
 
 
 @dataclass

@@ -13,7 +13,8 @@ other left out, the truth scores far better (three views: 35-36 nats against 18-
 (:func:`is_tall`: a container, a bottle) whose boxes stand side by side in a view (:func:`boxes_meet`). For the pair
 as it holds its boxes and for each trade of one such view's boxes, it fits each object (:func:`.shapes.fitted_answer`,
 the models :data:`TRADE_SHAPES`), finds the edges the nearer one hides of the other (:func:`_cut_by_each_other`: the
-farther box ends at the nearer box's facing edge), refits with those edges left out, and values the pair: the sensor
+farther box ends at the nearer box's facing edge), refits with those edges hidden no further than the nearer box's far side (the farther container cannot reach past it,
+or that part would show and its box would hold it), and values the pair: the sensor
 model's box scores, a hidden edge costing nothing while the prediction stays behind the nearer box, less the Bayesian
 information criterion's ``ln(edges) / 2`` per parameter (:func:`.shapes.shape_value`). The best of these replaces the
 pair, fitted with every model of the shape stage, when it beats the pair as the shape stage left it by more than
@@ -112,8 +113,10 @@ def _fits(
     if any(f is None for f in fits):
         return fits
     hidden = _cut_by_each_other(problem, objs, [f[0][1] for f in fits])  # type: ignore[index]
-    cut = [np.isfinite(h) for h in hidden]
-    return [f if not c.any() else fitted_answer(problem, o, c, shapes) for o, f, c in zip(objs, fits, cut)]
+    return [
+        f if not np.isfinite(h).any() else fitted_answer(problem, o, np.isfinite(h), shapes, hidden_to=h)
+        for o, f, h in zip(objs, fits, hidden)
+    ]
 
 
 def _cut_by_each_other(problem: Problem, objs: list[DetectedObject], shapes: list[Ellipsoid]) -> list[NDArray[np.float64]]:

@@ -275,16 +275,34 @@ def sensor_score(
 Answer = tuple[DetectedObject, Ellipsoid, int]
 
 
-def beats(problem: Problem, obj: DetectedObject, new: Answer, old: Answer, n_edges: int) -> bool:
+def beats(
+    problem: Problem, obj: DetectedObject, new: Answer, old: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
+) -> bool:
     """Whether the answer ``new`` is preferred to ``old`` by the Bayesian information criterion of the sensor model
     on ``obj``'s boxes: its log-likelihood ratio must exceed ``old``'s by more than ``ln(n_edges) / 2`` nats per
     extra parameter (fewer parameters lower the bar). The criterion of
     :func:`monovisual3d.geometry.fit.fit_shape_by_bic`, with the ``bayes`` sensor model (a cut box is occlusion
-    there, at most ``inward_floor`` per edge) in place of Gaussian edges."""
-    poses, boxes = object_boxes(problem, obj)
-    score_new = sensor_score(problem, poses, boxes, new[1], new[0].extra.get("solid"))
-    gain = score_new - sensor_score(problem, poses, boxes, old[1], old[0].extra.get("solid"))
+    there, at most ``inward_floor`` per edge) in place of Gaussian edges; the edges nearer objects hide no further
+    than ``hidden_to`` scored as :func:`boxes_as_seen` says."""
+    gain = sensor_score(problem, *boxes_as_seen(problem, obj, new, hidden_to), new[1], new[0].extra.get("solid"))
+    gain -= sensor_score(problem, *boxes_as_seen(problem, obj, old, hidden_to), old[1], old[0].extra.get("solid"))
     return gain > 0.5 * (new[2] - old[2]) * math.log(max(n_edges, 1))
+
+
+def boxes_as_seen(
+    problem: Problem, obj: DetectedObject, answer: Answer, hidden_to: NDArray[np.float64] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The poses (K, 4, 4) and boxes (K, 4), pixels, of :func:`object_boxes`, each edge a nearer object hides
+    (``hidden_to`` (K, 4), pixels, finite: how far it may be hidden) moved to where ``answer`` predicts it within that
+    range: a prediction between the observed edge and the limit costs nothing, one past the limit is scored from it,
+    one inside the observed edge as before (a cut)."""
+    poses, boxes = object_boxes(problem, obj)
+    if hidden_to is None or not np.isfinite(hidden_to).any():
+        return poses, boxes
+    pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
+    lo = np.maximum(np.minimum(pred[:, :2], boxes[:, :2]), hidden_to[:, :2])  # nan-propagating: seen edges stay
+    hi = np.minimum(np.maximum(pred[:, 2:], boxes[:, 2:]), hidden_to[:, 2:])
+    return poses, np.where(np.isfinite(hidden_to), np.concatenate([lo, hi], axis=1), boxes)
 
 
 def as_sphere(obj: DetectedObject) -> DetectedObject:
@@ -314,22 +332,13 @@ def _sphere_answer(obj: DetectedObject) -> Answer:
     return o, Ellipsoid.sphere(o.position, float(o.radius)), SPHERE_PARAMETERS  # type: ignore[arg-type]
 
 
-def _fitted(
-    problem: Problem,
-    obj: DetectedObject,
-    shapes: tuple[str, ...],
-    censored: NDArray[np.bool_] | None = None,
-    search_sphere: bool = True,
-) -> tuple[Answer, int] | None:
-    """The lowest-BIC fit of ``shapes`` to the object's boxes as an :data:`Answer` and the edges it used (None: too
-    few usable edges), leaving out the ``censored`` edges (K, 4) (cut by nearer objects; in the order of
-    :func:`object_boxes`); under ``auto`` a sphere fit of an object the search found as a sphere gives the search's
-    sphere (its refinement, with masks and pose noise, is the better sphere estimate) unless not ``search_sphere``.
-    The solids among ``shapes`` are fitted after the ellipsoid models, where they could win
-    (:func:`.solid_choice.solid_may_win`), and chosen by :func:`.solid_choice.solid_if_clear`."""
+def _fit_options(
+    problem: Problem, censored: NDArray[np.bool_] | None, hidden_to: NDArray[np.float64] | None
+) -> dict[str, object]:
+    """The options of :func:`~monovisual3d.geometry.fit.fit_ellipsoid_to_boxes` the shape stage fits with: the
+    configuration's vertical, sizes and orientation, the sensor model's noise and border, the hidden edges."""
     cfg = problem.config
-    poses, boxes = object_boxes(problem, obj)
-    options = {
+    return {
         "up": cfg.up_vector,
         "size_range": cfg.semi_axis_range,
         "box_sigma": problem.model.alpha,
@@ -337,7 +346,28 @@ def _fitted(
         "border_px": problem.model.border_px,
         "free_orientation": cfg.free_orientation,
         "censored": censored,
+        "hidden_to": hidden_to,
     }
+
+
+def _fitted(
+    problem: Problem,
+    obj: DetectedObject,
+    shapes: tuple[str, ...],
+    censored: NDArray[np.bool_] | None = None,
+    search_sphere: bool = True,
+    hidden_to: NDArray[np.float64] | None = None,
+) -> tuple[Answer, int] | None:
+    """The lowest-BIC fit of ``shapes`` to the object's boxes as an :data:`Answer` and the edges it used (None: too
+    few usable edges), leaving out the ``censored`` edges (K, 4) (cut by nearer objects; in the order of
+    :func:`object_boxes`), each hidden no further than ``hidden_to`` (K, 4), pixels, where given
+    (:func:`~monovisual3d.geometry.fit.fit_ellipsoid_to_boxes`); under ``auto`` a sphere fit of an object the search found as a sphere gives the search's
+    sphere (its refinement, with masks and pose noise, is the better sphere estimate) unless not ``search_sphere``.
+    The solids among ``shapes`` are fitted after the ellipsoid models, where they could win
+    (:func:`.solid_choice.solid_may_win`), and chosen by :func:`.solid_choice.solid_if_clear`."""
+    cfg = problem.config
+    poses, boxes = object_boxes(problem, obj)
+    options = _fit_options(problem, censored, hidden_to)
     ellipsoids, solids = [s for s in shapes if s not in SOLIDS], [s for s in shapes if s in SOLIDS]
     if not ellipsoids:  # no ellipsoid model to weigh the solids against: fit them all
         ellipsoids, solids = list(shapes), []
@@ -379,15 +409,16 @@ def fitted_answer(
     obj: DetectedObject,
     censored: NDArray[np.bool_] | None = None,
     shapes: tuple[str, ...] | None = None,
+    hidden_to: NDArray[np.float64] | None = None,
 ) -> tuple[Answer, int] | None:
     """The lowest-BIC fit of ``shapes`` (default: every model ``auto`` may fit, upright and lying, the solids with
     ``BayesConfig.solids``) to the object's boxes as an :data:`Answer` with the edges it used (a sphere fitted, not
     the search's), the ``censored`` edges (K, 4) one-sided (only a prediction inside one costs; not counted as
-    edges); None: too few usable edges."""
+    edges), each hidden no further than ``hidden_to`` (K, 4), pixels, where given; None: too few usable edges."""
     if shapes is None:
         n_views = len(obj.associations)
         shapes = tuple(dict.fromkeys(_upright_shapes(n_views, problem.config.solids) + _lying_shapes(n_views)))
-    return _fitted(problem, obj, shapes, censored, search_sphere=False)
+    return _fitted(problem, obj, shapes, censored, search_sphere=False, hidden_to=hidden_to)
 
 
 def shape_value(
@@ -399,13 +430,7 @@ def shape_value(
     ``hidden_to`` (K, 4), pixels, NaN where an edge is seen: an edge a nearer object hides, whose true place lies
     between the observed edge and this coordinate (the far side of the nearer box); a prediction there costs nothing,
     one beyond it is scored from it."""
-    poses, boxes = object_boxes(problem, obj)
-    if hidden_to is not None and np.isfinite(hidden_to).any():
-        pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
-        lo = np.maximum(np.minimum(pred[:, :2], boxes[:, :2]), hidden_to[:, :2])  # nan-propagating: seen edges stay
-        hi = np.minimum(np.maximum(pred[:, 2:], boxes[:, 2:]), hidden_to[:, 2:])
-        boxes = np.where(np.isfinite(hidden_to), np.concatenate([lo, hi], axis=1), boxes)
-    score = sensor_score(problem, poses, boxes, answer[1], answer[0].extra.get("solid"))
+    score = sensor_score(problem, *boxes_as_seen(problem, obj, answer, hidden_to), answer[1], answer[0].extra.get("solid"))
     return score - 0.5 * answer[2] * math.log(max(n_edges, 1))
 
 
@@ -425,7 +450,11 @@ def _lying_shapes(n_views: int) -> tuple[str, ...]:
 
 
 def fit_shape(
-    problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset(), censored: NDArray[np.bool_] | None = None
+    problem: Problem,
+    obj: DetectedObject,
+    cut: frozenset[int] = frozenset(),
+    censored: NDArray[np.bool_] | None = None,
+    hidden_to: NDArray[np.float64] | None = None,
 ) -> DetectedObject:
     """One object through the shape stage (see the module docstring); ``cut``: the session indices of the views where
     a nearer object cuts its box (:func:`.occlusion.occlusion_flags`). An object elongated both ways (a lying object, or a sphere
@@ -440,7 +469,7 @@ def fit_shape(
     if cfg.shape == "sphere" or n_views < 2:
         return as_sphere(obj)
     if cfg.shape != "auto":
-        fit = _fitted(problem, obj, (cfg.shape,), censored)
+        fit = _fitted(problem, obj, (cfg.shape,), censored, hidden_to=hidden_to)
         return as_sphere(obj) if fit is None else fit[0][0]
     deviations = aspect_deviations(problem, obj)
 
@@ -451,9 +480,9 @@ def fit_shape(
         return as_sphere(obj)
     if elongated_one_way(deviations):
         upright = _upright_shapes(n_views, cfg.solids)
-        fit = _fitted(problem, obj, upright, censored)
+        fit = _fitted(problem, obj, upright, censored, hidden_to=hidden_to)
         cut_here = cut or (possibly_cut(problem, obj) and not consistently_elongated(deviations))
-        if fit is not None and cut_here and not beats(problem, obj, fit[0], _sphere_answer(obj), fit[1]):
+        if fit is not None and cut_here and not beats(problem, obj, fit[0], _sphere_answer(obj), fit[1], hidden_to):
             return as_sphere(obj)  # its boxes are cut, which the sensor model explains as well as the fit does
         if fit is None or np.all(deviations > 0) or set(_lying_shapes(n_views)) <= set(upright):
             return as_sphere(obj) if fit is None else fit[0][0]  # taller in every view: upright, round in plan
@@ -466,8 +495,8 @@ def fit_shape(
             return answer[0]  # the boxes nearer objects do not cut are not elongated both ways: the cuts made it look so
     # a solid won by its evidence (a flat tray: :func:`.solid_choice.solid_if_clear`); a lying model must beat it that way first
     solid = answer[0].extra.get("solid")
-    new = _fitted(problem, obj, _lying_shapes(n_views) + ((solid,) if solid else ()), censored)
-    if new is None or new[0][0].extra.get("solid") or not beats(problem, obj, new[0], answer, new[1]):
+    new = _fitted(problem, obj, _lying_shapes(n_views) + ((solid,) if solid else ()), censored, hidden_to=hidden_to)
+    if new is None or new[0][0].extra.get("solid") or not beats(problem, obj, new[0], answer, new[1], hidden_to):
         return answer[0]
     return new[0][0]
 
@@ -544,7 +573,9 @@ def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
     box's own edge, and without it a sphere of the containers' height took the farther container's place (cuboids, whole
     boxes, 10 degrees above: 7 of 560 three-view sets, 0 now). The sphere refit keeps the looser test of one extreme point (:func:`.occlusion.occluded_edges`): a tall object's edge stays
     while any part of its side shows (a farther container's top above the nearer one), and the looser test, there,
-    cost the cuboids seen from 20 degrees above (subsets' p90 3.9 -> 6.5 mm)."""
+    cost the cuboids seen from 20 degrees above (subsets' p90 3.9 -> 6.5 mm). A left-out edge is hidden no further than
+    the far side of the nearer box that hides it (:func:`.occlusion.occlusion_flags`), in the fits and in
+    :func:`beats`."""
     predicted = predicted_views(problem, objects)
     flags = occlusion_flags(problem, objects, predicted=predicted)
     refitted = occlusion_refit(problem, objects, flags)
@@ -553,7 +584,8 @@ def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
     out = []
     for o, f in zip(refitted, shape_flags):
         censored = None if f is None else np.array([ob.censored for ob in f[0]], dtype=bool).reshape(-1, 4)
+        hidden_to = None if f is None else np.array([ob.hidden_to for ob in f[0]], dtype=float).reshape(-1, 4)
         if censored is not None and len(censored) != len(o.associations):
-            censored = None  # the refit changed the association: the flags no longer apply
-        out.append(fit_shape(problem, o, frozenset() if f is None else f[1], censored))
+            censored = hidden_to = None  # the refit changed the association: the flags no longer apply
+        out.append(fit_shape(problem, o, frozenset() if f is None else f[1], censored, hidden_to))
     return out
