@@ -18,7 +18,8 @@ or that part would show and its box would hold it), and values the pair: the sen
 model's box scores, a hidden edge costing nothing while the prediction stays behind the nearer box, less the Bayesian
 information criterion's ``ln(edges) / 2`` per parameter (:func:`.shapes.shape_value`). The best of these replaces the
 pair, fitted with every model of the shape stage, when it beats the pair as the shape stage left it by more than
-:data:`MIN_GAIN_NATS`. Plant rows, whose fruit are round, never pay for it.
+:data:`MIN_GAIN_NATS`; where none does and the shape stage kept one of the pair as a sphere whose boxes are not round
+(:func:`_cut_sphere`), the pair refitted with every model may. Plant rows, whose fruit are round, never pay for it.
 
 ``python benchmarks/container_pairs.py cuboid 0.005 500 503 0 --visible`` measures it (the module docstring there).
 
@@ -47,7 +48,7 @@ from .occlusion import ends_at_occluder
 from .problem import Problem
 from .scoring import associations_list
 from .sensor import box_edge_sigma_px
-from .shapes import Answer, fitted_answer, shape_value
+from .shapes import Answer, fitted_answer, looks_round, shape_value
 
 #: Nats by which a move must beat the pair as the shape stage left it (the swap pass's 1 nat, doubled: the shape
 #: models have more freedom to fit a wrong association than the search's spheres).
@@ -191,7 +192,8 @@ def _best_trade(
     holding what they hold), whichever the models ``judge`` (None: every model) prefer by more than
     :data:`MIN_GAIN_NATS` to the pair as it is; None: none is. Without ``refit`` the pair refitted as it holds its boxes
     is a bar a trade must clear, not a move: a trade must win by the association, not by a refit. The winner, fitted
-    with every model, must still beat the pair as it is by that margin."""
+    with every model, must still beat the pair as it is by that margin. Where nothing wins and one of the pair is a cut
+    sphere (:func:`_cut_sphere`), the pair refitted with every model may win by that margin."""
     ja, jb = associations_list(problem, a), associations_list(problem, b)
     bar = _held_value(problem, [a, b]) + MIN_GAIN_NATS
     best, best_pair, best_fitted = bar, None, None
@@ -203,12 +205,23 @@ def _best_trade(
         value, fitted = _value(problem, pair, judge)
         if value > best:
             best, best_pair, best_fitted = value, pair, fitted
+    if best_pair is None and refit and judge is not None and any(_cut_sphere(problem, o) for o in (a, b)):
+        value, fitted = _value(problem, [a, b], None)  # the screen cannot express what the sphere hides: every model
+        return fitted if value > bar else None
     if best_pair is None or (not refit and _value(problem, [a, b], judge)[0] + MIN_GAIN_NATS >= best):
         return None
     if judge is None:  # already fitted with every model
         return best_fitted
     value, fitted = _value(problem, best_pair, None)
     return fitted if value > bar else None  # fitted with every model, the pair must still win
+
+
+def _cut_sphere(problem: Problem, o: DetectedObject) -> bool:
+    """Whether the shape stage kept ``o`` as the search's sphere though its boxes are not round (:func:`.shapes.looks_round`):
+    the sensor model took them for cut by something unseen. Beside a tall object whose box ends them, the pair is
+    refitted with every model when no spheroid move wins (:func:`_best_trade`): the spheroid screen cannot express a
+    cuboid's box widths."""
+    return o.shape == "sphere" and not looks_round(problem, o)
 
 
 def is_tall(o: DetectedObject) -> bool:
