@@ -13,11 +13,11 @@ other left out, the truth scores far better (three views: 35-36 nats against 18-
 (:func:`is_tall`: a container, a bottle) whose boxes stand side by side in a view (:func:`boxes_meet`). For the pair
 as it holds its boxes and for each trade of one such view's boxes, it fits each object (:func:`.shapes.fitted_answer`,
 the models :data:`TRADE_SHAPES`), finds the edges the nearer one hides of the other (:func:`_cut_by_each_other`: the
-farther box ends at the nearer box's facing edge), refits with those edges hidden no further than the nearer box's far side (the farther container cannot reach past it,
-or that part would show and its box would hold it), and values the pair: the sensor
-model's box scores, a hidden edge costing nothing while the prediction stays behind the nearer box, less the Bayesian
-information criterion's ``ln(edges) / 2`` per parameter (:func:`.shapes.shape_value`). The best of these replaces the
-pair, fitted with every model of the shape stage, when it beats the pair as the shape stage left it by more than
+farther box ends at the nearer box's facing edge), refits with those edges hidden no further than the nearer box's
+far side (the farther container cannot reach past it, or that part would show and its box would hold it), and values
+the pair: the sensor model's box scores, a hidden edge costing nothing while the prediction stays behind the nearer
+box, less the Bayesian information criterion's ``ln(edges) / 2`` per parameter (:func:`.shapes.shape_value`). The best
+of these replaces the pair, fitted with every model of the shape stage, when it beats the pair as the shape stage left it by more than
 :data:`MIN_GAIN_NATS`; where none does and the shape stage kept one of the pair as a sphere whose boxes are not round
 (:func:`_cut_sphere`), the pair refitted with every model may. Plant rows, whose fruit are round, never pay for it.
 

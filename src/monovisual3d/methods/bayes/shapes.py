@@ -361,8 +361,9 @@ def _fitted(
     """The lowest-BIC fit of ``shapes`` to the object's boxes as an :data:`Answer` and the edges it used (None: too
     few usable edges), leaving out the ``censored`` edges (K, 4) (cut by nearer objects; in the order of
     :func:`object_boxes`), each hidden no further than ``hidden_to`` (K, 4), pixels, where given
-    (:func:`~monovisual3d.geometry.fit.fit_ellipsoid_to_boxes`); under ``auto`` a sphere fit of an object the search found as a sphere gives the search's
-    sphere (its refinement, with masks and pose noise, is the better sphere estimate) unless not ``search_sphere``.
+    (:func:`~monovisual3d.geometry.fit.fit_ellipsoid_to_boxes`); under ``auto`` a sphere fit of an object the search
+    found as a sphere gives the search's sphere (its refinement, with masks and pose noise, is the better sphere
+    estimate) unless not ``search_sphere``.
     The solids among ``shapes`` are fitted after the ellipsoid models, where they could win
     (:func:`.solid_choice.solid_may_win`), and chosen by :func:`.solid_choice.solid_if_clear`."""
     cfg = problem.config
