@@ -377,7 +377,7 @@ def _fitted(
     except InputError:
         return None
     for solid in solids:
-        if solid_may_win(solid, fits, cfg.free_orientation):
+        if solid_may_win(solid, fits, cfg.free_orientation, problem.model.sigma0_px):
             try:
                 fits.update(fit_shape_by_bic(problem.camera, poses, boxes, shapes=(solid,), **options)[1])
             except InputError:
