@@ -77,6 +77,7 @@ class EllipsoidFit:
         centre under the edge noise model (NaN when singular)
     residuals_px : ndarray, shape (E,), predicted minus observed edge of every used edge, pixels
     sigma_px : ndarray, shape (E,), the noise std of each used edge, pixels (``residuals_px / sigma_px``: normalised)
+    used : ndarray, shape (K, 4), bool, the edges ``residuals_px`` holds, in its order (row by row)
     chi2 : float, sum of squared normalised residuals of the used edges, and of the hidden edges' one-sided ones
     cost : float, the robust cost minimised
     n_edges : int, edges used
@@ -95,6 +96,7 @@ class EllipsoidFit:
     n_views: int
     success: bool
     sigma_px: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    used: NDArray[np.bool_] = field(default_factory=lambda: np.zeros((0, 4), dtype=bool))
 
     @property
     def n_parameters(self) -> int:
@@ -310,6 +312,7 @@ def fit_ellipsoid_to_boxes(
         centre_covariance=_centre_covariance(best.jac),
         residuals_px=r[seen] * sigma,
         sigma_px=sigma,
+        used=used,
         chi2=float(np.sum(r * r)),
         cost=float(best.cost),
         n_edges=int(used.sum()),

@@ -24,6 +24,7 @@ from monovisual3d.methods.bayes import BayesConfig
 from monovisual3d.methods.bayes.solid_choice import (
     SOLID_EVIDENCE_NATS,
     precise,
+    size_residuals,
     solid_evidence,
     solid_if_clear,
     solid_may_win,
@@ -160,6 +161,43 @@ def test_a_flat_trays_cuboid_is_fitted_where_a_spheroid_fits_within_the_noise_bu
         (o,) = _localize(poses, boxes)
         assert o.extra.get("solid") == "cuboid"
         assert np.linalg.norm(o.position - TARGET) < 1.5e-3
+
+
+def test_a_trays_cuboid_wins_by_its_box_sizes_where_pose_errors_move_the_boxes():
+    # each view's box moved by 4 px across and 6 px up or down, as an arm's unstated pose error moves it: on the tray's
+    # thin side (4-5 px of edge noise) those moves outweigh what the edges say about the shape, and the edges' evidence
+    # leaves the cuboid out; its box sizes, which the moves leave as they are, speak for it by about 10 nats
+    for seed in (44, 53, 59):
+        rng = np.random.default_rng(seed)
+        poses = _poses(rng, 3, 0.0)
+        boxes = cuboid_bbox(CAM, poses, TARGET, [0.10, 0.08, 0.015], rotation_upright(rng.uniform(0.0, np.pi)))
+        shift = rng.choice([-1.0, 1.0], size=(3, 2)) * np.array([4.0, 6.0])
+        boxes = boxes + np.hstack([shift, shift])
+        models = ("sphere", "spheroid", "ellipsoid", "cylinder", "cuboid")
+        best, fits = fit_shape_by_bic(CAM, poses, boxes, shapes=models, box_sigma=0.05, size_range=(0.005, 0.15))
+        other = min((f for m, f in fits.items() if m not in ("cylinder", "cuboid")), key=lambda f: f.bic)
+        cuboid = fits["cuboid"]
+        assert not (precise(cuboid) and solid_evidence(cuboid, other) > SOLID_EVIDENCE_NATS)  # the edges alone
+        assert precise(cuboid, sizes=True) and solid_evidence(cuboid, other, sizes=True) > 5.0
+        assert solid_if_clear(best, fits) is cuboid
+        errors = [np.linalg.norm(f.ellipsoid.centre_base - TARGET) for f in (cuboid, other)]
+        assert errors[0] < 5e-3 and errors[1] > 1.5 * errors[0]
+
+
+def test_size_residuals_pair_the_two_edges_of_each_axis_the_fit_used():
+    rng = np.random.default_rng(3)
+    poses = _poses(rng, 3, 10.0)
+    boxes = perturb_boxes(cuboid_bbox(CAM, poses, TARGET, [R_M, R_M, H_M], rotation_upright(0.3)), 0.01, rng)
+    censored = np.zeros((3, 4), dtype=bool)
+    censored[1, 2] = True  # view 1's right edge: its width is not a size the fit saw
+    fit = fit_shape_by_bic(CAM, poses, boxes, shapes=("spheroid",), censored=censored)[0]
+    misses, sigmas = size_residuals(fit)
+    assert fit.used.shape == (3, 4) and fit.used.sum() == len(fit.residuals_px) == 11
+    r = np.full((3, 4), np.nan)
+    r[fit.used] = fit.residuals_px
+    expected = np.concatenate([[r[0, 2] - r[0, 0], r[2, 2] - r[2, 0]], r[:, 3] - r[:, 1]])
+    assert_allclose(misses, expected, atol=1e-12)
+    assert sigmas.shape == (5,) and np.all(sigmas > 0)
 
 
 def test_an_upright_spheroid_stays_a_spheroid():

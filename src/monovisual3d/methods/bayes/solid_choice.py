@@ -20,6 +20,8 @@ from ...geometry.solids import SOLIDS
 from .sensor import SensorModel
 
 if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
     from ...geometry.fit import EllipsoidFit
 
 #: Evidence (nats, :func:`solid_evidence`) a solid needs over the best ellipsoid model: prior odds of e : 1 for the
@@ -39,11 +41,13 @@ PRECISE_QUANTILE = 0.1
 #: leave the farther one 2-3 after the edges the nearer one hides; its cuboid, weakly fixed there, came out 8-9 mm off
 #: where the spheroid the BIC prefers is 3-5 mm off.
 MIN_PRECISE_DOF = 5
+#: Parameters of a fit that place its centre: the sizes of its boxes (:func:`size_residuals`) fix the others.
+CENTRE_PARAMETERS = 3
 #: Edges either fit misses by this many sensor sigmas (``alpha``) or more are outliers, left out of the evidence.
 OUTLIER_SIGMAS = 3.0
 
 
-def solid_evidence(solid: EllipsoidFit, other: EllipsoidFit) -> float:
+def solid_evidence(solid: EllipsoidFit, other: EllipsoidFit, sizes: bool = False) -> float:
     """Half the difference (nats) between the Bayesian information criteria of ``other`` and ``solid`` with the edge
     noise estimated from the residuals (``E ln(chi2 / E) + P ln E`` for each; positive: the solid is preferred).
 
@@ -52,11 +56,20 @@ def solid_evidence(solid: EllipsoidFit, other: EllipsoidFit) -> float:
     BIC picks either at random. With the noise taken from the fits themselves, near-perfect boxes of a cylinder
     speak for it by hundreds of nats, noisy ones by about nothing. Edges either fit misses by
     :data:`OUTLIER_SIGMAS` sensor sigmas or more (a leaf's cut, a merged false positive: the robust fits let them go)
-    are left out, so that they do not make the evidence; with no more edges left than parameters it is ``-inf``."""
-    rs, ro = solid.residuals_px / solid.sigma_px, other.residuals_px / other.sigma_px  # the same edges, normalised
+    are left out, so that they do not make the evidence; with no more edges left than parameters it is ``-inf``.
+
+    With ``sizes`` the same on the fits' box widths and heights (:func:`size_residuals`), the parameters counted less
+    the centre's :data:`CENTRE_PARAMETERS` (which the sizes barely fix): an error in a view's reported pose moves its
+    whole box by a few pixels, which on a thin box's 4-5 px of edge noise outweighs what its edges say about the
+    shape, and leaves the sizes as they are."""
+    if sizes:
+        (ms, ss), (mo, so) = size_residuals(solid), size_residuals(other)
+        rs, ro = ms / ss, mo / so
+    else:
+        rs, ro = solid.residuals_px / solid.sigma_px, other.residuals_px / other.sigma_px  # the same edges, normalised
     inlier = (np.abs(rs) < OUTLIER_SIGMAS) & (np.abs(ro) < OUTLIER_SIGMAS)
     e = int(inlier.sum())
-    if e <= max(solid.n_parameters, other.n_parameters):
+    if e <= max(solid.n_parameters, other.n_parameters) - (CENTRE_PARAMETERS if sizes else 0):
         return -math.inf
     tiny = 1e-12  # chi2 of an exact fit: the evidence stays finite
     chi2_solid, chi2_other = float(np.sum(rs[inlier] ** 2)), float(np.sum(ro[inlier] ** 2))
@@ -70,7 +83,9 @@ def solid_if_clear(best: EllipsoidFit, fits: dict[str, EllipsoidFit]) -> Ellipso
     exceeds :data:`SOLID_EVIDENCE_NATS`, else that ellipsoid model (``best`` when none was fitted): the solids join the
     models of fruit and win when the boxes say so clearly. A solid that ``best`` is not (the BIC under the sensor
     model's edge noise prefers an ellipsoid model or another solid) must also fit its boxes far better than that noise
-    (:func:`precise`); the solid with the most evidence wins, whichever the BIC preferred.
+    (:func:`precise`); the solid with the most evidence wins, whichever the BIC preferred. Both are also judged on the
+    box sizes alone (``sizes=True``), which an unstated error in the views' poses leaves as they are: the evidence is
+    the larger of the two.
 
     The sensor model's edge noise (``alpha``, a bound for poor detectors) makes a large box's edge sigma tens of pixels,
     under which a solid's better fit of near-perfect boxes weighs less than its extra parameters. A flat 200 x 160 x 30
@@ -78,25 +93,51 @@ def solid_if_clear(best: EllipsoidFit, fits: dict[str, EllipsoidFit]) -> Ellipso
     spheroid misses them by about 10 px RMS and lands 10-25 mm off, and the BIC took the spheroid (or the cylinder) (``python benchmarks/container_pairs.py cuboid 0.005 1100
     1104 0 --tray``). With boxes as noisy as the sensor model says, the BIC is the better judge: the evidence, which
     estimates the noise from 12 edges, took 7 of the 60 peppers and cucumbers of ``shapes-noise`` (5 % box noise) for
-    solids."""
+    solids. A flat tray seen from its height with the arm's pose error (1 mm and 0.15 degrees per axis): each view's box
+    moves 2-8 px, on the tray's thin side that is 1-2 edge sigmas, and the edges' evidence left the cuboid out in favour
+    of a spheroid or ellipsoid 10-30 mm off; its sizes keep it (``tests/methods/bayes/test_bayes_solids.py``)."""
     others = [f for m, f in fits.items() if m not in SOLIDS]
     if not others:
         return best
     other = min(others, key=lambda f: f.bic)
-    solids = [f for m, f in fits.items() if m in SOLIDS and (f is best or precise(f))]
+    solids = [f for m, f in fits.items() if m in SOLIDS and (f is best or precise(f) or precise(f, sizes=True))]
     if not solids:
         return other
-    solid, evidence = max(((f, solid_evidence(f, other)) for f in solids), key=lambda t: t[1])
+    solid, evidence = max(
+        ((f, max(solid_evidence(f, other), solid_evidence(f, other, sizes=True))) for f in solids), key=lambda t: t[1]
+    )
     return solid if evidence > SOLID_EVIDENCE_NATS else other
 
 
-def precise(fit: EllipsoidFit) -> bool:
+def size_residuals(fit: EllipsoidFit) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The misses of ``fit``'s box widths and heights, pixels, and their noise stds (each (S,)): one per view and
+    axis whose two edges the fit used (``x2 - x1`` and ``y2 - y1``, predicted less observed).
+
+    An error in a view's reported pose moves the whole box (by the same few pixels at both edges of an axis) and
+    barely resizes it: the sizes carry an object's shape whatever the poses' error."""
+    index = np.full(fit.used.shape, -1)
+    index[fit.used] = np.arange(int(fit.used.sum()))
+    misses, sigmas = [], []
+    for lo, hi in ((0, 2), (1, 3)):
+        both = fit.used[:, lo] & fit.used[:, hi]
+        i, j = index[both, lo], index[both, hi]
+        misses.append(fit.residuals_px[j] - fit.residuals_px[i])
+        sigmas.append(np.hypot(fit.sigma_px[i], fit.sigma_px[j]))
+    return np.concatenate(misses), np.concatenate(sigmas)
+
+
+def precise(fit: EllipsoidFit, sizes: bool = False) -> bool:
     """Whether ``fit`` misses its boxes by so much less than the sensor model's edge noise that such noise would give
-    a chi2 this low with probability under :data:`PRECISE_QUANTILE` (chi2 distribution of its degrees of freedom)."""
-    dof = fit.n_edges - fit.n_parameters
-    if dof < MIN_PRECISE_DOF:
+    a chi2 this low with probability under :data:`PRECISE_QUANTILE` (chi2 distribution of its degrees of freedom);
+    with ``sizes``, its box sizes (:func:`size_residuals`)."""
+    if sizes:
+        misses, sigmas = size_residuals(fit)
+        dof, chi2 = len(misses) - (fit.n_parameters - CENTRE_PARAMETERS), float(np.sum((misses / sigmas) ** 2))
+    else:
+        dof, chi2 = fit.n_edges - fit.n_parameters, fit.chi2
+    if dof < (1 if sizes else MIN_PRECISE_DOF):
         return False
-    return bool(gammainc(0.5 * dof, 0.5 * fit.chi2) < PRECISE_QUANTILE)  # the chi2 distribution function
+    return bool(gammainc(0.5 * dof, 0.5 * chi2) < PRECISE_QUANTILE)  # the chi2 distribution function
 
 
 def solid_may_win(
