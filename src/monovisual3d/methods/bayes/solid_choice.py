@@ -4,7 +4,8 @@ explains an object's boxes: the choice of ``bayes``'s shape stage (:mod:`.shapes
 
 A solid wins when the boxes clearly prefer it to the best ellipsoid model, with the edge noise estimated from the fits
 (:func:`solid_evidence`); where the BIC under the sensor model's edge noise prefers the ellipsoid model, only when the
-solid also fits its boxes far more precisely than that noise (:func:`precise`).
+solid also fits its boxes far more precisely than that noise (:func:`precise`). Both are judged on the box edges and
+on the box sizes alone (:func:`size_residuals`), which an error in the views' poses leaves as they are.
 """
 
 from __future__ import annotations
@@ -43,6 +44,9 @@ PRECISE_QUANTILE = 0.1
 MIN_PRECISE_DOF = 5
 #: Parameters of a fit that place its centre: the sizes of its boxes (:func:`size_residuals`) fix the others.
 CENTRE_PARAMETERS = 3
+#: Degrees of freedom the sizes' :func:`precise` needs: three views give 6 sizes, of which a cuboid's 4 shape
+#: parameters leave 2 (a tray's cut or covered edge one fewer).
+MIN_PRECISE_SIZE_DOF = 1
 #: Edges either fit misses by this many sensor sigmas (``alpha``) or more are outliers, left out of the evidence.
 OUTLIER_SIGMAS = 3.0
 
@@ -135,7 +139,7 @@ def precise(fit: EllipsoidFit, sizes: bool = False) -> bool:
         dof, chi2 = len(misses) - (fit.n_parameters - CENTRE_PARAMETERS), float(np.sum((misses / sigmas) ** 2))
     else:
         dof, chi2 = fit.n_edges - fit.n_parameters, fit.chi2
-    if dof < (1 if sizes else MIN_PRECISE_DOF):
+    if dof < (MIN_PRECISE_SIZE_DOF if sizes else MIN_PRECISE_DOF):
         return False
     return bool(gammainc(0.5 * dof, 0.5 * chi2) < PRECISE_QUANTILE)  # the chi2 distribution function
 
