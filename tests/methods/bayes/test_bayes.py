@@ -357,6 +357,12 @@ def test_inconsistent_views_warn_instead_of_silently_finding_nothing():
         res = mv.localize(Session(CAM, views))
     assert res.objects == []
     assert any("no object is consistent" in w for w in res.warnings)
+    # an arm's unstated pose error also makes views inconsistent: the warning names the option that states it,
+    # unless it is stated already
+    assert any("--pose-sigma-mm" in w for w in res.warnings)
+    with pytest.warns(mv.InputWarning, match="no object is consistent across them"):
+        stated = mv.localize(Session(CAM, views), pose_sigma_mm=2.0, pose_sigma_deg=0.3)
+    assert stated.objects == [] and not any("--pose-sigma-mm" in w for w in stated.warnings)
 
 
 def test_batched_box_residuals_equal_the_per_observation_ones():

@@ -95,10 +95,16 @@ def _check_views(session: Session, config: BayesConfig, objects: list[DetectedOb
     if n_with < config.min_views:
         messages.append(f"only {n_with} view(s) have detections; at least {config.min_views} are needed to localise anything")
     elif not objects:
+        pose_hint = (
+            ""
+            if config.poses_uncertain
+            else "; if the poses may be off by several millimetres or tenths of a degree, state it (pose_sigma_mm, "
+            "pose_sigma_deg; CLI --pose-sigma-mm, --pose-sigma-deg)"
+        )
         messages.append(
             f"{n_with} views have detections but no object is consistent across them; check that positions are metres, "
-            "quaternions are (x, y, z, w), pose_frame is right, and that the views look at the same fruit "
-            f"(objects scoring below accept={config.accept:g} nats are not reported)"
+            "quaternions are (x, y, z, w), pose_frame is right, and that the views look at the same fruit"
+            f"{pose_hint} (objects scoring below accept={config.accept:g} nats are not reported)"
         )
     return messages
 
