@@ -11,14 +11,16 @@ hand-eye calibration leave them. The default ``localize`` runs on each seed.
 Printed: how many runs returned no object, the error's mean, p90 and max (mm) of the nearest estimate, and how many
 lie beyond 30 mm.
 
-Usage: python benchmarks/single_container.py [FIRST LAST] [POSE_MM,POSE_DEG] [cuboid|cylinder] [NOISE]
-(default: seeds 0-39, no pose error, cuboid, noise 0.005).
+Usage: python benchmarks/single_container.py [FIRST LAST] [POSE_MM,POSE_DEG] [cuboid|cylinder] [NOISE] [-- KEY=VALUE ...]
+(default: seeds 0-39, no pose error, cuboid, noise 0.005; options to ``localize`` after ``--``, e.g. ``-- pose_sigma_mm=5
+pose_sigma_deg=1`` to state the pose error).
 """
 
 import sys
 import warnings
 
 import numpy as np
+from option_ab import option_value
 from solid_shape_bias import CAMERAS, TARGET, object_boxes, views
 
 import monovisual3d as mv
@@ -31,7 +33,7 @@ HALF_WIDTH_M, HALF_HEIGHT_M, N_VIEWS, ELEVATION_DEG = 0.025, 0.06, 3, (0.0, 30.0
 FOUND_M = 0.03
 
 
-def errors_mm(seeds: range, pose_error: tuple[float, float], kind: str, sigma: float) -> np.ndarray:
+def errors_mm(seeds: range, pose_error: tuple[float, float], kind: str, sigma: float, options: dict | None = None) -> np.ndarray:
     """Per seed, the distance (mm) from the container to the nearest estimate; NaN where none was returned."""
     cam = CAMERAS["1280x720"]
     out = np.full(len(seeds), np.nan)
@@ -44,18 +46,23 @@ def errors_mm(seeds: range, pose_error: tuple[float, float], kind: str, sigma: f
         session = Session(cam, tuple(View(T, (Detection(b),)) for T, b in zip(reported, boxes)))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            result = mv.localize(session)
+            result = mv.localize(session, **(options or {}))
         if len(result.objects):
             out[i] = 1e3 * np.min(np.linalg.norm(result.positions - centre, axis=1))
     return out
 
 
 def main(argv: list[str]) -> None:
+    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
+    argv = argv[: argv.index("--")] if "--" in argv else argv
+    if any("=" not in kv for kv in extra):
+        sys.exit(f"single_container.py: options after -- must be KEY=VALUE (e.g. pose_sigma_mm=5), got {extra}")
+    options = {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)}
     seeds = range(int(argv[0]), int(argv[1])) if len(argv) > 1 else range(0, 40)
     pose = tuple(float(x) for x in argv[2].split(",")) if len(argv) > 2 else (0.0, 0.0)
     kind = argv[3] if len(argv) > 3 else "cuboid"
     sigma = float(argv[4]) if len(argv) > 4 else 0.005
-    e = errors_mm(seeds, pose, kind, sigma)  # type: ignore[arg-type]
+    e = errors_mm(seeds, pose, kind, sigma, options)  # type: ignore[arg-type]
     found = e[np.isfinite(e)]
     if not found.size:
         print(f"{kind}, pose error {pose[0]:g} mm {pose[1]:g} deg: no object in any of {len(e)} runs")
