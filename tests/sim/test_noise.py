@@ -19,6 +19,7 @@ from monovisual3d.sim.noise import (
     perturb_boxes,
     perturb_pose,
     visible_part_boxes,
+    wholly_hidden,
 )
 
 N = 40_000
@@ -164,6 +165,23 @@ def test_visible_part_boxes_end_where_a_nearer_box_begins():
     assert_array_equal(swapped[0, 0], [100, 50, 200, 300])  # it is taller: its top and bottom show
     with pytest.raises(ValueError, match=r"expected shapes \(K, N, 4\) and \(K, N\)"):
         visible_part_boxes(boxes, np.zeros(4))
+
+
+def test_wholly_hidden_objects_are_those_behind_a_nearer_box_or_down_to_a_sliver():
+    near = [100.0, 50, 200, 300]
+    boxes = np.array(
+        [
+            [near, [120.0, 60, 180, 290]],  # wholly behind
+            [near, [150.0, 60, 260, 290]],  # its right part shows
+            [near, [150.0, 30, 180, 290]],  # its top shows
+            [near, [100.0, 60, 201.5, 290]],  # a 1.5 px sliver shows
+        ]
+    )
+    assert_array_equal(wholly_hidden(boxes, np.tile([0.5, 0.6], (4, 1))), [[0, 1], [0, 0], [0, 0], [0, 1]])
+    assert_array_equal(wholly_hidden(boxes, np.tile([0.5, 0.6], (4, 1)), min_visible_px=1.0)[3], [0, 0])
+    assert not wholly_hidden(boxes, np.tile([0.6, 0.5], (4, 1)))[:, 0].any()  # the first, now farther, shows
+    with pytest.raises(ValueError, match=r"expected shapes \(K, N, 4\) and \(K, N\)"):
+        wholly_hidden(boxes, np.zeros(4))
 
 
 @pytest.mark.parametrize(

@@ -53,6 +53,9 @@ PAPER_BOX_SIGMA = 0.05
 PAPER_DROP_PROBABILITY = 0.02
 #: Size floor of the multiplicative size noise.
 MIN_SIZE_FACTOR = 0.1
+#: The narrowest visible part of an object (pixels) a detector of visible parts reports (:func:`wholly_hidden`): two
+#: pixels, the edge noise of exact boxes (``bayes``'s ``sigma0_px`` is one).
+MIN_VISIBLE_PX = 2.0
 #: The ``monovisual3d simulate`` option of each noise parameter, for messages.
 CLI_OPTIONS = {
     "box_sigma": "--noise",
@@ -390,6 +393,37 @@ def visible_part_boxes(boxes_xyxy: ArrayLike, depths: ArrayLike) -> NDArray[np.f
                 elif f[0] < n[0] < f[2] <= n[2]:
                     f[2] = n[0]  # hidden on its right
     return out
+
+
+def wholly_hidden(boxes_xyxy: ArrayLike, depths: ArrayLike, min_visible_px: float = MIN_VISIBLE_PX) -> NDArray[np.bool_]:
+    """Which objects a detector of visible parts sees nothing of, and draws no box for: those whose whole box lies
+    inside a nearer object's whole box (two containers in line with the camera), or whose visible part
+    (:func:`visible_part_boxes`) is narrower than ``min_visible_px``.
+
+    Parameters
+    ----------
+    boxes_xyxy : array_like, shape (K, N, 4), pixels: the whole boxes of N objects in K views
+    depths : array_like, shape (K, N), metres: each object's depth along each view's optical axis
+    min_visible_px : float, pixels: the narrowest visible part a detector reports
+
+    Returns
+    -------
+    ndarray, shape (K, N), bool
+
+    Examples
+    --------
+    >>> boxes = np.array([[[100.0, 50, 200, 300], [120.0, 60, 180, 290], [150.0, 60, 260, 290]]])
+    >>> wholly_hidden(boxes, np.array([[0.5, 0.6, 0.7]])).tolist()
+    [[False, True, False]]
+    """
+    whole = np.asarray(boxes_xyxy, dtype=float)
+    d = np.asarray(depths, dtype=float)
+    visible = visible_part_boxes(whole, d)
+    nearer = d[:, None, :] < d[:, :, None]  # (K, far, near)
+    inside = np.all(whole[:, None, :, :2] <= whole[:, :, None, :2], axis=3) & np.all(
+        whole[:, None, :, 2:] >= whole[:, :, None, 2:], axis=3
+    )
+    return np.any(nearer & inside, axis=2) | (visible[..., 2] - visible[..., 0] < min_visible_px)
 
 
 def _check_boxes(boxes_xyxy: ArrayLike) -> NDArray[np.float64]:

@@ -26,9 +26,23 @@ in one view with another's in a second into one object seen twice (both triangul
 objects' other boxes free. New objects built as above from its boxes and the free ones replace it when together they
 are worth :data:`.shape_swap.MIN_GAIN_NATS` more than it (:func:`_released`).
 
+Last, an object wholly behind another in a view has no box there: a detector of visible parts sees nothing of it (two
+containers in line with the camera). The search takes the nearer object's box for both, the farther object's then,
+or for a mix of the two, and leaves the other's boxes free, too few views of them for a new object: from three views
+at the containers' height, 50 of 448 container-subsets missed. :func:`_uncovered` offers a new object the free boxes
+of :data:`MIN_VIEWS_HIDDEN` views where it is hidden (:func:`_hidden`: its predicted box inside a nearer object's box)
+in every other view where it would be in the image, and a new object free boxes with one box an object seen in
+:data:`MIN_VIEWS` views holds (that object keeping the rest). Each is judged with the object it concerns as a pair (the
+edges one hides of the other left out, :func:`.shape_swap.pair_values`), misses counted where not hidden: the new
+object must be worth ``accept``, the pair less ``accept`` :data:`.shape_swap.MIN_GAIN_NATS` more than that object
+alone. Misses behind
+a nearer object's box cost nothing in the parts above either. ``python benchmarks/container_pairs.py cuboid 0.005 1100
+1104 0 --visible --unboxed-hidden --tray --no-workspace --pose-error=1,0.15 -- 'size_range=[0.02,0.15]' reach=1.0``
+measures it.
+
 Its cost is bounded: the combinations are screened for all at once (no more than :data:`MAX_SCREENED` in one pass),
-and at most :data:`MAX_FITS` shape fits are made in all (every box of one or two lying objects left free in 3-14
-views: 1-2 fits, 0.1-0.45 s). In plant rows of 12-96 fruit and every ``bench accuracy`` condition (false positives, leaf occlusion)
+and at most :data:`MAX_FITS` shape fits are made in all, as many again in :func:`_uncovered` (every box of one or two
+lying objects left free in 3-14 views: 1-2 fits, 0.1-0.45 s). In plant rows of 12-96 fruit and every ``bench accuracy`` condition (false positives, leaf occlusion)
 no combination passes the screen: free boxes there are false positives or fruit cut below ``accept``, whose box
 centres do not meet.
 ``python benchmarks/tabletop_subsets.py 810 816`` measures it (lying objects, three views at random azimuths).
@@ -38,6 +52,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,7 +60,8 @@ from numpy.typing import NDArray
 from ...result import DetectedObject
 from .problem import Problem
 from .scoring import associations_list, boxes_of
-from .shape_swap import MIN_GAIN_NATS, centres_agree_many, holding
+from .sensor import box_edge_sigma_px
+from .shape_swap import MIN_GAIN_NATS, as_answer, centres_agree_many, holding, meeting_points, pair_values
 from .shapes import Answer, fitted_answer, object_boxes, sensor_scores, shape_value, solid_boxes
 
 #: Views a new object needs: the yawed ellipsoid of a lying object is fitted from three views (``shapes``).
@@ -53,6 +69,14 @@ MIN_VIEWS = 3
 #: At most this many shape fits in one pass (each with every model of the shape stage: 10-50 ms for three views of
 #: a table top, up to 0.5 s for ten views or more), the combinations with the most boxes first.
 MAX_FITS = 16
+#: Views of its own boxes a new object needs where it is hidden (:func:`_hidden`) in every other view in which it would
+#: be in the image: two, as for the search (two views fix a point; a third that sees nothing of it says nothing).
+MIN_VIEWS_HIDDEN = 2
+#: An object is hidden behind a nearer one's box when its predicted box lies inside it within this many of that box's
+#: edge sigmas (:func:`.sensor.box_edge_sigma_px`), as two boxes meet in :mod:`.shape_swap`.
+HIDDEN_SIGMAS = 2.0
+#: Shape fits a pair's value costs (:func:`_pair`): each of the two, fitted, then refitted with what the other hides.
+PAIR_FITS = 4
 #: At most this many combinations are screened in one pass (for all at once: about 0.3 s for 16,000); where more would
 #: be (a cluttered scene, many views: they grow as the product of the views' free boxes), that part does not run.
 MAX_SCREENED = 20_000
@@ -66,34 +90,53 @@ def free_boxes(problem: Problem, objects: list[DetectedObject]) -> list[NDArray[
     ]
 
 
-def _misses(problem: Problem, answer: Answer, assoc: list[int]) -> float:
-    """The sensor model's miss term (nats, negative) for each view without a box where the answer's predicted box
-    lies in the image, in front of the camera."""
+def _misses(problem: Problem, answer: Answer, assoc: list[int], occluders: Sequence[DetectedObject] = ()) -> int:
+    """The views without a box where the answer's predicted box lies in the image, in front of the camera, and not
+    wholly behind a box a nearer one of ``occluders`` holds there (:func:`_hidden`): each costs the sensor model's
+    miss term."""
     empty = [v for v, j in enumerate(assoc) if j < 0]
     if not empty:
-        return 0.0
+        return 0
     poses = np.array([np.linalg.inv(problem.views[v].T_optical_base) for v in empty])
     pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
     depth = np.array([problem.depth(v, answer[1].centre_base) for v in empty])
     size = np.array([problem.camera.width, problem.camera.height], dtype=float)
     inside = (depth > 0) & np.all(pred[:, 2:] > 0, axis=1) & np.all(pred[:, :2] < size, axis=1)
-    return float(np.count_nonzero(inside)) * problem.model.miss_term
+    return sum(bool(i) and _hidden(problem, v, b, d, occluders) < 0 for v, b, d, i in zip(empty, pred, depth, inside))
 
 
-def _fitted_value(problem: Problem, seed: DetectedObject, assoc: list[int]) -> tuple[float, DetectedObject | None]:
-    """``seed`` holding the boxes ``assoc`` (over ``problem.views``), fitted with every shape model, and its value
-    (nats; -inf and None without a fit, or when the fit leaves a box it holds unexplained: a box scored as a miss is
-    no part of the object)."""
+def _hidden(problem: Problem, v: int, box: NDArray[np.float64], depth: float, occluders: Sequence[DetectedObject]) -> int:
+    """The index of the first of ``occluders`` that is nearer in view ``v`` than ``depth`` (metres) and holds a box
+    there that the predicted box (4,), pixels, lies wholly inside, within :data:`HIDDEN_SIGMAS` of that box's edge
+    noise: the object is hidden behind it, and a detector draws no box of it (two containers in line with the
+    camera); -1: none."""
+    for n, o in enumerate(occluders):
+        j = associations_list(problem, o)[v]
+        if j < 0 or problem.depth(v, o.position) >= depth:
+            continue
+        near = problem.views[v].boxes[j]
+        tol = HIDDEN_SIGMAS * box_edge_sigma_px(problem.model, near)
+        if np.all(box[:2] >= near[:2] - tol[:2]) and np.all(box[2:] <= near[2:] + tol[2:]):
+            return n
+    return -1
+
+
+def _fitted_value(
+    problem: Problem, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
+) -> tuple[float, DetectedObject | None, int]:
+    """``seed`` holding the boxes ``assoc`` (over ``problem.views``), fitted with every shape model, its value (nats;
+    -inf and None without a fit, or when the fit leaves a box it holds unexplained: a box scored as a miss is no part
+    of the object) and its misses (:func:`_misses`, behind ``occluders``)."""
     obj = holding(problem, seed, assoc)
     fit = fitted_answer(problem, obj)
     if fit is None:
-        return -np.inf, None
+        return -np.inf, None, 0
     answer, n_edges = fit
     poses, boxes = object_boxes(problem, obj)
     if np.any(sensor_scores(problem, poses, boxes, answer[1], answer[0].extra.get("solid")) <= problem.model.miss_term):
-        return -np.inf, None
-    value = shape_value(problem, answer[0], answer, n_edges) + _misses(problem, answer, assoc)
-    return value, answer[0]
+        return -np.inf, None, 0
+    misses = _misses(problem, answer, assoc, occluders)
+    return shape_value(problem, answer[0], answer, n_edges) + misses * problem.model.miss_term, answer[0], misses
 
 
 @dataclasses.dataclass
@@ -111,19 +154,28 @@ class _Budget:
         return True
 
 
-def _fit(problem: Problem, budget: _Budget, seed: DetectedObject, assoc: list[int]) -> tuple[float, DetectedObject | None]:
-    """:func:`_fitted_value` while the budget lasts (-inf and None after)."""
+def _fit(
+    problem: Problem, budget: _Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
+) -> tuple[float, DetectedObject | None]:
+    """:func:`_fitted_value` (value and fitted object) while the budget lasts (-inf and None after)."""
+    return _fit_misses(problem, budget, seed, assoc, occluders)[:2]
+
+
+def _fit_misses(
+    problem: Problem, budget: _Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
+) -> tuple[float, DetectedObject | None, int]:
+    """:func:`_fitted_value` while the budget lasts (-inf, None and 0 after)."""
     if budget.fits <= 0:
-        return -np.inf, None
+        return -np.inf, None, 0
     budget.fits -= 1
-    return _fitted_value(problem, seed, assoc)
+    return _fitted_value(problem, seed, assoc, occluders)
 
 
-def _bar(problem: Problem, budget: _Budget, o: DetectedObject) -> float:
+def _bar(problem: Problem, budget: _Budget, o: DetectedObject, others: Sequence[DetectedObject] = ()) -> float:
     """What ``o`` grown must be worth (nats): ``o`` refitted as it holds its boxes, judged as :func:`_fitted_value`
     judges a fit (so that it wins by its new box, not by the refit), and :data:`.shape_swap.MIN_GAIN_NATS` more; where
     that refit fails or leaves one of its boxes unexplained, ``accept``, as a new object."""
-    value = _fit(problem, budget, o, associations_list(problem, o))[0]
+    value = _fit(problem, budget, o, associations_list(problem, o), others)[0]
     return value + MIN_GAIN_NATS if np.isfinite(value) else problem.config.accept
 
 
@@ -164,10 +216,12 @@ def _candidates(problem: Problem, objects: list[DetectedObject], free: list[NDAr
 
 def second_look(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
     """Grow objects by, and build new objects from, the boxes no object holds, then replace objects seen in fewer than
-    :data:`MIN_VIEWS` views by new ones of their boxes and the free ones, where the shape models say so (the module
-    docstring); at most :data:`MAX_FITS` shape fits in all."""
+    :data:`MIN_VIEWS` views by new ones of their boxes and the free ones, where the shape models say so; then find the
+    objects hidden behind others in some views (:func:`_uncovered`). The module docstring; at most :data:`MAX_FITS`
+    shape fits for the first two parts, as many for the last."""
     budget = _Budget()
-    return _released(problem, _grown_and_new(problem, objects, budget), budget)
+    objects = _released(problem, _grown_and_new(problem, objects, budget), budget)
+    return _uncovered(problem, objects, _Budget())
 
 
 def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: _Budget) -> list[DetectedObject]:
@@ -185,8 +239,8 @@ def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: _Bud
         if _within(i, assoc, [(k, a) for _, k, a, _, _ in scored]):
             continue
         if i >= 0 and i not in bars:
-            bars[i] = _bar(problem, budget, objects[i])
-        value, fitted = _fit(problem, budget, objects[i] if i >= 0 else _new_seed(), assoc)
+            bars[i] = _bar(problem, budget, objects[i], _except(objects, i))
+        value, fitted = _fit(problem, budget, objects[i] if i >= 0 else _new_seed(), assoc, _except(objects, i))
         bar = bars[i] if i >= 0 else problem.config.accept
         if fitted is not None and value > bar:
             scored.append((value - bar, i, assoc, fitted, value))
@@ -227,7 +281,7 @@ def _released(problem: Problem, objects: list[DetectedObject], budget: _Budget) 
         for assoc in [combos[k] for k in _by_size(combos)]:
             if _within(-1, assoc, [(-1, a) for _, a, _ in scored]):
                 continue
-            value, fitted = _fit(problem, budget, _new_seed(), assoc)
+            value, fitted = _fit(problem, budget, _new_seed(), assoc, _except(out, i))
             if fitted is not None and value > problem.config.accept:
                 scored.append((value, assoc, fitted))
         chosen, taken, total = [], set(), 0.0
@@ -237,10 +291,147 @@ def _released(problem: Problem, objects: list[DetectedObject], budget: _Budget) 
                 chosen.append(dataclasses.replace(fitted, score=float(value)))
                 taken |= boxes
                 total += value
-        if chosen and total > _fit(problem, budget, out[i], own)[0] + MIN_GAIN_NATS:
+        if chosen and total > _fit(problem, budget, out[i], own, _except(out, i))[0] + MIN_GAIN_NATS:
             out[i] = chosen[0]
             out += chosen[1:]
     return out
+
+
+def _uncovered(problem: Problem, objects: list[DetectedObject], budget: _Budget) -> list[DetectedObject]:
+    """New objects of free boxes in :data:`MIN_VIEWS_HIDDEN` views, hidden behind a nearer object in every other view
+    where they would be in the image (:func:`_hidden`); and new objects of free boxes in that many views or more and
+    one box another object holds, which that object gives up. Each is judged with the object it concerns (the one that
+    hides it, the one that gives a box up) as a pair (:func:`.shape_swap.pair_values`: the edges one hides of the other
+    left out), misses counted where not hidden: the new object must be worth ``accept``, and the pair, less ``accept`` (the
+    cost of one more object, as the search's extraction pays it), :data:`.shape_swap.MIN_GAIN_NATS` more than that
+    object alone as it was. (The module docstring.)"""
+    free = free_boxes(problem, objects)
+    held = sum(len(o.associations) for o in objects if len(o.associations) >= MIN_VIEWS)
+    if sum(len(f) > 0 for f in free) < (1 if held else MIN_VIEWS_HIDDEN):
+        return objects
+    if not budget.screen(np.prod([len(f) + 1.0 for f in free]) * (held + 1)):
+        return objects
+    candidates = _lent_combinations(problem, objects, free)
+    if not candidates:
+        return objects
+    assocs = np.array([a for _, a in candidates], dtype=np.intp)
+    points = meeting_points(problem, assocs)[0]
+    keep = centres_agree_many(problem, assocs) & [_may_hide(problem, objects, i, a, p) for (i, a), p in zip(candidates, points)]
+    candidates = [c for c, ok in zip(candidates, keep) if ok]
+    scored, bars = [], {}
+    for i, assoc in [candidates[k] for k in _by_size([a for _, a in candidates])]:
+        alone, fitted, misses = _fit_misses(problem, budget, _new_seed(), assoc, objects)
+        if fitted is None or alone <= problem.config.accept or (i < 0 and misses):
+            continue  # a screen before the pair's fits: alone, the new object must already be worth ``accept``
+        k = i if i >= 0 else _hider(problem, fitted, assoc, objects)
+        if k < 0:  # in the image in its own views only
+            scored.append((alone - problem.config.accept, -1, assoc, [fitted], [alone]))
+            continue
+        partner = associations_list(problem, objects[k])
+        if i >= 0:
+            partner = [-1 if j >= 0 and j == assoc[v] else j for v, j in enumerate(partner)]
+        if k not in bars:
+            bars[k] = _fit(problem, budget, objects[k], associations_list(problem, objects[k]), _except(objects, k))[0]
+        values, pair = _pair(problem, budget, objects, k, assoc, partner)
+        gain = values[0] - problem.config.accept + values[1] - bars[k]  # a new object costs ``accept``, as extracted
+        if values[0] > problem.config.accept and gain > MIN_GAIN_NATS:
+            scored.append((gain, k, assoc, pair, values))
+    return _take(problem, objects, scored)
+
+
+def _may_hide(problem: Problem, objects: list[DetectedObject], i: int, assoc: list[int], point: NDArray[np.float64]) -> bool:
+    """A screen of :func:`_uncovered`'s candidates by the point their box-centre rays meet (``point`` (3,), metres):
+    one holding object ``i``'s box is nearer than ``i`` in that view (``i`` hidden there behind it); one of free boxes
+    alone projects, in every view where it has none and would be in the image, into a box a nearer object holds."""
+    own = associations_list(problem, objects[i]) if i >= 0 else []
+    if i >= 0:
+        v = next(v for v, j in enumerate(assoc) if j >= 0 and j == own[v])
+        return problem.depth(v, point) < problem.depth(v, objects[i].position)
+    size = np.array([problem.camera.width, problem.camera.height], dtype=float)
+    for v in [v for v, j in enumerate(assoc) if j < 0]:
+        depth = problem.depth(v, point)
+        T = problem.views[v].T_optical_base
+        uv = problem.camera.project(T[:3, :3] @ point + T[:3, 3])
+        if depth > 0 and np.all(uv > 0) and np.all(uv < size) and _hidden(problem, v, np.r_[uv, uv], depth, objects) < 0:
+            return False
+    return True
+
+
+def _pair(
+    problem: Problem, budget: _Budget, objects: list[DetectedObject], k: int, assoc: list[int], partner: list[int]
+) -> tuple[list[float], list[DetectedObject]]:
+    """A new object holding ``assoc`` and object ``k`` holding ``partner`` (over ``problem.views``), fitted and valued
+    as a pair (:func:`.shape_swap.pair_values`), each less its misses behind the other objects and the other of the
+    pair (-inf each when the budget is spent or a fit fails)."""
+    if budget.fits < PAIR_FITS:
+        return [-np.inf, -np.inf], []
+    budget.fits -= PAIR_FITS
+    held = [holding(problem, _new_seed(), assoc), holding(problem, objects[k], partner)]
+    values, pair = pair_values(problem, held)
+    if not np.all(np.isfinite(values)):
+        return [-np.inf, -np.inf], []
+    others = _except(objects, k)
+    for n, (o, a) in enumerate(zip(pair, (assoc, partner))):
+        values[n] += _misses(problem, as_answer(problem, o), a, [*others, pair[1 - n]]) * problem.model.miss_term
+    return values, pair
+
+
+def _hider(problem: Problem, fitted: DetectedObject, assoc: list[int], objects: list[DetectedObject]) -> int:
+    """The index of the object that hides ``fitted`` (holding ``assoc``) in the first view without its box where it
+    would be in the image (:func:`_hidden`); -1: none."""
+    answer = as_answer(problem, fitted)
+    for v in [v for v, j in enumerate(assoc) if j < 0]:
+        pose = np.linalg.inv(problem.views[v].T_optical_base)[None]
+        box = solid_boxes(problem.camera, pose, answer[1], fitted.extra.get("solid"))[0]
+        k = _hidden(problem, v, box, problem.depth(v, fitted.position), objects)
+        if k >= 0:
+            return k
+    return -1
+
+
+def _lent_combinations(
+    problem: Problem, objects: list[DetectedObject], free: list[NDArray[np.intp]]
+) -> list[tuple[int, list[int]]]:
+    """The boxes :func:`_uncovered` offers a new object: ``(-1, assoc)``, free boxes in :data:`MIN_VIEWS_HIDDEN` views;
+    ``(i, assoc)``, object ``i``'s box in one view (an object seen in :data:`MIN_VIEWS` views or more, which keeps two)
+    and free boxes in other views, :data:`MIN_VIEWS_HIDDEN` views or more in all."""
+    options = [[-1, *f.tolist()] for f in free]
+    out = [(-1, list(a)) for a in itertools.product(*options) if sum(j >= 0 for j in a) == MIN_VIEWS_HIDDEN]
+    for i, o in enumerate(objects):
+        own = associations_list(problem, o)
+        if sum(j >= 0 for j in own) < MIN_VIEWS:
+            continue
+        for v in [v for v, j in enumerate(own) if j >= 0]:
+            lent = [[own[v]] if u == v else f for u, f in enumerate(options)]
+            out += [(i, list(a)) for a in itertools.product(*lent) if sum(j >= 0 for j in a) >= MIN_VIEWS_HIDDEN]
+    return out
+
+
+def _take(
+    problem: Problem,
+    objects: list[DetectedObject],
+    scored: list[tuple[float, int, list[int], list[DetectedObject], list[float]]],
+) -> list[DetectedObject]:
+    """``objects`` with the candidates of :func:`_uncovered` ``(gain, i, assoc, [new, refitted i], [values])`` taken,
+    the largest gains first, each box and each object ``i`` once."""
+    out = list(objects)
+    taken: set[tuple[int, int]] = set()
+    changed: set[int] = set()
+    for _, i, assoc, fitted, values in sorted(scored, key=lambda c: -c[0]):
+        boxes = {(v, j) for v, j in enumerate(assoc) if j >= 0}
+        if boxes & taken or i in changed:
+            continue
+        taken |= boxes
+        out.append(dataclasses.replace(fitted[0], score=float(values[0])))
+        if i >= 0:
+            out[i] = dataclasses.replace(fitted[1], score=float(values[1]))
+            changed.add(i)
+    return out
+
+
+def _except(objects: Sequence[DetectedObject], i: int) -> list[DetectedObject]:
+    """``objects`` without the ``i``-th (all of them for ``i`` -1)."""
+    return [o for k, o in enumerate(objects) if k != i]
 
 
 def _new_seed() -> DetectedObject:

@@ -149,14 +149,22 @@ def _value(
 ) -> tuple[float, list[DetectedObject]]:
     """The summed value (nats) of a pair holding what they hold under the models ``shapes``, and the pair as fitted
     (-inf and the pair itself when one has no fit)."""
-    total = 0.0
+    values, fitted = pair_values(problem, objs, shapes)
+    return sum(values), fitted
+
+
+def pair_values(
+    problem: Problem, objs: list[DetectedObject], shapes: tuple[str, ...] | None = None
+) -> tuple[list[float], list[DetectedObject]]:
+    """The value (nats) of each of a pair holding what they hold under the models ``shapes`` (None: every model of the
+    shape stage), the edges one hides of the other left out, and the pair as fitted (-inf each and the pair itself when
+    one has no fit)."""
     fits = _fits(problem, objs, shapes)
     if any(f is None for f in fits):
-        return -math.inf, objs
+        return [-math.inf] * len(objs), objs
     cut = _cut_by_each_other(problem, objs, [f[0][1] for f in fits])  # type: ignore[index]
-    for o, f, c in zip(objs, fits, cut):
-        total += shape_value(problem, o, *f, hidden_to=c)  # type: ignore[misc]
-    return total, [f[0][0] for f in fits]  # type: ignore[index]
+    values = [shape_value(problem, o, *f, hidden_to=c) for o, f, c in zip(objs, fits, cut)]  # type: ignore[misc]
+    return values, [f[0][0] for f in fits]  # type: ignore[index]
 
 
 def holding(problem: Problem, o: DetectedObject, assoc: list[int]) -> DetectedObject:
@@ -165,7 +173,7 @@ def holding(problem: Problem, o: DetectedObject, assoc: list[int]) -> DetectedOb
     return DetectedObject(o.position, o.score, o.radius, o.covariance, held, o.n_cells, o.extra)
 
 
-def _as_answer(problem: Problem, o: DetectedObject) -> Answer:
+def as_answer(problem: Problem, o: DetectedObject) -> Answer:
     """An object of the shape stage as an :data:`.shapes.Answer` (its ellipsoid and number of parameters)."""
     model = o.extra.get("solid") or o.shape or "sphere"
     n = len(fit_parameters(model, free_orientation=problem.config.free_orientation))
@@ -174,7 +182,7 @@ def _as_answer(problem: Problem, o: DetectedObject) -> Answer:
 
 def _held_value(problem: Problem, objs: list[DetectedObject]) -> float:
     """The value (nats) of a pair as the shape stage left it, judged as :func:`_value` judges a fit."""
-    answers = [_as_answer(problem, o) for o in objs]
+    answers = [as_answer(problem, o) for o in objs]
     cut = _cut_by_each_other(problem, objs, [a[1] for a in answers])
     n_edges = [4 * len(o.associations) for o in objs]
     return sum(shape_value(problem, o, a, n, hidden_to=c) for o, a, n, c in zip(objs, answers, n_edges, cut))
@@ -241,6 +249,29 @@ def centres_agree_many(problem: Problem, assocs: NDArray[np.intp]) -> NDArray[np
     """Per association (T, V) (a box index per view of ``problem.views``, -1: none; at least two views each), whether
     the rays through its boxes' centres meet as one object's do: their least-squares point lies in front of every
     camera and projects within :data:`CENTRE_TOLERANCE` of each box's half-sizes of its centre, shape (T,)."""
+    point, ok, uv, half = _meeting_points(problem, assocs)
+    held = assocs >= 0
+    R = np.array([vd.T_optical_base[:3, :3] for vd in problem.views]).reshape(-1, 3, 3)
+    t = np.array([vd.T_optical_base[:3, 3] for vd in problem.views]).reshape(-1, 3)
+    p_optical = np.einsum("kij,tj->tki", R, point) + t[None]  # (T, V, 3)
+    in_front = np.all((p_optical[..., 2] > 0) | ~held, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        offset = np.abs(problem.camera.project(p_optical) - uv)
+    close = np.all(np.all(offset <= CENTRE_TOLERANCE * half, axis=2) | ~held, axis=1)
+    return ok & in_front & close
+
+
+def meeting_points(problem: Problem, assocs: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Per association (T, V) (a box index per view of ``problem.views``, -1: none), the point (T, 3), metres, base
+    frame, closest to the rays through its boxes' centres, and whether the rays fix it (their normal matrix's condition
+    number below :data:`MAX_CONDITION`), shape (T,)."""
+    return _meeting_points(problem, assocs)[:2]
+
+
+def _meeting_points(
+    problem: Problem, assocs: NDArray[np.intp]
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`meeting_points`, and the box centres and half-sizes (T, V, 2), pixels (0 and 1 where a view has none)."""
     n, n_views = assocs.shape
     held = assocs >= 0
     uv, half = np.zeros((n, n_views, 2)), np.ones((n, n_views, 2))
@@ -258,12 +289,7 @@ def centres_agree_many(problem: Problem, assocs: NDArray[np.intp]) -> NDArray[np
     ok[ok] = np.linalg.cond(A[ok]) < MAX_CONDITION
     point = np.zeros((n, 3))
     point[ok] = np.linalg.solve(A[ok], rhs[ok][..., None])[..., 0]
-    p_optical = np.einsum("kij,tj->tki", R, point) + t[None]  # (T, V, 3)
-    in_front = np.all((p_optical[..., 2] > 0) | ~held, axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        offset = np.abs(problem.camera.project(p_optical) - uv)
-    close = np.all(np.all(offset <= CENTRE_TOLERANCE * half, axis=2) | ~held, axis=1)
-    return ok & in_front & close
+    return point, ok, uv, half
 
 
 def epipolar_trades(problem: Problem, objects: list[DetectedObject]) -> NDArray[np.bool_]:
