@@ -423,9 +423,7 @@ def test_steal_pass_gives_a_fruit_back_the_box_a_neighbour_took(offset, lazy_las
 
     assert both_found(mv.localize(session, use_masks=False, lazy_last_level=lazy_last_level))
     # the second look's last part, which lends a held box to a new object of free boxes, finds some of these too
-    assert not both_found(
-        mv.localize(session, use_masks=False, steal=False, second_look=False, lazy_last_level=lazy_last_level)
-    )
+    assert not both_found(mv.localize(session, use_masks=False, steal=False, second_look=False, lazy_last_level=lazy_last_level))
 
 
 def test_radius_pruning_of_the_search_keeps_the_estimates():
