@@ -16,7 +16,7 @@ from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox
 from monovisual3d.methods.bayes import BayesConfig, shape_swap
 from monovisual3d.methods.bayes.problem import build_problem
-from monovisual3d.methods.bayes.shape_swap import boxes_meet, centres_agree, epipolar_trades, is_tall
+from monovisual3d.methods.bayes.shape_swap import boxes_meet, centres_agree, epipolar_trades, is_tall, meeting_points
 from monovisual3d.methods.bayes.shapes import SPHERE_PARAMETERS, as_sphere, fitted_answer, shape_value
 from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, Session, View, Workspace
@@ -31,6 +31,20 @@ HALF_SIDES_M = np.array([0.025, 0.025, 0.06])
 def _problem(poses: np.ndarray, boxes: np.ndarray):
     views = tuple(View(T, tuple(Detection(b) for b in bs)) for T, bs in zip(poses, boxes))
     return build_problem(CAM, BayesConfig(), views)
+
+
+def test_meeting_points_are_where_the_box_centres_rays_meet():
+    rng = np.random.default_rng(0)
+    points = rng.uniform([0.5, -0.1, 0.2], [0.7, 0.1, 0.4], (2, 3))
+    eyes = [[0.0, -0.3, 0.3], [0.0, 0.3, 0.35], [0.1, 0.0, 0.6]]
+    poses = np.array([look_at(e, [0.6, 0.0, 0.3]) for e in eyes])
+    uv = np.array([[CAM.project((np.linalg.inv(T) @ np.r_[p, 1.0])[:3]) for p in points] for T in poses])  # (V, N, 2)
+    problem = _problem(poses, np.concatenate([uv - 10.0, uv + 10.0], axis=2))
+    found, ok = meeting_points(problem, np.array([[0, 0, 0], [1, 1, -1], [0, -1, 1]]))
+    np.testing.assert_allclose(found[:2], points, atol=1e-9)
+    assert ok[:2].all() and found.shape == (3, 3)
+    same_place = _problem(poses[[0, 0]], np.concatenate([uv - 10.0, uv + 10.0], axis=2)[[0, 0]])
+    assert not meeting_points(same_place, np.array([[0, 0]]))[1][0]  # parallel rays fix no point
 
 
 def test_boxes_meet_side_by_side_only():
