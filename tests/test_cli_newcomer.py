@@ -319,3 +319,27 @@ def test_a_table_or_image_in_place_of_a_session_says_what_it_is(tmp_path, name, 
     res = CliRunner().invoke(app, ["localize", str(path)])
     assert res.exit_code == 2
     assert expected in res.stderr and len(res.stderr.strip().splitlines()) == 1
+
+
+def _commands(group: Any, prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
+    """Every command path of the CLI (``("bench", "real")``, ...)."""
+    out = []
+    for name, cmd in group.commands.items():
+        path = (*prefix, name)
+        out.append(path)
+        if hasattr(cmd, "commands"):
+            out += _commands(cmd, path)
+    return out
+
+
+def test_every_help_is_plain_text(runner: CliRunner) -> None:
+    """``--help`` shows no reST or Sphinx markup (the help is built from docstrings)."""
+    import typer.main
+
+    paths = _commands(typer.main.get_command(app))
+    assert ("bench", "real") in paths and ("localize",) in paths
+    for path in paths:
+        res = runner.invoke(app, [*path, "--help"])
+        assert res.exit_code == 0, (path, res.output)
+        for mark in ("``", ":mod:`", ":func:`", ":attr:`", ":class:`", ":data:`", ":meth:`"):
+            assert mark not in res.stdout, (path, mark)

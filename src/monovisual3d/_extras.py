@@ -5,9 +5,12 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
+from .errors import MissingExtra
+
 
 def require(module: str, extra: str) -> ModuleType:
-    """Import ``module`` or raise an ImportError naming the extra that provides it.
+    """Import ``module`` or raise :class:`~monovisual3d.errors.MissingExtra` (an ImportError) naming the extra that
+    provides it.
 
     Examples
     --------
@@ -17,4 +20,4 @@ def require(module: str, extra: str) -> ModuleType:
     try:
         return importlib.import_module(module)
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError(f"{module} is needed for this feature: pip install 'monovisual3d[{extra}]'") from exc
+        raise MissingExtra(f"{module} is needed for this feature: pip install 'monovisual3d[{extra}]'") from exc

@@ -20,6 +20,11 @@ class InputError(ValueError):
     """Bad user input: the message names the source, the field and what was expected."""
 
 
+class MissingExtra(ImportError):
+    """An optional dependency is not installed: the message names the extra that provides it (a user's setup, said
+    in one line by the CLI, not a bug)."""
+
+
 class InputWarning(UserWarning):
     """Usable but suspicious input; the message says what was done with it."""
 

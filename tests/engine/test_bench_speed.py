@@ -49,6 +49,10 @@ def test_bench_speed_quick_cli(tmp_path):
     paper = data["paper_default_vs_numpy"]
     assert paper["default_backend"] == "numba" and paper["speedup"] > 0
     assert paper["objects"] == [6, 6] and paper["max_position_difference_m"] < 1e-3
+    # the console says which load each end-to-end line is, and the speed-up the README's target is on
+    lines = [ln for ln in res.stdout.splitlines() if ln.startswith("end-to-end localize")]
+    assert lines and sum("busy one core" in ln for ln in lines) == len(lines) // 2
+    assert any(ln.startswith(paper["config"]) and ln.rstrip().endswith("x") for ln in res.stdout.splitlines())
     assert bench_app.registered_commands  # the sub-app other benchmarks register on
 
 

@@ -221,6 +221,7 @@ def run(
     method = method or _default_method()
     _check_run_args(method, localizer, workers, scheduler, client, part_size, max_worker_deaths, chunk_size, output, resume)
     _check_options(method, localizer, options)
+    tables.require_libraries()
     found, output = find_sessions(inputs), Path(output)
     _prepare_output(found, output)
     with tables.OutputLock(output):

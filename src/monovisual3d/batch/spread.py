@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from .._extras import require
 from ..checks import is_int
 from ..errors import InputError
 from ..limits import MAX_LOCAL_WORKERS
@@ -60,6 +61,7 @@ def spread_map(
             if progress is not None:
                 progress(i, out[-1])
         return out
+    require("distributed", "dask")
     from distributed import as_completed
 
     from .run import dask_client

@@ -89,9 +89,15 @@ TRANSIENT_ERRORS = frozenset({"KilledWorker", "CancelledError", "FutureCancelled
 _PART = re.compile(r"^(fruit|sessions)-(\d{6,})(?:-([0-9a-f]{8,32}))?\.parquet$")
 
 
-def _pandas() -> Any:
+def require_libraries() -> None:
+    """Raise :class:`~monovisual3d.errors.MissingExtra` unless pandas and pyarrow (the ``dask`` extra), which write the
+    tables, are installed: checked before a batch starts, so that a run without them does no work it cannot keep."""
     require("pandas", "dask")
     require("pyarrow", "dask")
+
+
+def _pandas() -> Any:
+    require_libraries()
     import pandas as pd
 
     return pd

@@ -22,6 +22,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from .._extras import require
+
 #: The paper's noisy experiment: box noise 5 % of the box size, 2 % of the detections missed.
 PAPER_NOISE = {"box_sigma": 0.05, "drop_probability": 0.02}
 
@@ -92,6 +94,7 @@ def run_bench_batch(
     repeat, same machine state), so the overhead is the median of paired
     differences and slow drifts of a shared machine cancel.
     """
+    require("dask", "dask")
     import dask
 
     from .timing import machine_metadata

@@ -18,7 +18,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from ..budget import TimeLimitExceeded, memory_limit, time_limit
-from ..errors import InputError, one_line
+from ..errors import InputError, MissingExtra, one_line
 
 app = typer.Typer(
     name="monovisual3d",
@@ -92,6 +92,9 @@ def handle_errors(fn: F) -> F:
         try:
             return fn(*args, **kwargs)
         except InputError as exc:
+            _print_error(str(exc))
+            raise typer.Exit(2) from None
+        except MissingExtra as exc:  # an optional dependency is not installed: the message names the extra
             _print_error(str(exc))
             raise typer.Exit(2) from None
         except TimeLimitExceeded as exc:  # --time-limit expired

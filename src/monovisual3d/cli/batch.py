@@ -14,7 +14,7 @@ from ..errors import InputError
 from ..limits import MAX_LOCAL_WORKERS
 from ._app import app, check_output, command_budget, console, handle_errors, plain, print_warning
 from .bench import bench_app
-from .options import TimeLimit, spread_flags
+from .options import BatchTimeLimit, spread_flags
 
 
 def parse_options(items: list[str] | None) -> dict[str, Any]:
@@ -61,7 +61,12 @@ def batch(
     inputs: Annotated[list[str], typer.Argument(help="Session files, folders (searched for session.json/.yaml) or globs.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="Folder for fruit/sessions .parquet and .csv, summary.json.")],
     workers: Annotated[
-        int | None, typer.Option(min=0, help="Local worker processes (default: one per core; 0: in this process, no Dask).")
+        int | None,
+        typer.Option(
+            min=0,
+            help="Local worker processes (default: one per core; 0: in this process, without a Dask cluster; either way the "
+            "dask extra, whose pandas and pyarrow write the tables).",
+        ),
     ] = None,
     scheduler: Annotated[str | None, typer.Option(help="Address of a running Dask scheduler, e.g. tcp://host:8786.")] = None,
     method: Annotated[str | None, typer.Option(help="Localisation method (default: localize's default).")] = None,
@@ -84,7 +89,7 @@ def batch(
             "or boxes associated to no object (as localize --strict; listed in sessions.csv, column warnings).",
         ),
     ] = False,
-    time_limit: TimeLimit = None,
+    time_limit: BatchTimeLimit = None,
     max_memory: Annotated[
         str | None, typer.Option("--max-memory", help="Memory budget of each session's method, e.g. 2GiB (--option max_memory).")
     ] = None,
@@ -253,7 +258,7 @@ def bench_batch(
         Path | None, typer.Option("--output", "-o", help="Write the results with machine metadata as JSON.")
     ] = None,
 ) -> None:
-    """Sessions per second of ``batch`` with 1 and 2 workers, and its overhead over ``localize`` in a loop."""
+    """Sessions per second of 'batch' with 1 and 2 workers, and its overhead over 'localize' in a loop."""
     from ..bench.batch import format_rows, run_bench_batch
 
     check_output(output)

@@ -125,8 +125,15 @@ def _print_speed_lines(result: dict[str, Any]) -> None:
     for r in result.get("end_to_end", []):
         sec = r["seconds"]
         console.print(
-            f"end-to-end localize, paper scene (6 fruit, 3 views), {r['config']}: {1e3 * sec['median']:.0f} ms "
-            f"[{1e3 * sec['min']:.0f}-{1e3 * sec['max']:.0f}]",
+            f"end-to-end localize, paper scene (6 fruit, 3 views), {r['config']}, {r.get('load', 'idle')}: "
+            f"{1e3 * sec['median']:.0f} ms [{1e3 * sec['min']:.0f}-{1e3 * sec['max']:.0f}]",
+            highlight=False,
+        )
+    paper = result.get("paper_default_vs_numpy")
+    if paper:
+        console.print(
+            f"{paper['config']}: {1e3 * paper['default_s']['median']:.0f} ms vs {1e3 * paper['numpy_s']['median']:.0f} ms, "
+            f"{paper['speedup']:.1f}x",
             highlight=False,
         )
 

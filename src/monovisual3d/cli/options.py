@@ -57,7 +57,23 @@ def field_docs(cls: type) -> dict[str, str]:
             continue
         else:
             break
-    return out
+    return {k: plain_doc(v) for k, v in out.items()}
+
+
+#: A Sphinx role (``:mod:`~.x.y` ``) in a docstring; ``help`` shows only its target's last part.
+_ROLE = re.compile(r":(?:mod|func|class|meth|attr|data|obj):`~?\.?([^`]+)`")
+
+
+def plain_doc(text: str) -> str:
+    """Docstring text as ``--help`` shows it: Sphinx roles as their names, reST double backticks as single quotes.
+
+    Examples
+    --------
+    >>> plain_doc("see :mod:`.shape_swap` and ``accept``")
+    "see shape_swap and 'accept'"
+    """
+    text = _ROLE.sub(lambda m: m.group(1).rsplit(".", 1)[-1], text)
+    return re.sub(r"``([^`]+)``", r"'\1'", text)
 
 
 def _cli_kind(annotation: str) -> type:
@@ -167,18 +183,20 @@ def translate_error(exc: InputError, source: object | None = None) -> InputError
     return InputError(text)
 
 
-#: ``--workers`` of the commands that spread seeds over Dask (``bench accuracy``, ``bench active``, ``reproduce``).
+#: ``--workers`` of the commands that spread their runs over Dask (``bench accuracy``, ``bench active``, ``bench real``,
+#: ``reproduce``).
 SpreadWorkers = Annotated[
     int | None,
     typer.Option(
         "--workers",
         min=0,
-        help="Spread the seeds over a local Dask cluster of this many processes (needs the dask extra; default: here).",
+        help="Spread the runs (seeds, view subsets) over a local Dask cluster of this many processes (needs the dask extra; "
+        "default: here).",
     ),
 ]
 #: ``--scheduler`` of the same commands.
 SpreadScheduler = Annotated[
-    str | None, typer.Option("--scheduler", help="Spread the seeds over a running Dask cluster, e.g. tcp://host:8786.")
+    str | None, typer.Option("--scheduler", help="Spread the runs over a running Dask cluster, e.g. tcp://host:8786.")
 ]
 
 
@@ -207,7 +225,15 @@ TimeLimit = Annotated[
     float | None,
     typer.Option(
         "--time-limit",
-        help="Stop with an error after this many seconds (default: no limit); a batch keeps the rows it has written.",
+        help="Stop with an error after this many seconds (default: no limit).",
+    ),
+]
+#: ``--time-limit`` of ``batch``: the same, and what a stopped batch keeps.
+BatchTimeLimit = Annotated[
+    float | None,
+    typer.Option(
+        "--time-limit",
+        help="Stop with an error after this many seconds (default: no limit); the batch keeps the rows it has written.",
     ),
 ]
 #: ``--max-memory`` of the commands without a method option of that name: a cap on the memory the command adds.

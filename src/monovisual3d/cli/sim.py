@@ -73,7 +73,7 @@ def simulate(
 ) -> None:
     """Simulate the bounding-box camera on a scene and write session + ground truth.
 
-    The paper's noiseless experiment is the default; add ``--noise 0.05 --drop 0.02``
+    The paper's noiseless experiment is the default; add '--noise 0.05 --drop 0.02'
     for its noisy one.
     """
     import numpy as np

@@ -41,20 +41,14 @@ def view(
     check_output(rrd, session, result, truth)
     from ..figures.html3d import write_scene_html
 
-    try:
-        with command_budget(time_limit, max_memory):
-            path = write_scene_html(session, result, truth, path=output)
-    except ImportError as exc:  # the extra is missing: say which, in one line
-        raise InputError(str(exc)) from None
+    with command_budget(time_limit, max_memory):  # a missing extra is said in one line (cli._app.handle_errors)
+        path = write_scene_html(session, result, truth, path=output)
     console.print(f"wrote {plain(path)} ({path.stat().st_size / 1e6:.1f} MB, works offline)", highlight=False)
     if rrd is not None:
         from ..rerun_log import write_rrd
 
-        try:
-            with command_budget(time_limit, max_memory):
-                written = write_rrd(session, result, truth, path=rrd)
-        except ImportError as exc:
-            raise InputError(str(exc)) from None
+        with command_budget(time_limit, max_memory):
+            written = write_rrd(session, result, truth, path=rrd)
         console.print(f"wrote {plain(written)} (open with `rerun {plain(written)}`)", highlight=False)
     if open_:
         webbrowser.open(path.resolve().as_uri())

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera import Camera
-from ..errors import InputError
+from ..errors import InputError, MissingExtra
 from ..grid import VoxelGrid
 from ..session import View
 from .params import DEFAULT_GAUSS_EPS, PackedViews, pack_views
@@ -39,11 +39,11 @@ CHUNK_CPU = 1 << 18
 
 
 def require_torch() -> ModuleType:
-    """Import torch or raise an ImportError naming the extra."""
+    """Import torch or raise :class:`~monovisual3d.errors.MissingExtra` naming the extra."""
     try:
         import torch
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError("torch is needed for backend 'torch': pip install 'monovisual3d[gpu]'") from exc
+        raise MissingExtra("torch is needed for backend 'torch': pip install 'monovisual3d[gpu]'") from exc
     return torch
 
 
