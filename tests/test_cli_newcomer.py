@@ -343,3 +343,9 @@ def test_every_help_is_plain_text(runner: CliRunner) -> None:
         assert res.exit_code == 0, (path, res.output)
         for mark in ("``", ":mod:`", ":func:`", ":attr:`", ":class:`", ":data:`", ":meth:`"):
             assert mark not in res.stdout, (path, mark)
+
+
+def test_help_lists_a_newcomers_commands_first(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["--help"]).stdout
+    listed = [ln.split()[0] for ln in out.split("Commands:", 1)[1].splitlines() if ln.startswith("  ") and ln.strip()]
+    assert listed[:3] == ["demo", "localize", "evaluate"] and listed[-1] == "bench", listed
