@@ -349,3 +349,10 @@ def test_help_lists_a_newcomers_commands_first(runner: CliRunner) -> None:
     out = runner.invoke(app, ["--help"]).stdout
     listed = [ln.split()[0] for ln in out.split("Commands:", 1)[1].splitlines() if ln.startswith("  ") and ln.strip()]
     assert listed[:3] == ["demo", "localize", "evaluate"] and listed[-1] == "bench", listed
+
+
+def test_method_options_show_their_defaults(runner: CliRunner) -> None:
+    out = " ".join(runner.invoke(app, ["localize", "--help"]).stdout.split())  # unwrapped
+    assert "manipulator reach R" in out and "[default: 0.6]" in out
+    assert "memory budget of the call [default: 2GiB]" in out
+    assert "--shape <str> bayes method: object model" in out  # the Python type is the option's, not in the text

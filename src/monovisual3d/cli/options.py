@@ -26,12 +26,14 @@ from ..methods import METHODS, get_method
 
 @dataclass(frozen=True)
 class OptionSpec:
-    """One CLI option: the config field, its Python type on the command line, help, and the methods that have it."""
+    """One CLI option: the config field, its Python type on the command line, help, the methods that have it, and
+    each one's default (its config field's, as text)."""
 
     name: str
     kind: type
     help: str
     methods: tuple[str, ...]
+    defaults: tuple[str, ...] = ()
 
     @property
     def flag(self) -> str:
@@ -57,7 +59,11 @@ def field_docs(cls: type) -> dict[str, str]:
             continue
         else:
             break
-    return {k: plain_doc(v) for k, v in out.items()}
+    return {k: plain_doc(_PY_TYPE.sub("", v)) for k, v in out.items()}
+
+
+#: The Python type that starts a field's description (``float, metres, ...``): ``--help`` shows the option's type.
+_PY_TYPE = re.compile(r"^(?:(?:int|float|str|bool|tuple|list|dict|None)(?: or |, | | ))+(?=\S)(?<=, )")
 
 
 #: A Sphinx role (``:mod:`~.x.y` ``) in a docstring; ``help`` shows only its target's last part.
@@ -94,17 +100,36 @@ def option_specs() -> list[OptionSpec]:
         cls = method.config_class
         docs = field_docs(cls)
         for f in dataclasses.fields(cls):
+            default = _default_text(f)
             if f.name in specs:
                 old = specs[f.name]
-                specs[f.name] = dataclasses.replace(old, methods=old.methods + (method.name,))
+                specs[f.name] = dataclasses.replace(old, methods=old.methods + (method.name,), defaults=old.defaults + (default,))
                 continue
-            specs[f.name] = OptionSpec(f.name, _cli_kind(str(f.type)), docs.get(f.name, ""), (method.name,))
+            specs[f.name] = OptionSpec(f.name, _cli_kind(str(f.type)), docs.get(f.name, ""), (method.name,), (default,))
     return list(specs.values())
+
+
+def _default_text(f: dataclasses.Field) -> str:  # type: ignore[type-arg]
+    """A config field's default as ``--help`` shows it: ``none``, ``on``/``off``, numbers as typed, tuples with commas."""
+    v = f.default_factory() if f.default is dataclasses.MISSING and f.default_factory is not dataclasses.MISSING else f.default
+    if v is None or v is dataclasses.MISSING:
+        return "none"
+    if isinstance(v, bool):
+        return "on" if v else "off"
+    if isinstance(v, int) and v >= 2**20 and v % 2**20 == 0:  # a memory size
+        return f"{v / 2**30:g}GiB" if v % 2**30 == 0 else f"{v / 2**20:g}MiB"
+    if isinstance(v, tuple | list):
+        return ",".join(f"{x:g}" if isinstance(x, float) else str(x) for x in v)
+    return f"{v:g}" if isinstance(v, float) else str(v)
 
 
 def _help(spec: OptionSpec) -> str:
     who = "" if len(spec.methods) == len(METHODS) else f"{'/'.join(spec.methods)} method: "
-    return who + spec.help.replace("``", "")
+    if len(set(spec.defaults)) <= 1:
+        default = f" [default: {spec.defaults[0]}]" if spec.defaults else ""
+    else:
+        default = " [default: " + "; ".join(f"{m} {d}" for m, d in zip(spec.methods, spec.defaults)) + "]"
+    return who + spec.help.replace("``", "") + default
 
 
 def _parameter(spec: OptionSpec) -> inspect.Parameter:
