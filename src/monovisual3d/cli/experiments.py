@@ -54,7 +54,8 @@ def demo(
     for note in d.notes:
         console.print(f"[yellow]note:[/] {plain(note)}", highlight=False)
     console.print(
-        f"Found {d.metrics.true_positives} of {d.metrics.n_truth} fruit in {d.seconds['total']:.1f} s; "
+        f"Found {d.metrics.true_positives} of {d.metrics.n_truth} fruit in {d.seconds['total']:.1f} s (localising "
+        f"{d.seconds['localise']:.1f} s; the first run on a machine also compiles the kernels, once); "
         f"{plain(compare_with_readme(d.metrics, seed, d.result.method))}.",
         highlight=False,
     )
