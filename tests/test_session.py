@@ -300,7 +300,11 @@ BAD_INPUTS: list[tuple[str, list[tuple[str, Any]], str]] = [
     ("view not an object", [("views/0", "view")], r"views\[0\]: expected an object, got str"),
     ("unknown view field", [("views/0/camera", {})], r"views\[0\]\.camera: unknown field"),
     ("missing pose", [(POSE, DELETE)], r"views\[0\]\.pose: missing field, expected position \+ quaternion_xyzw or matrix"),
-    ("pose not an object", [(POSE, [0, 0, 0, 0, 0, 0, 1])], r"views\[0\]\.pose: expected an object, got list"),
+    (
+        "pose not an object",
+        [(POSE, [0, 0, 0, 0, 0, 0, 1])],
+        r'views\[0\]\.pose: expected an object: \{"position": .* or \{"matrix": 4x4 rows\}, got list',
+    ),
     ("unknown pose field", [(f"{POSE}/orientation", [0, 0, 0, 1])], r"views\[0\]\.pose\.orientation: unknown field"),
     (
         "missing position",

@@ -32,10 +32,10 @@ MAX_EXACT_INT = 2**53
 
 
 # ---------------------------------------------------------------------- objects
-def expect_object(data: Any, where: str) -> dict[Any, Any]:
-    """``data`` itself when it is a mapping (a JSON object); else one line naming ``where``."""
+def expect_object(data: Any, where: str, expected: str = "an object") -> dict[Any, Any]:
+    """``data`` itself when it is a mapping (a JSON object); else one line naming ``where`` and what was ``expected``."""
     if not isinstance(data, dict):
-        raise InputError(f"{where}: expected an object, got {type(data).__name__}")
+        raise InputError(f"{where}: expected {expected}, got {type(data).__name__}")
     return data
 
 

@@ -120,7 +120,7 @@ def _session_from_dict(data: Any, source: str | None) -> Session:
 
 def pose_from_dict(data: Any, where: str) -> NDArray[np.float64]:
     """4x4 transform from ``{"position", "quaternion_xyzw"}`` or ``{"matrix"}``."""
-    expect_object(data, where)
+    expect_object(data, where, 'an object: {"position": [x, y, z], "quaternion_xyzw": [qx, qy, qz, qw]} or {"matrix": 4x4 rows}')
     if "matrix" in data:
         reject_unknown(data, {"matrix"}, where)
         T = check_transform(data["matrix"], where=f"{where}.matrix")
