@@ -129,7 +129,7 @@ def _help(spec: OptionSpec) -> str:
         default = f" [default: {spec.defaults[0]}]" if spec.defaults else ""
     else:
         default = " [default: " + "; ".join(f"{m} {d}" for m, d in zip(spec.methods, spec.defaults)) + "]"
-    return who + spec.help.replace("``", "") + default
+    return who + spec.help + default  # the help is plain text already (field_docs)
 
 
 def _parameter(spec: OptionSpec) -> inspect.Parameter:
