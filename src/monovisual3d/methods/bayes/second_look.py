@@ -89,19 +89,24 @@ def free_boxes(problem: Problem, objects: list[DetectedObject]) -> list[NDArray[
     ]
 
 
-def _misses(problem: Problem, answer: Answer, assoc: list[int], occluders: Sequence[DetectedObject] = ()) -> int:
-    """The views without a box where the answer's predicted box lies in the image, in front of the camera, and not
-    wholly behind a box a nearer one of ``occluders`` holds there (:func:`_hidden`): each costs the sensor model's
-    miss term."""
+def _hiders(problem: Problem, answer: Answer, assoc: list[int], occluders: Sequence[DetectedObject] = ()) -> list[int]:
+    """Per view without a box where the answer's predicted box lies in the image and in front of the camera (in view
+    order), the index of the one of ``occluders`` that hides it there (:func:`_hidden`), -1 where none does: a miss,
+    which costs the sensor model's miss term."""
     empty = [v for v, j in enumerate(assoc) if j < 0]
     if not empty:
-        return 0
+        return []
     poses = np.array([np.linalg.inv(problem.views[v].T_optical_base) for v in empty])
     pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
     depth = np.array([problem.depth(v, answer[1].centre_base) for v in empty])
     size = np.array([problem.camera.width, problem.camera.height], dtype=float)
     inside = (depth > 0) & np.all(pred[:, 2:] > 0, axis=1) & np.all(pred[:, :2] < size, axis=1)
-    return sum(bool(i) and _hidden(problem, v, b, d, occluders) < 0 for v, b, d, i in zip(empty, pred, depth, inside))
+    return [_hidden(problem, v, b, d, occluders) for v, b, d, i in zip(empty, pred, depth, inside) if i]
+
+
+def _misses(problem: Problem, answer: Answer, assoc: list[int], occluders: Sequence[DetectedObject] = ()) -> int:
+    """The views of :func:`_hiders` where no occluder hides the answer: each costs the sensor model's miss term."""
+    return _hiders(problem, answer, assoc, occluders).count(-1)
 
 
 def _hidden(problem: Problem, v: int, box: NDArray[np.float64], depth: float, occluders: Sequence[DetectedObject]) -> int:
@@ -122,20 +127,20 @@ def _hidden(problem: Problem, v: int, box: NDArray[np.float64], depth: float, oc
 
 def _fitted_value(
     problem: Problem, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
-) -> tuple[float, DetectedObject | None, int]:
+) -> tuple[float, DetectedObject | None, list[int]]:
     """``seed`` holding the boxes ``assoc`` (over ``problem.views``), fitted with every shape model, its value (nats;
     -inf and None without a fit, or when the fit leaves a box it holds unexplained: a box scored as a miss is no part
-    of the object) and its misses (:func:`_misses`, behind ``occluders``)."""
+    of the object) and its :func:`_hiders` among ``occluders`` (each -1 a miss, counted in the value)."""
     obj = holding(problem, seed, assoc)
     fit = fitted_answer(problem, obj)
     if fit is None:
-        return -np.inf, None, 0
+        return -np.inf, None, []
     answer, n_edges = fit
     poses, boxes = object_boxes(problem, obj)
     if np.any(sensor_scores(problem, poses, boxes, answer[1], answer[0].extra.get("solid")) <= problem.model.miss_term):
-        return -np.inf, None, 0
-    misses = _misses(problem, answer, assoc, occluders)
-    return shape_value(problem, answer[0], answer, n_edges) + misses * problem.model.miss_term, answer[0], misses
+        return -np.inf, None, []
+    hiders = _hiders(problem, answer, assoc, occluders)
+    return shape_value(problem, answer[0], answer, n_edges) + hiders.count(-1) * problem.model.miss_term, answer[0], hiders
 
 
 @dataclasses.dataclass
@@ -157,15 +162,15 @@ def _fit(
     problem: Problem, budget: _Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
 ) -> tuple[float, DetectedObject | None]:
     """:func:`_fitted_value` (value and fitted object) while the budget lasts (-inf and None after)."""
-    return _fit_misses(problem, budget, seed, assoc, occluders)[:2]
+    return _fit_hiders(problem, budget, seed, assoc, occluders)[:2]
 
 
-def _fit_misses(
+def _fit_hiders(
     problem: Problem, budget: _Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
-) -> tuple[float, DetectedObject | None, int]:
-    """:func:`_fitted_value` while the budget lasts (-inf, None and 0 after)."""
+) -> tuple[float, DetectedObject | None, list[int]]:
+    """:func:`_fitted_value` while the budget lasts (-inf, None and no hiders after)."""
     if budget.fits <= 0:
-        return -np.inf, None, 0
+        return -np.inf, None, []
     budget.fits -= 1
     return _fitted_value(problem, seed, assoc, occluders)
 
@@ -319,10 +324,10 @@ def _uncovered(problem: Problem, objects: list[DetectedObject], budget: _Budget)
     candidates = [c for c, ok in zip(candidates, keep) if ok]
     scored, bars = [], {}
     for i, assoc in [candidates[k] for k in _by_size([a for _, a in candidates])]:
-        alone, fitted, misses = _fit_misses(problem, budget, _new_seed(), assoc, objects)
-        if fitted is None or alone <= problem.config.accept or (i < 0 and misses):
+        alone, fitted, hiders = _fit_hiders(problem, budget, _new_seed(), assoc, objects)
+        if fitted is None or alone <= problem.config.accept or (i < 0 and -1 in hiders):
             continue  # a screen before the pair's fits: alone, the new object must already be worth ``accept``
-        k = i if i >= 0 else _hider(problem, fitted, assoc, objects)
+        k = i if i >= 0 else next((h for h in hiders if h >= 0), -1)
         if k < 0:  # in the image in its own views only
             scored.append((alone - problem.config.accept, -1, assoc, [fitted], [alone]))
             continue
@@ -369,19 +374,6 @@ def _pair(
     for n, (o, a) in enumerate(zip(pair, (assoc, partner))):
         values[n] += _misses(problem, as_answer(problem, o), a, [*others, pair[1 - n]]) * problem.model.miss_term
     return values, pair
-
-
-def _hider(problem: Problem, fitted: DetectedObject, assoc: list[int], objects: list[DetectedObject]) -> int:
-    """The index of the object that hides ``fitted`` (holding ``assoc``) in the first view without its box where it
-    would be in the image (:func:`_hidden`); -1: none."""
-    answer = as_answer(problem, fitted)
-    for v in [v for v, j in enumerate(assoc) if j < 0]:
-        pose = np.linalg.inv(problem.views[v].T_optical_base)[None]
-        box = solid_boxes(problem.camera, pose, answer[1], fitted.extra.get("solid"))[0]
-        k = _hidden(problem, v, box, problem.depth(v, fitted.position), objects)
-        if k >= 0:
-            return k
-    return -1
 
 
 def _lent_combinations(
