@@ -12,6 +12,7 @@ import pytest
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
+from cli_checks import assert_one_line_error
 from monovisual3d import evaluate as evaluate_fn
 from monovisual3d.cli import app
 from monovisual3d.errors import InputWarning
@@ -24,18 +25,6 @@ FAST = ["--method", "paper", "--resolution", "0.02"]
 @pytest.fixture
 def runner() -> CliRunner:
     return CliRunner()
-
-
-def assert_one_line_error(result: Any, *fragments: str) -> None:
-    """Exit code 2, one line on stderr starting with 'error:', no traceback."""
-    assert result.exit_code == 2, result.output
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1, result.stderr
-    assert lines[0].startswith("error: ")
-    for fragment in fragments:
-        assert fragment in lines[0], lines[0]
-    assert "Traceback" not in result.output
-    assert isinstance(result.exception, SystemExit)
 
 
 def test_localize_writes_documented_json(runner: CliRunner, tmp_path: Path) -> None:

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from cli_checks import assert_one_line_error
 from monovisual3d import DetectedObject, Result, load_session
 from monovisual3d.cli import app
 from monovisual3d.cli._app import console
@@ -40,16 +41,6 @@ def _write(path: Path, data: Any) -> Path:
     return path
 
 
-def _one_line_error(result: Any, *fragments: str) -> str:
-    assert result.exit_code == 2, result.output
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
-    for fragment in fragments:
-        assert fragment in lines[0], lines[0]
-    assert "Traceback" not in result.output
-    return lines[0]
-
-
 # ------------------------------------------------------------------ wrong kind of file
 @pytest.mark.parametrize(
     ("data", "what"),
@@ -71,21 +62,21 @@ def test_localize_names_the_kind_of_file_given_instead_of_a_session(
     runner: CliRunner, tmp_path: Path, data: Any, what: str
 ) -> None:
     path = _write(tmp_path / "file.json", data)
-    line = _one_line_error(runner.invoke(app, ["localize", str(path)]), f"{path}: {what}")
+    line = assert_one_line_error(runner.invoke(app, ["localize", str(path)]), f"{path}: {what}")
     assert "unknown field" not in line
 
 
 def test_simulated_truth_and_result_files_are_recognised(runner: CliRunner, tmp_path: Path) -> None:
     out = tmp_path / "result.json"
     assert runner.invoke(app, ["localize", str(example_session_path()), *FAST, "-o", str(out), "-q"]).exit_code == 0
-    _one_line_error(runner.invoke(app, ["localize", str(out)]), "result file", "give it to evaluate")
+    assert_one_line_error(runner.invoke(app, ["localize", str(out)]), "result file", "give it to evaluate")
     truth = {**json.loads(example_truth_path().read_text()), "noise": {}, "scene": "paper"}  # as simulate writes it
-    _one_line_error(runner.invoke(app, ["localize", str(_write(tmp_path / "truth.json", truth))]), "truth file", "evaluate")
+    assert_one_line_error(runner.invoke(app, ["localize", str(_write(tmp_path / "truth.json", truth))]), "truth file", "evaluate")
 
 
 def test_evaluate_given_a_session_says_so(runner: CliRunner) -> None:
     result = runner.invoke(app, ["evaluate", str(example_session_path()), str(example_truth_path())])
-    _one_line_error(result, "this is a session file", "not a result or truth file", "monovisual3d localize")
+    assert_one_line_error(result, "this is a session file", "not a result or truth file", "monovisual3d localize")
 
 
 def test_kinds_are_recognised_only_for_wrong_files() -> None:
@@ -207,7 +198,7 @@ def test_next_view_lists_every_chosen_pose_with_the_gain_unit(runner: CliRunner,
 def test_batch_on_an_empty_folder_prints_the_error_alone(runner: CliRunner, tmp_path: Path) -> None:
     (tmp_path / "empty").mkdir()
     result = runner.invoke(app, ["batch", str(tmp_path / "empty"), "-o", str(tmp_path / "out"), "--workers", "0"])
-    _one_line_error(result, "no session.json")
+    assert_one_line_error(result, "no session.json")
     assert result.stdout == "", "no progress bar before the inputs are checked"
 
 
@@ -298,11 +289,11 @@ def test_markup_in_errors_and_session_keys_prints_literally(runner: CliRunner, m
     data = _example()
     data["[/x]"] = 1
     bad = _write(markup_dir / "key.json", data)
-    _one_line_error(runner.invoke(app, ["localize", str(bad)]), "[/x]: unknown field")
+    assert_one_line_error(runner.invoke(app, ["localize", str(bad)]), "[/x]: unknown field")
     data = _example()
     data["views"][0]["detections"][0]["[bold]"] = 1
     bad = _write(tmp_path / "detection-key.json", data)
-    _one_line_error(runner.invoke(app, ["localize", str(bad)]), "views[0].detections[0].[bold]: unknown field")
+    assert_one_line_error(runner.invoke(app, ["localize", str(bad)]), "views[0].detections[0].[bold]: unknown field")
 
 
 @pytest.mark.parametrize(

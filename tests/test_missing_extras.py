@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from cli_checks import assert_one_line_error
 from monovisual3d import _extras
 from monovisual3d.cli import app
 from monovisual3d.errors import MissingExtra
 from monovisual3d.examples import example_session_path
-from test_cli import assert_one_line_error
 
 
 @pytest.fixture

@@ -12,6 +12,7 @@ import pytest
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
+from cli_checks import assert_one_line_error
 from monovisual3d import load_session
 from monovisual3d.active.bench import check_targets, format_markdown, plot
 from monovisual3d.active.candidates import pose_to_dict
@@ -41,15 +42,6 @@ def session_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def write_candidates(path: Path, poses: list[dict[str, Any]]) -> Path:
     path.write_text(json.dumps({"poses": poses}))
     return path
-
-
-def assert_one_line_error(result: Any, *fragments: str) -> None:
-    assert result.exit_code == 2, result.output
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1, result.stderr
-    assert lines[0].startswith("error: ")
-    for f in fragments:
-        assert f in lines[0], lines[0]
 
 
 def test_next_view_with_a_cap_writes_the_documented_json(runner: CliRunner, session_path: Path, tmp_path: Path) -> None:
