@@ -29,7 +29,7 @@ from monovisual3d.engine.dense import NS_PER_CELL_VIEW, paper_update_fused
 from monovisual3d.engine.threads import thread_limit, threads_for
 from monovisual3d.frames import invert_transform
 from monovisual3d.methods.bayes._kernels import score_hypotheses, score_work_ns
-from monovisual3d.methods.bayes.likelihood import SensorModel
+from monovisual3d.methods.bayes.sensor import SensorModel
 
 
 def _score_case(n: int):  # type: ignore[no-untyped-def]

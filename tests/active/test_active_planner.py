@@ -14,7 +14,7 @@ from monovisual3d.active.information import boxes_and_jacobians, occlusion_by_kn
 from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.sphere import predict_sphere_boxes as predict_boxes
-from monovisual3d.methods.bayes.likelihood import SensorModel
+from monovisual3d.methods.bayes.sensor import SensorModel
 from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, View, Workspace
 

@@ -14,7 +14,7 @@ from monovisual3d.geometry.sphere import predict_sphere_boxes, sphere_bbox, sphe
 from monovisual3d.masks import contour_points, decode_rle, encode_rle
 from monovisual3d.methods.bayes import BayesConfig
 from monovisual3d.methods.bayes._kernels import score_hypotheses
-from monovisual3d.methods.bayes.likelihood import SensorModel
+from monovisual3d.methods.bayes.sensor import SensorModel
 from monovisual3d.session import Detection, Session, View, Workspace
 
 CAM = Camera.from_hfov(640, 480, 69.0)

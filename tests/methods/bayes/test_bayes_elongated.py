@@ -16,7 +16,7 @@ from monovisual3d.geometry.sphere import predict_sphere_boxes
 from monovisual3d.geometry.spheroid import predict_spheroid_boxes
 from monovisual3d.methods.bayes import BayesConfig, run
 from monovisual3d.methods.bayes._kernels import score_hypotheses
-from monovisual3d.methods.bayes.likelihood import SensorModel
+from monovisual3d.methods.bayes.sensor import SensorModel
 from monovisual3d.session import Workspace
 from monovisual3d.sim.noise import NoiseModel
 from monovisual3d.sim.scene import EllipsoidFruit, Scene

@@ -12,8 +12,8 @@ from monovisual3d.frames import look_at, transform_points
 from monovisual3d.geometry.sphere import predict_sphere_boxes
 from monovisual3d.methods.bayes._kernels import score_hypotheses
 from monovisual3d.methods.bayes.boxindex import MIN_TILE_PX, build_index, candidate_boxes, tile_px
-from monovisual3d.methods.bayes.likelihood import SensorModel, box_scores, view_scores
-from monovisual3d.methods.bayes.sensor import cell_shift_px, gate_widening_px
+from monovisual3d.methods.bayes.likelihood import box_scores, view_scores
+from monovisual3d.methods.bayes.sensor import SensorModel, cell_shift_px, gate_widening_px
 
 CAM = Camera.from_hfov(1280, 720, 90.0)
 TARGET = np.array([0.6, 0.0, 0.45])

@@ -20,9 +20,9 @@ from monovisual3d.geometry.sphere import predict_sphere_boxes, sphere_bbox
 from monovisual3d.methods.bayes import BayesConfig
 from monovisual3d.methods.bayes._kernels import score_hypotheses
 from monovisual3d.methods.bayes.bundle import bundle_adjust, correction_transform, grouped_jacobian
-from monovisual3d.methods.bayes.likelihood import SensorModel, pose_sigma_px, view_scores
+from monovisual3d.methods.bayes.likelihood import pose_sigma_px, view_scores
 from monovisual3d.methods.bayes.refine import Observation, refine_sphere
-from monovisual3d.methods.bayes.sensor import cell_shift_px, gate_widening_px
+from monovisual3d.methods.bayes.sensor import SensorModel, cell_shift_px, gate_widening_px
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_pose
 

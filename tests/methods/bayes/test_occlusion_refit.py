@@ -10,7 +10,6 @@ from monovisual3d.camera import Camera
 from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.methods.bayes import shapes
-from monovisual3d.methods.bayes.likelihood import SensorModel
 from monovisual3d.methods.bayes.occlusion import (
     OCCLUSION_MARGIN_SIGMAS,
     _meeting,
@@ -21,6 +20,7 @@ from monovisual3d.methods.bayes.occlusion import (
     occluded_edges,
 )
 from monovisual3d.methods.bayes.refine import Observation, _BoxResiduals, observation_residuals, refine_sphere
+from monovisual3d.methods.bayes.sensor import SensorModel
 from monovisual3d.session import Workspace
 from monovisual3d.sim.scene import Scene, Sphere
 from monovisual3d.sim.simulate import simulate

@@ -7,8 +7,8 @@ import pytest
 
 from monovisual3d.camera import Camera
 from monovisual3d.methods.bayes.config import BayesConfig
-from monovisual3d.methods.bayes.likelihood import SensorModel
 from monovisual3d.methods.bayes.problem import Problem, ViewData
+from monovisual3d.methods.bayes.sensor import SensorModel
 
 
 def _problem() -> Problem:

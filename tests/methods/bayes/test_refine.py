@@ -9,7 +9,6 @@ from monovisual3d.camera import Camera
 from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.levenberg import levenberg_marquardt
 from monovisual3d.geometry.sphere import sphere_bbox
-from monovisual3d.methods.bayes.likelihood import SensorModel
 from monovisual3d.methods.bayes.refine import (
     MAX_NFEV,
     SPHERE_X_SCALE,
@@ -22,6 +21,7 @@ from monovisual3d.methods.bayes.refine import (
     refine_spheroid,
     robust_loss,
 )
+from monovisual3d.methods.bayes.sensor import SensorModel
 
 CAM = Camera.from_hfov(640, 480, 69.0)
 TARGET = np.array([0.7, 0.0, 0.5])

@@ -25,14 +25,14 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 #: Public name -> submodule; imported on first use so reading the config does not load the kernels.
-_LAZY = {"BayesConfig": "config", "SensorModel": "likelihood", "BayesLocalizer": "localizer", "run": "localizer"}
+_LAZY = {"BayesConfig": "config", "SensorModel": "sensor", "BayesLocalizer": "localizer", "run": "localizer"}
 
 __all__ = sorted(_LAZY)
 
 if TYPE_CHECKING:  # pragma: no cover
     from .config import BayesConfig
-    from .likelihood import SensorModel
     from .localizer import BayesLocalizer, run
+    from .sensor import SensorModel
 
 
 def __getattr__(name: str) -> Any:

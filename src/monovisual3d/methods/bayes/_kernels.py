@@ -24,7 +24,7 @@ from ...camera import Camera
 from ...engine._project import distort_xy  # the one compiled distortion (ids and coefficients of Camera.packed)
 from ...engine.threads import kernel_threads
 from .boxindex import SCAN_BELOW_BOXES, TileIndex, build_index
-from .likelihood import SensorModel
+from .sensor import SensorModel
 
 #: Single-thread cost of one hypothesis against one box of a scanned view in ``_score_kernel``, and of one
 #: hypothesis in a view looked up in the tile index, nanoseconds (the thread count's work estimate, see

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from ...camera import Camera
 from ._kernels import _in_front, _spheroid_box_px, camera_arrays
-from .likelihood import SensorModel
+from .sensor import UNDEFINED_RESIDUAL, SensorModel
 
 
 def _box_residuals_kernel(
@@ -33,7 +33,7 @@ def _box_residuals_kernel(
             Z = R[m, 2, 0] * centres[p, 0] + R[m, 2, 1] * centres[p, 1] + R[m, 2, 2] * centres[p, 2] + t[m, 2]
             if not _in_front(Z, r, b, up_opt[m, 2]):
                 for e in range(4):
-                    out[p, 4 * m + e] = 1e3
+                    out[p, 4 * m + e] = UNDEFINED_RESIDUAL
                 continue
             px1, py1, px2, py2 = _spheroid_box_px(
                 X, Y, Z, r, b, up_opt[m, 0], up_opt[m, 1], up_opt[m, 2], fx, fy, cx, cy, code, coeffs
@@ -60,10 +60,10 @@ def _box_residuals_kernel(
             e2 = d2 / sx
             e3 = d3 / sy
             # np.nan_to_num(e, nan=1e3): NaN -> 1e3, +-inf -> +-max float
-            out[p, 4 * m] = 1e3 if math.isnan(e0) else max(min(e0, _FMAX), -_FMAX)
-            out[p, 4 * m + 1] = 1e3 if math.isnan(e1) else max(min(e1, _FMAX), -_FMAX)
-            out[p, 4 * m + 2] = 1e3 if math.isnan(e2) else max(min(e2, _FMAX), -_FMAX)
-            out[p, 4 * m + 3] = 1e3 if math.isnan(e3) else max(min(e3, _FMAX), -_FMAX)
+            out[p, 4 * m] = UNDEFINED_RESIDUAL if math.isnan(e0) else max(min(e0, _FMAX), -_FMAX)
+            out[p, 4 * m + 1] = UNDEFINED_RESIDUAL if math.isnan(e1) else max(min(e1, _FMAX), -_FMAX)
+            out[p, 4 * m + 2] = UNDEFINED_RESIDUAL if math.isnan(e2) else max(min(e2, _FMAX), -_FMAX)
+            out[p, 4 * m + 3] = UNDEFINED_RESIDUAL if math.isnan(e3) else max(min(e3, _FMAX), -_FMAX)
 
 
 _FMAX = float(np.finfo(np.float64).max)

@@ -64,8 +64,9 @@ from scipy.spatial.transform import Rotation
 from ...camera import Camera
 from ...errors import InputError
 from ...geometry.sphere import predict_sphere_boxes
-from .likelihood import SensorModel, edge_residuals, pose_sigma_px
-from .refine import Observation, observation_residuals, robust_loss
+from .likelihood import edge_residuals, pose_sigma_px
+from .refine import MIN_START_RADIUS_M, SPHERE_X_SCALE, Observation, observation_residuals, robust_loss
+from .sensor import UNDEFINED_RESIDUAL, SensorModel
 
 
 @dataclass
@@ -383,12 +384,12 @@ class _BundleProblem:
     def x0(self, centres0: NDArray[np.float64], radii0: NDArray[np.float64]) -> NDArray[np.float64]:
         """Starting parameters: the given objects (radii floored at 0.1 mm), zero pose corrections."""
         x0 = np.zeros(self.n_par)
-        x0[: 4 * self.n_obj] = np.column_stack([centres0, np.log(np.maximum(radii0, 1e-4))]).ravel()
+        x0[: 4 * self.n_obj] = np.column_stack([centres0, np.log(np.maximum(radii0, MIN_START_RADIUS_M))]).ravel()
         return x0
 
     def x_scale(self) -> NDArray[np.float64]:
         """Characteristic scale of each parameter: 1 cm per coordinate, 0.1 per log radius, the prior std per pose part."""
-        return np.concatenate([np.tile([0.01, 0.01, 0.01, 0.1], self.n_obj), np.tile(self.sigmas, len(self.seen))])
+        return np.concatenate([np.tile(SPHERE_X_SCALE, self.n_obj), np.tile(self.sigmas, len(self.seen))])
 
     def unpack(
         self, x: NDArray[np.float64]
@@ -418,7 +419,7 @@ class _BundleProblem:
             p_opt = np.einsum("pij,pj->pi", R, p_rep) + t
             pred, _ = predict_sphere_boxes(camera, p_opt, np.exp(c[:, 3:4]))
             e = edge_residuals(pred[:, 0], self.box_xyxy, self.model, camera.width, camera.height, box_extra)
-            out.append(np.nan_to_num(e, nan=1e3).ravel())
+            out.append(np.nan_to_num(e, nan=UNDEFINED_RESIDUAL).ravel())
         for (i, v, _), ob in zip(self.obs[n_box:], mask_obs):
             R, t = poses[v]
             T = ob.T_optical_base

@@ -27,6 +27,10 @@ RADIUS_BIN_RATIO = 2.0**0.2
 #: Semi-axis bounds of the shape fits when no ``size_range`` is given, metres: 5 mm (a tray's or a lid's half-thickness)
 #: to 160 mm (a tray's half-length); widened to the search's radii where those reach further.
 FIT_SEMI_AXIS_RANGE_M = (0.005, 0.16)
+#: A refined radius (or semi-axis along the axis) outside ``[radius_min / f, f * radius_max]`` with this ``f`` means the
+#: fit diverged: the object keeps the estimate it had (:attr:`BayesConfig.fit_radius_range`). A chosen margin, not a
+#: fitted one: the search's radii already lie in ``[radius_min, radius_max]``; twice beyond that range is divergence.
+DIVERGED_RADIUS_FACTOR = 2.0
 #: Compute backends of the ``bayes`` method: the fused numba kernels (default) and the numpy reference.
 BACKENDS = ("numba", "numpy")
 
@@ -291,6 +295,11 @@ class BayesConfig:
         import numpy as np
 
         return np.asarray(self.up, dtype=float)
+
+    @property
+    def fit_radius_range(self) -> tuple[float, float]:
+        """Radii (metres) a refit may reach before it counts as diverged (:data:`DIVERGED_RADIUS_FACTOR`)."""
+        return self.radius_min / DIVERGED_RADIUS_FACTOR, self.radius_max * DIVERGED_RADIUS_FACTOR
 
     @property
     def semi_axis_range(self) -> tuple[float, float]:

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from ...camera import Camera
 from .sensor import SensorModel, box_edge_sigma_px, censored_edges, inward_edge_offsets, outside_gate
 
-__all__ = ["SensorModel", "box_scores", "edge_loglik", "edge_residuals", "pose_sigma_px", "view_scores"]
+__all__ = ["box_scores", "edge_loglik", "edge_residuals", "pose_sigma_px", "view_scores"]
 
 
 def pose_sigma_px(

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
+from .sensor import UNDEFINED_RESIDUAL
 
 
 def mask_residuals(
@@ -56,7 +57,7 @@ def mask_residuals_rays(
 
     Returns
     -------
-    residuals : ndarray, shape (P, M); 1e3 where the camera is inside the sphere or it is behind the camera
+    residuals : ndarray, shape (P, M); ``UNDEFINED_RESIDUAL`` where the camera is inside the sphere or it is behind the camera
     """
     dist = np.linalg.norm(p_optical, axis=1)
     valid = (dist > radii) & (p_optical[:, 2] > 0)
@@ -69,5 +70,5 @@ def mask_residuals_rays(
     if extra_sigma_px:
         sigma = np.hypot(sigma, extra_sigma_px)
     out = (ang - ang_s[:, None]) * f / sigma[:, None]
-    out[~valid] = 1e3
+    out[~valid] = UNDEFINED_RESIDUAL
     return out

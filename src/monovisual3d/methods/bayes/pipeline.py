@@ -37,11 +37,6 @@ from .second_look import second_look
 from .shape_swap import shape_swap_pass
 from .shapes import shape_stage
 
-#: A joint (pose-corrected) radius outside ``[radius_min / f, f * radius_max]`` with this ``f`` means the bundle
-#: adjustment diverged, and the object keeps its per-object solution. A chosen margin, not a fitted one: the
-#: per-object radii already lie in ``[radius_min, radius_max]``; twice beyond that range is taken as divergence.
-DIVERGED_RADIUS_FACTOR = 2.0
-
 
 @dataclass(frozen=True)
 class Estimate:
@@ -145,7 +140,7 @@ def bundle(problem: Problem, objects: list[DetectedObject]) -> tuple[list[Detect
     )
     out = []
     for i, o in enumerate(objects):
-        lo, hi = cfg.radius_min / DIVERGED_RADIUS_FACTOR, cfg.radius_max * DIVERGED_RADIUS_FACTOR
+        lo, hi = cfg.fit_radius_range
         if not (np.all(np.isfinite(b.centres[i])) and lo <= b.radii[i] <= hi):
             out.append(o)  # keep the per-object solution rather than a diverged joint one
             continue

@@ -21,7 +21,7 @@ from ...frames import invert_transform
 from ...masks import contour_points
 from ...session import View
 from .config import BayesConfig
-from .likelihood import SensorModel
+from .sensor import SensorModel
 
 #: Boxes explained by accepted objects: ``(v, j)`` pairs, ``v`` indexing ``Problem.views``.
 Taken = frozenset[tuple[int, int]]

@@ -19,14 +19,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
-from ...frames import invert_transform
 from ...geometry.levenberg import levenberg_marquardt
 from ...geometry.sphere import pinhole_sphere_boxes, predict_sphere_boxes
 from ...geometry.spheroid import predict_spheroid_boxes
 from ._residuals import box_residuals_fused
-from .likelihood import SensorModel, edge_residuals
+from .likelihood import edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
-from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
+from .sensor import UNDEFINED_RESIDUAL, SensorModel, box_edge_sigma_px, censored_edges, inward_edge_offsets
 
 
 @dataclass
@@ -110,7 +109,7 @@ def observation_residuals(
     e = edge_residuals(pred[0, 0], observation.bbox_xyxy, model, camera.width, camera.height, observation.extra_sigma_px)
     if observation.censored is not None:
         e = np.where(observation.censored, np.minimum(e, 0.0), e)  # the edge noise is positive: censor e as d
-    return np.nan_to_num(e, nan=1e3)
+    return np.nan_to_num(e, nan=UNDEFINED_RESIDUAL)
 
 
 def residuals(
@@ -196,7 +195,7 @@ class _BoxResiduals:
         d = inward_edge_offsets(pred, self.obs)
         d = np.where(self.censored, np.minimum(d, 0.0), d)
         e = d / box_edge_sigma_px(model, pred, self.extra)
-        return np.nan_to_num(e, nan=1e3).reshape(len(e), -1)
+        return np.nan_to_num(e, nan=UNDEFINED_RESIDUAL).reshape(len(e), -1)
 
 
 class _SphereResiduals:
@@ -231,7 +230,7 @@ class _SphereResiduals:
         """Residuals (P, n) for parameter vectors ``P`` (P, 4) of ``(x, y, z, log r)``.
 
         A trial step far out (a depth the views hardly constrain) may overflow the radius: its residuals are then
-        the stand-in of an undefined one (1e3) or not finite, and the solver rejects the step."""
+        the stand-in of an undefined one (``UNDEFINED_RESIDUAL``) or not finite, and the solver rejects the step."""
         with np.errstate(over="ignore"):
             radii = np.exp(P[:, 3])
         return self.batch(P[:, :3], radii)
@@ -278,6 +277,8 @@ MAX_NFEV = 60
 SPHERE_X_SCALE = np.array([0.01, 0.01, 0.01, 0.1])
 SPHEROID_X_SCALE = np.array([0.01, 0.01, 0.01, 0.1, 0.1])
 SPHERE_X_SCALE.flags.writeable = SPHEROID_X_SCALE.flags.writeable = False
+#: Smallest radius (metres) a refinement starts from (its log is a parameter): 0.1 mm.
+MIN_START_RADIUS_M = 1e-4
 
 
 def refine_sphere(
@@ -303,7 +304,7 @@ def refine_sphere(
         carry little weight): the Gauss-Newton approximation of the posterior
         covariance of the position.
     """
-    x0 = np.concatenate([np.asarray(centre0, dtype=float), [np.log(max(radius0, 1e-4))]])
+    x0 = np.concatenate([np.asarray(centre0, dtype=float), [np.log(max(radius0, MIN_START_RADIUS_M))]])
     # residuals and the forward-difference Jacobian in batched numpy passes
     if floors is None:
         fun = _SphereResiduals(camera, observations, model, use_masks)
@@ -365,7 +366,9 @@ def refine_spheroid(
     masks are not used, the shape stage fits the final shape). ``covariance`` is the centre's block of
     ``(J^T J)^-1``; ``radius_std`` is that of the semi-axis across ``up``.
     """
-    x0 = np.concatenate([np.asarray(centre0, dtype=float), np.log([max(radius0, 1e-4), max(semi_up0, 1e-4)])])
+    x0 = np.concatenate(
+        [np.asarray(centre0, dtype=float), np.log([max(radius0, MIN_START_RADIUS_M), max(semi_up0, MIN_START_RADIUS_M)])]
+    )
     fun = _SpheroidResiduals(camera, observations, model, up)
     sol = levenberg_marquardt(fun.batch, x0, SPHEROID_X_SCALE, loss=robust_loss(model.inward_floor), max_nfev=MAX_NFEV)
     try:
@@ -375,9 +378,3 @@ def refine_spheroid(
     a, b = float(np.exp(sol.x[3])), float(np.exp(sol.x[4]))
     std = float(a * np.sqrt(max(cov_full[3, 3], 0.0))) if np.isfinite(cov_full[3, 3]) else float("nan")
     return Refined(sol.x[:3].copy(), a, cov_full[:3, :3], std, float(sol.cost), bool(sol.success), semi_up=b)
-
-
-def observation_for(
-    view_T_base_optical: NDArray[np.floating], bbox: NDArray[np.floating], contour: NDArray[np.floating] | None
-) -> Observation:
-    return Observation(invert_transform(view_T_base_optical), np.asarray(bbox, dtype=float), contour)

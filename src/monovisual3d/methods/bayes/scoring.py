@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from ...frames import transform_points
 from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
+from ._kernels import score_hypotheses as score_hypotheses_fused
 from .boxindex import TileIndex, build_index
 from .likelihood import box_scores, pose_sigma_px, view_scores
 from .problem import Problem, Taken
@@ -84,10 +85,8 @@ def score_hypotheses(
     cfg, cam = problem.config, problem.camera
     available = problem.available(taken)
     if cfg.backend == "numba":
-        from ._kernels import score_hypotheses as fused
-
         # the pose's position uncertainty scales with 1/depth like the cell blur; its rotation part is constant
-        scores = fused(
+        scores = score_hypotheses_fused(
             cam,
             [vd.T_optical_base for vd in problem.views],
             [vd.boxes for vd in problem.views],
@@ -185,9 +184,8 @@ def observations(problem: Problem, assoc: Sequence[int], centre: NDArray[np.floa
 
 
 def _radius_ok(problem: Problem, radius: float, semi_up: float | None = None) -> bool:
-    cfg = problem.config
-    ok = cfg.radius_min * 0.5 <= radius <= cfg.radius_max * 2
-    return ok and (semi_up is None or cfg.radius_min * 0.5 <= semi_up <= cfg.radius_max * 2)
+    lo, hi = problem.config.fit_radius_range
+    return lo <= radius <= hi and (semi_up is None or lo <= semi_up <= hi)
 
 
 def semi_up_of(obj: DetectedObject) -> float | None:

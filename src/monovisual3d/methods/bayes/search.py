@@ -52,6 +52,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...grid import VoxelGrid, cone_counts, split_cells
+from ._kernels import box_dominated_fused, cone_counts_fused
 from .problem import Problem, Taken
 from .scoring import Scores, score_hypotheses
 
@@ -179,8 +180,6 @@ def first_level(grid: VoxelGrid, start: float, resolution: float, max_cells: int
 
 def _cone_counts(problem: Problem, centres_base: NDArray[np.float64], half_diagonal: float) -> NDArray[np.int32]:
     if problem.config.backend == "numba":
-        from ._kernels import cone_counts_fused
-
         views = problem.views
         return cone_counts_fused(
             problem.camera, [vd.T_optical_base for vd in views], [vd.boxes for vd in views], centres_base, half_diagonal
@@ -311,8 +310,6 @@ def _box_dominated(
 ) -> NDArray[np.bool_]:
     """:func:`box_dominated` with the problem's margin, compiled with the numba backend."""
     if problem.config.backend == "numba":
-        from ._kernels import box_dominated_fused
-
         return box_dominated_fused(total, assoc, n_boxes, problem.config.dominance_margin)
     return box_dominated(total, assoc, n_boxes, problem.config.dominance_margin)
 

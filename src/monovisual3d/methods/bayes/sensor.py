@@ -20,6 +20,10 @@ if TYPE_CHECKING:
 
     from ...camera import Camera
 
+#: The normalised residual that stands in for an edge the model cannot predict (the object behind the camera, or the
+#: camera inside it): far beyond any robust loss's outlier scale, so the solver steps back.
+UNDEFINED_RESIDUAL = 1e3
+
 
 @dataclass(frozen=True)
 class SensorModel:
