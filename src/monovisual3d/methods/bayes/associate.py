@@ -25,6 +25,9 @@ from .search import Hypotheses, last_level, same_place_m
 #: near its end without the box a neighbour took once the search's radii reached 160 mm and changed the order of the
 #: candidates; the rows of 12-96 fruit and the accuracy benchmark's scenes keep their objects.
 OBJECTS_PER_STEAL_CANDIDATE = 4
+#: Nats by which a swap of two objects' boxes in one view must raise their summed score: more than a rounding of the
+#: refits, less than one edge's outlier cost.
+SWAP_GAIN_NATS = 1.0
 
 
 def _predicted_boxes(problem: Problem, v: int, objects: list[DetectedObject]) -> NDArray[np.float64]:
@@ -105,12 +108,12 @@ def swap_worth_fitting(
 def _try_swap(
     problem: Problem, v: int, a: DetectedObject, b: DetectedObject, fits: _Fits
 ) -> tuple[DetectedObject, DetectedObject] | None:
-    """``a`` and ``b`` refit with their boxes in view ``v`` swapped, if their summed score grows by more than 1 nat."""
+    """``a`` and ``b`` refit with their boxes in view ``v`` swapped, if their summed score grows by more than :data:`SWAP_GAIN_NATS`."""
     assoc_a, assoc_b = associations_list(problem, a), associations_list(problem, b)
     assoc_a[v], assoc_b[v] = assoc_b[v], assoc_a[v]
     new_a = _fit(problem, a, assoc_a, fits)
     new_b = _fit(problem, b, assoc_b, fits)
-    if new_a is None or new_b is None or new_a.score + new_b.score <= a.score + b.score + 1.0:
+    if new_a is None or new_b is None or new_a.score + new_b.score <= a.score + b.score + SWAP_GAIN_NATS:
         return None
     return new_a, new_b
 
