@@ -49,7 +49,8 @@ alone, ``solid_shape_bias.py``), which sets the subsets' error with whole boxes;
 those a little (the predicted boxes of two estimates overlap more than the objects do).
 
 Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEED LAST_SEED] [ELEVATION_DEG] [--visible]
-[--tray | --on-tray] [--pose-error=MM,DEG] [--no-workspace] [--unboxed-hidden] (default: cuboid 0.005 500 505 20; ``--visible``: the farther
+[--tray | --on-tray] [--pose-error=MM,DEG] [--no-workspace] [--unboxed-hidden] (default: cuboid 0.005 500 505 20;
+``ELEVATION_DEG`` as ``LOW:HIGH``: each view's elevation drawn uniformly in that range, as an arm's views mix; ``--visible``: the farther
 container's box ends where the nearer one hides it, as a detector of visible parts draws it,
 :func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's whole scene, a flat 200 x 160 x 30 mm cuboid
 tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs, printed on two more lines: the tray, and all
@@ -117,7 +118,7 @@ def main(
     kind: str,
     sigma: float,
     seeds: range,
-    elevation: float,
+    elevation: float | tuple[float, float],
     visible: bool = False,
     tray: bool = False,
     options: dict[str, str] | None = None,
@@ -136,7 +137,7 @@ def main(
         rng = np.random.default_rng(seed)
         middle = TARGET + rng.uniform(-0.01, 0.01, 3)
         centres = np.array([middle - [0.0, SPACING_M / 2, 0.0], middle + [0.0, SPACING_M / 2, 0.0]])
-        poses = views(rng, N_VIEWS, elevation, middle)
+        poses = views(rng, N_VIEWS, elevation if np.isscalar(elevation) else rng.uniform(*elevation, N_VIEWS), middle)
         box_fns = [object_boxes(kind, HALF_WIDTH_M, HALF_HEIGHT_M, rng) for _ in centres]
         if tray:
             R_tray = rotation_upright(rng.uniform(0.0, np.pi))
@@ -174,7 +175,8 @@ def main(
             (all_views if len(subset) == N_VIEWS else subsets).append(errors)
             counts.append(len(result.objects))
     a, s = np.array(all_views), np.array(subsets)  # (runs, objects)
-    case = f"{kind}{' visible' if visible else ''} noise {sigma:g} elevation {elevation:g}"
+    elevation_text = f"{elevation:g}" if np.isscalar(elevation) else f"{elevation[0]:g}-{elevation[1]:g}"
+    case = f"{kind}{' visible' if visible else ''} noise {sigma:g} elevation {elevation_text}"
     case += f" pose error {pose_error[0]:g} mm {pose_error[1]:g} deg" if any(pose_error) else ""
     case += "" if workspace else " no workspace"
     case += " wholly hidden unboxed" if unboxed_hidden else ""
@@ -184,6 +186,12 @@ def main(
     if tray:
         print(_line("  tray", a[:, 2], s[:, 2]))
         print(_line("  all three", a.ravel(), s.ravel()))
+
+
+def _elevation(text: str) -> float | tuple[float, float]:
+    """``ELEVATION_DEG``: one elevation for every view, or ``LOW:HIGH``, each view's drawn uniformly in that range."""
+    low, _, high = text.partition(":")
+    return (float(low), float(high)) if high else float(low)
 
 
 if __name__ == "__main__":
@@ -199,7 +207,7 @@ if __name__ == "__main__":
         args[0] if args else "cuboid",
         float(args[1]) if len(args) > 1 else 0.005,
         range(int(args[2]), int(args[3])) if len(args) > 3 else range(500, 505),
-        float(args[4]) if len(args) > 4 else 20.0,
+        _elevation(args[4]) if len(args) > 4 else 20.0,
         "--visible" in argv,
         "--tray" in argv or "--on-tray" in argv,
         {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},

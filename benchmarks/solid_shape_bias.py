@@ -84,11 +84,12 @@ OBJECTS = {
 }
 
 
-def views(rng: np.random.Generator, n_views: int, elevation_deg: float, centre: np.ndarray) -> np.ndarray:
-    """Poses (K, 4, 4) on the -x side of the object, ``DISTANCE_M`` away, aimed within ``AIM_JITTER_M`` of it."""
-    e = np.radians(elevation_deg)
+def views(rng: np.random.Generator, n_views: int, elevation_deg: float | np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Poses (K, 4, 4) on the -x side of the object, ``DISTANCE_M`` away, aimed within ``AIM_JITTER_M`` of it, at one
+    elevation (degrees) or one per view."""
+    elevations = np.radians(np.broadcast_to(elevation_deg, (n_views,)))
     poses = []
-    for az in np.radians(AZIMUTHS_DEG[n_views]):
+    for az, e in zip(np.radians(AZIMUTHS_DEG[n_views]), elevations):
         d = rng.uniform(*DISTANCE_M)
         p = centre + d * np.array([-np.cos(e) * np.cos(az), np.cos(e) * np.sin(az), np.sin(e)])
         poses.append(look_at(p, centre + rng.uniform(-AIM_JITTER_M, AIM_JITTER_M, 3)))

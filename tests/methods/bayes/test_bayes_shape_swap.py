@@ -15,9 +15,10 @@ from monovisual3d.geometry.ellipsoid import Ellipsoid
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox
 from monovisual3d.methods.bayes import BayesConfig, shape_swap
+from monovisual3d.methods.bayes.aspects import as_sphere
 from monovisual3d.methods.bayes.problem import build_problem
 from monovisual3d.methods.bayes.shape_swap import boxes_meet, centres_agree, epipolar_trades, is_tall, meeting_points
-from monovisual3d.methods.bayes.shapes import SPHERE_PARAMETERS, as_sphere, fitted_answer, shape_value
+from monovisual3d.methods.bayes.shapes import SPHERE_PARAMETERS, fitted_answer, shape_value
 from monovisual3d.result import DetectedObject
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes

@@ -57,14 +57,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...result import DetectedObject
+from .aspects import object_boxes, solid_boxes
 from .problem import Problem
 from .scoring import associations_list, boxes_of
 from .sensor import box_edge_sigma_px
-from .shape_swap import MIN_GAIN_NATS, as_answer, centres_agree_many, holding, meeting_points, pair_values
-from .shapes import Answer, fitted_answer, object_boxes, sensor_scores, shape_value, solid_boxes
+from .shape_swap import MEET_SIGMAS, MIN_GAIN_NATS, as_answer, centres_agree_many, holding, meeting_points, pair_values
+from .shapes import MIN_VIEWS_FOR_LYING, Answer, fitted_answer, sensor_scores, shape_value
 
-#: Views a new object needs: the yawed ellipsoid of a lying object is fitted from three views (``shapes``).
-MIN_VIEWS = 3
+#: Views a new object needs: those from which the shape stage fits the yawed ellipsoid of a lying object.
+MIN_VIEWS = MIN_VIEWS_FOR_LYING
 #: At most this many shape fits in one pass (each with every model of the shape stage: 10-50 ms for three views of
 #: a table top, up to 0.5 s for ten views or more), the combinations with the most boxes first.
 MAX_FITS = 16
@@ -73,7 +74,7 @@ MAX_FITS = 16
 MIN_VIEWS_HIDDEN = 2
 #: An object is hidden behind a nearer one's box when its predicted box lies inside it within this many of that box's
 #: edge sigmas (:func:`.sensor.box_edge_sigma_px`), as two boxes meet in :mod:`.shape_swap`.
-HIDDEN_SIGMAS = 2.0
+HIDDEN_SIGMAS = MEET_SIGMAS
 #: Shape fits a pair's value costs (:func:`_pair`): each of the two, fitted, then refitted with what the other hides.
 PAIR_FITS = 4
 #: At most this many combinations are screened in one pass (for all at once: about 0.3 s for 16,000); where more would

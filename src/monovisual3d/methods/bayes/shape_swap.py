@@ -44,15 +44,17 @@ from numpy.typing import NDArray
 from ...geometry.ellipsoid import Ellipsoid
 from ...geometry.fit import fit_parameters
 from ...result import DetectedObject
+from .aspects import looks_round
+from .associate import SWAP_GAIN_NATS
 from .occlusion import ends_at_occluder
 from .problem import Problem
 from .scoring import associations_list
 from .sensor import box_edge_sigma_px
-from .shapes import Answer, fitted_answer, looks_round, shape_value
+from .shapes import Answer, fitted_answer, shape_value
 
-#: Nats by which a move must beat the pair as the shape stage left it (the swap pass's 1 nat, doubled: the shape
+#: Nats by which a move must beat the pair as the shape stage left it (the swap pass's, :data:`.associate.SWAP_GAIN_NATS`, doubled: the shape
 #: models have more freedom to fit a wrong association than the search's spheres).
-MIN_GAIN_NATS = 2.0
+MIN_GAIN_NATS = 2.0 * SWAP_GAIN_NATS
 #: The models that judge a trade: with the edges one object hides of the other left out, an upright spheroid fits a
 #: container's remaining edges (its width's change with the view lies mostly in the hidden edges); the accepted trade's
 #: objects are then fitted with every model of the shape stage.
@@ -121,7 +123,7 @@ def _fits(
 
 
 def _cut_by_each_other(problem: Problem, objs: list[DetectedObject], shapes: list[Ellipsoid]) -> list[NDArray[np.float64]]:
-    """Per object of a pair, how far each of its edges (K, 4) (in the order of :func:`.shapes.object_boxes`) may be
+    """Per object of a pair, how far each of its edges (K, 4) (in the order of :func:`.aspects.object_boxes`) may be
     hidden: where the other, nearer there (by the centres of ``shapes``), spans it and has its box's facing edge at
     that edge (a box of the visible part, :func:`.occlusion.ends_at_occluder`), the nearer box's far side, pixels;
     NaN where the edge is seen."""
@@ -225,7 +227,7 @@ def _best_trade(
 
 
 def _cut_sphere(problem: Problem, o: DetectedObject) -> bool:
-    """Whether the shape stage kept ``o`` as the search's sphere though its boxes are not round (:func:`.shapes.looks_round`):
+    """Whether the shape stage kept ``o`` as the search's sphere though its boxes are not round (:func:`.aspects.looks_round`):
     the sensor model took them for cut by something unseen. Beside a tall object whose box ends them, the pair is
     refitted with every model when no spheroid move wins (:func:`_best_trade`): the spheroid screen cannot express a
     cuboid's box widths."""

@@ -52,20 +52,30 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ...camera import Camera
 from ...errors import InputError
-from ...frames import invert_transform
-from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
+from ...geometry.ellipsoid import Ellipsoid
 from ...geometry.fit import fit_shape_by_bic
-from ...geometry.solids import SOLIDS, cuboid_bbox, cylinder_bbox
-from ...geometry.sphere import predict_sphere_boxes
+from ...geometry.solids import SOLIDS
 from ...result import DetectedObject
+from .aspects import (
+    ROUNDNESS_THRESHOLD,
+    as_sphere,
+    aspect_deviations,
+    consistently_elongated,
+    elongated_one_way,
+    looks_round,
+    object_boxes,
+    possibly_cut,
+    round_aspects,
+    solid_boxes,
+    sticks_out,
+    strongly_elongated,
+)
 from .likelihood import box_scores
 from .occlusion import occlusion_flags, predicted_views
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
 from .scoring import axis_of, pose_px, semi_up_of, spheroid_axis
-from .sensor import box_edge_sigma_px, inward_edge_offsets
 from .solid_choice import solid_if_clear, solid_may_win
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
@@ -75,21 +85,6 @@ MIN_VIEWS_FOR_ELLIPSOID = 4
 #: views give 12 box edges, each a plane tangent to the object (a lying 5 x 5 x 12 cm object from three views:
 #: tests/methods/bayes/test_bayes_shapes.py); the fit must then beat the first answer (:func:`beats`).
 MIN_VIEWS_FOR_LYING = 3
-#: ``auto`` fits shapes when |log(box aspect / sphere's predicted aspect)| exceeds this in at least
-#: :data:`MIN_ELONGATED_BOXES` boxes not cut by the image border, and in at least :data:`MIN_ELONGATED_FRACTION` of them.
-ROUNDNESS_THRESHOLD = 0.08
-#: Boxes that must be elongated before ``auto`` fits shapes: one truncated or occluded box does not make a fruit
-#: elongated. The sign is not required to agree: an upright object is elongated the same way in every view, a
-#: lying one wide broadside and tall end-on (see the module docstring).
-MIN_ELONGATED_BOXES = 2
-#: Share of the measured boxes that must be elongated as well. The threshold is 1.33 sigmas of the log aspect under
-#: 3 % edge noise (sigma = 2 x 0.03: two edges per side, two sides), which a round fruit's box passes by chance 18 % of
-#: the time: two of three boxes 9 % of the time, but two of five 23 % and two of eight 44 %, so that a fixed count sent
-#: more round fruit through the shape fits the more views saw them (in a 96-fruit row from 5 views, a few per row, about
-#: 10 % of the run). Half of them keeps the chance at 9 % (3 views), 15 % (4), 5 % (5) and 4 % (8), and leaves every
-#: object seen in 3 or 4 views as it was; an elongated object's boxes are elongated in most views (a lying one is round
-#: only where the camera looks at it at about 45 degrees).
-MIN_ELONGATED_FRACTION = 0.5
 #: Views from which ``solids`` also fits the yawed cuboid (7 parameters, as the ellipsoid; a square box's width changes
 #: with the yaw from view to view, a cylinder's does not). From 3 views it is weakly determined and kept only with
 #: clear evidence (:func:`.solid_choice.solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
@@ -100,154 +95,23 @@ SPHERE_PARAMETERS = 4
 #: The shape a solid reports: that of the ellipsoid with the same semi-axes (its radius or half-sides).
 SOLID_SHAPES = {"cylinder": "spheroid", "cuboid": "ellipsoid"}
 
-#: Why ``BayesConfig.cut_inward_floor`` is 1.5 nats: the inward floor of the loss of the final sphere refit
-#: (:func:`one_sided_refit`), the outward one staying the
-#: sensor model's ``outward_floor`` (6): the per-edge likelihood is a mixture of the Gaussian edge noise and a flat tail
-#: ``exp(-floor)`` of its peak, an occluder's cut inward. Occlusion only shrinks a box (``benchmarks/occlusion_ratio.py``
-#: prints it: in the simulated greenhouse 7 % of the true boxes' edges lie more than 2 sigmas inside the silhouette box,
-#: 0.3 % outside; box noise alone is symmetric). Chosen on fresh simulated seeds 2000-2029 (not the benchmark's) of
-#: ``greenhouse-noise`` / ``greenhouse-clutter``, RMS error over the cut-edge bound without errors over 20 mm: the
-#: symmetric loss (3 nats both sides) 1.21 / 1.16; inward floor 3: 1.18 / 1.16, 2.25: 1.16 / 1.15, 1.5: 1.15 / 1.13,
-#: 1.0: 1.17 / 1.11, 0.75: 1.18 / 1.10; outward floor 3 instead of 6 at 1.5: 1.18 / 1.12. Censoring in addition each edge
-#: the fit leaves more than 2 sigmas inside gave 1.16 / 1.14 (alone 1.20 / 1.16) and is not done. The measured rate of
-#: cuts (12 % of edges, spread over 0.4-5 sigmas) gives a tail of about 2.7 nats; the lower floor also covers the noise
-#: the simulator adds to a cut edge. The cost where nothing is occluded: paper-noise 0.942 -> 0.946 of its bound
-#: (benchmark seeds), its radius error 0.58 -> 0.75 mm (inward noise edges count less).
-#: An edge of an object's box this many sensor sigmas inside its sphere's prediction may be cut by an occluder the
-#: search does not see (a leaf): an object elongated one way with such an edge, and with boxes elongated unlike each
-#: other (:func:`consistently_elongated`: a cut changes the boxes it cuts, a shape all of them), takes a fitted shape
-#: only when that beats the sphere under the sensor model (:func:`possibly_cut`, :func:`beats`), as when a nearer object
-#: cuts it. Box noise alone puts an edge there 0.13 % of the time. Without the second condition a cucumber the search
-#: found as a sphere of its height (its boxes far inside that sphere's on both sides, which the sensor model scores as
-#: occlusion at ``inward_floor`` an edge) stayed that sphere, 61 mm off (shapes-noise seed 3). In ``greenhouse-noise`` (tomatoes behind leaves, seeds 0-19) 7 of 167
-#: fruit came out as spheroids or ellipsoids before, 4 with it (``bench accuracy``: greenhouse 2.31 -> 2.14 mm, worst
-#: 27 -> 12 mm; greenhouse-noise 5.61 -> 5.44 mm). Every shapes row is unchanged (their fitted shapes beat the sphere or
-#: leave no edge that deep); 2 sigmas gave the same objects. Requiring it of every fitted object instead cost the
-#: shapes rows (shapes-clean semi-axis error 0.86 -> 0.99 mm): the sensor model's pose noise and 5 % edge noise make
-#: it slower to take a mildly elongated fruit's shape from exact boxes.
-HIDDEN_CUT_SIGMAS = 3.0
-#: An edge of an object's box this many sensor sigmas outside its sphere's prediction cannot be a cut (occlusion only
-#: shrinks a box); box noise puts an edge there 0.13 % of the time (1.6 % for one of three views' 12 edges): an object
-#: with an elongated box and such an edge (on any of its boxes) is fitted as the objects with two elongated boxes are
-#: (:func:`sticks_out`). A box lying on a table, seen broadside in one of three views and end-on (square) in the two
-#: others, has one elongated box; kept a sphere, it came out 50-60 mm off (``python benchmarks/tabletop_subsets.py``).
-OUTSIDE_SIGMAS = 3.0
+# Why ``BayesConfig.cut_inward_floor`` is 1.5 nats: the inward floor of the loss of the final sphere refit
+# (:func:`one_sided_refit`), the outward one staying the
+# sensor model's ``outward_floor`` (6): the per-edge likelihood is a mixture of the Gaussian edge noise and a flat tail
+# ``exp(-floor)`` of its peak, an occluder's cut inward. Occlusion only shrinks a box (``benchmarks/occlusion_ratio.py``
+# prints it: in the simulated greenhouse 7 % of the true boxes' edges lie more than 2 sigmas inside the silhouette box,
+# 0.3 % outside; box noise alone is symmetric). Chosen on fresh simulated seeds 2000-2029 (not the benchmark's) of
+# ``greenhouse-noise`` / ``greenhouse-clutter``, RMS error over the cut-edge bound without errors over 20 mm: the
+# symmetric loss (3 nats both sides) 1.21 / 1.16; inward floor 3: 1.18 / 1.16, 2.25: 1.16 / 1.15, 1.5: 1.15 / 1.13,
+# 1.0: 1.17 / 1.11, 0.75: 1.18 / 1.10; outward floor 3 instead of 6 at 1.5: 1.18 / 1.12. Censoring in addition each edge
+# the fit leaves more than 2 sigmas inside gave 1.16 / 1.14 (alone 1.20 / 1.16) and is not done. The measured rate of
+# cuts (12 % of edges, spread over 0.4-5 sigmas) gives a tail of about 2.7 nats; the lower floor also covers the noise
+# the simulator adds to a cut edge. The cost where nothing is occluded: paper-noise 0.942 -> 0.946 of its bound
+# (benchmark seeds), its radius error 0.58 -> 0.75 mm (inward noise edges count less).
 #: Views a sphere needs for :func:`one_sided_refit`: from two, its 8 edges barely determine its 4 parameters, and an
 #: edge cannot be told a cut from noise by the others; letting inward edges go there moves the depth (in simulated
 #: clutter, seeds 3000-3039, two two-view fruit went from 13 and 18 mm to 24 mm off).
 MIN_VIEWS_ONE_SIDED = 3
-
-
-def object_boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The object's poses ``T_base_optical`` (K, 4, 4) and associated boxes (K, 4)."""
-    by_index = {vd.index: vd for vd in problem.views}
-    items = sorted(obj.associations.items())
-    poses = np.array([invert_transform(by_index[v].T_optical_base) for v, _ in items]).reshape(-1, 4, 4)
-    boxes = np.array([by_index[v].boxes[j] for v, j in items]).reshape(-1, 4)
-    return poses, boxes
-
-
-def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> NDArray[np.float64]:
-    """``log(box aspect / aspect of the object's sphere's predicted box)`` of each associated box not cut by the image
-    border nor in the views ``cut`` (session view indices: a nearer object cuts the box there), shape (K,) (aspect:
-    height / width; positive: taller than the sphere's box). A cut box shows the cut, not the object's aspect."""
-    cam, border = problem.camera, problem.model.border_px
-    by_index = {vd.index: vd for vd in problem.views}
-    seen = [(by_index[v], by_index[v].boxes[j]) for v, j in obj.associations.items() if v not in cut]
-    # kept as the test "on the border" is written, so that a NaN edge is not on it
-    seen = [
-        (vd, b)
-        for vd, b in seen
-        if not (b[0] <= border or b[1] <= border or b[2] >= cam.width - border or b[3] >= cam.height - border)
-    ]
-    if not seen:
-        return np.zeros(0)
-    boxes = np.array([b for _, b in seen])
-    p_opt = np.array([vd.T_optical_base[:3, :3] @ obj.position + vd.T_optical_base[:3, 3] for vd, _ in seen])
-    pred = predict_sphere_boxes(cam, p_opt, np.full((len(seen), 1), float(obj.radius)))[0][:, 0]  # (K, 4)
-    w, h = boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]
-    ok = np.all(np.isfinite(pred), axis=1) & (np.minimum(w, h) > 0)
-    pred = pred[ok]
-    return np.log(h[ok] / w[ok]) - np.log((pred[:, 3] - pred[:, 1]) / (pred[:, 2] - pred[:, 0]))
-
-
-def looks_round(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> bool:
-    """Whether the object's untruncated boxes (leaving out the views ``cut``) have the aspect its sphere predicts
-    (:func:`round_aspects` of their :func:`aspect_deviations`)."""
-    return round_aspects(aspect_deviations(problem, obj, cut))
-
-
-def round_aspects(deviations: NDArray[np.floating]) -> bool:
-    """Whether boxes with these :func:`aspect_deviations` look round: fewer than :data:`MIN_ELONGATED_BOXES` of them, or
-    fewer than :data:`MIN_ELONGATED_FRACTION` of them, deviate by more than :data:`ROUNDNESS_THRESHOLD`, of either sign.
-
-    Examples
-    --------
-    >>> round_aspects(np.array([0.12, 0.01, -0.03, 0.10, 0.02]))  # two of five: noise
-    True
-    >>> round_aspects(np.array([0.12, 0.01, 0.10]))  # two of three
-    False
-    """
-    d = np.abs(np.asarray(deviations, dtype=float))
-    n = int(np.sum(d > ROUNDNESS_THRESHOLD))
-    return n < MIN_ELONGATED_BOXES or n < MIN_ELONGATED_FRACTION * len(d)
-
-
-def elongated_one_way(deviations: NDArray[np.floating]) -> bool:
-    """Whether at least two boxes are elongated, all the same way (taller, or all wider, than the sphere's)."""
-    d = np.asarray(deviations, dtype=float)
-    return len(d) >= 2 and bool(np.all(d > ROUNDNESS_THRESHOLD) or np.all(d < -ROUNDNESS_THRESHOLD))
-
-
-def consistently_elongated(deviations: NDArray[np.floating]) -> bool:
-    """Whether the boxes' :func:`aspect_deviations` agree from view to view: their spread (largest minus smallest) is
-    below the magnitude of their median. An upright object is elongated about equally in every view; a cut changes the
-    aspect of the boxes it cuts only.
-
-    Examples
-    --------
-    >>> consistently_elongated(np.array([1.33, 1.11, 1.41]))  # a cucumber
-    True
-    >>> consistently_elongated(np.array([0.29, 0.09, 1.51]))  # a tomato a leaf cuts to a sliver in one view
-    False
-    """
-    d = np.asarray(deviations, dtype=float)
-    return len(d) >= 2 and float(np.ptp(d)) < abs(float(np.median(d)))
-
-
-def sticks_out(problem: Problem, obj: DetectedObject) -> bool:
-    """Whether an edge of the object's boxes (not at the image border) lies more than :data:`OUTSIDE_SIGMAS` edge
-    sigmas outside its sphere's predicted box: no occluder makes a box larger, so the sphere is the wrong shape there."""
-    return bool(np.any(_edge_depths(problem, obj) < -OUTSIDE_SIGMAS))
-
-
-def _edge_depths(problem: Problem, obj: DetectedObject) -> NDArray[np.float64]:
-    """How far each edge of the object's boxes (K, 4) lies inside its sphere's predicted box, in edge sigmas
-    (negative: outside; NaN at the image border, where a box is truncated)."""
-    poses, boxes = object_boxes(problem, obj)
-    o = as_sphere(obj)
-    pred = solid_boxes(problem.camera, poses, Ellipsoid.sphere(o.position, float(o.radius)))  # type: ignore[arg-type]
-    cam, border = problem.camera, problem.model.border_px
-    x1, y1, x2, y2 = boxes.T
-    at_border = np.stack([x1 <= border, y1 <= border, x2 >= cam.width - border, y2 >= cam.height - border], axis=1)
-    depth = inward_edge_offsets(pred, boxes) / box_edge_sigma_px(problem.model, pred)
-    return np.where(at_border, np.nan, depth)
-
-
-def possibly_cut(problem: Problem, obj: DetectedObject) -> bool:
-    """Whether an edge of the object's boxes (not at the image border) lies more than :data:`HIDDEN_CUT_SIGMAS` edge
-    sigmas inside its sphere's predicted box: an occluder the search does not see (a leaf) may have cut it there."""
-    return bool(np.any(_edge_depths(problem, obj) > HIDDEN_CUT_SIGMAS))
-
-
-def solid_boxes(camera: Camera, poses: NDArray[np.float64], e: Ellipsoid, solid: str | None = None) -> NDArray[np.float64]:
-    """Unclipped boxes (K, 4), pixels, seen from ``poses`` (K, 4, 4) of the ellipsoid ``e``, or with ``solid``
-    (``cylinder``, ``cuboid``) of that solid with ``e``'s centre, semi-axes (radius or half-sides) and rotation."""
-    if solid == "cylinder":
-        return cylinder_bbox(camera, poses, e.centre_base, e.semi_axes[0], e.semi_axes[2], e.rotation)
-    if solid == "cuboid":
-        return cuboid_bbox(camera, poses, e.centre_base, e.semi_axes, e.rotation)
-    return ellipsoid_bbox(camera, poses, e.centre_base, e.semi_axes, e.rotation, clip=False)
 
 
 def sensor_scores(
@@ -303,27 +167,6 @@ def boxes_as_seen(
     lo = np.maximum(np.minimum(pred[:, :2], boxes[:, :2]), hidden_to[:, :2])  # nan-propagating: seen edges stay
     hi = np.minimum(np.maximum(pred[:, 2:], boxes[:, 2:]), hidden_to[:, 2:])
     return poses, np.where(np.isfinite(hidden_to), np.concatenate([lo, hi], axis=1), boxes)
-
-
-def as_sphere(obj: DetectedObject) -> DetectedObject:
-    """The sphere estimate with its shape fields filled in (an upright spheroid of the search: its
-    volume-equivalent radius)."""
-    r = float(obj.radius)  # type: ignore[arg-type]
-    b = obj.extra.get("semi_up")
-    if b is not None:
-        r = float((r * r * float(b)) ** (1 / 3))
-    return DetectedObject(
-        obj.position,
-        obj.score,
-        r,
-        obj.covariance,
-        obj.associations,
-        obj.n_cells,
-        obj.extra,
-        shape="sphere",
-        semi_axes=np.array([r, r, r]),
-        quaternion_xyzw=np.array([0.0, 0.0, 0.0, 1.0]),
-    )
 
 
 def _sphere_answer(obj: DetectedObject) -> Answer:
@@ -469,7 +312,9 @@ def fit_shape(
     by a few sigmas (``python benchmarks/container_pairs.py cuboid 0.005 1600 1604 20 --tray --no-workspace
     --pose-error=3,0.5 -- 'size_range=[0.02,0.15]' reach=1.0``: containers missed 32 -> 27 of 448).
     An object with only one elongated box is fitted as one elongated both ways when an edge sticks out of its sphere's
-    prediction (:func:`sticks_out`: no cut makes a box larger), even where a nearer object is predicted to cut it."""
+    prediction (:func:`sticks_out`: no cut makes a box larger), even where a nearer object is predicted to cut it, or
+    when that box is elongated far beyond box noise (:func:`strongly_elongated`: a flat tray seen from above and from
+    the side)."""
     cfg = problem.config
     n_views = len(obj.associations)
     if cfg.shape == "sphere" or n_views < 2:
@@ -482,7 +327,7 @@ def fit_shape(
     def outgrown() -> bool:  # asked only where it decides: a box prediction per object
         return bool(np.any(np.abs(deviations) > ROUNDNESS_THRESHOLD)) and sticks_out(problem, obj)
 
-    if round_aspects(deviations) and not outgrown():
+    if round_aspects(deviations) and not outgrown() and not strongly_elongated(deviations):
         return as_sphere(obj)
     if elongated_one_way(deviations):
         upright = _upright_shapes(n_views, cfg.solids)
@@ -495,7 +340,7 @@ def fit_shape(
         if fit is None or np.all(deviations > 0) or set(_lying_shapes(n_views)) <= set(upright):
             return as_sphere(obj) if fit is None else fit[0][0]  # taller in every view: upright, round in plan
         answer = fit[0]  # wider in every view: lying (seen from one side) or flat
-    else:  # elongated both ways (lying, or a sphere whose boxes are cut), or one box only but outgrown
+    else:  # elongated both ways (lying, or a sphere whose boxes are cut), or one box only but outgrown or strongly
         answer = _sphere_answer(obj)
         uncut = aspect_deviations(problem, obj, cut) if cut else deviations
         both_ways = np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)
@@ -558,7 +403,8 @@ def _refit(
     else:
         fit = refine_spheroid(problem.camera, obs, o.position, r, float(b), problem.model, spheroid_axis(problem, axis_of(o)))
     sizes = [fit.radius] + ([] if fit.semi_up is None else [fit.semi_up])
-    if not (fit.success and all(cfg.radius_min * 0.5 <= s <= cfg.radius_max * 2 for s in sizes)):
+    lo, hi = cfg.fit_radius_range
+    if not (fit.success and all(lo <= s <= hi for s in sizes)):
         return o
     extra = {**o.extra, "radius_std": fit.radius_std if np.isfinite(fit.radius_std) else None}
     if fit.semi_up is not None:
