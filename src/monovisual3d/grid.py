@@ -220,6 +220,18 @@ def cone_counts(
     return counts
 
 
+def half_diagonal(size: float) -> float:
+    """Half the space diagonal of a cubic cell of side ``size`` (metres): every point of the cell lies within it of the
+    centre, so a cell whose centre's projection is that far (at its depth) from a box may still touch the box's cone.
+
+    Examples
+    --------
+    >>> round(half_diagonal(0.02), 5)
+    0.01732
+    """
+    return size * math.sqrt(3) / 2
+
+
 def split_cells(centres_grid: NDArray[np.floating], size: float) -> NDArray[np.float64]:
     """Octree split: the 8 children (cell size ``size / 2``) of each cell centre, shape (8N, 3).
 
@@ -227,3 +239,14 @@ def split_cells(centres_grid: NDArray[np.floating], size: float) -> NDArray[np.f
     """
     child = size / 2
     return (centres_grid[:, None, :] + _CHILD_OFFSETS[None, :, :] * child).reshape(-1, 3)
+
+
+def child_rows(parents: NDArray[np.integer]) -> NDArray[np.intp]:
+    """Rows of :func:`split_cells`'s output holding the children of the input rows ``parents`` (P,), shape (8P,).
+
+    Examples
+    --------
+    >>> child_rows(np.array([0, 2])).tolist()
+    [0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22, 23]
+    """
+    return (8 * np.asarray(parents, dtype=np.intp)[:, None] + np.arange(8)).ravel()

@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from ...grid import child_rows
 from ...result import DetectedObject
 from .problem import Problem, Taken
 from .scoring import boxes_of, refine_and_check, score_hypotheses, score_one
@@ -370,7 +371,7 @@ def _split(problem: Problem, rows: _Rows, work: _Work, taken: Taken, parents: ND
     (:func:`.search.score_children`; the explaining away is the extraction's own)."""
     work.pending[parents] = False
     work.suppress(parents)
-    kids = (8 * parents[:, None] + np.arange(8)).ravel()  # parent rows are the search's cells, in its order
+    kids = child_rows(parents)  # parent rows are the search's cells, in its order
     kids, (t, n, a), keep = score_children(problem, rows.hyp, kids[~rows.dead[kids]], taken)
     rows.add(kids, work.append(t, n, a, problem.config.min_views), keep)
 
