@@ -19,7 +19,7 @@ from ...geometry.solids import cuboid_bbox, cylinder_bbox
 from ...geometry.sphere import predict_sphere_boxes
 from ...result import DetectedObject
 from .problem import Problem
-from .sensor import box_edge_sigma_px, inward_edge_offsets
+from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
 
 #: ``auto`` fits shapes when |log(box aspect / sphere's predicted aspect)| exceeds this in at least
 #: :data:`MIN_ELONGATED_BOXES` boxes not cut by the image border, and in at least :data:`MIN_ELONGATED_FRACTION` of them.
@@ -82,12 +82,7 @@ def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int]
     cam, border = problem.camera, problem.model.border_px
     by_index = {vd.index: vd for vd in problem.views}
     seen = [(by_index[v], by_index[v].boxes[j]) for v, j in obj.associations.items() if v not in cut]
-    # kept as the test "on the border" is written, so that a NaN edge is not on it
-    seen = [
-        (vd, b)
-        for vd, b in seen
-        if not (b[0] <= border or b[1] <= border or b[2] >= cam.width - border or b[3] >= cam.height - border)
-    ]
+    seen = [(vd, b) for vd, b in seen if not censored_edges(np.asarray(b), cam.width, cam.height, border).any()]
     if not seen:
         return np.zeros(0)
     boxes = np.array([b for _, b in seen])
@@ -169,9 +164,8 @@ def _edge_depths(problem: Problem, obj: DetectedObject) -> NDArray[np.float64]:
     poses, boxes = object_boxes(problem, obj)
     o = as_sphere(obj)
     pred = solid_boxes(problem.camera, poses, Ellipsoid.sphere(o.position, float(o.radius)))  # type: ignore[arg-type]
-    cam, border = problem.camera, problem.model.border_px
-    x1, y1, x2, y2 = boxes.T
-    at_border = np.stack([x1 <= border, y1 <= border, x2 >= cam.width - border, y2 >= cam.height - border], axis=1)
+    cam = problem.camera
+    at_border = censored_edges(boxes, cam.width, cam.height, problem.model.border_px)
     depth = inward_edge_offsets(pred, boxes) / box_edge_sigma_px(problem.model, pred)
     return np.where(at_border, np.nan, depth)
 
