@@ -11,8 +11,8 @@ hand-eye calibration leave them. The default ``localize`` runs on each seed.
 Printed: how many runs returned no object, the error's mean, p90 and max (mm) of the nearest estimate, and how many
 lie beyond 30 mm.
 
-Usage: python benchmarks/single_container.py [FIRST LAST] [POSE_MM,POSE_DEG] [cuboid|cylinder] [NOISE] [-- KEY=VALUE ...]
-(default: seeds 0-39, no pose error, cuboid, noise 0.005; options to ``localize`` after ``--``, e.g. ``-- pose_sigma_mm=5
+Usage: python benchmarks/single_container.py [FIRST LAST] [POSE_MM,POSE_DEG] [cuboid|cylinder] [NOISE] [LOW:HIGH] [-- KEY=VALUE
+...] (default: seeds 0-39, no pose error, cuboid, noise 0.005, elevations 0:30 degrees, drawn per seed; options to ``localize`` after ``--``, e.g. ``-- pose_sigma_mm=5
 pose_sigma_deg=1`` to state the pose error).
 """
 
@@ -33,14 +33,21 @@ HALF_WIDTH_M, HALF_HEIGHT_M, N_VIEWS, ELEVATION_DEG = 0.025, 0.06, 3, (0.0, 30.0
 FOUND_M = 0.03
 
 
-def errors_mm(seeds: range, pose_error: tuple[float, float], kind: str, sigma: float, options: dict | None = None) -> np.ndarray:
+def errors_mm(
+    seeds: range,
+    pose_error: tuple[float, float],
+    kind: str,
+    sigma: float,
+    options: dict | None = None,
+    elevation_deg: tuple[float, float] = ELEVATION_DEG,
+) -> np.ndarray:
     """Per seed, the distance (mm) from the container to the nearest estimate; NaN where none was returned."""
     cam = CAMERAS["1280x720"]
     out = np.full(len(seeds), np.nan)
     for i, seed in enumerate(seeds):
         rng = np.random.default_rng(seed)
         centre = TARGET + rng.uniform(-0.01, 0.01, 3)
-        poses = views(rng, N_VIEWS, rng.uniform(*ELEVATION_DEG), centre)
+        poses = views(rng, N_VIEWS, rng.uniform(*elevation_deg), centre)
         boxes = perturb_boxes(object_boxes(kind, HALF_WIDTH_M, HALF_HEIGHT_M, rng)(cam, poses, centre), sigma, rng)
         reported = [perturb_pose(T, 1e-3 * pose_error[0], np.radians(pose_error[1]), rng) for T in poses]
         session = Session(cam, tuple(View(T, (Detection(b),)) for T, b in zip(reported, boxes)))
@@ -62,13 +69,15 @@ def main(argv: list[str]) -> None:
     pose = tuple(float(x) for x in argv[2].split(",")) if len(argv) > 2 else (0.0, 0.0)
     kind = argv[3] if len(argv) > 3 else "cuboid"
     sigma = float(argv[4]) if len(argv) > 4 else 0.005
-    e = errors_mm(seeds, pose, kind, sigma, options)  # type: ignore[arg-type]
+    elevation = tuple(float(x) for x in argv[5].split(":")) if len(argv) > 5 else ELEVATION_DEG
+    e = errors_mm(seeds, pose, kind, sigma, options, elevation)  # type: ignore[arg-type]
     found = e[np.isfinite(e)]
     if not found.size:
         print(f"{kind}, pose error {pose[0]:g} mm {pose[1]:g} deg: no object in any of {len(e)} runs")
         return
     print(
-        f"{kind}, noise {sigma:g}, pose error {pose[0]:g} mm {pose[1]:g} deg, seeds {seeds.start}-{seeds.stop - 1}: "
+        f"{kind}, noise {sigma:g}, pose error {pose[0]:g} mm {pose[1]:g} deg, elevation {elevation[0]:g}-{elevation[1]:g} deg, "
+        f"seeds {seeds.start}-{seeds.stop - 1}: "
         f"no object {int(np.isnan(e).sum())}/{len(e)}; error mean {found.mean():.1f}, p90 {np.percentile(found, 90):.1f}, "
         f"max {found.max():.1f} mm; beyond {FOUND_M * 1e3:.0f} mm {int(np.sum(found > FOUND_M * 1e3))}"
     )
