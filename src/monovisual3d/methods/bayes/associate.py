@@ -25,8 +25,8 @@ from .search import Hypotheses, last_level, same_place_m
 #: near its end without the box a neighbour took once the search's radii reached 160 mm and changed the order of the
 #: candidates; the rows of 12-96 fruit and the accuracy benchmark's scenes keep their objects.
 OBJECTS_PER_STEAL_CANDIDATE = 4
-#: Nats by which a swap of two objects' boxes in one view must raise their summed score: more than a rounding of the
-#: refits, less than one edge's outlier cost.
+#: Nats by which a swap of two objects' boxes in one view must raise their summed score: a chosen margin over the
+#: refits' rounding, not a fitted value.
 SWAP_GAIN_NATS = 1.0
 
 
