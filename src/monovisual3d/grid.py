@@ -220,13 +220,13 @@ def cone_counts(
     return counts
 
 
-def half_diagonal(size: float) -> float:
+def cell_half_diagonal(size: float) -> float:
     """Half the space diagonal of a cubic cell of side ``size`` (metres): every point of the cell lies within it of the
     centre, so a cell whose centre's projection is that far (at its depth) from a box may still touch the box's cone.
 
     Examples
     --------
-    >>> round(half_diagonal(0.02), 5)
+    >>> round(cell_half_diagonal(0.02), 5)
     0.01732
     """
     return size * math.sqrt(3) / 2

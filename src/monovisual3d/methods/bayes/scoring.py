@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from ...frames import transform_points
 from ...geometry.spheroid import predict_spheroid_boxes
-from ...grid import half_diagonal
+from ...grid import cell_half_diagonal
 from ...result import DetectedObject
 from ._kernels import score_hypotheses as score_hypotheses_fused
 from .boxindex import TileIndex, build_index
@@ -82,7 +82,7 @@ def score_hypotheses(
     total, n_assoc, assoc : see :data:`Scores`; an elongated bin's total is its log-likelihood ratio less
         ``elongation_cost`` (:func:`shape_cost`)
     """
-    blur = half_diagonal(cell)
+    blur = cell_half_diagonal(cell)
     cfg, cam = problem.config, problem.camera
     available = problem.available(taken)
     if cfg.backend == "numba":

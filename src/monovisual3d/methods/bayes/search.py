@@ -51,7 +51,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ...grid import VoxelGrid, child_rows, cone_counts, half_diagonal, split_cells
+from ...grid import VoxelGrid, cell_half_diagonal, child_rows, cone_counts, split_cells
 from ._kernels import box_dominated_fused, cone_counts_fused
 from .problem import Problem, Taken
 from .scoring import Scores, score_hypotheses
@@ -228,7 +228,7 @@ def _first_cells(problem: Problem, grid: VoxelGrid) -> NDArray[np.float64]:
     A first level coarser than ``search_start`` (a huge workspace) uses the depth-gated counts.
     """
     R, t = grid.T_base_grid[:3, :3], grid.T_base_grid[:3, 3]
-    half = half_diagonal(grid.resolution)
+    half = cell_half_diagonal(grid.resolution)
     coarse = grid.resolution > problem.config.search_start * (1 + 1e-9)
     kept = []
     for start in range(0, grid.n_cells, CHUNK_CELLS):
@@ -400,7 +400,7 @@ def level_mask(problem: Problem, scores: Scores, dominated: NDArray[np.bool_] | 
 
 def cone_counts_at(problem: Problem, centres_base: NDArray[np.float64], cell: float) -> NDArray[np.int32]:
     """Views whose widened viewing cones hold each cell of size ``cell`` (metres) centred at ``centres_base`` (N, 3)."""
-    return _cone_counts(problem, centres_base, half_diagonal(cell))
+    return _cone_counts(problem, centres_base, cell_half_diagonal(cell))
 
 
 def score_children(
@@ -445,7 +445,7 @@ def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[ND
         # the last split lands on search_start, whose cells the scored levels count again without the gate
         centres_grid = split_cells(centres_grid, cell)
         cell /= 2
-        counts = size_gated_counts(problem, centres_grid @ R.T + t, half_diagonal(cell))
+        counts = size_gated_counts(problem, centres_grid @ R.T + t, cell_half_diagonal(cell))
         keep = np.flatnonzero(counts >= cfg.min_views)
         if len(keep) > cap_cells:
             keep, capped = np.sort(keep[np.argsort(-counts[keep], kind="stable")[:cap_cells]]), True

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from ...camera import Camera
 from ...errors import InputError, InputWarning
 from ...frames import invert_transform, transform_points
-from ...grid import VoxelGrid, cone_counts, half_diagonal
+from ...grid import VoxelGrid, cell_half_diagonal, cone_counts
 from ...result import DetectedObject
 from ...session import View, Workspace
 from .config import PaperConfig
@@ -98,7 +98,7 @@ def view_sees_grid(grid: VoxelGrid, camera: Camera, view: View, step: int = 4) -
     sub = [np.arange(0, n, step) for n in grid.shape]
     ijk = np.stack(np.meshgrid(*sub, indexing="ij"), axis=-1).reshape(-1, 3)
     centres = transform_points(grid.T_base_grid, (ijk + 0.5) * grid.resolution)
-    return bool(cone_counts(camera, [view], centres, half_diagonal(step * grid.resolution), widen=0.0).any())
+    return bool(cone_counts(camera, [view], centres, cell_half_diagonal(step * grid.resolution), widen=0.0).any())
 
 
 class HistogramFilter:
