@@ -49,13 +49,15 @@ alone, ``solid_shape_bias.py``), which sets the subsets' error with whole boxes;
 those a little (the predicted boxes of two estimates overlap more than the objects do).
 
 Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEED LAST_SEED] [ELEVATION_DEG] [--visible]
-[--tray | --on-tray] [--pose-error=MM,DEG] [--no-workspace] [--unboxed-hidden] (default: cuboid 0.005 500 505 20;
+[--tray | --on-tray] [--pose-error=MM,DEG] [--hand-eye-error=MM,DEG] [--no-workspace] [--unboxed-hidden] (default: cuboid 0.005 500 505 20;
 ``ELEVATION_DEG`` as ``LOW:HIGH``: each view's elevation drawn uniformly in that range, as an arm's views mix; ``--visible``: the farther
 container's box ends where the nearer one hides it, as a detector of visible parts draws it,
 :func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's whole scene, a flat 200 x 160 x 30 mm cuboid
 tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs, printed on two more lines: the tray, and all
 three objects; ``--on-tray``: the same tray with the pair standing on it; ``--pose-error=MM,DEG``: each view's reported pose off the true one by
 :func:`monovisual3d.sim.noise.perturb_pose`, per axis, as an arm's kinematics and hand-eye calibration leave it;
+``--hand-eye-error=MM,DEG``: one such error drawn per seed in the camera's own frame and applied to every view
+(``T_base_optical @ E``), as a hand-eye calibration's error is: the same for every view in the camera's frame, so not the same in the base frame;
 ``--no-workspace``: the search's default region instead of a 40 cm cube around the pair; ``--unboxed-hidden``, with
 ``--visible``: an object wholly behind a nearer one, or shown as a sliver under 2 px, gets no box in that view, as a
 detector of visible parts reports it (:func:`monovisual3d.sim.noise.wholly_hidden`); an object then boxed in one view
@@ -126,6 +128,7 @@ def main(
     workspace: bool = True,
     on_tray: bool = False,
     unboxed_hidden: bool = False,
+    hand_eye_error: tuple[float, float] = (0.0, 0.0),
 ) -> None:
     cam = CAMERAS["1280x720"]
     tracks = (options or {}).get("method") == "quadric"  # the anchor is given the association
@@ -153,6 +156,8 @@ def main(
         if sigma > 0:
             boxes = perturb_boxes(boxes.reshape(-1, 4), sigma, rng).reshape(boxes.shape)
         reported = np.stack([perturb_pose(T, 1e-3 * pose_error[0], np.radians(pose_error[1]), rng) for T in poses])
+        if any(hand_eye_error):  # one error of the camera in the end-effector frame, the same in every view
+            reported = reported @ perturb_pose(np.eye(4), 1e-3 * hand_eye_error[0], np.radians(hand_eye_error[1]), rng)
         for subset in itertools.chain([tuple(range(N_VIEWS))], itertools.combinations(range(N_VIEWS), SUBSET)):
             session = Session(
                 cam,
@@ -178,6 +183,7 @@ def main(
     elevation_text = f"{elevation:g}" if np.isscalar(elevation) else f"{elevation[0]:g}-{elevation[1]:g}"
     case = f"{kind}{' visible' if visible else ''} noise {sigma:g} elevation {elevation_text}"
     case += f" pose error {pose_error[0]:g} mm {pose_error[1]:g} deg" if any(pose_error) else ""
+    case += f" hand-eye error {hand_eye_error[0]:g} mm {hand_eye_error[1]:g} deg" if any(hand_eye_error) else ""
     case += "" if workspace else " no workspace"
     case += " wholly hidden unboxed" if unboxed_hidden else ""
     print(f"{_line(case, a[:, :2].ravel(), s[:, :2].ravel())} | objects per run {np.mean(counts):.2f}")
@@ -199,8 +205,9 @@ if __name__ == "__main__":
     extra = argv[argv.index("--") + 1 :] if "--" in argv else []
     argv = argv[: argv.index("--")] if "--" in argv else argv
     pose = next((a.split("=", 1)[1] for a in argv if a.startswith("--pose-error=")), "0,0")
+    hand_eye = next((a.split("=", 1)[1] for a in argv if a.startswith("--hand-eye-error=")), "0,0")
     flags = ("--visible", "--tray", "--no-workspace", "--on-tray", "--unboxed-hidden")
-    args = [a for a in argv if a not in flags and not a.startswith("--pose-error=")]
+    args = [a for a in argv if a not in flags and not a.startswith(("--pose-error=", "--hand-eye-error="))]
     if any("=" not in kv for kv in extra):
         sys.exit(f"container_pairs.py: options after -- must be key=value (e.g. size_range=0.01,0.15), got {extra}")
     main(
@@ -215,4 +222,5 @@ if __name__ == "__main__":
         "--no-workspace" not in argv,
         "--on-tray" in argv,
         "--unboxed-hidden" in argv,
+        tuple(float(x) for x in hand_eye.split(",")),  # type: ignore[arg-type]
     )
