@@ -18,6 +18,7 @@ from monovisual3d.methods.bayes.occlusion import (
     _whole_sides_pairs,
     covered_sides,
     occluded_edges,
+    spans,
 )
 from monovisual3d.methods.bayes.refine import Observation, _BoxResiduals, observation_residuals, refine_sphere
 from monovisual3d.methods.bayes.sensor import SensorModel
@@ -289,3 +290,15 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
         assert cut[0].tolist() == want
         seen.append(bool(cut[0, 2]))
     assert seen == [True, True, True, False, False]  # within 3 sigmas of the occluder's edge (plus the margin)
+
+
+def test_a_nearer_box_spans_a_side_only_where_it_reaches_past_both_ends_to_within_each_edge_tolerance():
+    """``spans`` is the one test that a nearer box covers a whole side; each edge has its own tolerance."""
+    box = np.array([100.0, 50, 160, 200])
+    nearer = np.array([[150.0, 52, 230, 199], [90.0, 40, 120, 210], [150.0, 60, 230, 210]])
+    assert spans(np.broadcast_to(box, (3, 4)), nearer, 0.0).tolist() == [[False, False], [True, False], [False, False]]
+    # 2 px short at the top, 1 px at the bottom: covered with 2 px of tolerance there, not with 1 px at the top
+    assert spans(box, nearer[:1], [0.0, 2.0, 0.0, 1.0]).tolist() == [[True, False]]
+    assert spans(box, nearer[:1], [0.0, 1.0, 0.0, 1.0]).tolist() == [[False, False]]
+    # the width: a nearer box wider than the box on both sides spans it
+    assert spans(box, np.array([[95.0, 0, 165, 120]]), 0.0).tolist() == [[False, True]]

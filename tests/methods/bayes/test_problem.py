@@ -31,3 +31,12 @@ def test_available_boxes_are_those_not_taken_whatever_holds_the_taken_pairs():
     got[0] = np.zeros(3, dtype=bool)
     assert [a.tolist() for a in problem.available(frozenset(pairs))] == want
     assert [a.tolist() for a in problem.available()] == [[True] * 3, [], [True] * 5]
+
+
+def test_view_at_finds_a_view_by_its_session_index_not_its_position():
+    """Views without detections are left out of a problem, so an object's association key (the session's view
+    index) is not the view's position in ``problem.views``."""
+    views = tuple(ViewData(i, np.eye(4), np.zeros((1, 4)), (), None) for i in (0, 2, 5))
+    problem = Problem(Camera.from_hfov(640, 480, 69.0), BayesConfig(), SensorModel(), views)
+    assert [problem.view_at(i).index for i in (5, 0, 2)] == [5, 0, 2]
+    assert problem.view_at(2) is problem.views[1]

@@ -107,8 +107,9 @@ def test_swap_gate_passes_a_swapped_pair_and_stops_a_right_one():
     from monovisual3d.camera import Camera
     from monovisual3d.frames import look_at
     from monovisual3d.geometry.sphere import sphere_bbox
-    from monovisual3d.methods.bayes.associate import _predicted_boxes, swap_worth_fitting
+    from monovisual3d.methods.bayes.associate import swap_worth_fitting
     from monovisual3d.methods.bayes.problem import build_problem
+    from monovisual3d.methods.bayes.scoring import predicted_boxes
     from monovisual3d.result import DetectedObject
     from monovisual3d.session import Detection, Session, View
 
@@ -119,7 +120,7 @@ def test_swap_gate_passes_a_swapped_pair_and_stops_a_right_one():
     session = Session(camera, tuple(views), None)
     problem = build_problem(session.camera, BayesConfig(use_masks=False), session.views)
     v = 0
-    pred = _predicted_boxes(problem, v, [DetectedObject(c, 20.0, r, None, {}) for c, r in zip(centres, radii)])
+    pred = predicted_boxes(problem, v, [DetectedObject(c, 20.0, r, None, {}) for c, r in zip(centres, radii)])[0]
     own = [int(np.argmin(np.abs(problem.views[v].boxes - p).sum(axis=1))) for p in pred]
     right = [DetectedObject(c, 20.0, r, None, {problem.views[v].index: j}) for c, r, j in zip(centres, radii, own)]
     mixed = [DetectedObject(c, 20.0, r, None, {problem.views[v].index: j}) for c, r, j in zip(centres, radii, own[::-1])]
@@ -133,13 +134,13 @@ def test_swap_gate_passes_a_swapped_pair_and_stops_a_right_one():
 
 
 def test_predicted_boxes_of_many_objects_are_each_alone():
-    """The swap pass predicts all holders' boxes in one call; each equals that object's box predicted alone
-    (a sphere, an upright spheroid and a lying one)."""
+    """The swap pass and the occlusion flags predict all holders' boxes in one call; each equals that object's box
+    predicted alone (a sphere, an upright spheroid and a lying one), with its centre in the optical frame."""
     from monovisual3d.camera import Camera
     from monovisual3d.frames import look_at
     from monovisual3d.geometry.spheroid import predict_spheroid_boxes
-    from monovisual3d.methods.bayes.associate import _predicted_boxes
     from monovisual3d.methods.bayes.problem import build_problem
+    from monovisual3d.methods.bayes.scoring import predicted_boxes
     from monovisual3d.result import DetectedObject
     from monovisual3d.session import Detection, View
 
@@ -157,4 +158,7 @@ def test_predicted_boxes_of_many_objects_are_each_alone():
         predict_spheroid_boxes(camera, (R @ o.position + t)[None], [o.radius], [o.extra.get("semi_up", o.radius)], R @ u)[0][0, 0]
         for o, u in zip(objects, ups)
     ]
-    assert_allclose(_predicted_boxes(problem, 0, objects), np.array(alone), rtol=0, atol=1e-9)
+    boxes, visible, p_optical = predicted_boxes(problem, 0, objects)
+    assert_allclose(boxes, np.array(alone), rtol=0, atol=1e-9)
+    assert visible.all()
+    assert_allclose(p_optical, [R @ o.position + t for o in objects], rtol=0, atol=1e-12)

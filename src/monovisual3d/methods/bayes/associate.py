@@ -13,11 +13,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
 from .likelihood import box_scores
 from .problem import Problem, Taken
-from .scoring import associations_list, axis_of, boxes_of, fit_fixed, pose_px, refine_and_check, semi_up_of, spheroid_axis
+from .scoring import associations_list, axis_of, boxes_of, fit_fixed, pose_px, predicted_boxes, refine_and_check, semi_up_of
 from .search import Hypotheses, last_level, same_place_m
 
 #: The steal pass tries one candidate per this many accepted objects (at least ``lookahead``): each try is local, and
@@ -28,17 +27,6 @@ OBJECTS_PER_STEAL_CANDIDATE = 4
 #: Nats by which a swap of two objects' boxes in one view must raise their summed score: a chosen margin over the
 #: refits' rounding, not a fitted value.
 SWAP_GAIN_NATS = 1.0
-
-
-def _predicted_boxes(problem: Problem, v: int, objects: list[DetectedObject]) -> NDArray[np.float64]:
-    """The boxes (M, 4), pixels, that ``objects`` (M) predict in view ``v`` (each with its own shape)."""
-    T = problem.views[v].T_optical_base
-    p_optical = np.array([o.position for o in objects], dtype=float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
-    radii = np.array([float(o.radius) for o in objects])
-    semi_up = np.array([semi_up_of(o) or float(o.radius) for o in objects])
-    up_optical = np.array([spheroid_axis(problem, axis_of(o)) for o in objects], dtype=float).reshape(-1, 3) @ T[:3, :3].T
-    boxes, _ = predict_spheroid_boxes(problem.camera, p_optical, radii[:, None], semi_up[:, None], up_optical[:, None])
-    return boxes[:, 0]  # each centre with its own shape
 
 
 def _pair_gates(
@@ -122,7 +110,7 @@ def _swap_view(problem: Problem, v: int, objects: list[DetectedObject], fits: _F
     """One round of :func:`swap_pass` in view ``v``: the pairs in order, ``objects`` updated in place; whether any swapped."""
     holders = [i for i, o in enumerate(objects) if problem.views[v].index in o.associations]
     held = [objects[i] for i in holders]
-    boxes = _predicted_boxes(problem, v, held)
+    boxes = predicted_boxes(problem, v, held)[0]
     gate = _pair_gates(problem, v, held, boxes, np.arange(len(held)))  # symmetric; updated where objects change
     changed = False
     for pa, ia in enumerate(holders):
@@ -134,7 +122,7 @@ def _swap_view(problem: Problem, v: int, objects: list[DetectedObject], fits: _F
             if swapped is None:
                 continue
             objects[ia], objects[ib] = held[pa], held[pb] = swapped
-            boxes[[pa, pb]] = _predicted_boxes(problem, v, list(swapped))
+            boxes[[pa, pb]] = predicted_boxes(problem, v, list(swapped))[0]
             moved = np.array([pa, pb])
             gate[moved] = _pair_gates(problem, v, held, boxes, moved)
             gate[:, moved] = gate[moved].T
@@ -187,7 +175,7 @@ def _replacement(problem: Problem, o: DetectedObject, v: int, free: NDArray[np.b
     js = np.array([j for j in np.flatnonzero(free) if (v, int(j)) not in used], dtype=np.intp)
     if not len(js):
         return -1
-    pred = _predicted_boxes(problem, v, [o])[0]
+    pred = predicted_boxes(problem, v, [o])[0][0]
     px = pose_px(problem, problem.depth(v, np.asarray(o.position, dtype=float)))
     s = box_scores(np.broadcast_to(pred, (len(js), 4)), vd.boxes[js], problem.model, cam.width, cam.height, px)
     best = int(np.argmax(s))

@@ -12,12 +12,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...geometry.sphere import predict_sphere_boxes
-from ...geometry.spheroid import predict_spheroid_boxes
 from ...result import DetectedObject
 from .problem import Problem
 from .refine import Observation
-from .scoring import associations_list, axis_of, observations, spheroid_axis
+from .scoring import associations_list, observations, predicted_boxes
 from .sensor import box_edge_sigma_px
 
 #: The occlusion refit censors an edge when a nearer object's silhouette covers its extreme point by at least this
@@ -35,20 +33,10 @@ def _predicted(
     """Predicted boxes (N, 4), pixels, centre depths (N,), metres, and the std (N, 2), pixels, of each object's
     projected centre along x and y in view ``v`` (its position covariance through the pinhole projection's
     Jacobian; without a covariance, its box's edge noise)."""
-    vd, cam = problem.views[v], problem.camera
-    n = len(objects)
-    boxes = np.full((n, 4), np.nan)
-    if not n:
-        return boxes, np.zeros(0), np.zeros((0, 2))
-    R, t = vd.T_optical_base[:3, :3], vd.T_optical_base[:3, 3]
-    p_opt = np.array([R @ o.position + t for o in objects], dtype=float)  # (N, 3), as one object's
-    radii = np.array([float(o.radius) for o in objects])  # type: ignore[arg-type]
-    spheres = np.array([o.extra.get("semi_up") is None for o in objects])
-    boxes[spheres] = predict_sphere_boxes(cam, p_opt[spheres], radii[spheres, None])[0][:, 0]
-    for i in np.flatnonzero(~spheres):
-        o = objects[i]
-        u = R @ spheroid_axis(problem, axis_of(o))
-        boxes[i] = predict_spheroid_boxes(cam, p_opt[i : i + 1], [radii[i]], [float(o.extra["semi_up"])], u)[0][0, 0]
+    cam, R = problem.camera, problem.views[v].T_optical_base[:3, :3]
+    if not objects:
+        return np.full((0, 4), np.nan), np.zeros(0), np.zeros((0, 2))
+    boxes, _, p_opt = predicted_boxes(problem, v, objects)
     depth = p_opt[:, 2].copy()
     std = box_edge_sigma_px(problem.model, boxes)[:, :2]
     known = np.array([o.covariance is not None for o in objects]) & (depth > 0)
@@ -135,14 +123,30 @@ def covered_sides(pred: NDArray[np.float64], nearer: NDArray[np.float64], margin
     return _covered_pairs(*_against(pred, nearer, margin_px)).any(axis=0)
 
 
+def spans(box: NDArray[np.float64], nearer: NDArray[np.float64], tolerance_px: ArrayLike) -> NDArray[np.bool_]:
+    """Whether a nearer box reaches over a box's whole height (column 0) and whole width (column 1), shape (P, 2):
+    each of ``nearer`` (P, 4) against ``box`` (P, 4), where a side of ``box`` sticking out by up to ``tolerance_px``
+    ((P, 4) per edge, or broadcastable, pixels) counts as covered (it would not be seen beyond the edge noise).
+
+    Examples
+    --------
+    >>> spans(np.array([[100.0, 50, 160, 200]]), np.array([[150.0, 52, 230, 210]]), 3.0).tolist()
+    [[True, False]]
+    """
+    box, n = np.asarray(box, dtype=float).reshape(-1, 4), np.asarray(nearer, dtype=float).reshape(-1, 4)
+    tol = np.broadcast_to(np.asarray(tolerance_px, dtype=float), n.shape)
+    spans_y = (n[:, 1] - tol[:, 1] <= box[:, 1]) & (n[:, 3] + tol[:, 3] >= box[:, 3])
+    spans_x = (n[:, 0] - tol[:, 0] <= box[:, 0]) & (n[:, 2] + tol[:, 2] >= box[:, 2])
+    return np.stack([spans_y, spans_x], axis=1)
+
+
 def _covered_pairs(pred: NDArray[np.float64], n: NDArray[np.float64], m: NDArray[np.float64]) -> NDArray[np.bool_]:
     """:func:`covered_sides` pair by pair: the edges (P, 4) of each box ``pred`` (P, 4) whose whole side its nearer
     box ``n`` (P, 4), with the margin ``m`` (P, 2), covers."""
     x1, y1, x2, y2 = pred.T
     nx1, ny1, nx2, ny2 = n[:, 0] + m[:, 0], n[:, 1] + m[:, 1], n[:, 2] - m[:, 0], n[:, 3] - m[:, 1]
     # spanning is judged with the margin the other way: a side sticking out by less than the noise is not seen
-    spans_y = (n[:, 1] - m[:, 1] <= y1) & (n[:, 3] + m[:, 1] >= y2)
-    spans_x = (n[:, 0] - m[:, 0] <= x1) & (n[:, 2] + m[:, 0] >= x2)
+    spans_y, spans_x = spans(pred, n, m[:, [0, 1, 0, 1]]).T
     out = np.stack(
         [
             spans_y & (nx1 < x1) & (nx2 > x1),

@@ -74,6 +74,10 @@ class Problem:
             self._last_available[key] = cached
         return list(cached)  # a new list of the shared read-only arrays
 
+    def view_at(self, index: int) -> ViewData:
+        """The view whose index in the session is ``index`` (an object's ``associations`` are keyed so)."""
+        return next(vd for vd in self.views if vd.index == index)
+
     def depth(self, v: int, p_base: NDArray[np.floating]) -> float:
         """Depth (optical z, metres) of the point ``p_base`` (shape (3,), base frame) in view ``v``."""
         T = self.views[v].T_optical_base

@@ -206,6 +206,52 @@ def spheroid_axis(problem: Problem, axis: NDArray[np.float64] | None) -> NDArray
     return problem.config.up_vector if axis is None else np.asarray(axis, dtype=float)
 
 
+def shape_boxes(
+    problem: Problem,
+    v: int,
+    centres_base: NDArray[np.float64],
+    radii: NDArray[np.float64],
+    semi_up: NDArray[np.float64],
+    axes: Sequence[NDArray[np.float64] | None],
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """The boxes that M objects, each with its own shape, predict in view ``v``: the one place that says what an
+    object's box is.
+
+    Parameters
+    ----------
+    centres_base : ndarray, shape (M, 3), metres, base frame
+    radii : ndarray, shape (M,), metres: the semi-axes across each object's axis
+    semi_up : ndarray, shape (M,), metres: the semi-axes along it (``radii`` for a sphere)
+    axes : M symmetry axes, base frame (None: ``up``)
+
+    Returns
+    -------
+    boxes : ndarray, shape (M, 4), pixels, ``bbox_xyxy``
+    visible : ndarray, shape (M,), bool: in front of the camera
+    p_optical : ndarray, shape (M, 3), metres, the centres in the view's optical frame
+    """
+    T = problem.views[v].T_optical_base
+    p_optical = np.asarray(centres_base, dtype=float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
+    up_optical = np.array([spheroid_axis(problem, a) for a in axes], dtype=float).reshape(-1, 3) @ T[:3, :3].T
+    radii, semi_up = np.asarray(radii, dtype=float), np.asarray(semi_up, dtype=float)
+    boxes, visible = predict_spheroid_boxes(problem.camera, p_optical, radii[:, None], semi_up[:, None], up_optical[:, None])
+    return boxes[:, 0], visible[:, 0], p_optical  # each centre with its own shape
+
+
+def predicted_boxes(
+    problem: Problem, v: int, objects: Sequence[DetectedObject]
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """:func:`shape_boxes` of found ``objects`` (M): each a sphere, or a spheroid along its axis."""
+    return shape_boxes(
+        problem,
+        v,
+        np.array([o.position for o in objects], dtype=float),
+        np.array([float(o.radius) for o in objects]),  # type: ignore[arg-type]
+        np.array([semi_up_of(o) or float(o.radius) for o in objects]),  # type: ignore[arg-type]
+        [axis_of(o) for o in objects],
+    )
+
+
 def _refine(
     problem: Problem,
     obs: Sequence[Observation],
@@ -331,14 +377,12 @@ def fit_fixed(
         return None
     score = 0.0
     b = refined.radius if refined.semi_up is None else refined.semi_up
-    for vd, j in zip(problem.views, assoc):
-        p_opt = vd.T_optical_base[:3, :3] @ refined.centre + vd.T_optical_base[:3, 3]
-        R_up = vd.T_optical_base[:3, :3] @ spheroid_axis(problem, axis)
-        pred, visible = predict_spheroid_boxes(cam, p_opt[None, :], [refined.radius], [b], R_up)
-        if not visible[0, 0]:
+    for v, (vd, j) in enumerate(zip(problem.views, assoc)):
+        pred, visible, p_opt = shape_boxes(problem, v, refined.centre[None], np.array([refined.radius]), np.array([b]), [axis])
+        if not visible[0]:
             continue
         s = (
-            box_scores(pred[0, 0], vd.boxes[j], problem.model, cam.width, cam.height, pose_px(problem, p_opt[2]))
+            box_scores(pred[0], vd.boxes[j], problem.model, cam.width, cam.height, pose_px(problem, p_opt[0, 2]))
             if j >= 0
             else -np.inf
         )

@@ -46,7 +46,7 @@ from ...geometry.fit import fit_parameters
 from ...result import DetectedObject
 from .aspects import looks_round
 from .associate import SWAP_GAIN_NATS
-from .occlusion import ends_at_occluder
+from .occlusion import ends_at_occluder, spans
 from .problem import Problem
 from .scoring import associations_list
 from .sensor import box_edge_sigma_px
@@ -130,18 +130,14 @@ def _cut_by_each_other(problem: Problem, objs: list[DetectedObject], shapes: lis
     held = [dict(o.associations) for o in objs]
     out = [np.full((len(h), 4), np.nan) for h in held]
     order = [sorted(h) for h in held]
-    for vd in problem.views:
+    for v, vd in enumerate(problem.views):
         if vd.index not in held[0] or vd.index not in held[1]:
             continue
-        depth = [float(vd.T_optical_base[2, :3] @ e.centre_base + vd.T_optical_base[2, 3]) for e in shapes]
+        depth = [problem.depth(v, e.centre_base) for e in shapes]
         near, far = (0, 1) if depth[0] < depth[1] else (1, 0)
         nb, fb = vd.boxes[held[near][vd.index]], vd.boxes[held[far][vd.index]]
         sigma = box_edge_sigma_px(problem.model, fb)
-        tol = MEET_SIGMAS * sigma
-        spans = np.array(
-            [nb[1] <= fb[1] + tol[1] and nb[3] >= fb[3] - tol[3], nb[0] <= fb[0] + tol[0] and nb[2] >= fb[2] - tol[2]]
-        )
-        cut = ends_at_occluder(fb, nb[None], 0.0, sigma) & spans[[0, 1, 0, 1]]
+        cut = ends_at_occluder(fb, nb[None], 0.0, sigma) & spans(fb, nb, MEET_SIGMAS * sigma)[0, [0, 1, 0, 1]]
         out[far][order[far].index(vd.index)] = np.where(cut, nb, np.nan)
     return out
 
