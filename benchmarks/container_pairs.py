@@ -57,7 +57,8 @@ tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs, printe
 three objects; ``--on-tray``: the same tray with the pair standing on it; ``--pose-error=MM,DEG``: each view's reported pose off the true one by
 :func:`monovisual3d.sim.noise.perturb_pose`, per axis, as an arm's kinematics and hand-eye calibration leave it;
 ``--hand-eye-error=MM,DEG``: one such error drawn per seed in the camera's own frame and applied to every view
-(``T_base_optical @ E``), as a hand-eye calibration's error is: the same for every view in the camera's frame, so not the same in the base frame;
+(``T_base_optical @ E``, :func:`monovisual3d.sim.noise.hand_eye_offset`), as a hand-eye calibration's error is: the same
+in every view in the camera's frame, so not the same in the base frame;
 ``--no-workspace``: the search's default region instead of a 40 cm cube around the pair; ``--unboxed-hidden``, with
 ``--visible``: an object wholly behind a nearer one, or shown as a sliver under 2 px, gets no box in that view, as a
 detector of visible parts reports it (:func:`monovisual3d.sim.noise.wholly_hidden`); an object then boxed in one view
@@ -80,7 +81,7 @@ import monovisual3d as mv
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox
 from monovisual3d.session import Detection, Session, View, Workspace
-from monovisual3d.sim.noise import perturb_boxes, perturb_pose, visible_part_boxes, wholly_hidden
+from monovisual3d.sim.noise import hand_eye_offset, perturb_boxes, perturb_pose, visible_part_boxes, wholly_hidden
 
 #: Half-sides (cuboid) or radius (cylinder) and half-height, metres; centre spacing, metres.
 HALF_WIDTH_M, HALF_HEIGHT_M, SPACING_M = 0.025, 0.06, 0.057
@@ -157,7 +158,7 @@ def main(
             boxes = perturb_boxes(boxes.reshape(-1, 4), sigma, rng).reshape(boxes.shape)
         reported = np.stack([perturb_pose(T, 1e-3 * pose_error[0], np.radians(pose_error[1]), rng) for T in poses])
         if any(hand_eye_error):  # one error of the camera in the end-effector frame, the same in every view
-            reported = reported @ perturb_pose(np.eye(4), 1e-3 * hand_eye_error[0], np.radians(hand_eye_error[1]), rng)
+            reported = reported @ hand_eye_offset(1e-3 * hand_eye_error[0], np.radians(hand_eye_error[1]), rng)
         for subset in itertools.chain([tuple(range(N_VIEWS))], itertools.combinations(range(N_VIEWS), SUBSET)):
             session = Session(
                 cam,

@@ -40,3 +40,16 @@ def test_sphere_heuristic_maximises_the_smallest_angle() -> None:
 def test_run_loop_rejects_unknown_strategy() -> None:
     with pytest.raises(InputError, match="strategy: got 'best'"):
         run_loop(paper_scene(), default_camera(), paper_poses(TARGET), 2, strategy="best", target=TARGET)
+
+
+def test_the_loop_keeps_one_hand_eye_error_for_the_whole_session() -> None:
+    """Views taken one at a time share the session's hand-eye error, as a real arm's calibration does."""
+    from monovisual3d.sim.noise import NoiseModel
+
+    noise = NoiseModel.from_mm_deg(hand_eye_error_mm=2.0, hand_eye_error_deg=0.5)
+    run = run_loop(paper_scene(), default_camera(), paper_poses(TARGET), 3, strategy="fixed", target=TARGET, noise=noise, rng=1)
+    E = [np.linalg.inv(step.T_base_optical) @ view.T_base_optical for step, view in zip(run.steps, run.session.views)]
+    assert len(E) == 3
+    assert_allclose(E[1], E[0], atol=1e-12)
+    assert_allclose(E[2], E[0], atol=1e-12)
+    assert np.linalg.norm(E[0][:3, 3]) > 1e-4

@@ -83,6 +83,8 @@ def test_simulate_rejects_bad_options(tmp_path):
         (["--noise", "-0.1"], "--noise (noise.box_sigma): got -0.1"),
         (["--false-positives", "-1"], "--false-positives (noise.false_positive_rate): got -1.0"),
         (["--pose-error-mm", "-1"], "--pose-error-mm (pose_error_mm): got -1.0"),
+        (["--hand-eye-error-mm", "-1"], "--hand-eye-error-mm (hand_eye_error_mm): got -1.0"),
+        (["--hand-eye-error-deg", "200"], "--hand-eye-error-deg (hand_eye_error_deg): got 200, more than"),
         (["--scene", "paper", "--n-fruit", "2"], "paper scene has 6 spheres"),
         (["--scene", "random", "--n-fruit", "0"], "--n-fruit: got 0"),
         (["--hfov-deg", "200"], "--hfov-deg: got 200.0, expected degrees in (0, 180)"),

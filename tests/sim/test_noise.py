@@ -193,6 +193,8 @@ def test_wholly_hidden_objects_are_those_behind_a_nearer_box_or_down_to_a_sliver
         ({"false_positive_rate": -1}, r"--false-positives \(noise.false_positive_rate\)"),
         ({"false_positive_size_px": (50, 10)}, "noise.false_positive_size_px"),
         ({"pose_position_std": -0.001}, "noise.pose_position_std"),
+        ({"hand_eye_rotation_std": -0.001}, "noise.hand_eye_rotation_std"),
+        ({"hand_eye_position_std": 10.0}, "noise.hand_eye_position_std: got 10, more than"),
     ],
 )
 def test_bad_noise_parameters_are_rejected(kwargs, message):
@@ -211,3 +213,29 @@ def test_bad_inputs_are_rejected():
         perturb_pose(np.ones((4, 4)), 0.0, 0.0)
     with pytest.raises(InputError, match="pose_error_mm"):
         NoiseModel.from_mm_deg(pose_error_mm=-1.0)
+    with pytest.raises(InputError, match=r"--hand-eye-error-deg \(hand_eye_error_deg\): got -1"):
+        NoiseModel.from_mm_deg(hand_eye_error_deg=-1.0)
+
+
+def test_a_hand_eye_error_is_one_rigid_motion_in_the_camera_frame_shared_by_every_view():
+    """Every view's reported pose is its true pose times the same ``E`` (no per-view error here); ``E`` has the
+    stated spread over sessions; without one nothing is drawn, so sessions without it keep their numbers."""
+    from monovisual3d.sim.scenes import paper_scene
+    from monovisual3d.sim.simulate import simulate_views
+
+    model = NoiseModel.from_mm_deg(hand_eye_error_mm=2.0, hand_eye_error_deg=0.5)
+    assert model.hand_eye_position_std == pytest.approx(0.002) and not model.is_noiseless
+    svs = simulate_views(paper_scene(), noise=model, rng=3)
+    E = [np.linalg.inv(sv.T_base_optical_true) @ sv.T_base_optical_reported for sv in svs]
+    assert_allclose(E[1], E[0], atol=1e-12)
+    assert_allclose(E[2], E[0], atol=1e-12)
+    assert np.linalg.norm(E[0][:3, 3]) > 1e-4
+    assert model.without_hand_eye().is_noiseless
+    rng = np.random.default_rng(0)
+    offsets = np.array([model.hand_eye_error(rng) for _ in range(1500)])
+    assert_allclose(offsets[:, :3, 3].std(axis=0), 0.002, rtol=0.08)
+    rotvec = Rotation.from_matrix(offsets[:, :3, :3]).as_rotvec()
+    assert_allclose(rotvec.std(axis=0), math.radians(0.5), rtol=0.08)
+    rng = np.random.default_rng(0)
+    assert NoiseModel().hand_eye_error(rng) is None
+    assert rng.random() == np.random.default_rng(0).random()  # nothing drawn

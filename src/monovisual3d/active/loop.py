@@ -110,12 +110,22 @@ def fixed_sequence(target: ArrayLike, n: int) -> NDArray[np.float64]:
 
 
 def observe(
-    scene: Scene, camera: Camera, T_base_optical: NDArray[np.float64], noise: NoiseModel, rng: np.random.Generator
+    scene: Scene,
+    camera: Camera,
+    T_base_optical: NDArray[np.float64],
+    noise: NoiseModel,
+    rng: np.random.Generator,
+    E_hand_eye: NDArray[np.float64] | None = None,
 ) -> View:
-    """Render one view and apply the noise model: the view a robot would record (reported pose, boxes)."""
+    """Render one view and apply the noise model: the view a robot would record (reported pose, boxes).
+
+    A hand-eye error of ``noise`` would be drawn anew for this one view; a session's (the same in every view) is
+    drawn once with :meth:`NoiseModel.hand_eye_error` and passed as ``E_hand_eye`` (4, 4) with
+    ``noise.without_hand_eye()``, as :func:`run_loop` does."""
     sv = simulate_views(scene, camera, T_base_optical[None], noise=noise, rng=rng)[0]
     dets = tuple(Detection(np.asarray(b, dtype=float), None, DETECTION_LABEL) for b in sv.boxes_xyxy)
-    return View(sv.T_base_optical_reported, dets)
+    T_reported = sv.T_base_optical_reported if E_hand_eye is None else sv.T_base_optical_reported @ E_hand_eye
+    return View(T_reported, dets)
 
 
 def sphere_pick(T_views: list[NDArray[np.float64]], candidates: NDArray[np.float64], centre: ArrayLike, used: set[int]) -> int:
@@ -175,13 +185,14 @@ def run_loop(
     t = np.asarray(target, dtype=float)
     noise = noise or NoiseModel()
     rng = np.random.default_rng(rng)
+    E_hand_eye, noise = noise.hand_eye_error(rng), noise.without_hand_eye()  # the session's, the same in every view
     chooser = _Chooser(strategy, candidates, t, planner or PlannerConfig(), np.random.default_rng(choice_rng), n_views, stop)
     T_next = paper_poses(t)[0] if first_pose is None else np.asarray(first_pose, dtype=float)
     loc = BayesLocalizer(camera, bayes or BayesConfig())
     steps: list[LoopStep] = []
     cand_index = -1
     for k in range(n_views):
-        steps.append(_observe_step(loc, scene, camera, T_next, cand_index, noise, rng))
+        steps.append(_observe_step(loc, scene, camera, T_next, cand_index, noise, rng, E_hand_eye))
         chosen = chooser.next_view(steps, loc, last=k + 1 >= n_views)
         if chosen is None:
             break
@@ -262,9 +273,11 @@ def _observe_step(
     cand_index: int,
     noise: NoiseModel,
     rng: np.random.Generator,
+    E_hand_eye: NDArray[np.float64] | None,
 ) -> LoopStep:
-    """Take the view at ``T_base_optical``, update the localizer, return the step with its estimate."""
-    view = observe(scene, camera, T_base_optical, noise, rng)
+    """Take the view at ``T_base_optical`` (with the session's hand-eye error ``E_hand_eye``), update the localizer,
+    return the step with its estimate."""
+    view = observe(scene, camera, T_base_optical, noise, rng, E_hand_eye)
     loc.update(view)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

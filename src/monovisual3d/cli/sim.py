@@ -62,6 +62,12 @@ def simulate(
     false_positives: Annotated[float, typer.Option(help="Expected false-positive boxes per image.")] = 0.0,
     pose_error_mm: Annotated[float, typer.Option(help="Std of the reported camera position error per axis, mm.")] = 0.0,
     pose_error_deg: Annotated[float, typer.Option(help="Std of the reported camera rotation error per axis, degrees.")] = 0.0,
+    hand_eye_error_mm: Annotated[
+        float, typer.Option(help="Std per camera axis, mm, of one hand-eye calibration error shared by every view.")
+    ] = 0.0,
+    hand_eye_error_deg: Annotated[
+        float, typer.Option(help="Std per camera axis, degrees, of one hand-eye calibration error shared by every view.")
+    ] = 0.0,
     hfov_deg: Annotated[float | None, typer.Option(help="Horizontal field of view, degrees (default 69; row scene 90).")] = None,
     image_size: ImageSizeOption = None,
     supersample: Annotated[int, typer.Option(help="Sub-pixel rays per pixel and axis (box accuracy 1/N px).")] = 1,
@@ -81,7 +87,9 @@ def simulate(
     from ..sim.scenes import scene_target
     from ..sim.viewpoints import poses_by_name
 
-    noise_model = _noise_model(noise, drop, false_positives, pose_error_mm, pose_error_deg)
+    noise_model = _noise_model(
+        noise, drop, false_positives, (pose_error_mm, pose_error_deg, hand_eye_error_mm, hand_eye_error_deg)
+    )
     _check_counts(n_fruit, seed, active)
     _check_out_dir(output, Path(scene), Path(views))
     rng = np.random.default_rng(seed)
@@ -123,16 +131,14 @@ def _write_views(
     )
 
 
-def _noise_model(box_sigma: float, drop: float, false_positives: float, pose_error_mm: float, pose_error_deg: float) -> Any:
-    """The simulated detector and pose noise of the options (pose errors in mm and degrees, as typed)."""
+def _noise_model(box_sigma: float, drop: float, false_positives: float, pose: tuple[float, float, float, float]) -> Any:
+    """The simulated detector and pose noise of the options; ``pose``: the per-view and the hand-eye errors in mm and
+    degrees, as typed."""
     from ..sim.noise import NoiseModel
 
+    names = ("pose_error_mm", "pose_error_deg", "hand_eye_error_mm", "hand_eye_error_deg")
     return NoiseModel.from_mm_deg(
-        box_sigma=box_sigma,
-        drop_probability=drop,
-        false_positive_rate=false_positives,
-        pose_error_mm=pose_error_mm,
-        pose_error_deg=pose_error_deg,
+        box_sigma=box_sigma, drop_probability=drop, false_positive_rate=false_positives, **dict(zip(names, pose))
     )
 
 

@@ -27,8 +27,14 @@ Camera-pose error: the pose written to the session is the true pose perturbed
 by ``p' = p + e_p`` with ``e_p ~ N(0, pose_position_std^2 I3)`` (metres, per
 base-frame axis) and ``R' = R @ exp([e_r]x)`` with ``e_r ~ N(0,
 pose_rotation_std^2 I3)`` (radians, per axis of the camera's optical frame); the
-image itself is rendered from the true pose. This mimics arm kinematics and
-hand-eye calibration errors.
+image itself is rendered from the true pose. This mimics arm kinematics errors.
+
+Hand-eye error: one rigid motion ``E`` of the camera in its own (optical) frame,
+drawn once per session with ``hand_eye_position_std`` (metres) and
+``hand_eye_rotation_std`` (radians) per axis (:func:`hand_eye_offset`), the same
+in every view: ``T_base_optical_reported = T_base_optical' @ E``, as an error of
+the hand-eye calibration ``T_ee_optical`` leaves it. Unlike the per-view error it
+does not average out over views (docs/real.md, "A hand-eye calibration's error").
 
 All draws take ``rng`` (a :class:`numpy.random.Generator`, a seed, or None).
 """
@@ -36,7 +42,7 @@ All draws take ``rng`` (a :class:`numpy.random.Generator`, a seed, or None).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -63,12 +69,14 @@ CLI_OPTIONS = {
     "false_positive_rate": "--false-positives",
     "pose_error_mm": "--pose-error-mm",
     "pose_error_deg": "--pose-error-deg",
+    "hand_eye_error_mm": "--hand-eye-error-mm",
+    "hand_eye_error_deg": "--hand-eye-error-deg",
 }
 
 
 def _option(name: str) -> str:
     """``--noise (noise.box_sigma)``: the CLI option and the NoiseModel field, for messages."""
-    if name.startswith("pose_error_"):  # parameters of NoiseModel.from_mm_deg, not fields
+    if name.startswith(("pose_error_", "hand_eye_error_")):  # parameters of NoiseModel.from_mm_deg, not fields
         return f"{CLI_OPTIONS[name]} ({name})"
     return f"{CLI_OPTIONS[name]} (noise.{name})" if name in CLI_OPTIONS else f"noise.{name}"
 
@@ -77,6 +85,10 @@ def _check_at_most(value: float, most: float, name: str) -> None:
     """Refuse a noise parameter beyond its documented limit (:mod:`monovisual3d.limits`)."""
     if value > most:
         raise InputError(f"{_option(name)}: got {value:g}, more than the {most:g} accepted")
+
+
+#: The pose-error fields of :class:`NoiseModel`: per view, then the session's hand-eye error.
+_POSE_FIELDS = ("pose_position_std", "pose_rotation_std", "hand_eye_position_std", "hand_eye_rotation_std")
 
 
 @dataclass(frozen=True)
@@ -97,11 +109,13 @@ class NoiseModel:
         Std of the reported camera position error per base-frame axis, metres.
     pose_rotation_std : float
         Std of the reported camera rotation error per optical-frame axis, radians.
+    hand_eye_position_std, hand_eye_rotation_std : float
+        Std per optical-frame axis (metres, radians) of the one hand-eye error of the session, the same in every view.
 
     Examples
     --------
-    >>> NoiseModel.paper()
-    NoiseModel(box_sigma=0.05, drop_probability=0.02, false_positive_rate=0.0, false_positive_size_px=(10.0, 120.0), pose_position_std=0.0, pose_rotation_std=0.0)
+    >>> NoiseModel.paper().box_sigma, NoiseModel.paper().drop_probability
+    (0.05, 0.02)
     >>> NoiseModel().is_noiseless
     True
     """
@@ -112,16 +126,19 @@ class NoiseModel:
     false_positive_size_px: tuple[float, float] = (10.0, 120.0)
     pose_position_std: float = 0.0
     pose_rotation_std: float = 0.0
+    hand_eye_position_std: float = 0.0
+    hand_eye_rotation_std: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("box_sigma", "false_positive_rate", "pose_position_std", "pose_rotation_std"):
+        for name in ("box_sigma", "false_positive_rate", *_POSE_FIELDS):
             value = getattr(self, name)
             if not is_real(value) or not (math.isfinite(value) and value >= 0):
                 raise InputError(f"{_option(name)}: got {value!r}, expected a finite number >= 0")
             object.__setattr__(self, name, float(value))
         _check_at_most(self.false_positive_rate, MAX_SIM_FALSE_POSITIVES, "false_positive_rate")
-        _check_at_most(self.pose_position_std, MAX_SIM_POSE_ERROR_MM / 1000.0, "pose_position_std")
-        _check_at_most(self.pose_rotation_std, math.radians(MAX_SIM_POSE_ERROR_DEG), "pose_rotation_std")
+        for name in _POSE_FIELDS:
+            most = MAX_SIM_POSE_ERROR_MM / 1000.0 if name.endswith("position_std") else math.radians(MAX_SIM_POSE_ERROR_DEG)
+            _check_at_most(getattr(self, name), most, name)
         p = self.drop_probability
         if not is_real(p) or not 0.0 <= p <= 1.0:
             raise InputError(f"{_option('drop_probability')}: got {p!r}, expected a probability in [0, 1]")
@@ -150,11 +167,15 @@ class NoiseModel:
         false_positive_rate: float = 0.0,
         pose_error_mm: float = 0.0,
         pose_error_deg: float = 0.0,
+        hand_eye_error_mm: float = 0.0,
+        hand_eye_error_deg: float = 0.0,
     ) -> NoiseModel:
-        """Constructor with the pose errors in millimetres and degrees (as the CLI takes them)."""
+        """Constructor with the pose and hand-eye errors in millimetres and degrees (as the CLI takes them)."""
         bounds = (
             ("pose_error_mm", pose_error_mm, MAX_SIM_POSE_ERROR_MM),
             ("pose_error_deg", pose_error_deg, MAX_SIM_POSE_ERROR_DEG),
+            ("hand_eye_error_mm", hand_eye_error_mm, MAX_SIM_POSE_ERROR_MM),
+            ("hand_eye_error_deg", hand_eye_error_deg, MAX_SIM_POSE_ERROR_DEG),
         )
         for name, value, most in bounds:
             if not (is_real(value) and math.isfinite(value) and value >= 0):
@@ -167,6 +188,8 @@ class NoiseModel:
             false_positive_rate=false_positive_rate,
             pose_position_std=pose_error_mm / 1000.0,
             pose_rotation_std=math.radians(pose_error_deg),
+            hand_eye_position_std=hand_eye_error_mm / 1000.0,
+            hand_eye_rotation_std=math.radians(hand_eye_error_deg),
         )
 
     @property
@@ -176,8 +199,7 @@ class NoiseModel:
             self.box_sigma == 0
             and self.drop_probability == 0
             and self.false_positive_rate == 0
-            and self.pose_position_std == 0
-            and self.pose_rotation_std == 0
+            and all(getattr(self, name) == 0 for name in _POSE_FIELDS)
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -217,9 +239,28 @@ class NoiseModel:
         boxes, ok = clip_boxes_to_image(boxes, width, height)
         return boxes[ok], source[ok].astype(np.int64)
 
-    def apply_to_pose(self, T_base_optical: ArrayLike, rng: np.random.Generator | int | None = None) -> NDArray[np.float64]:
-        """The pose reported for a camera truly at ``T_base_optical`` (4, 4); see :func:`perturb_pose`."""
-        return perturb_pose(T_base_optical, self.pose_position_std, self.pose_rotation_std, rng)
+    def apply_to_pose(
+        self,
+        T_base_optical: ArrayLike,
+        rng: np.random.Generator | int | None = None,
+        E_hand_eye: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]:
+        """The pose reported for a camera truly at ``T_base_optical`` (4, 4): :func:`perturb_pose`, then the
+        session's hand-eye error ``E_hand_eye`` (4, 4, from :meth:`hand_eye_error`; None: none)."""
+        reported = perturb_pose(T_base_optical, self.pose_position_std, self.pose_rotation_std, rng)
+        return reported if E_hand_eye is None else reported @ E_hand_eye
+
+    def without_hand_eye(self) -> NoiseModel:
+        """This model without its hand-eye error: for views simulated one at a time (the next-best-view loop), which
+        draw the session's ``E`` once (:meth:`hand_eye_error`) and apply it themselves."""
+        return replace(self, hand_eye_position_std=0.0, hand_eye_rotation_std=0.0)
+
+    def hand_eye_error(self, rng: np.random.Generator | int | None = None) -> NDArray[np.float64] | None:
+        """The session's hand-eye error ``E`` (4, 4, optical frame; :func:`hand_eye_offset`), or None (drawing
+        nothing) when its stds are zero, so that sessions without one draw the same numbers as before."""
+        if self.hand_eye_position_std == 0 and self.hand_eye_rotation_std == 0:
+            return None
+        return hand_eye_offset(self.hand_eye_position_std, self.hand_eye_rotation_std, rng)
 
 
 def perturb_boxes(boxes_xyxy: ArrayLike, sigma: float, rng: np.random.Generator | int | None = None) -> NDArray[np.float64]:
@@ -336,6 +377,29 @@ def perturb_pose(
     out[:3, 3] += position_std * e[:3]
     out[:3, :3] = T[:3, :3] @ Rotation.from_rotvec(rotation_std * e[3:]).as_matrix()
     return out
+
+
+def hand_eye_offset(
+    position_std: float, rotation_std: float, rng: np.random.Generator | int | None = None
+) -> NDArray[np.float64]:
+    """A random rigid error ``E`` (4, 4) of a camera in its own optical frame: a hand-eye calibration's error.
+
+    ``T_base_optical @ E`` is the pose reported for a camera truly at ``T_base_optical``; the same ``E`` in every
+    view of a session (an eye-in-hand camera: ``T_base_ee @ T_ee_optical @ E``).
+
+    Parameters
+    ----------
+    position_std : float, metres, std per optical-frame axis
+    rotation_std : float, radians, std per optical-frame axis (rotation vector components)
+    rng : numpy Generator, seed or None
+
+    Examples
+    --------
+    >>> E = hand_eye_offset(0.001, 0.005, rng=0)
+    >>> bool(np.allclose(E[:3, :3] @ E[:3, :3].T, np.eye(3))), bool(np.linalg.norm(E[:3, 3]) < 0.01)
+    (True, True)
+    """
+    return perturb_pose(np.eye(4), position_std, rotation_std, rng)
 
 
 def clip_boxes_to_image(

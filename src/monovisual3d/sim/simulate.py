@@ -109,10 +109,11 @@ def simulate_views(
         raise InputError(f"noise: expected a NoiseModel, got {type(noise).__name__}")
     check_sim_work(len(P), camera, supersample)
     rng = np.random.default_rng(rng)
+    E_hand_eye = noise.hand_eye_error(rng)  # one per session; None (no draw) without one
     out = []
     for T_true in P:
         rendering = render(scene, camera, T_true, supersample=supersample, min_pixels=min_pixels)
-        T_reported = noise.apply_to_pose(T_true, rng)
+        T_reported = noise.apply_to_pose(T_true, rng, E_hand_eye)
         visible = np.flatnonzero(rendering.visible)
         boxes, source = noise.apply_to_boxes(rendering.boxes_xyxy[visible], camera.size, rng)
         fruit = np.full(len(source), -1, dtype=np.int64)
