@@ -55,7 +55,7 @@ container's box ends where the nearer one hides it, as a detector of visible par
 :func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's whole scene, a flat 200 x 160 x 30 mm cuboid
 tray 7 cm behind the pair and 4.5 cm lower, its boxes overlapping theirs, printed on two more lines: the tray, and all
 three objects; ``--on-tray``: the same tray with the pair standing on it; ``--pose-error=MM,DEG``: each view's reported pose off the true one by
-:func:`monovisual3d.sim.noise.perturb_pose`, per axis, as an arm's kinematics and hand-eye calibration leave it;
+:func:`monovisual3d.sim.noise.perturb_pose`, per axis, drawn anew in each view, as an arm's kinematics leave it;
 ``--hand-eye-error=MM,DEG``: one such error drawn per seed in the camera's own frame and applied to every view
 (``T_base_optical @ E``, :func:`monovisual3d.sim.noise.hand_eye_offset`), as a hand-eye calibration's error is: the same
 in every view in the camera's frame, so not the same in the base frame;
@@ -157,7 +157,7 @@ def main(
         if sigma > 0:
             boxes = perturb_boxes(boxes.reshape(-1, 4), sigma, rng).reshape(boxes.shape)
         reported = np.stack([perturb_pose(T, 1e-3 * pose_error[0], np.radians(pose_error[1]), rng) for T in poses])
-        if any(hand_eye_error):  # one error of the camera in the end-effector frame, the same in every view
+        if any(hand_eye_error):  # one error of the camera in its optical frame, the same in every view
             reported = reported @ hand_eye_offset(1e-3 * hand_eye_error[0], np.radians(hand_eye_error[1]), rng)
         for subset in itertools.chain([tuple(range(N_VIEWS))], itertools.combinations(range(N_VIEWS), SUBSET)):
             session = Session(
@@ -195,6 +195,18 @@ def main(
         print(_line("  all three", a.ravel(), s.ravel()))
 
 
+def _mm_deg(argv: list[str], flag: str) -> tuple[float, float]:
+    """The ``MM,DEG`` of ``--flag=MM,DEG`` in ``argv`` (0, 0 without it); exits with one line on anything else."""
+    text = next((a.split("=", 1)[1] for a in argv if a.startswith(f"{flag}=")), "0,0")
+    try:
+        mm, deg = (float(x) for x in text.split(","))
+    except ValueError:
+        mm = deg = math.nan
+    if not (math.isfinite(mm) and math.isfinite(deg) and mm >= 0 and deg >= 0):
+        sys.exit(f"container_pairs.py: {flag}=MM,DEG: got {text!r}, expected two numbers >= 0 (millimetres, degrees)")
+    return mm, deg
+
+
 def _elevation(text: str) -> float | tuple[float, float]:
     """``ELEVATION_DEG``: one elevation for every view, or ``LOW:HIGH``, each view's drawn uniformly in that range."""
     low, _, high = text.partition(":")
@@ -205,8 +217,6 @@ if __name__ == "__main__":
     argv = sys.argv[1:]
     extra = argv[argv.index("--") + 1 :] if "--" in argv else []
     argv = argv[: argv.index("--")] if "--" in argv else argv
-    pose = next((a.split("=", 1)[1] for a in argv if a.startswith("--pose-error=")), "0,0")
-    hand_eye = next((a.split("=", 1)[1] for a in argv if a.startswith("--hand-eye-error=")), "0,0")
     flags = ("--visible", "--tray", "--no-workspace", "--on-tray", "--unboxed-hidden")
     args = [a for a in argv if a not in flags and not a.startswith(("--pose-error=", "--hand-eye-error="))]
     if any("=" not in kv for kv in extra):
@@ -219,9 +229,9 @@ if __name__ == "__main__":
         "--visible" in argv,
         "--tray" in argv or "--on-tray" in argv,
         {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},
-        tuple(float(x) for x in pose.split(",")),  # type: ignore[arg-type]
+        _mm_deg(argv, "--pose-error"),
         "--no-workspace" not in argv,
         "--on-tray" in argv,
         "--unboxed-hidden" in argv,
-        tuple(float(x) for x in hand_eye.split(",")),  # type: ignore[arg-type]
+        _mm_deg(argv, "--hand-eye-error"),
     )

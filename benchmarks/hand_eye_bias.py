@@ -21,22 +21,23 @@ Usage::
 import sys
 
 import numpy as np
+from container_pairs import SPACING_M, TRAY_OFFSET_M
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 from solid_shape_bias import CAMERAS, TARGET, views
 
 from monovisual3d.frames import invert_transform, transform_points
-from monovisual3d.sim.noise import perturb_pose
+from monovisual3d.sim.noise import hand_eye_offset
 
-#: The scene's centres relative to the middle of the pair, metres: the two containers and the tray
-#: (``container_pairs.SPACING_M``, ``TRAY_OFFSET_M``).
-OFFSETS_M = np.array([[0.0, -0.0285, 0.0], [0.0, 0.0285, 0.0], [0.07, 0.0, -0.045]])
+#: The scene's centres relative to the middle of the pair, metres: the two containers and the tray.
+OFFSETS_M = np.array([[0.0, -SPACING_M / 2, 0.0], [0.0, SPACING_M / 2, 0.0], TRAY_OFFSET_M])
+#: Views of the scene (``container_pairs.N_VIEWS``); a run uses VIEWS of them, chosen at random.
+ALL_VIEWS = 8
 
 
 def project(T_base_optical: np.ndarray, p_base: np.ndarray) -> np.ndarray:
-    """Pixel offsets from the principal point (N, 2) of base-frame points (N, 3) in a 1280 x 720, 69-degree view."""
-    p = transform_points(invert_transform(T_base_optical), p_base)
-    return CAMERAS["1280x720"].fx * p[:, :2] / p[:, 2:3]
+    """Pixels (N, 2) of base-frame points (N, 3) in the scene's 1280 x 720, 69-degree camera."""
+    return CAMERAS["1280x720"].project(transform_points(invert_transform(T_base_optical), p_base))
 
 
 def correction(x: np.ndarray) -> np.ndarray:
@@ -57,9 +58,9 @@ def main(elevation: float, mm: float, deg: float, n_views: int, noise_px: float,
     for seed in range(n_seeds):
         rng = np.random.default_rng(seed)
         centres = TARGET + rng.uniform(-0.01, 0.01, 3) + OFFSETS_M
-        poses = views(rng, 8, elevation, centres[:2].mean(axis=0))
-        poses = poses[np.sort(rng.choice(8, n_views, replace=False))]
-        reported = poses @ perturb_pose(np.eye(4), 1e-3 * mm, np.radians(deg), rng)
+        poses = views(rng, ALL_VIEWS, elevation, centres[:2].mean(axis=0))
+        poses = poses[np.sort(rng.choice(ALL_VIEWS, n_views, replace=False))]
+        reported = poses @ hand_eye_offset(1e-3 * mm, np.radians(deg), rng)
         seen = np.stack([project(T, centres) for T in poses]) + rng.normal(0.0, noise_px, (n_views, 3, 2))
         start = centres.ravel()
         for name, joint in (("plain", False), ("joint", True)):
@@ -71,6 +72,17 @@ def main(elevation: float, mm: float, deg: float, n_views: int, noise_px: float,
         print(f"{name}: mean {a.mean():.2f} median {np.median(a):.2f} p90 {np.percentile(a, 90):.2f} mm")
 
 
+def _arguments(argv: list[str]) -> tuple[float, float, float, int, float, int]:
+    """``ELEVATION_DEG MM DEG VIEWS NOISE_PX SEEDS`` (defaults for those left out); exits with one line on bad ones."""
+    usage = "hand_eye_bias.py: expected [ELEVATION_DEG MM DEG VIEWS NOISE_PX SEEDS], numbers >= 0, VIEWS 2-8, SEEDS >= 1"
+    try:
+        a = [float(x) for x in argv] + [10.0, 1.0, 0.3, 8.0, 1.0, 200.0][len(argv) :]
+    except ValueError:
+        sys.exit(f"{usage}; got {argv}")
+    if len(a) != 6 or not all(np.isfinite(a)) or min(a[1:]) < 0 or not 2 <= a[3] <= ALL_VIEWS or a[5] < 1:
+        sys.exit(f"{usage}; got {argv}")
+    return a[0], a[1], a[2], int(a[3]), a[4], int(a[5])
+
+
 if __name__ == "__main__":
-    args = [float(a) for a in sys.argv[1:]] + [10, 1, 0.3, 8, 1, 200][len(sys.argv) - 1 :]
-    main(args[0], args[1], args[2], int(args[3]), args[4], int(args[5]))
+    main(*_arguments(sys.argv[1:]))

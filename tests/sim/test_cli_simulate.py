@@ -57,6 +57,7 @@ def test_simulate_with_all_options_is_reproducible(tmp_path):
     truth = json.loads((tmp_path / "a" / "truth.json").read_text())
     assert len(truth["objects"]) == 3 and len(truth["views"]) == 4
     assert truth["noise"]["pose_position_std"] == 0.002
+    assert truth["noise"]["hand_eye_position_std"] == 0.0  # none asked for
     assert_allclose(truth["noise"]["pose_rotation_std"], np.radians(0.5))
     assert not list((tmp_path / "a").glob("*.png"))
     r3 = runner.invoke(app, [*args[:-3], "--seed", "5", "--no-images", "--output", str(tmp_path / "c")])
@@ -114,3 +115,20 @@ def test_simulate_scene_file_errors_name_the_file_once_and_say_what_a_scene_need
     assert error(tmp_path / "bad.json") == "objects[0].radius: expected a positive number of metres, got -1"
     (tmp_path / "leaf.json").write_text(json.dumps({"objects": [], "occluders": [{"type": "leaf", "centre": [0, 0, 0]}]}))
     assert error(tmp_path / "leaf.json").startswith("occluders[0].axis_u: missing field, a leaf needs ['centre', 'axis_u'")
+
+
+def test_simulate_with_a_hand_eye_error_writes_it_and_shares_it_between_views(tmp_path):
+    from monovisual3d import load_session
+
+    out = tmp_path / "he"
+    args = ["simulate", "--hand-eye-error-mm", "1", "--hand-eye-error-deg", "0.3", "--no-images", "--output", str(out)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["noise"]["hand_eye_position_std"] == 0.001
+    assert_allclose(truth["noise"]["hand_eye_rotation_std"], np.radians(0.3))
+    session = load_session(out / "session.json")
+    true_poses = [np.asarray(v["T_base_optical_true"], dtype=float) for v in truth["views"]]
+    E = [np.linalg.inv(T) @ v.T_base_optical for T, v in zip(true_poses, session.views)]
+    assert_allclose(E[1], E[0], atol=1e-9)
+    assert np.linalg.norm(E[0][:3, 3]) > 1e-5

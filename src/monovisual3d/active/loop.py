@@ -119,13 +119,11 @@ def observe(
 ) -> View:
     """Render one view and apply the noise model: the view a robot would record (reported pose, boxes).
 
-    A hand-eye error of ``noise`` would be drawn anew for this one view; a session's (the same in every view) is
-    drawn once with :meth:`NoiseModel.hand_eye_error` and passed as ``E_hand_eye`` (4, 4) with
-    ``noise.without_hand_eye()``, as :func:`run_loop` does."""
-    sv = simulate_views(scene, camera, T_base_optical[None], noise=noise, rng=rng)[0]
+    ``E_hand_eye`` (4, 4): the session's hand-eye error, drawn once with :meth:`NoiseModel.hand_eye_error` (as
+    :func:`run_loop` does); None: one drawn from ``noise`` for this view alone."""
+    sv = simulate_views(scene, camera, T_base_optical[None], noise=noise, rng=rng, E_hand_eye=E_hand_eye)[0]
     dets = tuple(Detection(np.asarray(b, dtype=float), None, DETECTION_LABEL) for b in sv.boxes_xyxy)
-    T_reported = sv.T_base_optical_reported if E_hand_eye is None else sv.T_base_optical_reported @ E_hand_eye
-    return View(T_reported, dets)
+    return View(sv.T_base_optical_reported, dets)
 
 
 def sphere_pick(T_views: list[NDArray[np.float64]], candidates: NDArray[np.float64], centre: ArrayLike, used: set[int]) -> int:
@@ -185,7 +183,7 @@ def run_loop(
     t = np.asarray(target, dtype=float)
     noise = noise or NoiseModel()
     rng = np.random.default_rng(rng)
-    E_hand_eye, noise = noise.hand_eye_error(rng), noise.without_hand_eye()  # the session's, the same in every view
+    E_hand_eye = noise.hand_eye_error(rng)  # the session's, the same in every view
     chooser = _Chooser(strategy, candidates, t, planner or PlannerConfig(), np.random.default_rng(choice_rng), n_views, stop)
     T_next = paper_poses(t)[0] if first_pose is None else np.asarray(first_pose, dtype=float)
     loc = BayesLocalizer(camera, bayes or BayesConfig())

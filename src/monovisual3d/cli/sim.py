@@ -84,11 +84,18 @@ def simulate(
     """
     import numpy as np
 
+    from ..sim.noise import NoiseModel
     from ..sim.scenes import scene_target
     from ..sim.viewpoints import poses_by_name
 
-    noise_model = _noise_model(
-        noise, drop, false_positives, (pose_error_mm, pose_error_deg, hand_eye_error_mm, hand_eye_error_deg)
+    noise_model = NoiseModel.from_mm_deg(
+        box_sigma=noise,
+        drop_probability=drop,
+        false_positive_rate=false_positives,
+        pose_error_mm=pose_error_mm,
+        pose_error_deg=pose_error_deg,
+        hand_eye_error_mm=hand_eye_error_mm,
+        hand_eye_error_deg=hand_eye_error_deg,
     )
     _check_counts(n_fruit, seed, active)
     _check_out_dir(output, Path(scene), Path(views))
@@ -128,17 +135,6 @@ def _write_views(
         f"simulated {len(sc.fruits)} fruit (scene {plain(sc.name)}) from {len(poses)} views; "
         f"wrote {plain(', '.join(p.name for p in paths.values()))} to {plain(output)}",
         highlight=False,
-    )
-
-
-def _noise_model(box_sigma: float, drop: float, false_positives: float, pose: tuple[float, float, float, float]) -> Any:
-    """The simulated detector and pose noise of the options; ``pose``: the per-view and the hand-eye errors in mm and
-    degrees, as typed."""
-    from ..sim.noise import NoiseModel
-
-    names = ("pose_error_mm", "pose_error_deg", "hand_eye_error_mm", "hand_eye_error_deg")
-    return NoiseModel.from_mm_deg(
-        box_sigma=box_sigma, drop_probability=drop, false_positive_rate=false_positives, **dict(zip(names, pose))
     )
 
 

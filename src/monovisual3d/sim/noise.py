@@ -35,6 +35,8 @@ drawn once per session with ``hand_eye_position_std`` (metres) and
 in every view: ``T_base_optical_reported = T_base_optical' @ E``, as an error of
 the hand-eye calibration ``T_ee_optical`` leaves it. Unlike the per-view error it
 does not average out over views (docs/real.md, "A hand-eye calibration's error").
+It is drawn after every other draw of a session, so the same seed gives the same
+boxes with and without it.
 
 All draws take ``rng`` (a :class:`numpy.random.Generator`, a seed, or None).
 """
@@ -42,7 +44,7 @@ All draws take ``rng`` (a :class:`numpy.random.Generator`, a seed, or None).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -239,21 +241,10 @@ class NoiseModel:
         boxes, ok = clip_boxes_to_image(boxes, width, height)
         return boxes[ok], source[ok].astype(np.int64)
 
-    def apply_to_pose(
-        self,
-        T_base_optical: ArrayLike,
-        rng: np.random.Generator | int | None = None,
-        E_hand_eye: NDArray[np.float64] | None = None,
-    ) -> NDArray[np.float64]:
-        """The pose reported for a camera truly at ``T_base_optical`` (4, 4): :func:`perturb_pose`, then the
-        session's hand-eye error ``E_hand_eye`` (4, 4, from :meth:`hand_eye_error`; None: none)."""
-        reported = perturb_pose(T_base_optical, self.pose_position_std, self.pose_rotation_std, rng)
-        return reported if E_hand_eye is None else reported @ E_hand_eye
-
-    def without_hand_eye(self) -> NoiseModel:
-        """This model without its hand-eye error: for views simulated one at a time (the next-best-view loop), which
-        draw the session's ``E`` once (:meth:`hand_eye_error`) and apply it themselves."""
-        return replace(self, hand_eye_position_std=0.0, hand_eye_rotation_std=0.0)
+    def apply_to_pose(self, T_base_optical: ArrayLike, rng: np.random.Generator | int | None = None) -> NDArray[np.float64]:
+        """The pose reported for a camera truly at ``T_base_optical`` (4, 4) before the session's hand-eye error (the
+        simulator applies that to every view); see :func:`perturb_pose`."""
+        return perturb_pose(T_base_optical, self.pose_position_std, self.pose_rotation_std, rng)
 
     def hand_eye_error(self, rng: np.random.Generator | int | None = None) -> NDArray[np.float64] | None:
         """The session's hand-eye error ``E`` (4, 4, optical frame; :func:`hand_eye_offset`), or None (drawing

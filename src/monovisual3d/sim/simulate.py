@@ -19,7 +19,7 @@ import struct
 import warnings
 import zlib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -91,10 +91,13 @@ def simulate_views(
     rng: np.random.Generator | int | None = None,
     supersample: int = 1,
     min_pixels: float = 1.0,
+    E_hand_eye: NDArray[np.float64] | None = None,
 ) -> list[SimulatedView]:
     """Render every pose and apply the noise model; the building block of :func:`simulate`.
 
-    Parameters are those of :func:`simulate`.
+    Parameters are those of :func:`simulate`, and ``E_hand_eye`` (4, 4): the session's hand-eye error where its views
+    are simulated in parts (the next-best-view loop); None: drawn here from ``noise`` (after every other draw, so a
+    session with one has the same boxes as without).
 
     Returns
     -------
@@ -109,17 +112,17 @@ def simulate_views(
         raise InputError(f"noise: expected a NoiseModel, got {type(noise).__name__}")
     check_sim_work(len(P), camera, supersample)
     rng = np.random.default_rng(rng)
-    E_hand_eye = noise.hand_eye_error(rng)  # one per session; None (no draw) without one
     out = []
     for T_true in P:
         rendering = render(scene, camera, T_true, supersample=supersample, min_pixels=min_pixels)
-        T_reported = noise.apply_to_pose(T_true, rng, E_hand_eye)
+        T_reported = noise.apply_to_pose(T_true, rng)
         visible = np.flatnonzero(rendering.visible)
         boxes, source = noise.apply_to_boxes(rendering.boxes_xyxy[visible], camera.size, rng)
         fruit = np.full(len(source), -1, dtype=np.int64)
         fruit[source >= 0] = visible[source[source >= 0]]
         out.append(SimulatedView(T_true, T_reported, rendering, boxes, fruit))
-    return out
+    E = noise.hand_eye_error(rng) if E_hand_eye is None else E_hand_eye  # one per session; None without one
+    return out if E is None else [replace(sv, T_base_optical_reported=sv.T_base_optical_reported @ E) for sv in out]
 
 
 def simulate(

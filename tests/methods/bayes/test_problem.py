@@ -40,3 +40,5 @@ def test_view_at_finds_a_view_by_its_session_index_not_its_position():
     problem = Problem(Camera.from_hfov(640, 480, 69.0), BayesConfig(), SensorModel(), views)
     assert [problem.view_at(i).index for i in (5, 0, 2)] == [5, 0, 2]
     assert problem.view_at(2) is problem.views[1]
+    with pytest.raises(KeyError, match="no view with session index 1"):
+        problem.view_at(1)

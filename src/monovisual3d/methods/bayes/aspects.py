@@ -69,8 +69,9 @@ OUTSIDE_SIGMAS = 3.0
 def object_boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The object's poses ``T_base_optical`` (K, 4, 4) and associated boxes (K, 4)."""
     items = sorted(obj.associations.items())
-    poses = np.array([invert_transform(problem.view_at(v).T_optical_base) for v, _ in items]).reshape(-1, 4, 4)
-    boxes = np.array([problem.view_at(v).boxes[j] for v, j in items]).reshape(-1, 4)
+    views = [problem.view_at(v) for v, _ in items]
+    poses = np.array([invert_transform(vd.T_optical_base) for vd in views]).reshape(-1, 4, 4)
+    boxes = np.array([vd.boxes[j] for vd, (_, j) in zip(views, items)]).reshape(-1, 4)
     return poses, boxes
 
 
@@ -79,7 +80,8 @@ def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int]
     border nor in the views ``cut`` (session view indices: a nearer object cuts the box there), shape (K,) (aspect:
     height / width; positive: taller than the sphere's box). A cut box shows the cut, not the object's aspect."""
     cam, border = problem.camera, problem.model.border_px
-    seen = [(problem.view_at(v), problem.view_at(v).boxes[j]) for v, j in obj.associations.items() if v not in cut]
+    views = [(problem.view_at(v), j) for v, j in obj.associations.items() if v not in cut]
+    seen = [(vd, vd.boxes[j]) for vd, j in views]
     seen = [(vd, b) for vd, b in seen if not censored_edges(np.asarray(b), cam.width, cam.height, border).any()]
     if not seen:
         return np.zeros(0)

@@ -59,6 +59,8 @@ class Problem:
     _last_available: dict[frozenset[tuple[int, int]], list[NDArray[np.bool_]]] = field(
         default_factory=dict, init=False, compare=False, repr=False
     )
+    #: The views by their index in the session (:meth:`view_at`), built on first use.
+    _by_index: dict[int, ViewData] = field(default_factory=dict, init=False, compare=False, repr=False)
 
     def available(self, taken: Iterable[tuple[int, int]] = ()) -> list[NDArray[np.bool_]]:
         """Per view, which boxes are not in ``taken``: list of ndarray, shape (B_v,), bool, read-only."""
@@ -76,7 +78,12 @@ class Problem:
 
     def view_at(self, index: int) -> ViewData:
         """The view whose index in the session is ``index`` (an object's ``associations`` are keyed so)."""
-        return next(vd for vd in self.views if vd.index == index)
+        if not self._by_index:
+            self._by_index.update((vd.index, vd) for vd in self.views)
+        try:
+            return self._by_index[index]
+        except KeyError:
+            raise KeyError(f"no view with session index {index} has detections here ({sorted(self._by_index)})") from None
 
     def depth(self, v: int, p_base: NDArray[np.floating]) -> float:
         """Depth (optical z, metres) of the point ``p_base`` (shape (3,), base frame) in view ``v``."""
