@@ -185,7 +185,8 @@ def test_a_container_cut_in_one_view_takes_its_shape_from_the_others_under_pose_
     data = Path(__file__).parent / "data"
     session = mv.load_session(data / "pose_error_pair.session.json")
     truth = load_objects(data / "pose_error_pair.truth.json").positions
-    result = mv.localize(session, size_range=(0.02, 0.15))
+    with pytest.warns(InputWarning, match=r"views\[1\]: the boxes of its 3 objects .* may be off"):  # views 0.7-1.6 deg off
+        result = mv.localize(session, size_range=(0.02, 0.15))
     off = 1e3 * np.linalg.norm(result.positions[:, None] - truth[None], axis=2)
     nearest = off.argmin(axis=0)
     assert off[nearest[0], 0] < 12, off.min(axis=0)

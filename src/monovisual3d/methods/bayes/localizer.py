@@ -14,6 +14,7 @@ from ...session import Session, View, Workspace
 from .config import BayesConfig
 from .pipeline import Estimate, estimate
 from .problem import build_problem
+from .view_shift import shift_message
 
 #: ``max_bytes`` of the region grid, which is only a description (nothing is allocated): 10**40 bytes, beyond any
 #: memory, so no limit here; the search bounds its own memory (``max_memory``) when it allocates levels.
@@ -120,6 +121,8 @@ def run(session: Session, config: BayesConfig, *, progress: Callable[[int, int],
     objects = loc.estimate()
     assert loc.last is not None
     messages = _check_views(session, config, objects)
+    focal = max(session.camera.fx, session.camera.fy)
+    messages += [shift_message(shift, focal) for shift in loc.last.diagnostics.get("view_shifts", [])]
     if loc.last.diagnostics.get("capped"):
         messages.append(
             f"the search kept only the best hypotheses at some level to stay within max_memory={config.max_memory:,} bytes "

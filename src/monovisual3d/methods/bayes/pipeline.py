@@ -36,6 +36,7 @@ from .search import search
 from .second_look import second_look
 from .shape_swap import shape_swap_pass
 from .shapes import shape_stage
+from .view_shift import view_shifts
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,8 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     timing["shape"] = time.perf_counter() - t3
     objects, dropped = drop_isolated(problem, objects)
     objects.sort(key=lambda o: -o.score)
-    return Estimate(objects, corrections, timing, {**hyp.stats(), "isolated_dropped": dropped})
+    shifts = [] if cfg.poses_uncertain else view_shifts(problem, objects)
+    return Estimate(objects, corrections, timing, {**hyp.stats(), "isolated_dropped": dropped, "view_shifts": shifts})
 
 
 def check_work(problem: Problem) -> None:
