@@ -48,7 +48,9 @@ class Estimate:
     objects : list of DetectedObject, best score first
     pose_corrections : list of dict, per view with detections (empty unless a pose uncertainty is stated)
     timing_s : dict, seconds per stage
-    diagnostics : dict, search statistics (see :meth:`.search.Hypotheses.stats`)
+    diagnostics : dict, search statistics (see :meth:`.search.Hypotheses.stats`), ``isolated_dropped`` (objects
+        :mod:`.isolated` dropped) and ``view_shifts`` (views whose boxes sit off together, :func:`.view_shift.view_shifts`;
+        empty where a pose error is stated)
     """
 
     objects: list[DetectedObject]
