@@ -58,6 +58,7 @@ def test_simulate_with_all_options_is_reproducible(tmp_path):
     assert len(truth["objects"]) == 3 and len(truth["views"]) == 4
     assert truth["noise"]["pose_position_std"] == 0.002
     assert truth["noise"]["hand_eye_position_std"] == 0.0  # none asked for
+    assert truth["hand_eye_error"] is None
     assert_allclose(truth["noise"]["pose_rotation_std"], np.radians(0.5))
     assert not list((tmp_path / "a").glob("*.png"))
     r3 = runner.invoke(app, [*args[:-3], "--seed", "5", "--no-images", "--output", str(tmp_path / "c")])
@@ -132,3 +133,4 @@ def test_simulate_with_a_hand_eye_error_writes_it_and_shares_it_between_views(tm
     E = [np.linalg.inv(T) @ v.T_base_optical for T, v in zip(true_poses, session.views)]
     assert_allclose(E[1], E[0], atol=1e-9)
     assert np.linalg.norm(E[0][:3, 3]) > 1e-5
+    assert_allclose(truth["hand_eye_error"], E[0], atol=1e-9)  # the drawn error is in the truth

@@ -9,7 +9,8 @@ and, optionally, one PNG per view of what the camera saw.
 
 Order of the random draws (fixed, so a seed reproduces a run exactly): for
 each view in order, the reported pose, then the missed detections, the box
-noise and the false positives of that view.
+noise and the false positives of that view; last, the session's hand-eye
+error, where the noise model has one.
 """
 
 from __future__ import annotations
@@ -73,6 +74,8 @@ class SimulatedView:
     rendering : Rendering, the label image and exact visible boxes
     boxes_xyxy : ndarray, shape (K, 4), pixels, the reported (noisy) detections
     source : ndarray, shape (K,), int64, fruit index of each detection, -1 for a false positive
+    E_hand_eye : ndarray, shape (4, 4), or None, the session's hand-eye error, part of the reported pose
+        (``T_base_optical_reported = T_base_optical_true @ pose error @ E_hand_eye``); None without one
     """
 
     T_base_optical_true: NDArray[np.float64]
@@ -80,6 +83,7 @@ class SimulatedView:
     rendering: Rendering
     boxes_xyxy: NDArray[np.float64]
     source: NDArray[np.int64]
+    E_hand_eye: NDArray[np.float64] | None = None
 
 
 def simulate_views(
@@ -122,7 +126,7 @@ def simulate_views(
         fruit[source >= 0] = visible[source[source >= 0]]
         out.append(SimulatedView(T_true, T_reported, rendering, boxes, fruit))
     E = noise.hand_eye_error(rng) if E_hand_eye is None else E_hand_eye  # one per session; None without one
-    return out if E is None else [replace(sv, T_base_optical_reported=sv.T_base_optical_reported @ E) for sv in out]
+    return out if E is None else [replace(sv, T_base_optical_reported=sv.T_base_optical_reported @ E, E_hand_eye=E) for sv in out]
 
 
 def simulate(
@@ -159,7 +163,8 @@ def simulate(
         (per view: ``T_base_optical_true``, ``T_base_optical_reported`` as 4x4 lists,
         ``visible_bbox_xyxy`` exact boxes per fruit with None for hidden fruit,
         ``visible_px`` per fruit, ``detection_fruit`` the fruit index of each
-        detection with -1 for false positives), ``noise`` and ``scene``.
+        detection with -1 for false positives), ``hand_eye_error`` (the session's hand-eye error ``E`` as a 4x4
+        list, in every view's reported pose, or None), ``noise`` and ``scene``.
 
     Examples
     --------
@@ -370,6 +375,7 @@ def _session_and_truth(
     truth = {
         **scene.truth_dict(),
         "views": truth_views,
+        "hand_eye_error": None if not views or views[0].E_hand_eye is None else views[0].E_hand_eye.tolist(),
         "noise": noise.to_dict(),
         "scene": scene.to_dict(),
     }
