@@ -17,14 +17,16 @@ search and the sphere-level swap pass cannot tell the pairings apart; the shape 
 
 Printed: 8 views mean / max (mm) and misses; the subsets' mean, median, p90 (mm) and misses; the subsets with a miss.
 
-Usage: python benchmarks/tabletop_subsets.py [FIRST_SEED LAST_SEED] [NOISE] [--two-viewpoints] [-- key=value ...]
+Usage: python benchmarks/tabletop_subsets.py [FIRST_SEED LAST_SEED] [NOISE] [--two-viewpoints] [--cuboids] [-- key=value ...]
 (LAST_SEED excluded; default seeds 800-804, noise 0.01; ``--two-viewpoints``: :func:`two_viewpoints` instead; options
-after ``--`` go to ``localize``, values read as JSON where they parse).
+after ``--`` go to ``localize``, values read as JSON where they parse; ``--cuboids``: the lying objects are boxes, cuboids
+of the same half-sides, as real boxes are).
 """
 
 import itertools
 import sys
 import warnings
+from functools import partial
 
 import numpy as np
 from container_pairs import errors_mm as container_errors_mm
@@ -35,7 +37,7 @@ from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
 from monovisual3d.geometry.orientation import rotation_upright
-from monovisual3d.geometry.solids import cylinder_bbox
+from monovisual3d.geometry.solids import cuboid_bbox, cylinder_bbox
 from monovisual3d.session import Detection, Session, View
 from monovisual3d.sim.noise import perturb_boxes
 
@@ -54,9 +56,12 @@ FOUND_M = 0.05
 SIZE_RANGE_M = (0.02, 0.15)
 
 
-def scene(rng: np.random.Generator, azimuths_deg: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def scene(
+    rng: np.random.Generator, azimuths_deg: np.ndarray | None = None, cuboids: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Centres (N, 3), exact boxes (views, N, 4) and poses (views, 4, 4) of one table top whose boxes all lie inside
-    the images, seen from ``N_VIEWS`` random azimuths or from ``azimuths_deg``."""
+    the images, seen from ``N_VIEWS`` random azimuths or from ``azimuths_deg``; the lying objects cuboids of the same
+    half-sides with ``cuboids`` (the same draws)."""
     while True:
         centres: list[np.ndarray] = []
         reach = [BOX_FOOTPRINT_M] * N_BOXES + [BOTTLE_FOOTPRINT_M] * N_BOTTLES
@@ -75,10 +80,8 @@ def scene(rng: np.random.Generator, azimuths_deg: np.ndarray | None = None) -> t
             eye = d * np.array([-np.cos(e) * np.cos(az), np.cos(e) * np.sin(az), np.sin(e)])
             poses.append(look_at(eye, rng.uniform(-AIM_JITTER_M, AIM_JITTER_M, 3)))
         T = np.array(poses)
-        boxes = [
-            ellipsoid_bbox(CAMERA, T, c, BOX_HALF_SIDES_M, rotation_upright(rng.uniform(0, np.pi)), clip=False)
-            for c in centres[:N_BOXES]
-        ]
+        lying = cuboid_bbox if cuboids else partial(ellipsoid_bbox, clip=False)
+        boxes = [lying(CAMERA, T, c, BOX_HALF_SIDES_M, rotation_upright(rng.uniform(0, np.pi))) for c in centres[:N_BOXES]]
         boxes += [cylinder_bbox(CAMERA, T, c, BOTTLE_R_M, BOTTLE_HALF_H_M, rotation_upright(0.0)) for c in centres[N_BOXES:]]
         B = np.stack(boxes, axis=1)
         if np.all(B[..., :2] >= 0) and np.all(B[..., 2] <= CAMERA.width) and np.all(B[..., 3] <= CAMERA.height):
@@ -116,11 +119,11 @@ def two_viewpoints(seeds: range, sigma: float, options: dict) -> None:
     )
 
 
-def main(seeds: range, sigma: float, options: dict) -> None:
+def main(seeds: range, sigma: float, options: dict, cuboids: bool = False) -> None:
     all_views, subsets, bad = [], [], 0
     for seed in seeds:
         rng = np.random.default_rng(seed)
-        centres, boxes, poses = scene(rng)
+        centres, boxes, poses = scene(rng, cuboids=cuboids)
         boxes = perturb_boxes(boxes.reshape(-1, 4), sigma, rng).reshape(boxes.shape) if sigma > 0 else boxes
         for subset in itertools.chain([tuple(range(N_VIEWS))], itertools.combinations(range(N_VIEWS), SUBSET)):
             views = []
@@ -135,7 +138,7 @@ def main(seeds: range, sigma: float, options: dict) -> None:
             bad += len(subset) == SUBSET and bool(np.isnan(e).any())
     a, s = np.array(all_views).ravel(), np.array(subsets).ravel()
     print(
-        f"seeds {seeds.start}-{seeds.stop - 1} noise {sigma:g}: 8 views mean {np.nanmean(a):.1f} max {np.nanmax(a):.1f} mm, "
+        f"seeds {seeds.start}-{seeds.stop - 1} noise {sigma:g}{' cuboids' if cuboids else ''}: 8 views mean {np.nanmean(a):.1f} max {np.nanmax(a):.1f} mm, "
         f"missed {int(np.isnan(a).sum())}/{len(a)} | 3-view subsets mean {np.nanmean(s):.1f} median {np.nanmedian(s):.1f} "
         f"p90 {np.nanpercentile(s, 90):.1f} mm, missed {int(np.isnan(s).sum())}/{len(s)}, subsets with a miss {bad}/"
         f"{len(subsets)}"
@@ -148,8 +151,9 @@ if __name__ == "__main__":
     args = argv[: argv.index("--")] if "--" in argv else argv
     if any("=" not in kv for kv in extra):
         sys.exit(f"tabletop_subsets.py: options after -- must be key=value, got {extra}")
-    run = two_viewpoints if "--two-viewpoints" in args else main
-    args = [a for a in args if a != "--two-viewpoints"]
+    flags = ("--two-viewpoints", "--cuboids")
+    run = two_viewpoints if "--two-viewpoints" in args else partial(main, cuboids="--cuboids" in args)
+    args = [a for a in args if a not in flags]
     run(
         range(int(args[0]), int(args[1])) if len(args) > 1 else range(800, 805),
         float(args[2]) if len(args) > 2 else 0.01,

@@ -19,7 +19,9 @@ object hides counts one-sided: the object reaches at least that far):
   in every view, is also fitted with the ellipsoid from :data:`MIN_VIEWS_FOR_LYING`
   views, and that fit replaces its sphere (or its first fit) only when the sensor
   model prefers it (:func:`beats`). An object taller than its sphere in every view
-  stands upright, round in plan, and keeps the first fit.
+  stands upright, round in plan, and keeps the first fit. An object larger than
+  :data:`LARGE_RADIUS_M` is fitted with every model, the solids included, however
+  round its boxes look (:func:`fit_shape`).
 
 With ``BayesConfig.solids``, an object elongated one way is also fitted as an upright cylinder (and, with
 :data:`MIN_VIEWS_FOR_CUBOID` views, a cuboid with a yaw): the exact boxes of a can, a bottle or a box
@@ -90,6 +92,12 @@ MIN_VIEWS_FOR_LYING = 3
 #: clear evidence (:func:`.solid_choice.solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
 #: to 2.4-2.5 mm with exact boxes (benchmarks/solid_shape_bias.py).
 MIN_VIEWS_FOR_CUBOID = 3
+#: Radius (metres) of the search's sphere beyond which ``auto`` fits an object with every model, the solids included,
+#: however round its boxes look. A wrong shape moves the centre by a fraction of the object's size: a fruit's few
+#: millimetres, a large object's tens. A flat 200 x 160 x 30 mm tray seen from 55 degrees above has near-square boxes;
+#: kept the search's sphere of 110-125 mm radius, it came out 20-57 mm low, where the cuboid fits its boxes to 2-3 px
+#: RMS (the sphere 13-22 px) and lands 2-6 mm off. Fruit (the paper's tomatoes, 20-40 mm) never pay for the fits.
+LARGE_RADIUS_M = 0.06
 #: Parameters of a sphere: centre and radius.
 SPHERE_PARAMETERS = 4
 #: The shape a solid reports: that of the ellipsoid with the same semi-axes (its radius or half-sides).
@@ -282,9 +290,13 @@ def _upright_shapes(n_views: int, solids: bool = False) -> tuple[str, ...]:
     """The models ``auto`` compares for an object elongated the same way in every view; with ``solids``
     (``BayesConfig.solids``) the upright solids too (a can, a bottle, a box)."""
     ellipsoids = ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
-    if not solids:
-        return ellipsoids
-    return ellipsoids + ("cylinder",) + (("cuboid",) if n_views >= MIN_VIEWS_FOR_CUBOID else ())
+    return ellipsoids + (_upright_solids(n_views) if solids else ())
+
+
+def _upright_solids(n_views: int) -> tuple[str, ...]:
+    """The upright solids ``solids`` fits: a cylinder, and a cuboid with a yaw from :data:`MIN_VIEWS_FOR_CUBOID` views
+    (a box lying on a table is one too: its sides are upright)."""
+    return ("cylinder",) + (("cuboid",) if n_views >= MIN_VIEWS_FOR_CUBOID else ())
 
 
 def _lying_shapes(n_views: int) -> tuple[str, ...]:
@@ -314,7 +326,8 @@ def fit_shape(
     An object with only one elongated box is fitted as one elongated both ways when an edge sticks out of its sphere's
     prediction (:func:`sticks_out`: no cut makes a box larger), even where a nearer object is predicted to cut it, or
     when that box is elongated far beyond box noise (:func:`strongly_elongated`: a flat tray seen from above and from
-    the side)."""
+    the side). An object larger than :data:`LARGE_RADIUS_M` is fitted with every model, the solids included, even where
+    its boxes look round (a flat tray seen from high above), and takes a solid its evidence chooses."""
     cfg = problem.config
     n_views = len(obj.associations)
     if cfg.shape == "sphere" or n_views < 2:
@@ -327,8 +340,9 @@ def fit_shape(
     def outgrown() -> bool:  # asked only where it decides: a box prediction per object
         return bool(np.any(np.abs(deviations) > ROUNDNESS_THRESHOLD)) and sticks_out(problem, obj)
 
+    large = obj.radius is not None and obj.radius > LARGE_RADIUS_M
     if round_aspects(deviations) and not outgrown() and not strongly_elongated(deviations):
-        return as_sphere(obj)
+        return _large_round_fit(problem, obj, censored, hidden_to) if large else as_sphere(obj)
     if elongated_one_way(deviations):
         upright = _upright_shapes(n_views, cfg.solids)
         fit = _fitted(problem, obj, upright, censored, hidden_to=hidden_to)
@@ -346,12 +360,38 @@ def fit_shape(
         both_ways = np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)
         if cut and not both_ways and not outgrown():
             return answer[0]  # the boxes nearer objects do not cut are not elongated both ways: the cuts made it look so
-    # a solid won by its evidence (a flat tray: :func:`.solid_choice.solid_if_clear`); a lying model must beat it that way first
     solid = answer[0].extra.get("solid")
-    new = _fitted(problem, obj, _lying_shapes(n_views) + ((solid,) if solid else ()), censored, hidden_to=hidden_to)
-    if new is None or new[0][0].extra.get("solid") or not beats(problem, obj, new[0], answer, new[1], hidden_to):
+    solids = _upright_solids(n_views) if large and cfg.solids and not solid else ((solid,) if solid else ())
+    return _better_fit(problem, obj, answer, _lying_shapes(n_views) + solids, censored, hidden_to)
+
+
+def _large_round_fit(
+    problem: Problem, obj: DetectedObject, censored: NDArray[np.bool_] | None, hidden_to: NDArray[np.float64] | None
+) -> DetectedObject:
+    """A large object (:data:`LARGE_RADIUS_M`) whose boxes look round, fitted with every model (:func:`_better_fit`)."""
+    n_views = len(obj.associations)
+    shapes = tuple(dict.fromkeys(_upright_shapes(n_views, problem.config.solids) + _lying_shapes(n_views)))
+    return _better_fit(problem, obj, _sphere_answer(obj), shapes, censored, hidden_to, search_sphere=False)
+
+
+def _better_fit(
+    problem: Problem,
+    obj: DetectedObject,
+    answer: Answer,
+    shapes: tuple[str, ...],
+    censored: NDArray[np.bool_] | None,
+    hidden_to: NDArray[np.float64] | None,
+    search_sphere: bool = True,
+) -> DetectedObject:
+    """``answer`` or the lowest-BIC fit of ``shapes`` (:func:`_fitted`): a solid won by its evidence (a flat tray:
+    :func:`.solid_choice.solid_if_clear`) is taken unless ``answer`` is a solid already; an ellipsoid model (a lying
+    object) only where it :func:`beats` ``answer``."""
+    new = _fitted(problem, obj, shapes, censored, search_sphere, hidden_to)
+    if new is None:
         return answer[0]
-    return new[0][0]
+    if new[0][0].extra.get("solid"):
+        return answer[0] if answer[0].extra.get("solid") else new[0][0]
+    return new[0][0] if beats(problem, obj, new[0], answer, new[1], hidden_to) else answer[0]
 
 
 def occlusion_refit(
