@@ -268,8 +268,7 @@ def fitted_answer(
     the search's), the ``censored`` edges (K, 4) one-sided (only a prediction inside one costs; not counted as
     edges), each hidden no further than ``hidden_to`` (K, 4), pixels, where given; None: too few usable edges."""
     if shapes is None:
-        n_views = len(obj.associations)
-        shapes = tuple(dict.fromkeys(_upright_shapes(n_views, problem.config.solids) + _lying_shapes(n_views)))
+        shapes = _every_shape(len(obj.associations), problem.config.solids)
     return _fitted(problem, obj, shapes, censored, search_sphere=False, hidden_to=hidden_to)
 
 
@@ -297,6 +296,11 @@ def _upright_solids(n_views: int) -> tuple[str, ...]:
     """The upright solids ``solids`` fits: a cylinder, and a cuboid with a yaw from :data:`MIN_VIEWS_FOR_CUBOID` views
     (a box lying on a table is one too: its sides are upright)."""
     return ("cylinder",) + (("cuboid",) if n_views >= MIN_VIEWS_FOR_CUBOID else ())
+
+
+def _every_shape(n_views: int, solids: bool) -> tuple[str, ...]:
+    """Every model ``auto`` may fit from ``n_views`` views, upright and lying, the solids with ``solids``."""
+    return tuple(dict.fromkeys(_upright_shapes(n_views, solids) + _lying_shapes(n_views)))
 
 
 def _lying_shapes(n_views: int) -> tuple[str, ...]:
@@ -369,8 +373,7 @@ def _large_round_fit(
     problem: Problem, obj: DetectedObject, censored: NDArray[np.bool_] | None, hidden_to: NDArray[np.float64] | None
 ) -> DetectedObject:
     """A large object (:data:`LARGE_RADIUS_M`) whose boxes look round, fitted with every model (:func:`_better_fit`)."""
-    n_views = len(obj.associations)
-    shapes = tuple(dict.fromkeys(_upright_shapes(n_views, problem.config.solids) + _lying_shapes(n_views)))
+    shapes = _every_shape(len(obj.associations), problem.config.solids)
     return _better_fit(problem, obj, _sphere_answer(obj), shapes, censored, hidden_to, search_sphere=False)
 
 
