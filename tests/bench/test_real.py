@@ -38,6 +38,15 @@ def test_score_pairs_by_hungarian_and_gates_the_counts() -> None:
     assert np.all(np.isnan(d)) and (missed, extra) == (3, 0)
 
 
+def test_per_object_pools_each_objects_errors_over_the_runs() -> None:
+    runs = [{"errors": [0.001, np.nan]}, {"errors": [0.003, 0.010]}, {"errors": [0.002, 0.020]}]
+    first, second = real.per_object(runs)
+    assert_allclose([first["mean_mm"], second["mean_mm"]], [2.0, 15.0])
+    assert_allclose([first["p90_mm"], second["p90_mm"]], [2.8, 19.0])  # numpy's linear percentile
+    assert (first["no_estimate"], second["no_estimate"]) == (0, 1)
+    assert real.per_object([]) == []
+
+
 def test_view_sets_are_all_views_then_every_subset() -> None:
     sets = real.view_sets(8, 3)
     assert sets[0] == tuple(range(8)) and len(sets) == 1 + 56 and len(set(sets)) == 57
@@ -50,6 +59,8 @@ def test_runs_on_a_written_set(folder: Path) -> None:
     assert q["all"]["objects"] == 2 and q["subsets"]["objects"] == 8
     assert q["all"]["missed"] == 0 and q["all"]["max_mm"] < 5.0  # exact boxes: LfD's modelling error only
     assert len(q["per_object_all_mm"]) == 2
+    assert len(q["per_object_subsets"]) == 2 and all(o["no_estimate"] == 0 for o in q["per_object_subsets"])
+    assert all(0.0 <= o["mean_mm"] <= o["p90_mm"] + 1e-9 for o in q["per_object_subsets"])
     b = res["results"]["bayes"]
     assert b["all"]["missed"] == 0 and b["all"]["mean_mm"] < 10.0
     md = real.format_markdown(res)

@@ -219,8 +219,33 @@ def run_real(
 
 
 def _per_method(runs: list[dict[str, Any]]) -> dict[str, Any]:
-    """One method's runs (all views first, then the subsets) summarised, with the all-view error per object (NaN: none)."""
-    return {"all": summarise(runs[:1]), "subsets": summarise(runs[1:]), "per_object_all_mm": [1e3 * x for x in runs[0]["errors"]]}
+    """One method's runs (all views first, then the subsets) summarised, with the all-view error per object (NaN: none)
+    and, per object over the subsets, :func:`per_object`."""
+    return {
+        "all": summarise(runs[:1]),
+        "subsets": summarise(runs[1:]),
+        "per_object_all_mm": [1e3 * x for x in runs[0]["errors"]],
+        "per_object_subsets": per_object(runs[1:]),
+    }
+
+
+def per_object(runs: list[dict[str, Any]]) -> list[dict[str, float | int]]:
+    """Per true object (in the truth's order) over ``runs``: the mean and p90 of its error (mm; NaN when no run had an
+    estimate for it) and the runs without one (``no_estimate``): which objects set a method's pooled figures."""
+    if not runs:
+        return []
+    e = 1e3 * np.array([r["errors"] for r in runs], dtype=float)  # (runs, objects), NaN: no estimate
+    out: list[dict[str, float | int]] = []
+    for column in e.T:
+        seen = column[np.isfinite(column)]
+        out.append(
+            {
+                "mean_mm": float(np.mean(seen)) if len(seen) else float("nan"),
+                "p90_mm": float(np.percentile(seen, 90)) if len(seen) else float("nan"),
+                "no_estimate": int(len(column) - len(seen)),
+            }
+        )
+    return out
 
 
 def format_markdown(results: dict[str, Any]) -> str:
