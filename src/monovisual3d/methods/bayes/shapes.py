@@ -20,8 +20,9 @@ object hides counts one-sided: the object reaches at least that far):
   views, and that fit replaces its sphere (or its first fit) only when the sensor
   model prefers it (:func:`beats`). An object taller than its sphere in every view
   stands upright, round in plan, and keeps the first fit. An object larger than
-  :data:`LARGE_RADIUS_M` is fitted with every model, the solids included, however
-  round its boxes look (:func:`fit_shape`).
+  :data:`LARGE_RADIUS_M` whose boxes look round is fitted with every model, the
+  solids included; one elongated both ways is offered the solids with the lying
+  fits (:func:`fit_shape`).
 
 With ``BayesConfig.solids``, an object elongated one way is also fitted as an upright cylinder (and, with
 :data:`MIN_VIEWS_FOR_CUBOID` views, a cuboid with a yaw): the exact boxes of a can, a bottle or a box
@@ -92,8 +93,8 @@ MIN_VIEWS_FOR_LYING = 3
 #: clear evidence (:func:`.solid_choice.solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
 #: to 2.4-2.5 mm with exact boxes (benchmarks/solid_shape_bias.py).
 MIN_VIEWS_FOR_CUBOID = 3
-#: Radius (metres) of the search's sphere beyond which ``auto`` fits an object with every model, the solids included,
-#: however round its boxes look. A wrong shape moves the centre by a fraction of the object's size: a fruit's few
+#: Radius (metres: the search's sphere's, or its spheroid's horizontal semi-axis, ``DetectedObject.radius``) beyond
+#: which ``auto`` fits an object with every model, the solids included, however round its boxes look. A wrong shape moves the centre by a fraction of the object's size: a fruit's few
 #: millimetres, a large object's tens. A flat 200 x 160 x 30 mm tray seen from 55 degrees above has near-square boxes;
 #: kept the search's sphere of 110-125 mm radius, it came out 20-57 mm low, where the cuboid fits its boxes to 2-3 px
 #: RMS (the sphere 13-22 px) and lands 2-6 mm off. Fruit (the paper's tomatoes, 20-40 mm) never pay for the fits.
@@ -344,11 +345,13 @@ def fit_shape(
     def outgrown() -> bool:  # asked only where it decides: a box prediction per object
         return bool(np.any(np.abs(deviations) > ROUNDNESS_THRESHOLD)) and sticks_out(problem, obj)
 
-    large = obj.radius is not None and obj.radius > LARGE_RADIUS_M
+    large = float(obj.radius) > LARGE_RADIUS_M  # type: ignore[arg-type]  # set for every object of the search
     if round_aspects(deviations) and not outgrown() and not strongly_elongated(deviations):
         return _large_round_fit(problem, obj, censored, hidden_to) if large else as_sphere(obj)
+    solids_fitted = False  # the upright solids, where the first fit already weighed them
     if elongated_one_way(deviations):
         upright = _upright_shapes(n_views, cfg.solids)
+        solids_fitted = cfg.solids
         fit = _fitted(problem, obj, upright, censored, hidden_to=hidden_to)
         uncut = aspect_deviations(problem, obj, cut) if cut else deviations  # the boxes no nearer object cuts
         shows_shape = elongated_one_way(uncut) and consistently_elongated(uncut)
@@ -365,7 +368,7 @@ def fit_shape(
         if cut and not both_ways and not outgrown():
             return answer[0]  # the boxes nearer objects do not cut are not elongated both ways: the cuts made it look so
     solid = answer[0].extra.get("solid")
-    solids = _upright_solids(n_views) if large and cfg.solids and not solid else ((solid,) if solid else ())
+    solids = _upright_solids(n_views) if large and cfg.solids and not solids_fitted else ((solid,) if solid else ())
     return _better_fit(problem, obj, answer, _lying_shapes(n_views) + solids, censored, hidden_to)
 
 
@@ -374,7 +377,7 @@ def _large_round_fit(
 ) -> DetectedObject:
     """A large object (:data:`LARGE_RADIUS_M`) whose boxes look round, fitted with every model (:func:`_better_fit`)."""
     shapes = _every_shape(len(obj.associations), problem.config.solids)
-    return _better_fit(problem, obj, _sphere_answer(obj), shapes, censored, hidden_to, search_sphere=False)
+    return _better_fit(problem, obj, _sphere_answer(obj), shapes, censored, hidden_to)
 
 
 def _better_fit(
