@@ -73,7 +73,7 @@ import sys
 import warnings
 
 import numpy as np
-from option_ab import option_value
+from option_ab import split_options
 from scipy.optimize import linear_sum_assignment
 from solid_shape_bias import CAMERAS, TARGET, object_boxes, views
 
@@ -214,13 +214,9 @@ def _elevation(text: str) -> float | tuple[float, float]:
 
 
 if __name__ == "__main__":
-    argv = sys.argv[1:]
-    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
-    argv = argv[: argv.index("--")] if "--" in argv else argv
+    argv, options = split_options(sys.argv[1:], "container_pairs.py")
     flags = ("--visible", "--tray", "--no-workspace", "--on-tray", "--unboxed-hidden")
     args = [a for a in argv if a not in flags and not a.startswith(("--pose-error=", "--hand-eye-error="))]
-    if any("=" not in kv for kv in extra):
-        sys.exit(f"container_pairs.py: options after -- must be key=value (e.g. size_range=0.01,0.15), got {extra}")
     main(
         args[0] if args else "cuboid",
         float(args[1]) if len(args) > 1 else 0.005,
@@ -228,7 +224,7 @@ if __name__ == "__main__":
         _elevation(args[4]) if len(args) > 4 else 20.0,
         "--visible" in argv,
         "--tray" in argv or "--on-tray" in argv,
-        {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},
+        options,
         _mm_deg(argv, "--pose-error"),
         "--no-workspace" not in argv,
         "--on-tray" in argv,

@@ -30,7 +30,7 @@ import warnings
 from collections import Counter
 
 import numpy as np
-from option_ab import option_value
+from option_ab import split_options
 
 import monovisual3d as mv
 from monovisual3d.camera import Camera
@@ -112,13 +112,9 @@ def main(seeds: range, options: dict) -> None:
 
 
 if __name__ == "__main__":
-    argv = sys.argv[1:]
-    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
-    args = argv[: argv.index("--")] if "--" in argv else argv
-    if any("=" not in kv for kv in extra):
-        sys.exit(f"large_objects.py: options after -- must be key=value, got {extra}")
+    args, options = split_options(sys.argv[1:], "large_objects.py")
     try:
         seeds = range(int(args[0]), int(args[1])) if len(args) > 1 else range(0, 200)
     except ValueError:
         sys.exit(f"large_objects.py: FIRST LAST must be integers, got {args[:2]}")
-    main(seeds, {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)})
+    main(seeds, options)

@@ -45,6 +45,15 @@ def option_value(text: str) -> Any:
         return text
 
 
+def split_options(argv: list[str], script: str) -> tuple[list[str], dict[str, Any]]:
+    """A benchmark's own arguments (before ``--``) and the ``localize`` options after it (``KEY=VALUE``, values read by
+    :func:`option_value`); exits with one line naming ``script`` on an option that is not ``KEY=VALUE``."""
+    args, pairs = (argv[: argv.index("--")], argv[argv.index("--") + 1 :]) if "--" in argv else (argv, [])
+    if any("=" not in p for p in pairs):
+        sys.exit(f"{script}: options after -- must be KEY=VALUE (e.g. size_range=0.01,0.15), got {pairs}")
+    return args, {k: option_value(v) for k, v in (p.split("=", 1) for p in pairs)}
+
+
 def _variants(pairs: list[str]) -> dict[str, dict[str, Any]]:
     if not pairs or any("=" not in p for p in pairs):
         sys.exit(f"option_ab.py: after -- give options as KEY=VALUE (e.g. radius_max=0.08), got {pairs}")

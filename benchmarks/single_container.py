@@ -20,7 +20,7 @@ import sys
 import warnings
 
 import numpy as np
-from option_ab import option_value
+from option_ab import split_options
 from solid_shape_bias import CAMERAS, TARGET, object_boxes, views
 
 import monovisual3d as mv
@@ -60,11 +60,7 @@ def errors_mm(
 
 
 def main(argv: list[str]) -> None:
-    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
-    argv = argv[: argv.index("--")] if "--" in argv else argv
-    if any("=" not in kv for kv in extra):
-        sys.exit(f"single_container.py: options after -- must be KEY=VALUE (e.g. pose_sigma_mm=5), got {extra}")
-    options = {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)}
+    argv, options = split_options(argv, "single_container.py")
     seeds = range(int(argv[0]), int(argv[1])) if len(argv) > 1 else range(0, 40)
     pose = tuple(float(x) for x in argv[2].split(",")) if len(argv) > 2 else (0.0, 0.0)
     kind = argv[3] if len(argv) > 3 else "cuboid"

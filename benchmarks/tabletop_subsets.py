@@ -30,7 +30,7 @@ from functools import partial
 
 import numpy as np
 from container_pairs import errors_mm as container_errors_mm
-from option_ab import option_value
+from option_ab import split_options
 
 import monovisual3d as mv
 from monovisual3d.camera import Camera
@@ -146,16 +146,12 @@ def main(seeds: range, sigma: float, options: dict, cuboids: bool = False) -> No
 
 
 if __name__ == "__main__":
-    argv = sys.argv[1:]
-    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
-    args = argv[: argv.index("--")] if "--" in argv else argv
-    if any("=" not in kv for kv in extra):
-        sys.exit(f"tabletop_subsets.py: options after -- must be key=value, got {extra}")
+    args, options = split_options(sys.argv[1:], "tabletop_subsets.py")
     flags = ("--two-viewpoints", "--cuboids")
     run = two_viewpoints if "--two-viewpoints" in args else partial(main, cuboids="--cuboids" in args)
     args = [a for a in args if a not in flags]
     run(
         range(int(args[0]), int(args[1])) if len(args) > 1 else range(800, 805),
         float(args[2]) if len(args) > 2 else 0.01,
-        {k: option_value(v) for k, v in (kv.split("=", 1) for kv in extra)},
+        options,
     )
