@@ -94,8 +94,8 @@ MIN_VIEWS_FOR_LYING = 3
 #: to 2.4-2.5 mm with exact boxes (benchmarks/solid_shape_bias.py).
 MIN_VIEWS_FOR_CUBOID = 3
 #: Radius (metres: the search's sphere's, or its spheroid's horizontal semi-axis, ``DetectedObject.radius``) beyond
-#: which ``auto`` fits an object with every model, the solids included, however round its boxes look. A wrong shape moves the centre by a fraction of the object's size: a fruit's few
-#: millimetres, a large object's tens. A flat 200 x 160 x 30 mm tray seen from 55 degrees above has near-square boxes;
+#: which ``auto`` fits an object with every model, the solids included, however round its boxes look. A wrong shape
+#: moves the centre by a fraction of the object's size: a fruit's few millimetres, a large object's tens. A flat 200 x 160 x 30 mm tray seen from 55 degrees above has near-square boxes;
 #: kept the search's sphere of 110-125 mm radius, it came out 20-57 mm low, where the cuboid fits its boxes to 2-3 px
 #: RMS (the sphere 13-22 px) and lands 2-6 mm off. Fruit (the paper's tomatoes, 20-40 mm) never pay for the fits.
 LARGE_RADIUS_M = 0.06
@@ -387,12 +387,11 @@ def _better_fit(
     shapes: tuple[str, ...],
     censored: NDArray[np.bool_] | None,
     hidden_to: NDArray[np.float64] | None,
-    search_sphere: bool = True,
 ) -> DetectedObject:
     """``answer`` or the lowest-BIC fit of ``shapes`` (:func:`_fitted`): a solid won by its evidence (a flat tray:
     :func:`.solid_choice.solid_if_clear`) is taken unless ``answer`` is a solid already; an ellipsoid model (a lying
     object) only where it :func:`beats` ``answer``."""
-    new = _fitted(problem, obj, shapes, censored, search_sphere, hidden_to)
+    new = _fitted(problem, obj, shapes, censored, hidden_to=hidden_to)
     if new is None:
         return answer[0]
     if new[0][0].extra.get("solid"):
