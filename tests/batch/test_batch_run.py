@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -169,3 +171,17 @@ def test_output_must_be_a_folder(runs: Path, tmp_path: Path) -> None:
     (tmp_path / "file").write_text("")
     with pytest.raises(InputError, match="file: exists and is not a folder"):
         run([runs], tmp_path / "file", workers=0, **FAST)
+
+
+def test_local_workers_asked_for_while_a_spawned_worker_imports_the_script(
+    runs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A script calling ``run`` at its top level: each spawned worker runs it again as ``__mp_main__`` (a module other
+    than the worker's ``__main__``) and would start workers of its own; it stops there with the guard to add, before
+    touching the output folder, while a worker-less run and one on a given scheduler are not concerned."""
+    monkeypatch.setitem(sys.modules, "__mp_main__", types.ModuleType("__mp_main__"))
+    with pytest.raises(InputError, match=r'workers: .* under `if __name__ == "__main__":`'):
+        run([runs], tmp_path / "out", workers=2, **FAST)
+    assert not (tmp_path / "out").exists()
+    fruit, sessions = run([runs], tmp_path / "in_process", workers=0, **FAST)
+    assert set(sessions["status"]) == {"ok"}

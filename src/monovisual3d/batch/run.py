@@ -8,6 +8,7 @@ import contextlib
 import itertools
 import logging
 import os
+import sys
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
@@ -31,6 +32,10 @@ DEFAULT_MAX_WORKER_DEATHS = 3
 
 #: Most sessions per Dask task when ``chunk_size`` is not given.
 MAX_CHUNK = 16
+
+#: What a script that starts local workers must do: each worker process is spawned and imports the main module,
+#: so a call at the script's top level would run again in every worker.
+MAIN_GUARD_HINT = 'a script that starts local workers must do so under `if __name__ == "__main__":` (each worker imports it)'
 
 
 class BatchTables(NamedTuple):
@@ -88,6 +93,17 @@ def _killed_row(job: Job, exc: BaseException, max_deaths: int | None) -> dict[st
     return session_row(job, status="error", error=message, error_type=type(exc).__name__)
 
 
+def check_not_spawned_import() -> None:
+    """Raise :class:`InputError` when called while a spawned worker process imports the main script (a script that
+    starts local workers at its top level, without the ``__main__`` guard): the call would start workers again there."""
+    # multiprocessing's spawn runs the script as ``__mp_main__`` beside the child's own ``__main__``, then makes them one
+    mp_main = sys.modules.get("__mp_main__")
+    if mp_main is not None and mp_main is not sys.modules.get("__main__"):
+        raise InputError(
+            f"workers: local Dask workers asked for while a worker process imports the main script; {MAIN_GUARD_HINT}"
+        )
+
+
 @contextlib.contextmanager
 def dask_client(
     workers: int | None = None,
@@ -100,7 +116,8 @@ def dask_client(
     The local cluster has ``workers`` processes (default one per core) of one
     thread each, numba limited to one thread, ``allowed-failures`` set to
     ``max_worker_deaths`` and one task (a chunk of sessions) at a time per worker.
-    Raises :class:`InputError` when ``scheduler`` cannot be reached.
+    Raises :class:`InputError` when ``scheduler`` cannot be reached, when the local workers do not start, and when
+    called while a spawned worker imports the main script (a script's top level without the ``__main__`` guard).
     """
     require("distributed", "dask")
     import dask
@@ -115,6 +132,7 @@ def dask_client(
         with client:
             yield client
         return
+    check_not_spawned_import()
     n = workers if workers is not None else (os.cpu_count() or 1)
     # One single-threaded process per core; numba's thread pool is sized to match so processes don't compete.
     # A worker holds one task at a time (saturation 1.0): when it dies, only the chunk it was running counts a
@@ -129,19 +147,22 @@ def dask_client(
         # the statistical profiler samples every worker thread every 10 ms: CPU a short session pays for
         "distributed.worker.profile.enabled": False,
     }
-    with (
-        dask.config.set(config),
-        LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=dashboard_address,
-            silence_logs=logging.ERROR,
-            env={"NUMBA_NUM_THREADS": "1"},
-        ) as cluster,
-        Client(cluster) as client,
-    ):
-        yield client
+    with dask.config.set(config):
+        try:
+            cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=dashboard_address,
+                silence_logs=logging.ERROR,
+                env={"NUMBA_NUM_THREADS": "1"},
+            )
+        except RuntimeError as exc:  # a worker process failed to start (distributed: "Nanny failed to start.")
+            raise InputError(
+                f"workers: could not start {n} local Dask workers ({text_line(str(exc))}); {MAIN_GUARD_HINT}"
+            ) from None
+        with cluster, Client(cluster) as client:
+            yield client
 
 
 def _dashboard(client: Any) -> str | None:
@@ -221,6 +242,8 @@ def run(
     method = method or _default_method()
     _check_run_args(method, localizer, workers, scheduler, client, part_size, max_worker_deaths, chunk_size, output, resume)
     _check_options(method, localizer, options)
+    if workers != 0 and scheduler is None and client is None:
+        check_not_spawned_import()
     tables.require_libraries()
     found, output = find_sessions(inputs), Path(output)
     _prepare_output(found, output)
