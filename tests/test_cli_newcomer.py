@@ -146,6 +146,11 @@ def test_incomplete_reasons_in_python() -> None:
     assert incomplete_reasons(session, found) == []
     partial = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0})], "bayes")
     assert "1 of 3 boxes are associated to no object (view 2: box 0)" in incomplete_reasons(session, partial)[0]
+    assert "a lower --accept" in incomplete_reasons(session, partial)[0]
+    # the advice names only options of the method that ran: quadric has no --accept, and needs 3 views per object
+    partial_quadric = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0})], "quadric")
+    (quadric_reason,) = incomplete_reasons(session, partial_quadric)
+    assert "--accept" not in quadric_reason and "--min-views" in quadric_reason
     no_associations = Result([DetectedObject(np.zeros(3), 1.0)], "paper")  # a method that does not associate
     assert incomplete_reasons(session, no_associations) == []
     (empty,) = incomplete_reasons(session, Result([], "paper"))

@@ -284,6 +284,9 @@ def test_output_may_not_overwrite_the_input(tmp_path: Path) -> None:
     assert cli_error(["localize", str(session), "-o", str(session)]) == (
         f"{session}: is also an input file; refusing to overwrite it, choose another --output"
     )
+    assert cli_error(["localize", str(session), "--view", str(session)]) == (  # the option that named it
+        f"{session}: is also an input file; refusing to overwrite it, choose another --view"
+    )
     assert session.read_text() == before
 
 

@@ -33,6 +33,13 @@ EMPTY_ADVICE = (
     "check that positions are metres, quaternions are (x, y, z, w) and pose_frame is right; "
     "try a wider --size-range, a lower --accept, or --method paper"
 )
+#: What to try about boxes no object explains, by method (the options that method takes), and for any other.
+UNASSOCIATED_ADVICE = {
+    "bayes": "add views of them, or try a lower --accept or a wider --size-range",
+    "quadric": "add views of them (quadric fits objects with boxes in --min-views views, 3 or more; bayes from 2), "
+    "or try a wider --size-range",
+}
+UNASSOCIATED_ADVICE_OTHER = "add views of them"
 
 
 def incomplete_reasons(session: Session, result: Result) -> list[str]:
@@ -75,7 +82,7 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
     return [
         f"{n_dropped} of {n_boxes} boxes are {UNASSOCIATED_WORDS} ({listed}{more}): false positives, "
         f"or objects seen in too few views or scoring below the acceptance threshold; "
-        "add views of them, or try a lower --accept or a wider --size-range"
+        f"{UNASSOCIATED_ADVICE.get(result.method, UNASSOCIATED_ADVICE_OTHER)}"
     ]
 
 

@@ -90,6 +90,11 @@ def test_next_view_on_an_empty_session_covers_the_workspace(runner: CliRunner, t
 def test_next_view_bad_input(runner: CliRunner, session_path: Path, tmp_path: Path) -> None:
     empty = write_candidates(tmp_path / "empty.json", [])
     assert_one_line_error(runner.invoke(app, ["next-view", str(session_path), "--candidates", str(empty)]), "poses: empty list")
+    assert_one_line_error(  # neither a file nor a cap: spec: both forms named
+        runner.invoke(app, ["next-view", str(session_path), "--candidates", "foo"]),
+        "--candidates: 'foo': file not found",
+        "cap:N",
+    )
     bad_q = write_candidates(tmp_path / "q.json", [{"position": [0, 0, 0.4], "quaternion_xyzw": [0.5, 0.5, 0.5, 0.1]}])
     assert_one_line_error(
         runner.invoke(app, ["next-view", str(session_path), "--candidates", str(bad_q)]),

@@ -243,3 +243,14 @@ def test_view_without_plotly_names_the_extra(tmp_path: Path, monkeypatch: pytest
     monkeypatch.setitem(sys.modules, "plotly", None)  # as if the [viz] extra were not installed
     r = CliRunner().invoke(app, ["view", str(session), "-o", str(tmp_path / "s.html")])
     assert r.exit_code == 2 and "pip install 'monovisual3d[viz]'" in r.output
+
+
+def test_view_open_without_a_browser_says_so(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    session = tmp_path / "session.json"
+    session.write_text(json.dumps(two_fruit_session()))
+    opened: list[str] = []
+    monkeypatch.setattr("webbrowser.open", lambda url: opened.append(url) or False)  # a headless machine: no browser runs
+    r = CliRunner().invoke(app, ["view", str(session), "-o", str(tmp_path / "s.html"), "--open"])
+    assert r.exit_code == 0 and (tmp_path / "s.html").is_file()
+    assert opened == [(tmp_path / "s.html").resolve().as_uri()]
+    assert "warning:" in r.output and "no web browser found to open it (--open)" in r.output

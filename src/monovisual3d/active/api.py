@@ -117,6 +117,8 @@ def _parse_candidates(candidates: str, pose_frame: str, count: int) -> tuple[Cap
         spec = CapSpec.parse(candidates)
         _check_count(count, spec.n)
         return spec, None
+    if not Path(candidates).exists():  # neither a spec nor a file: say both forms
+        raise InputError(f"candidates: {candidates!r}: file not found, expected a poses file or cap:N (e.g. cap:60)")
     cands = load_candidates(candidates, pose_frame)
     _check_count(count, len(cands))
     return None, cands

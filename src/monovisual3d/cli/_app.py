@@ -143,11 +143,12 @@ def _print_error(message: str) -> None:
     err_console.print(f"[bold red]error:[/] {plain(one_line(message))}", highlight=False)
 
 
-def check_output(output: Path | None, *inputs: Path | None) -> None:
+def check_output(output: Path | None, *inputs: Path | None, flag: str = "--output") -> None:
     """Refuse an output path that cannot be written, before any computation.
 
     The folder must exist and be writable, the path must not be a folder, and it
-    must not be one of the ``inputs`` (which it would overwrite).
+    must not be one of the ``inputs`` (which it would overwrite); ``flag`` is the option
+    that named it, for the message.
     """
     if output is None:
         return
@@ -167,7 +168,7 @@ def check_output(output: Path | None, *inputs: Path | None) -> None:
         except OSError:
             same = False
         if same:
-            raise InputError(f"{name}: is also an input file; refusing to overwrite it, choose another --output")
+            raise InputError(f"{name}: is also an input file; refusing to overwrite it, choose another {flag}")
 
 
 @contextlib.contextmanager

@@ -19,6 +19,7 @@ from .options import MaxMemory, SpreadScheduler, SpreadWorkers, TimeLimit, sprea
 
 #: plan_session's parameters named in its errors, and the flags they come from.
 _FLAGS = {
+    "candidates": "--candidates",
     "count": "--count",
     "reach_m": "--reach",
     "base": "--base",
@@ -151,8 +152,8 @@ def bench_active(
 ) -> None:
     """Next-best-view against fixed, random and view-sphere viewpoints: error, recall, 95 % ellipsoid vs. views."""
     reports = [Path(name) for name in report.split(",")] if report is not None else []
-    for path in (output, plot, markdown):  # before any work, and never over an input
-        check_output(path, *reports)
+    for path, flag in ((output, "--output"), (plot, "--plot"), (markdown, "--markdown")):  # before any work, never over an input
+        check_output(path, *reports, flag=flag)
     if report is not None:
         res = _merge_reports(report)
     else:

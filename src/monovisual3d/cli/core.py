@@ -116,7 +116,7 @@ def localize(
     config = method_config(method, method_options)
     check_output(output, session)
     if view is not None:
-        check_output(view, session)
+        check_output(view, session, flag="--view")
     with command_budget(time_limit):
         _localize_and_write(session, config, output, quiet, view, strict)
 

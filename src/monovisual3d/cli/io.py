@@ -229,7 +229,7 @@ def import_lfd_cmd(
     from ..io.lfd import read_lfd
 
     check_output(output, folder)
-    check_output(truth, folder, output)
+    check_output(truth, folder, output, flag="--truth")
     if truth is not None and output.resolve() == truth.resolve():
         raise InputError(f"{one_line(str(truth))}: also the --output file, choose another --truth")
     with command_budget(time_limit, max_memory):

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
-from ._app import app, check_output, command_budget, console, handle_errors, plain
+from ._app import app, check_output, command_budget, console, handle_errors, plain, print_warning
 from .options import MaxMemory, TimeLimit
 
 
@@ -38,7 +38,7 @@ def view(
     if rrd is not None and rrd.suffix.lower() != ".rrd":
         raise InputError(f"--rrd: got {str(rrd)!r}, expected a file name ending in .rrd")
     check_output(output, session, result, truth)
-    check_output(rrd, session, result, truth)
+    check_output(rrd, session, result, truth, flag="--rrd")
     from ..figures.html3d import write_scene_html
 
     with command_budget(time_limit, max_memory):  # a missing extra is said in one line (cli._app.handle_errors)
@@ -50,5 +50,5 @@ def view(
         with command_budget(time_limit, max_memory):
             written = write_rrd(session, result, truth, path=rrd)
         console.print(f"wrote {plain(written)} (open with `rerun {plain(written)}`)", highlight=False)
-    if open_:
-        webbrowser.open(path.resolve().as_uri())
+    if open_ and not webbrowser.open(path.resolve().as_uri()):  # False: no browser to run (a headless machine)
+        print_warning(f"{path}: no web browser found to open it (--open); open the file in one by hand")

@@ -99,7 +99,7 @@ def run(session: Session, config: QuadricConfig, *, progress: Callable[[int, int
     objects: list[DetectedObject] = []
     skipped = 0
     for k, (track, assoc) in enumerate(zip(tracks, associations)):
-        label = f"bayes object {k}" if track is None else f"track {track}"
+        label = f"object {k} (boxes associated by bayes)" if track is None else f"track {track}"
         if len(assoc) < config.min_views:
             skipped += 1
             messages.append(f"{label}: boxes in {len(assoc)} view(s), at least min_views={config.min_views} are needed; left out")
