@@ -49,7 +49,8 @@ alone, ``solid_shape_bias.py``), which sets the subsets' error with whole boxes;
 those a little (the predicted boxes of two estimates overlap more than the objects do).
 
 Usage: python benchmarks/container_pairs.py [cuboid|cylinder] [NOISE] [FIRST_SEED LAST_SEED] [ELEVATION_DEG] [--visible]
-[--tray | --on-tray] [--pose-error=MM,DEG] [--hand-eye-error=MM,DEG] [--no-workspace] [--unboxed-hidden] (default: cuboid 0.005 500 505 20;
+[--tray | --on-tray] [--pose-error=MM,DEG] [--hand-eye-error=MM,DEG] [--no-workspace] [--unboxed-hidden] [--size=HW,HH,SP]
+(default: cuboid 0.005 500 505 20;
 ``ELEVATION_DEG`` as ``LOW:HIGH``: each view's elevation drawn uniformly in that range, as an arm's views mix; ``--visible``: the farther
 container's box ends where the nearer one hides it, as a detector of visible parts draws it,
 :func:`monovisual3d.sim.noise.visible_part_boxes`; ``--tray``: the issue's whole scene, a flat 200 x 160 x 30 mm cuboid
@@ -58,7 +59,8 @@ three objects; ``--on-tray``: the same tray with the pair standing on it; ``--po
 :func:`monovisual3d.sim.noise.perturb_pose`, per axis, drawn anew in each view, as an arm's kinematics leave it;
 ``--hand-eye-error=MM,DEG``: one such error drawn per seed in the camera's own frame and applied to every view
 (``T_base_optical @ E``, :func:`monovisual3d.sim.noise.hand_eye_offset`), as a hand-eye calibration's error is: the same
-in every view in the camera's frame, so not the same in the base frame;
+in every view in the camera's frame, so not the same in the base frame; ``--size=HW,HH,SP``: the containers' half-width
+(half-side or radius), half-height and centre spacing in millimetres (default 25,60,57, the issue's 5 x 5 x 12 cm);
 ``--no-workspace``: the search's default region instead of a 40 cm cube around the pair; ``--unboxed-hidden``, with
 ``--visible``: an object wholly behind a nearer one, or shown as a sliver under 2 px, gets no box in that view, as a
 detector of visible parts reports it (:func:`monovisual3d.sim.noise.wholly_hidden`); an object then boxed in one view
@@ -91,8 +93,12 @@ N_VIEWS, SUBSET = 8, 3
 #: ``--tray``: a flat cuboid tray (half-sides, metres) behind the pair and lower (offset from the pair's middle, metres),
 #: as in ``containers_tray.py``; its yaw is random.
 TRAY_HALF_SIDES_M, TRAY_OFFSET_M = (0.10, 0.08, 0.015), (0.07, 0.0, -0.045)
-#: ``--on-tray``: the tray's offset when the pair stands on it (centred under them, its top at their bottoms), metres.
-ON_TRAY_OFFSET_M = (0.0, 0.0, -(HALF_HEIGHT_M + TRAY_HALF_SIDES_M[2]))
+
+
+def on_tray_offset(half_height: float) -> tuple[float, float, float]:
+    """``--on-tray``: the tray's offset from the pair's middle when the pair, of this half-height, stands on it (centred
+    under them, its top at their bottoms), metres."""
+    return (0.0, 0.0, -(half_height + TRAY_HALF_SIDES_M[2]))
 
 
 def errors_mm(estimates: np.ndarray, centres: np.ndarray, found_m: float = FOUND_M) -> list[float]:
@@ -130,8 +136,10 @@ def main(
     on_tray: bool = False,
     unboxed_hidden: bool = False,
     hand_eye_error: tuple[float, float] = (0.0, 0.0),
+    size: tuple[float, float, float] = (HALF_WIDTH_M, HALF_HEIGHT_M, SPACING_M),
 ) -> None:
     cam = CAMERAS["1280x720"]
+    half_width, half_height, spacing = size
     tracks = (options or {}).get("method") == "quadric"  # the anchor is given the association
     all_views: list[list[float]] = []
     subsets: list[list[float]] = []
@@ -140,13 +148,13 @@ def main(
     for seed in seeds:
         rng = np.random.default_rng(seed)
         middle = TARGET + rng.uniform(-0.01, 0.01, 3)
-        centres = np.array([middle - [0.0, SPACING_M / 2, 0.0], middle + [0.0, SPACING_M / 2, 0.0]])
+        centres = np.array([middle - [0.0, spacing / 2, 0.0], middle + [0.0, spacing / 2, 0.0]])
         poses = views(rng, N_VIEWS, elevation if np.isscalar(elevation) else rng.uniform(*elevation, N_VIEWS), middle)
-        box_fns = [object_boxes(kind, HALF_WIDTH_M, HALF_HEIGHT_M, rng) for _ in centres]
+        box_fns = [object_boxes(kind, half_width, half_height, rng) for _ in centres]
         if tray:
             R_tray = rotation_upright(rng.uniform(0.0, np.pi))
             box_fns.append(lambda cam, poses, c, R=R_tray: cuboid_bbox(cam, poses, c, TRAY_HALF_SIDES_M, R))
-            centres = np.vstack([centres, middle + (ON_TRAY_OFFSET_M if on_tray else TRAY_OFFSET_M)])
+            centres = np.vstack([centres, middle + (on_tray_offset(half_height) if on_tray else TRAY_OFFSET_M)])
         boxes = np.stack([f(cam, poses, c) for f, c in zip(box_fns, centres)], axis=1)  # (views, objects, 4)
         shown = np.ones(boxes.shape[:2], dtype=bool)
         if visible:
@@ -187,6 +195,7 @@ def main(
     case += f" hand-eye error {hand_eye_error[0]:g} mm {hand_eye_error[1]:g} deg" if any(hand_eye_error) else ""
     case += "" if workspace else " no workspace"
     case += " wholly hidden unboxed" if unboxed_hidden else ""
+    case += "" if size == (HALF_WIDTH_M, HALF_HEIGHT_M, SPACING_M) else " size {:g},{:g},{:g} mm".format(*(1e3 * x for x in size))
     print(f"{_line(case, a[:, :2].ravel(), s[:, :2].ravel())} | objects per run {np.mean(counts):.2f}")
     if unboxed_hidden:
         print(f"  objects with a box in one view of the run only (left out above): {unseen}")
@@ -197,14 +206,29 @@ def main(
 
 def _mm_deg(argv: list[str], flag: str) -> tuple[float, float]:
     """The ``MM,DEG`` of ``--flag=MM,DEG`` in ``argv`` (0, 0 without it); exits with one line on anything else."""
-    text = next((a.split("=", 1)[1] for a in argv if a.startswith(f"{flag}=")), "0,0")
-    try:
-        mm, deg = (float(x) for x in text.split(","))
-    except ValueError:
-        mm = deg = math.nan
-    if not (math.isfinite(mm) and math.isfinite(deg) and mm >= 0 and deg >= 0):
-        sys.exit(f"container_pairs.py: {flag}=MM,DEG: got {text!r}, expected two numbers >= 0 (millimetres, degrees)")
+    mm, deg = _numbers(argv, flag, "0,0", "MM,DEG", "two numbers >= 0 (millimetres, degrees)", positive=False)
     return mm, deg
+
+
+def _size(argv: list[str]) -> tuple[float, float, float]:
+    """The containers' ``--size=HALF_WIDTH,HALF_HEIGHT,SPACING`` in millimetres, as metres (default the issue's)."""
+    default = ",".join(f"{1e3 * x:g}" for x in (HALF_WIDTH_M, HALF_HEIGHT_M, SPACING_M))
+    hw, hh, sp = _numbers(argv, "--size", default, "HALF_WIDTH,HALF_HEIGHT,SPACING", "three numbers > 0 (millimetres)")
+    return 1e-3 * hw, 1e-3 * hh, 1e-3 * sp
+
+
+def _numbers(argv: list[str], flag: str, default: str, form: str, expected: str, positive: bool = True) -> list[float]:
+    """The numbers of ``--flag=A,B,...`` in ``argv`` (``default`` without it), as many as ``form`` names; exits with
+    one line on anything else."""
+    text = next((a.split("=", 1)[1] for a in argv if a.startswith(f"{flag}=")), default)
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        values = []
+    ok = len(values) == form.count(",") + 1 and all(math.isfinite(x) and (x > 0 if positive else x >= 0) for x in values)
+    if not ok:
+        sys.exit(f"container_pairs.py: {flag}={form}: got {text!r}, expected {expected}")
+    return values
 
 
 def _elevation(text: str) -> float | tuple[float, float]:
@@ -216,7 +240,7 @@ def _elevation(text: str) -> float | tuple[float, float]:
 if __name__ == "__main__":
     argv, options = split_options(sys.argv[1:], "container_pairs.py")
     flags = ("--visible", "--tray", "--no-workspace", "--on-tray", "--unboxed-hidden")
-    args = [a for a in argv if a not in flags and not a.startswith(("--pose-error=", "--hand-eye-error="))]
+    args = [a for a in argv if a not in flags and not a.startswith(("--pose-error=", "--hand-eye-error=", "--size="))]
     main(
         args[0] if args else "cuboid",
         float(args[1]) if len(args) > 1 else 0.005,
@@ -230,4 +254,5 @@ if __name__ == "__main__":
         "--on-tray" in argv,
         "--unboxed-hidden" in argv,
         _mm_deg(argv, "--hand-eye-error"),
+        _size(argv),
     )
