@@ -16,6 +16,7 @@ from pandas.testing import assert_frame_equal
 import monovisual3d as mv3d
 from conftest import FAST, comparable
 from monovisual3d.batch import FRUIT_COLUMNS, SESSION_COLUMNS, BatchProgress, read_tables, run
+from monovisual3d.batch.run import check_not_spawned_import
 from monovisual3d.errors import InputError
 
 
@@ -180,8 +181,12 @@ def test_local_workers_asked_for_while_a_spawned_worker_imports_the_script(
     than the worker's ``__main__``) and would start workers of its own; it stops there with the guard to add, before
     touching the output folder, while a worker-less run and one on a given scheduler are not concerned."""
     monkeypatch.setitem(sys.modules, "__mp_main__", types.ModuleType("__mp_main__"))
+    run_module = sys.modules[check_not_spawned_import.__module__]  # (the package exports the function ``run`` by that name)
+    monkeypatch.setattr(run_module, "_in_main_process", lambda: False)  # a spawned worker
     with pytest.raises(InputError, match=r'workers: .* under `if __name__ == "__main__":`'):
         run([runs], tmp_path / "out", workers=2, **FAST)
     assert not (tmp_path / "out").exists()
     fruit, sessions = run([runs], tmp_path / "in_process", workers=0, **FAST)
     assert set(sessions["status"]) == {"ok"}
+    monkeypatch.setattr(run_module, "_in_main_process", lambda: True)  # a notebook's main process: its own __main__
+    check_not_spawned_import()

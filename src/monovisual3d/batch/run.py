@@ -96,12 +96,20 @@ def _killed_row(job: Job, exc: BaseException, max_deaths: int | None) -> dict[st
 def check_not_spawned_import() -> None:
     """Raise :class:`InputError` when called while a spawned worker process imports the main script (a script that
     starts local workers at its top level, without the ``__main__`` guard): the call would start workers again there."""
-    # multiprocessing's spawn runs the script as ``__mp_main__`` beside the child's own ``__main__``, then makes them one
+    # multiprocessing's spawn runs the script as ``__mp_main__`` beside the child's own ``__main__``, then makes them one;
+    # only in a child process (a notebook replaces ``__main__`` in the main process, leaving the two apart for good)
     mp_main = sys.modules.get("__mp_main__")
-    if mp_main is not None and mp_main is not sys.modules.get("__main__"):
+    if mp_main is not None and mp_main is not sys.modules.get("__main__") and not _in_main_process():
         raise InputError(
             f"workers: local Dask workers asked for while a worker process imports the main script; {MAIN_GUARD_HINT}"
         )
+
+
+def _in_main_process() -> bool:
+    """Whether this is the process Python was started as (not one that multiprocessing started)."""
+    import multiprocessing
+
+    return multiprocessing.current_process().name == "MainProcess"
 
 
 @contextlib.contextmanager
