@@ -18,6 +18,18 @@ if TYPE_CHECKING:
 
 #: Object models of ``BayesConfig.shape``.
 SHAPES = ("auto", "sphere", "spheroid", "ellipsoid")
+#: The on/off options of ``BayesConfig`` (true or false).
+SWITCHES = (
+    "use_masks",
+    "swap",
+    "steal",
+    "regroup",
+    "second_look",
+    "view_assign",
+    "free_orientation",
+    "solids",
+    "one_sided_refit",
+)
 #: Elongated search bins use every this-many-th radius bin: their coarser size steps (~30 % with the default
 #: bins) cost a fraction of a nat per edge, the refinement fixes the size, and the search costs less.
 ELONGATED_RADIUS_STRIDE = 2
@@ -122,6 +134,9 @@ class BayesConfig:
     second_look : bool, with shape auto, after the shape stage grow objects by, and build new ones from, the boxes no
         object holds, where every shape model's fit says so (a lying object broadside in one view, end-on in another,
         for which the search has no hypothesis: :mod:`.second_look`)
+    view_assign : bool, with shape auto, after the second look assign afresh each view's boxes around a free box to the
+        objects there, each judged from its other views, where every shape model's fit says so (a chain of trades in
+        one view, two containers before a tray: :mod:`.view_assign`)
     pose_sigma_mm : float, millimetres, stated 1-sigma error of each view's camera position per axis (0: exact)
     pose_sigma_deg : float, degrees, stated 1-sigma error of each view's camera rotation per axis (0: exact)
     shape : str, object model: sphere, spheroid (two equal semi-axes), ellipsoid (three) or auto (per object by BIC;
@@ -184,6 +199,7 @@ class BayesConfig:
     steal: bool = True
     regroup: bool = True
     second_look: bool = True
+    view_assign: bool = True
     pose_sigma_mm: float = 0.0
     pose_sigma_deg: float = 0.0
     shape: str = "auto"
@@ -247,7 +263,7 @@ class BayesConfig:
             raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
         if not (is_real(self.cut_inward_floor) and math.isfinite(self.cut_inward_floor) and self.cut_inward_floor > 0):
             raise InputError(f"cut_inward_floor: got {self.cut_inward_floor!r}, expected a positive number of nats")
-        for name in ("use_masks", "swap", "steal", "regroup", "second_look", "free_orientation", "solids", "one_sided_refit"):
+        for name in SWITCHES:
             if not (isinstance(getattr(self, name), bool) or type(getattr(self, name)).__name__ == "bool_"):
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
         if self.lazy_last_level is not None and not isinstance(self.lazy_last_level, bool):

@@ -36,6 +36,7 @@ from .search import search
 from .second_look import second_look
 from .shape_swap import shape_swap_pass
 from .shapes import shape_stage
+from .view_assign import view_assignment
 from .view_shift import view_shifts
 
 
@@ -90,6 +91,8 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
         objects = shape_swap_pass(problem, objects)
     if cfg.second_look and cfg.shape == "auto":
         objects = second_look(problem, objects)
+    if cfg.view_assign and cfg.shape == "auto":
+        objects = view_assignment(problem, objects)
     timing["shape"] = time.perf_counter() - t3
     objects, dropped = drop_isolated(problem, objects)
     objects.sort(key=lambda o: -o.score)

@@ -145,7 +145,7 @@ def _fitted_value(
 
 
 @dataclasses.dataclass
-class _Budget:
+class Budget:
     """What the pass may still spend: combinations to screen, and shape fits (each with every model)."""
 
     screened: int = MAX_SCREENED
@@ -159,15 +159,15 @@ class _Budget:
         return True
 
 
-def _fit(
-    problem: Problem, budget: _Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
+def fit_value(
+    problem: Problem, budget: Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
 ) -> tuple[float, DetectedObject | None]:
     """:func:`_fitted_value` (value and fitted object) while the budget lasts (-inf and None after)."""
     return _fit_hiders(problem, budget, seed, assoc, occluders)[:2]
 
 
 def _fit_hiders(
-    problem: Problem, budget: _Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
+    problem: Problem, budget: Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
 ) -> tuple[float, DetectedObject | None, list[int]]:
     """:func:`_fitted_value` while the budget lasts (-inf, None and no hiders after)."""
     if budget.fits <= 0:
@@ -176,11 +176,11 @@ def _fit_hiders(
     return _fitted_value(problem, seed, assoc, occluders)
 
 
-def _bar(problem: Problem, budget: _Budget, o: DetectedObject, others: Sequence[DetectedObject] = ()) -> float:
+def _bar(problem: Problem, budget: Budget, o: DetectedObject, others: Sequence[DetectedObject] = ()) -> float:
     """What ``o`` grown must be worth (nats): ``o`` refitted as it holds its boxes, judged as :func:`_fitted_value`
     judges a fit (so that it wins by its new box, not by the refit), and :data:`.shape_swap.MIN_GAIN_NATS` more; where
     that refit fails or leaves one of its boxes unexplained, ``accept``, as a new object."""
-    value = _fit(problem, budget, o, associations_list(problem, o), others)[0]
+    value = fit_value(problem, budget, o, associations_list(problem, o), others)[0]
     return value + MIN_GAIN_NATS if np.isfinite(value) else problem.config.accept
 
 
@@ -224,12 +224,12 @@ def second_look(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
     :data:`MIN_VIEWS` views by new ones of their boxes and the free ones, where the shape models say so; then find the
     objects hidden behind others in some views (:func:`_uncovered`). The module docstring; at most :data:`MAX_FITS`
     shape fits for the first two parts, as many for the last."""
-    budget = _Budget()
+    budget = Budget()
     objects = _released(problem, _grown_and_new(problem, objects, budget), budget)
-    return _uncovered(problem, objects, _Budget())
+    return _uncovered(problem, objects, Budget())
 
 
-def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: _Budget) -> list[DetectedObject]:
+def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: Budget) -> list[DetectedObject]:
     """Objects grown by free boxes and new objects of free boxes (the module docstring); ``objects`` itself when no
     view holds free boxes or too many combinations would be screened."""
     free = free_boxes(problem, objects)
@@ -244,8 +244,8 @@ def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: _Bud
         if _within(i, assoc, [(k, a) for _, k, a, _, _ in scored]):
             continue
         if i >= 0 and i not in bars:
-            bars[i] = _bar(problem, budget, objects[i], _except(objects, i))
-        value, fitted = _fit(problem, budget, objects[i] if i >= 0 else _new_seed(), assoc, _except(objects, i))
+            bars[i] = _bar(problem, budget, objects[i], others_than(objects, i))
+        value, fitted = fit_value(problem, budget, objects[i] if i >= 0 else _new_seed(), assoc, others_than(objects, i))
         bar = bars[i] if i >= 0 else problem.config.accept
         if fitted is not None and value > bar:
             scored.append((value - bar, i, assoc, fitted, value))
@@ -266,7 +266,7 @@ def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: _Bud
     return out
 
 
-def _released(problem: Problem, objects: list[DetectedObject], budget: _Budget) -> list[DetectedObject]:
+def _released(problem: Problem, objects: list[DetectedObject], budget: Budget) -> list[DetectedObject]:
     """Each object seen in fewer than :data:`MIN_VIEWS` views replaced by new objects of its boxes and the free ones
     (each worth ``accept``, in :data:`MIN_VIEWS` or more views, one of its boxes at least) when together they are worth
     :data:`.shape_swap.MIN_GAIN_NATS` more than it: a ghost of two objects' boxes in two views, whose other boxes
@@ -286,7 +286,7 @@ def _released(problem: Problem, objects: list[DetectedObject], budget: _Budget) 
         for assoc in [combos[k] for k in _by_size(combos)]:
             if _within(-1, assoc, [(-1, a) for _, a, _ in scored]):
                 continue
-            value, fitted = _fit(problem, budget, _new_seed(), assoc, _except(out, i))
+            value, fitted = fit_value(problem, budget, _new_seed(), assoc, others_than(out, i))
             if fitted is not None and value > problem.config.accept:
                 scored.append((value, assoc, fitted))
         chosen, taken, total = [], set(), 0.0
@@ -296,13 +296,13 @@ def _released(problem: Problem, objects: list[DetectedObject], budget: _Budget) 
                 chosen.append(dataclasses.replace(fitted, score=float(value)))
                 taken |= boxes
                 total += value
-        if chosen and total > _fit(problem, budget, out[i], own, _except(out, i))[0] + MIN_GAIN_NATS:
+        if chosen and total > fit_value(problem, budget, out[i], own, others_than(out, i))[0] + MIN_GAIN_NATS:
             out[i] = chosen[0]
             out += chosen[1:]
     return out
 
 
-def _uncovered(problem: Problem, objects: list[DetectedObject], budget: _Budget) -> list[DetectedObject]:
+def _uncovered(problem: Problem, objects: list[DetectedObject], budget: Budget) -> list[DetectedObject]:
     """New objects of free boxes in :data:`MIN_VIEWS_HIDDEN` views, hidden behind a nearer object in every other view
     where they would be in the image (:func:`_hidden`); and new objects of free boxes in that many views or more and
     one box another object holds, which that object gives up. Each is judged with the object it concerns (the one that
@@ -336,7 +336,7 @@ def _uncovered(problem: Problem, objects: list[DetectedObject], budget: _Budget)
         if i >= 0:
             partner = [-1 if j >= 0 and j == assoc[v] else j for v, j in enumerate(partner)]
         if k not in bars:
-            bars[k] = _fit(problem, budget, objects[k], associations_list(problem, objects[k]), _except(objects, k))[0]
+            bars[k] = fit_value(problem, budget, objects[k], associations_list(problem, objects[k]), others_than(objects, k))[0]
         values, pair = _pair(problem, budget, objects, k, assoc, partner)
         gain = values[0] - problem.config.accept + values[1] - bars[k]  # a new object costs ``accept``, as extracted
         if values[0] > problem.config.accept and gain > MIN_GAIN_NATS:
@@ -359,7 +359,7 @@ def _may_hide(problem: Problem, objects: list[DetectedObject], i: int, assoc: li
 
 
 def _pair(
-    problem: Problem, budget: _Budget, objects: list[DetectedObject], k: int, assoc: list[int], partner: list[int]
+    problem: Problem, budget: Budget, objects: list[DetectedObject], k: int, assoc: list[int], partner: list[int]
 ) -> tuple[list[float], list[DetectedObject]]:
     """A new object holding ``assoc`` and object ``k`` holding ``partner`` (over ``problem.views``), fitted and valued
     as a pair (:func:`.shape_swap.pair_values`), each less its misses behind the other objects and the other of the
@@ -371,7 +371,7 @@ def _pair(
     values, pair = pair_values(problem, held)
     if not np.all(np.isfinite(values)):
         return [-np.inf, -np.inf], []
-    others = _except(objects, k)
+    others = others_than(objects, k)
     for n, (o, a) in enumerate(zip(pair, (assoc, partner))):
         values[n] += _misses(problem, as_answer(problem, o), a, [*others, pair[1 - n]]) * problem.model.miss_term
     return values, pair
@@ -417,7 +417,7 @@ def _take(
     return out
 
 
-def _except(objects: Sequence[DetectedObject], i: int) -> list[DetectedObject]:
+def others_than(objects: Sequence[DetectedObject], i: int) -> list[DetectedObject]:
     """``objects`` without the ``i``-th (all of them for ``i`` -1)."""
     return [o for k, o in enumerate(objects) if k != i]
 
