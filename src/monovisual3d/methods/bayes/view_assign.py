@@ -64,6 +64,11 @@ def _group(boxes: NDArray[np.float64], seed: int) -> list[int]:
     return sorted(group)
 
 
+def _pose(problem: Problem, v: int) -> NDArray[np.float64]:
+    """View ``v``'s camera pose ``T_base_optical``, shape (1, 4, 4), as the box predictions take it."""
+    return np.linalg.inv(problem.views[v].T_optical_base)[None]
+
+
 def _judged_from_others(problem: Problem, o: DetectedObject, v: int, budget: Budget) -> Answer | None:
     """``o`` fitted (every model) from its boxes in the views other than ``v``; None from fewer than
     :data:`MIN_OTHER_VIEWS` views, without a fit, or when the budget is spent."""
@@ -95,8 +100,7 @@ def view_assignment(problem: Problem, objects: list[DetectedObject]) -> list[Det
 def _members(problem: Problem, objects: list[DetectedObject], v: int, group: list[int]) -> list[int]:
     """The objects a group of boxes in view ``v`` concerns: those holding one of them, and those without a box in the
     view, in front of the camera, whose box as the shape stage fitted it meets one."""
-    boxes = problem.views[v].boxes
-    pose = np.linalg.inv(problem.views[v].T_optical_base)[None]
+    boxes, pose = problem.views[v].boxes, _pose(problem, v)
     out = []
     for i, o in enumerate(objects):
         j = associations_list(problem, o)[v]
@@ -133,8 +137,8 @@ def _reassigned(
     members = _members(problem, objects, v, group)
     if not members or len(members) > MAX_OBJECTS or not _free_box_fits_one(problem, objects, members, v, group, free):
         return objects
-    pose = np.linalg.inv(problem.views[v].T_optical_base)[None]
     boxes = problem.views[v].boxes
+    poses = np.repeat(_pose(problem, v), len(group), axis=0)  # one per box of the group
     n = len(members)
     score = np.full((n, len(group) + n), IMPOSSIBLE)
     for r, i in enumerate(members):
@@ -143,7 +147,6 @@ def _reassigned(
             held = associations_list(problem, objects[i])[v]
             score[r, group.index(held) if held >= 0 else len(group) + r] = 0.0
             continue
-        poses = np.repeat(pose, len(group), axis=0)
         score[r, : len(group)] = sensor_scores(problem, poses, boxes[group], answer[1], answer[0].extra.get("solid"))
         score[r, len(group) + r] = problem.model.miss_term
     rows, cols = linear_sum_assignment(score, maximize=True)
