@@ -94,18 +94,24 @@ def _cli_kind(annotation: str) -> type:
 
 
 def option_specs() -> list[OptionSpec]:
-    """The options of every registered method, each once (in registry and field order)."""
+    """The options of every registered method, each once (in registry and field order); the fields of a method's
+    option groups (``BayesConfig.sensor``, ``BayesConfig.tuning``) by their own names, after the method's own."""
+    from ..methods.options import _nested_fields
+
     specs: dict[str, OptionSpec] = {}
     for method in METHODS.values():
         cls = method.config_class
-        docs = field_docs(cls)
-        for f in dataclasses.fields(cls):
+        groups = _nested_fields(cls)
+        owners = [(cls, f) for f in dataclasses.fields(cls) if f.name not in groups]
+        owners += [(sub, f) for sub in groups.values() for f in dataclasses.fields(sub)]
+        docs = {c: field_docs(c) for c in {cls, *groups.values()}}
+        for owner, f in owners:
             default = _default_text(f)
             if f.name in specs:
                 old = specs[f.name]
                 specs[f.name] = dataclasses.replace(old, methods=old.methods + (method.name,), defaults=old.defaults + (default,))
                 continue
-            specs[f.name] = OptionSpec(f.name, _cli_kind(str(f.type)), docs.get(f.name, ""), (method.name,), (default,))
+            specs[f.name] = OptionSpec(f.name, _cli_kind(str(f.type)), docs[owner].get(f.name, ""), (method.name,), (default,))
     return list(specs.values())
 
 

@@ -52,13 +52,11 @@ class Method:
         return _load(self.run_path)
 
     def make_config(self, **options: Any) -> Any:
-        """The method's config from keyword options; an unknown option is an error naming the known ones."""
-        cls = self.config_class
-        known = sorted(cls.__dataclass_fields__)
-        unknown = sorted(set(options) - set(known))
-        if unknown:
-            raise InputError(f"{unknown[0]}: not an option of method {self.name!r}, expected one of {known}")
-        return cls(**options)
+        """The method's config from keyword options by name (those of its option groups too, e.g. ``alpha`` of
+        ``BayesConfig.sensor``); an unknown option is an error naming the known ones."""
+        from .options import nested_config
+
+        return nested_config(self.config_class, options, self.name)
 
 
 def _load(path: str) -> Any:

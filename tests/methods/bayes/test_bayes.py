@@ -326,18 +326,21 @@ def test_bad_options_are_clear():
     with pytest.raises(InputError, match=r"lookahead: got 0, expected an integer >= 1"):
         mv.localize(s, lookahead=0)
     with pytest.raises(InputError, match=r"n_radii: got 'abc', expected an integer >= 1"):
-        BayesConfig(n_radii="abc")
+        BayesConfig.from_options(n_radii="abc")
     with pytest.raises(InputError, match=r"accept: got nan, expected a finite number of nats"):
         BayesConfig(accept=float("nan"))
     # numpy scalars and integer-valued floats are fine; a resolution coarser than the first level starts there
-    cfg = BayesConfig(min_views=2.0, n_radii=np.int64(8), radius_min=np.float32(0.01), accept=-1.0)
+    cfg = BayesConfig.from_options(min_views=2.0, n_radii=np.int64(8), radius_min=np.float32(0.01), accept=-1.0)
     assert cfg.min_views == 2 and isinstance(cfg.min_views, int) and cfg.n_radii == 8
-    assert BayesConfig(resolution=0.05).search_start == 0.05 and BayesConfig(coarse_resolution=0.005).search_start == 0.01
+    assert (
+        BayesConfig(resolution=0.05).search_start == 0.05
+        and BayesConfig.from_options(coarse_resolution=0.005).search_start == 0.01
+    )
     coarse = mv.localize(s, resolution=0.05)
     assert len(coarse.objects) == 1 and coarse.diagnostics["cell_size"] == 0.05
     assert np.linalg.norm(coarse.objects[0].position - TARGET) < 0.002
     with pytest.raises(InputError, match=r"prune_slack: got nan, expected a finite number >= 0"):
-        BayesConfig(prune_slack=float("nan"))
+        BayesConfig.from_options(prune_slack=float("nan"))
 
 
 def test_single_view_localises_nothing_with_warning():

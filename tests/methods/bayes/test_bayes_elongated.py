@@ -136,17 +136,17 @@ def test_compiled_spheroid_box_residuals_match_the_numpy_reference(distortion):
 
 
 def test_elongations_option_is_checked_and_builds_the_bins():
-    cfg = BayesConfig(elongations="2, 1")
-    assert cfg.elongations == (1.0, 2.0)
+    cfg = BayesConfig.from_options(elongations="2, 1")
+    assert cfg.tuning.elongations == (1.0, 2.0)
     across, along = cfg.hypothesis_bins
     assert_allclose(across[: cfg.n_radii], cfg.radii)
     assert_allclose(along[: cfg.n_radii], cfg.radii)
     assert_allclose(along[cfg.n_radii :], 2 * across[cfg.n_radii :])
     assert along.max() <= cfg.semi_axis_range[1] + 1e-12
-    assert len(BayesConfig(elongations=(1,)).hypothesis_bins[0]) == cfg.n_radii
+    assert len(BayesConfig.from_options(elongations=(1,)).hypothesis_bins[0]) == cfg.n_radii
     for bad in ("0.5", "1,x", "", (True,)):
         with pytest.raises(InputError, match="elongations: got .*expected numbers >= 1"):
-            BayesConfig(elongations=bad)
+            BayesConfig.from_options(elongations=bad)
 
 
 def test_single_upright_container_near_the_axis_is_found_in_every_seed():
@@ -189,7 +189,7 @@ def test_numba_kernel_matches_numpy_reference_for_bins_with_their_own_axes(disto
     cam, T_ob, boxes, rng = noisy_ellipsoid_views(distortion, 12, LYING_CONTAINER, rotation_upright(0.7))
     avail = [np.ones(len(b), bool) for b in boxes]
     centres = TARGET + rng.uniform(-0.15, 0.15, (400, 3))
-    cfg = BayesConfig(lying_yaws=3)
+    cfg = BayesConfig.from_options(lying_yaws=3)
     radii, semi_up = cfg.hypothesis_bins
     axes = cfg.hypothesis_axes
     model, blur = SensorModel(), 0.004
@@ -226,10 +226,10 @@ def test_the_search_scores_lying_bins_alike_with_either_backend():
 
 
 def test_lying_yaws_option_builds_horizontal_bins_and_is_checked():
-    cfg = BayesConfig(lying_yaws=4)
+    cfg = BayesConfig.from_options(lying_yaws=4)
     across, along = cfg.hypothesis_bins
     axes = cfg.hypothesis_axes
-    upright = BayesConfig(lying_yaws=0)
+    upright = BayesConfig.from_options(lying_yaws=0)
     n_upright, n_elongated = len(upright.hypothesis_bins[0]), len(upright.hypothesis_bins[0]) - cfg.n_radii
     assert len(across) == n_upright + 4 * n_elongated
     assert_allclose(np.linalg.norm(axes, axis=1), 1.0)
@@ -239,14 +239,14 @@ def test_lying_yaws_option_builds_horizontal_bins_and_is_checked():
     assert_allclose(yaws, [0.0, 45.0, 90.0, 135.0], atol=1e-9)
     assert_allclose(along[n_upright:], np.tile(along[cfg.n_radii : n_upright], 4))
     assert_allclose(BayesConfig(up="1,0,0").lying_axes @ [1.0, 0.0, 0.0], 0.0, atol=1e-12)
-    assert len(BayesConfig(elongations=(1,), lying_yaws=4).hypothesis_bins[0]) == cfg.n_radii
-    across, along = BayesConfig(lying_elongations="3, 2").hypothesis_bins
+    assert len(BayesConfig.from_options(elongations=(1,), lying_yaws=4).hypothesis_bins[0]) == cfg.n_radii
+    across, along = BayesConfig.from_options(lying_elongations="3, 2").hypothesis_bins
     assert_allclose(np.unique(np.round(along[n_upright:] / across[n_upright:], 9)), [2.0, 3.0])
     with pytest.raises(InputError, match="lying_elongations: got .*expected numbers >= 1"):
-        BayesConfig(lying_elongations="0.5")
+        BayesConfig.from_options(lying_elongations="0.5")
     for bad in (-1, 1.5, "x"):
         with pytest.raises(InputError, match="lying_yaws: got .*expected an integer >= 0"):
-            BayesConfig(lying_yaws=bad)
+            BayesConfig.from_options(lying_yaws=bad)
 
 
 def test_single_lying_container_is_found_in_every_seed():
@@ -287,7 +287,7 @@ def test_flat_tray_seen_from_near_its_height_is_found(elevation_deg, yaw_deg):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         found = run(session, BayesConfig())
-        small = run(session, BayesConfig(radius_max=0.08, second_look=False))
+        small = run(session, BayesConfig.from_options(radius_max=0.08, second_look=False))
         rescued = run(session, BayesConfig(radius_max=0.08))
     assert len(found.objects) == 1
     assert np.linalg.norm(found.objects[0].position - c) < 0.012
@@ -325,5 +325,5 @@ def test_radius_bins_default_to_steps_of_about_15_percent():
     assert (cfg.radius_min, cfg.radius_max, cfg.n_radii) == (0.01, 0.16, 21)
     assert_allclose(cfg.radii[:16], BayesConfig(radius_max=0.08).radii)  # the old 10-80 mm bins, then five more
     assert BayesConfig(size_range=(0.02, 0.15)).n_radii == 16
-    assert BayesConfig(radius_max=0.08, n_radii=8).n_radii == 8
+    assert BayesConfig.from_options(radius_max=0.08, n_radii=8).n_radii == 8
     assert_allclose(cfg.radii[1:] / cfg.radii[:-1], 2.0**0.2)

@@ -109,8 +109,8 @@ def test_the_one_sided_refit_options_are_checked_and_on_the_cli():
     from monovisual3d.methods.bayes import BayesConfig
 
     with pytest.raises(InputError, match="cut_inward_floor"):
-        BayesConfig(cut_inward_floor=0.0)
+        BayesConfig.from_options(cut_inward_floor=0.0)
     with pytest.raises(InputError, match="one_sided_refit"):
-        BayesConfig(one_sided_refit="yes")
+        BayesConfig.from_options(one_sided_refit="yes")
     flags = {s.flag for s in option_specs()}
     assert {"--cut-inward-floor", "--one-sided-refit"} <= flags

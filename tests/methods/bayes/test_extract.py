@@ -20,7 +20,8 @@ from monovisual3d.methods.bayes.search import last_level, search
 
 def _search(problem, grid, lazy_last_level):
     """:func:`search` with ``BayesConfig.lazy_last_level`` set."""
-    return search(replace(problem, config=replace(problem.config, lazy_last_level=lazy_last_level)), grid)
+    config = replace(problem.config, tuning=replace(problem.config.tuning, lazy_last_level=lazy_last_level))
+    return search(replace(problem, config=config), grid)
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +77,7 @@ def test_the_last_level_split_by_the_extraction_takes_the_same_objects_with_less
 def test_the_last_level_is_left_to_the_extraction_only_where_it_fits_the_budget(dense_row):
     """A last level over the hypothesis budget is scored by the search in chunks (``capped``), never held whole."""
     problem, grid = dense_row
-    small = replace(problem, config=replace(problem.config, max_hypotheses=5_000))
+    small = replace(problem, config=replace(problem.config, tuning=replace(problem.config.tuning, max_hypotheses=5_000)))
     hyp = _search(small, grid, True)
     assert hyp.child_cell is None and hyp.capped and hyp.cell == problem.config.resolution
     assert len(extract(small, hyp)[0]) >= 10
@@ -137,5 +138,5 @@ def test_lazy_last_level_is_checked():
     from monovisual3d.errors import InputError
 
     with pytest.raises(InputError, match=r"lazy_last_level: got 'yes', expected true, false or null"):
-        BayesConfig(lazy_last_level="yes")
-    assert BayesConfig(lazy_last_level=None).lazy_last_level is None
+        BayesConfig.from_options(lazy_last_level="yes")
+    assert BayesConfig.from_options(lazy_last_level=None).tuning.lazy_last_level is None

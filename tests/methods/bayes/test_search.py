@@ -75,9 +75,9 @@ def test_box_dominated_never_drops_the_best_user_of_a_box_and_inf_drops_nothing(
 
 def test_dominance_margin_is_checked():
     with pytest.raises(InputError, match=r"dominance_margin: got nan, expected a number of nats >= 0"):
-        BayesConfig(dominance_margin=float("nan"))
+        BayesConfig.from_options(dominance_margin=float("nan"))
     with pytest.raises(InputError, match=r"dominance_margin: got -1"):
-        BayesConfig(dominance_margin=-1)
+        BayesConfig.from_options(dominance_margin=-1)
 
 
 def test_dropping_dominated_hypotheses_keeps_the_objects_of_a_dense_row():
@@ -89,8 +89,10 @@ def test_dropping_dominated_hypotheses_keeps_the_objects_of_a_dense_row():
 
     session, _ = row_session(24, 4, 11)
     n_scored = []
-    for margin in (BayesConfig().dominance_margin, float("inf")):
-        config = BayesConfig(use_masks=False, dominance_margin=margin, lazy_last_level=False)  # every level in the search
+    for margin in (BayesConfig().tuning.dominance_margin, float("inf")):
+        config = BayesConfig.from_options(
+            use_masks=False, dominance_margin=margin, lazy_last_level=False
+        )  # every level in the search
         problem = build_problem(session.camera, config, session.views)
         n_scored.append(search(problem, region_grid(problem.config, session.workspace, session.views[0])).n_scored)
     assert n_scored[0] < 0.6 * n_scored[1]

@@ -165,7 +165,7 @@ def _steal_candidates(problem: Problem, hyp: Hypotheses, taken: Taken) -> NDArra
     cfg = problem.config
     total0, n0, _ = hyp.scores
     n_free, n_held = _box_counts(problem, hyp, taken)
-    return (total0 >= cfg.accept - cfg.prune_slack) & (n0 >= cfg.min_views) & (n_free >= 1) & (n_held >= 1)
+    return (total0 >= cfg.accept - cfg.tuning.prune_slack) & (n0 >= cfg.min_views) & (n_free >= 1) & (n_held >= 1)
 
 
 def _replacement(problem: Problem, o: DetectedObject, v: int, free: NDArray[np.bool_], used: set[tuple[int, int]]) -> int:
@@ -274,7 +274,7 @@ def steal_pass(
     total0, _, assoc0 = hyp.scores
     centres, radii = hyp.centres_base, hyp.radii
     tried = np.zeros(len(centres), dtype=bool)
-    for _ in range(max(cfg.lookahead, len(objects) // OBJECTS_PER_STEAL_CANDIDATE)):
+    for _ in range(max(cfg.tuning.lookahead, len(objects) // OBJECTS_PER_STEAL_CANDIDATE)):
         sc = np.where(ok & ~tried[:, None], total0, -np.inf)
         if not np.isfinite(sc.max(initial=-np.inf)):
             break

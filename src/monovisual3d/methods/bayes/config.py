@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from ...checks import is_real
 from ...errors import InputError
 from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M, MIN_SEARCH_RESOLUTION_M
-from ..options import check_shared_options
+from ..options import check_shared_options, nested_config, plain_options
 from .sensor import SensorModel
 
 if TYPE_CHECKING:
@@ -18,18 +18,8 @@ if TYPE_CHECKING:
 
 #: Object models of ``BayesConfig.shape``.
 SHAPES = ("auto", "sphere", "spheroid", "ellipsoid")
-#: The on/off options of ``BayesConfig`` (true or false).
-SWITCHES = (
-    "use_masks",
-    "swap",
-    "steal",
-    "regroup",
-    "second_look",
-    "view_assign",
-    "free_orientation",
-    "solids",
-    "one_sided_refit",
-)
+#: The on/off switches of :class:`BayesTuning` (true or false).
+SWITCHES = ("swap", "steal", "regroup", "shape_swap", "second_look", "view_assign", "one_sided_refit")
 #: Elongated search bins use every this-many-th radius bin: their coarser size steps (~30 % with the default
 #: bins) cost a fraction of a nat per edge, the refinement fixes the size, and the search costs less.
 ELONGATED_RADIUS_STRIDE = 2
@@ -45,6 +35,20 @@ FIT_SEMI_AXIS_RANGE_M = (0.005, 0.16)
 DIVERGED_RADIUS_FACTOR = 2.0
 #: Compute backends of the ``bayes`` method: the fused numba kernels (default) and the numpy reference.
 BACKENDS = ("numba", "numpy")
+
+
+def _is_bool(value: Any) -> bool:
+    """Whether ``value`` is true or false (a numpy bool too)."""
+    return isinstance(value, bool) or type(value).__name__ == "bool_"
+
+
+def _nested(value: Any, cls: type, name: str) -> Any:
+    """A nested options object: ``value`` itself, or built from a mapping of its fields (a config read from JSON)."""
+    if isinstance(value, cls):
+        return value
+    if isinstance(value, dict):
+        return nested_config(cls, value, name)
+    raise InputError(f"{name}: got {type(value).__name__}, expected a {cls.__name__} or a mapping of its fields")
 
 
 def _floats(value: Any, n: int, name: str, expected: str) -> NDArray[np.float64]:
@@ -66,128 +70,59 @@ def _floats(value: Any, n: int, name: str, expected: str) -> NDArray[np.float64]
 
 
 @dataclass(frozen=True)
-class BayesConfig:
-    """Options of the ``bayes`` method.
+class BayesTuning:
+    """The ``bayes`` method's developer knobs: search effort, shape bins and the passes' on/off switches.
+
+    Not options a user decides (the defaults are the method; ``docs/decisions/`` says why each is what it is): they
+    exist to measure what a part of the method is worth (an ablation) and to trade effort for speed in a study. Not
+    on the command line's option list; set them from Python (``BayesConfig(tuning=BayesTuning(...))``), or by name
+    where a method's options are given as ``name=value`` (``localize --set``, ``batch --option``).
 
     Attributes
     ----------
-    resolution : float, metres, cell size of the scored grid (accuracy comes from the continuous refinement;
-        0.02 is ~15% faster but lost fruit under occlusion with noisy boxes in the accuracy benchmark)
     coarse_resolution : float, metres, cell size of the first search level (``resolution`` if that is coarser;
         coarser still when the workspace would not fit in ``max_memory``)
-    radius_min : float, metres, smallest object radius
-    radius_max : float, metres, largest object radius of the search (160 mm, as the shape fits' largest semi-axis: the
-        search scores its other shapes only where a sphere passes at its first level, and a flat 20 x 16 x 3 cm tray
-        seen from near its own height passed with no sphere under 80 mm: ``benchmarks/container_pairs.py ... --tray``)
     n_radii : int or None, log-spaced radius bins between radius_min and radius_max (None: neighbours about 15 %
-        apart: 21 bins over the default 10-160 mm, 16 over 20-150 mm, 19 over 10-120 mm; fitted radii are accepted up
-        to twice radius_max, as before)
+        apart, :data:`RADIUS_BIN_RATIO`)
     elongations : tuple or str, ratios (>= 1) of the semi-axis along ``up`` to the one across it of the search's
-        hypotheses, e.g. "1,2.5": every second radius bin is also scored as upright spheroids of these elongations
-        (bins longer along ``up`` than the largest semi-axis of size_range are left out), so a tall box (bottle, container, hanging
-        cucumber) is explained from the start; "1" searches spheres only
+        hypotheses, e.g. "1,2.5": every second radius bin is also scored as upright spheroids of these elongations,
+        so a tall box (bottle, container, hanging cucumber) is explained from the start; "1" searches spheres only
     lying_yaws : int, yaws (evenly over 180 degrees about ``up``) at which each elongated bin is also scored lying, its
-        long axis horizontal: a can, a box or a tray on its side, whose wide box neither a sphere nor an upright
-        spheroid explains (0: upright bins only). The first search level scores them only in cells whose passing sphere
-        bins use a box at least 1.3 times wider than tall (``search.LYING_MIN_BOX_ASPECT``); later levels prune them as
-        the upright bins are
-    lying_elongations : tuple or str or None, ratios (> 1) of the long semi-axis to the across one of the lying bins,
-        e.g. "2,3" (None: those of ``elongations``)
+        long axis horizontal (a can, a box or a tray on its side; 0: upright bins only)
+    lying_elongations : tuple or str or None, ratios (> 1) of the long semi-axis to the across one of the lying bins
+        (None: those of ``elongations``)
     elongation_cost : float, nats: what an elongated hypothesis pays against a sphere (the Occam factor of its extra
-        shape parameter), so chance alignments of false-positive boxes do not pass as elongated objects
+        shape parameter)
     elongation_slack : float, nats: at each search level an elongated bin is refined further only where its box
-        evidence (before elongation_cost) is at least the cell's best sphere bin's minus this (round objects drop
-        their elongated bins early)
-    reach : float, metres, manipulator reach R (a cube of side 2R in front of the first view) when the session has no workspace
-    accept : float, nats, minimum refined score of a reported object; raise it (e.g. 12) when the detector gives
-        false positives, at the cost of missing occluded fruit
-    min_views : int, minimum number of views with an associated box
-    use_masks : bool, use instance masks in the refinement when detections carry them
-    alpha : float, sensor model: edge noise as a fraction of the box size
-    sigma0_px : float, sensor model: edge noise floor, pixels
-    inward_floor : float, sensor model: log-likelihood floor of an edge inside the predicted box (occlusion)
-    outward_floor : float, sensor model: log-likelihood floor of an edge outside the predicted box
-    match_bonus : float, sensor model: nats per matched box
-    p_miss : float, sensor model: probability that a visible object has no box
-    border_px : float, sensor model: box edges this close to the image border are censored (truncated)
-    gate_sigmas : float, sensor model: a box is associable only if it meets the predicted box widened by this many
-        edge-noise sigmas
+        evidence is at least the cell's best sphere bin's minus this
     prune_slack : float, nats: at each search level, cells whose best score is below ``accept - prune_slack`` are dropped
-    dominance_margin : float, nats: at each search level, a hypothesis whose every box is also used by another
-        hypothesis scoring more than this above it is dropped (explained away before extraction; inf: never)
+    dominance_margin : float, nats: a hypothesis whose every box is also used by another scoring more than this above
+        it is dropped in the search (inf: never)
     lookahead : int, at each extraction step refine up to this many distinct candidates near the best grid score and
         keep the best refined one (1 = plain greedy); the steal pass also tries this many
     lookahead_margin : float, nats: candidates of the look-ahead score within this of the best
-    max_hypotheses : int, cap on the (cell, radius) hypotheses scored at one search level (the memory budget may lower it;
-        the best-scoring cells are kept)
+    max_hypotheses : int, cap on the hypotheses scored at one search level (the memory budget may lower it)
     radius_margin_bins : int, radius bins a child cell inherits on each side of those its parent kept
-    lazy_last_level : bool or None: leave the search's last level to the extraction, which scores a cell's children only
-        when the cell nears the best (the same objects on every benchmark, less work in a dense scene; never over the
-        hypothesis budget); None: where that level would hold more than ``search.LAZY_LAST_LEVEL_ABOVE`` hypotheses
-    swap : bool, after extraction, swap the boxes of overlapping objects in a view when that fits both better; after the
-        shape stage (``shape`` auto), trade a view's boxes between, or refit, two objects side by side, one of them tall,
-        when the shape models prefer it (:mod:`.shape_swap`)
-    steal : bool, after extraction, give a fruit back the box a neighbour took when the neighbour can do without it
-    regroup : bool, after the steal pass, extract again an object and the neighbours holding the boxes that other
-        hypotheses on its boxes want, as if its boxes were different objects' or one were wrong, where that explains better
-        (three fruit's boxes taken as one object: :mod:`.regroup`); not run when the last search level is lazy
-    second_look : bool, with shape auto, after the shape stage grow objects by, and build new ones from, the boxes no
-        object holds, where every shape model's fit says so (a lying object broadside in one view, end-on in another,
-        for which the search has no hypothesis: :mod:`.second_look`)
-    view_assign : bool, with shape auto, after the second look assign afresh each view's boxes around a free box to the
-        objects there, each judged from its other views, where every shape model's fit says so (a chain of trades in
-        one view, two containers before a tray: :mod:`.view_assign`)
-    pose_sigma_mm : float, millimetres, stated 1-sigma error of each view's camera position per axis (0: exact)
-    pose_sigma_deg : float, degrees, stated 1-sigma error of each view's camera rotation per axis (0: exact)
-    shape : str, object model: sphere, spheroid (two equal semi-axes), ellipsoid (three) or auto (per object by BIC;
-        round fruit stay spheres)
-    size_range : tuple or str or None, metres, (min, max) object size as a semi-axis length, e.g. "0.01,0.12": it sets
-        radius_min/radius_max of the search and the largest semi-axis of a shape fit; a fitted semi-axis may be
-        smaller than min, down to 5 mm (a flat object's half-thickness, :attr:`semi_axis_range`). Default: semi-axes of
-        5-160 mm (cherry tomatoes to cucumbers, trays) and search radii radius_min-radius_max
-    up : tuple or str, base frame vertical of the upright spheroid/ellipsoid models, e.g. "0,0,1"
-    free_orientation : bool, fit the spheroid/ellipsoid orientation freely instead of upright plus yaw (needs views
-        that constrain it, e.g. 4 or more around the fruit)
-    solids : bool, with shape auto also fit upright cylinders and cuboids (cans, bottles, boxes, containers: their exact
-        boxes) and keep one when the boxes clearly prefer it (default on); ellipsoids put such an object's centre about
-        3 mm low when seen from above
+    lazy_last_level : bool or None: leave the search's last level to the extraction, which scores a cell's children
+        only when the cell nears the best; None: where that level would be large (``search.LAZY_LAST_LEVEL_ABOVE``)
+    swap : bool, the swap pass: two overlapping objects trade their boxes in a view where both fit better
+    steal : bool, the steal pass: a fruit gets back the box a neighbour took when the neighbour can do without it
+    regroup : bool, the regroup pass: an object whose boxes are several fruit's is extracted again with its neighbours
+    shape_swap : bool, the shape-swap pass: pairs judged with the shape models trade boxes or are refitted together
+    second_look : bool, the second look: objects grown by, and built from, the boxes no object holds
+    view_assign : bool, the view assignment: one view's boxes around a free box assigned afresh
     one_sided_refit : bool, the final refit of a sphere seen in 3 or more views scores an edge inside its prediction
-        (occlusion only shrinks a box: a leaf's cut) with a flat tail after ``cut_inward_floor`` nats, one outside with
-        ``outward_floor`` (off: the extraction's symmetric loss, ``inward_floor`` on both sides)
-    cut_inward_floor : float, nats, the inward floor of ``one_sided_refit`` (chosen on simulated greenhouse seeds
-        2000-2029, not the benchmark's: see ``methods/bayes/shapes.py``)
-    isolated_margin : float, metres: an object seen in two views whose depth lies more than this outside the depths of
-        the objects seen in three or more (at least 3 of them), in both its views, is dropped: false-positive boxes whose
-        rays meet away from the scene; one seen in three views when it lies outside the others' depths by more than
-        this and more than their depth range (:mod:`.isolated`; inf: never)
-    backend : str, numba (fused compiled kernels) or numpy (the readable reference)
-    threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
-    max_memory : int or str, bytes (or text such as 2GiB): memory budget of the call
+        (a leaf's cut) with a flat tail after ``cut_inward_floor`` nats (off: the symmetric loss)
+    cut_inward_floor : float, nats, the inward floor of ``one_sided_refit``
     """
 
-    resolution: float = 0.01
     coarse_resolution: float = 0.04
-    radius_min: float = 0.01
-    radius_max: float = 0.16
     n_radii: int | None = None
     elongations: tuple[float, ...] | str = (1.0, 2.5)
     lying_yaws: int = 4
     lying_elongations: tuple[float, ...] | str | None = None
     elongation_cost: float = 2.0
     elongation_slack: float = 0.0
-    reach: float = DEFAULT_REACH_M
-    accept: float = 8.0
-    min_views: int = 2
-    use_masks: bool = True
-    # the sensor model's fields, flat here so they are options of the method; defaults from SensorModel
-    alpha: float = SensorModel.alpha
-    sigma0_px: float = SensorModel.sigma0_px
-    inward_floor: float = SensorModel.inward_floor
-    outward_floor: float = SensorModel.outward_floor
-    match_bonus: float = SensorModel.match_bonus
-    p_miss: float = SensorModel.p_miss
-    border_px: float = SensorModel.border_px
-    gate_sigmas: float = SensorModel.gate_sigmas
     prune_slack: float = 2.0
     dominance_margin: float = 10.0
     lookahead: int = 3
@@ -198,28 +133,19 @@ class BayesConfig:
     swap: bool = True
     steal: bool = True
     regroup: bool = True
+    shape_swap: bool = True
     second_look: bool = True
     view_assign: bool = True
-    pose_sigma_mm: float = 0.0
-    pose_sigma_deg: float = 0.0
-    shape: str = "auto"
-    size_range: tuple[float, float] | str | None = None
-    up: tuple[float, float, float] | str = (0.0, 0.0, 1.0)
-    free_orientation: bool = False
-    solids: bool = True
     one_sided_refit: bool = True
     cut_inward_floor: float = 1.5
-    isolated_margin: float = 0.1
-    backend: str = "numba"
-    threads: int | None = None
-    max_memory: int | str = DEFAULT_MAX_BYTES
 
     def __post_init__(self) -> None:
-        self._check_shape_fields()
-        for name in ("n_radii", "lookahead", "min_views", "max_hypotheses"):
+        self._check_elongations()
+        self._check_elongations("lying_elongations")
+        for name in ("n_radii", "lookahead", "max_hypotheses"):
             v = getattr(self, name)
             if name == "n_radii" and v is None:
-                continue  # set from the radius range below
+                continue  # set from the radius range by BayesConfig
             if not (is_real(v) and float(v).is_integer() and v >= 1):
                 raise InputError(f"{name}: got {v!r}, expected an integer >= 1")
             object.__setattr__(self, name, int(v))
@@ -228,50 +154,22 @@ class BayesConfig:
             if not (is_real(v) and float(v).is_integer() and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected an integer >= 0")
             object.__setattr__(self, name, int(v))
-        for name in ("radius_min", "radius_max", "resolution", "coarse_resolution", "reach"):
-            v = getattr(self, name)
-            if not (is_real(v) and math.isfinite(v) and v > 0):
-                raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
-        if self.resolution < MIN_SEARCH_RESOLUTION_M:
-            raise InputError(
-                f"resolution: got {self.resolution:g} m, finer than the {MIN_SEARCH_RESOLUTION_M:g} m accepted "
-                "(each halving adds a search level; the refinement, not the grid, gives the accuracy)"
-            )
-        if not self.radius_min < self.radius_max:
-            raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
-        if self.n_radii is None:
-            steps = math.log(self.radius_max / self.radius_min) / math.log(RADIUS_BIN_RATIO)
-            object.__setattr__(self, "n_radii", math.ceil(steps - 1e-9) + 1)
-        for name in (
-            "pose_sigma_mm",
-            "pose_sigma_deg",
-            "prune_slack",
-            "lookahead_margin",
-            "elongation_slack",
-            "elongation_cost",
-        ):
+        v = self.coarse_resolution
+        if not (is_real(v) and math.isfinite(v) and v > 0):
+            raise InputError(f"coarse_resolution: got {v!r}, expected a positive number of metres")
+        for name in ("prune_slack", "lookahead_margin", "elongation_slack", "elongation_cost"):
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
-        if not (is_real(self.isolated_margin) and self.isolated_margin >= 0):
-            raise InputError(f"isolated_margin: got {self.isolated_margin!r}, expected a number of metres >= 0 (inf: never)")
         if not (is_real(self.dominance_margin) and self.dominance_margin >= 0):
             raise InputError(f"dominance_margin: got {self.dominance_margin!r}, expected a number of nats >= 0 (inf: never)")
-        if not (is_real(self.accept) and math.isfinite(self.accept)):
-            raise InputError(f"accept: got {self.accept!r}, expected a finite number of nats")
-        if self.min_views < 2:
-            raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
         if not (is_real(self.cut_inward_floor) and math.isfinite(self.cut_inward_floor) and self.cut_inward_floor > 0):
             raise InputError(f"cut_inward_floor: got {self.cut_inward_floor!r}, expected a positive number of nats")
         for name in SWITCHES:
-            if not (isinstance(getattr(self, name), bool) or type(getattr(self, name)).__name__ == "bool_"):
+            if not _is_bool(getattr(self, name)):
                 raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
         if self.lazy_last_level is not None and not isinstance(self.lazy_last_level, bool):
             raise InputError(f"lazy_last_level: got {self.lazy_last_level!r}, expected true, false or null (by size)")
-        if self.backend not in BACKENDS:
-            raise InputError(f"backend: got {self.backend!r}, expected one of {list(BACKENDS)} for method 'bayes'")
-        check_shared_options(self)
-        self.sensor  # validates the sensor fields  # noqa: B018
 
     def _check_elongations(self, name: str = "elongations") -> None:
         value = getattr(self, name)
@@ -286,9 +184,124 @@ class BayesConfig:
             raise InputError(f"{name}: got {str(value)[:60]!r}, expected numbers >= 1, e.g. 1,2,4")
         object.__setattr__(self, name, tuple(sorted(set(q))))
 
+
+@dataclass(frozen=True)
+class BayesConfig:
+    """Options of the ``bayes`` method.
+
+    Attributes
+    ----------
+    resolution : float, metres, cell size of the scored grid (accuracy comes from the continuous refinement)
+    radius_min : float, metres, smallest object radius of the search (``size_range`` sets it)
+    radius_max : float, metres, largest object radius of the search (``size_range`` sets it)
+    reach : float, metres, manipulator reach R (a cube of side 2R in front of the first view) when the session has no workspace
+    accept : float, nats, minimum refined score of a reported object; raise it (e.g. 12) when the detector gives
+        false positives, at the cost of missing occluded fruit
+    min_views : int, minimum number of views with an associated box
+    use_masks : bool, use instance masks in the refinement when detections carry them
+    pose_sigma_mm : float, millimetres, stated 1-sigma error of each view's camera position per axis (0: exact)
+    pose_sigma_deg : float, degrees, stated 1-sigma error of each view's camera rotation per axis (0: exact)
+    shape : str, object model: sphere, spheroid (two equal semi-axes), ellipsoid (three) or auto (per object by BIC;
+        round fruit stay spheres)
+    size_range : tuple or str or None, metres, (min, max) object size as a semi-axis length, e.g. "0.01,0.12": it sets
+        radius_min/radius_max of the search and the largest semi-axis of a shape fit; a fitted semi-axis may be
+        smaller than min, down to 5 mm (a flat object's half-thickness, :attr:`semi_axis_range`). Default: semi-axes of
+        5-160 mm (cherry tomatoes to cucumbers, trays) and search radii radius_min-radius_max
+    up : tuple or str, base frame vertical of the upright spheroid/ellipsoid models, e.g. "0,0,1"
+    free_orientation : bool, fit the spheroid/ellipsoid orientation freely instead of upright plus yaw (needs views
+        that constrain it, e.g. 4 or more around the fruit)
+    solids : bool, with shape auto also fit upright cylinders and cuboids (cans, bottles, boxes, containers: their exact
+        boxes) and keep one when the boxes clearly prefer it
+    isolated_margin : float, metres: an object seen in two views whose depth lies more than this outside the depths of
+        the objects seen in three or more is dropped (false-positive boxes whose rays meet away from the scene;
+        :mod:`.isolated`; inf: never)
+    backend : str, numba (fused compiled kernels) or numpy (the readable reference)
+    threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
+    max_memory : int or str, bytes (or text such as 2GiB): memory budget of the call
+    sensor : SensorModel, the box likelihood's parameters (edge noise, floors, miss probability...); its fields are
+        options too (``alpha``, ``sigma0_px``, ...)
+    tuning : BayesTuning, developer knobs (search effort, shape bins, the passes' switches)
+    """
+
+    resolution: float = 0.01
+    radius_min: float = 0.01
+    radius_max: float = 0.16
+    reach: float = DEFAULT_REACH_M
+    accept: float = 8.0
+    min_views: int = 2
+    use_masks: bool = True
+    pose_sigma_mm: float = 0.0
+    pose_sigma_deg: float = 0.0
+    shape: str = "auto"
+    size_range: tuple[float, float] | str | None = None
+    up: tuple[float, float, float] | str = (0.0, 0.0, 1.0)
+    free_orientation: bool = False
+    solids: bool = True
+    isolated_margin: float = 0.1
+    backend: str = "numba"
+    threads: int | None = None
+    max_memory: int | str = DEFAULT_MAX_BYTES
+    sensor: SensorModel = field(default_factory=SensorModel)
+    tuning: BayesTuning = field(default_factory=BayesTuning)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "sensor", _nested(self.sensor, SensorModel, "sensor"))
+        object.__setattr__(self, "tuning", _nested(self.tuning, BayesTuning, "tuning"))
+        self._check_shape_fields()
+        v = self.min_views
+        if not (is_real(v) and float(v).is_integer() and v >= 1):
+            raise InputError(f"min_views: got {v!r}, expected an integer >= 1")
+        object.__setattr__(self, "min_views", int(v))
+        for name in ("radius_min", "radius_max", "resolution", "reach"):
+            v = getattr(self, name)
+            if not (is_real(v) and math.isfinite(v) and v > 0):
+                raise InputError(f"{name}: got {v!r}, expected a positive number of metres")
+        if self.resolution < MIN_SEARCH_RESOLUTION_M:
+            raise InputError(
+                f"resolution: got {self.resolution:g} m, finer than the {MIN_SEARCH_RESOLUTION_M:g} m accepted "
+                "(each halving adds a search level; the refinement, not the grid, gives the accuracy)"
+            )
+        if not self.radius_min < self.radius_max:
+            raise InputError(f"radius_min/radius_max: got {self.radius_min}/{self.radius_max}, expected 0 < min < max (metres)")
+        if self.tuning.n_radii is None:
+            steps = math.log(self.radius_max / self.radius_min) / math.log(RADIUS_BIN_RATIO)
+            object.__setattr__(self, "tuning", replace(self.tuning, n_radii=math.ceil(steps - 1e-9) + 1))
+        for name in ("pose_sigma_mm", "pose_sigma_deg"):
+            v = getattr(self, name)
+            if not (is_real(v) and math.isfinite(v) and v >= 0):
+                raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
+        if not (is_real(self.isolated_margin) and self.isolated_margin >= 0):
+            raise InputError(f"isolated_margin: got {self.isolated_margin!r}, expected a number of metres >= 0 (inf: never)")
+        if not (is_real(self.accept) and math.isfinite(self.accept)):
+            raise InputError(f"accept: got {self.accept!r}, expected a finite number of nats")
+        if self.min_views < 2:
+            raise InputError(f"min_views: got {self.min_views}, expected >= 2 (one view cannot fix depth)")
+        for name in ("use_masks", "free_orientation", "solids"):
+            if not _is_bool(getattr(self, name)):
+                raise InputError(f"{name}: got {getattr(self, name)!r}, expected true or false")
+        if self.backend not in BACKENDS:
+            raise InputError(f"backend: got {self.backend!r}, expected one of {list(BACKENDS)} for method 'bayes'")
+        check_shared_options(self)
+
+    @classmethod
+    def from_options(cls, **options: Any) -> BayesConfig:
+        """A config from options by name, those of :attr:`sensor` and :attr:`tuning` included (``alpha=0.06``,
+        ``swap=False``): what ``localize(session, **options)`` and the command line's ``name=value`` options give.
+
+        Examples
+        --------
+        >>> cfg = BayesConfig.from_options(accept=12, alpha=0.06, swap=False)
+        >>> cfg.accept, cfg.sensor.alpha, cfg.tuning.swap
+        (12, 0.06, False)
+        """
+        return nested_config(cls, options, "bayes")
+
+    @property
+    def n_radii(self) -> int:
+        """Radius bins of the search (``tuning.n_radii``, set from the radius range when not given)."""
+        return int(self.tuning.n_radii)  # type: ignore[arg-type]
+
     def _check_shape_fields(self) -> None:
-        self._check_elongations()
-        self._check_elongations("lying_elongations")
         if self.shape not in SHAPES:
             raise InputError(f"shape: got {self.shape!r}, expected one of {list(SHAPES)}")
         import numpy as np
@@ -332,13 +345,9 @@ class BayesConfig:
 
     @property
     def search_start(self) -> float:
-        """Cell size of the first search level, metres: ``coarse_resolution``, or ``resolution`` if that is coarser."""
-        return float(max(self.coarse_resolution, self.resolution))
-
-    @property
-    def sensor(self) -> SensorModel:
-        """The sensor-model fields of this config as a :class:`SensorModel`."""
-        return SensorModel(**{f.name: getattr(self, f.name) for f in fields(SensorModel)})
+        """Cell size of the first search level, metres: ``tuning.coarse_resolution``, or ``resolution`` if that is
+        coarser."""
+        return float(max(self.tuning.coarse_resolution, self.resolution))
 
     @property
     def pose_position_sigma(self) -> float:
@@ -386,7 +395,7 @@ class BayesConfig:
         """Semi-axes across and along, and the axis, of every shape bin: (K,), (K,), (K, 3)."""
         import numpy as np
 
-        r = self.radii
+        r, tuning = self.radii, self.tuning
         coarse = r[::ELONGATED_RADIUS_STRIDE]
         longest = self.semi_axis_range[1] * (1 + 1e-9)
 
@@ -395,11 +404,11 @@ class BayesConfig:
             along = [a * q for a, q in zip(across, [q for q in qs if q > 1.0])]
             return np.concatenate([np.zeros(0)] + across), np.concatenate([np.zeros(0)] + along)
 
-        up_across, up_along = elongated(self.elongations)  # type: ignore[arg-type]
-        lying = self.elongations if self.lying_elongations is None else self.lying_elongations
-        lie_across, lie_along = elongated(lying if self.lying_yaws else ())  # type: ignore[arg-type]
-        n_yaws = self.lying_yaws if len(lie_across) else 0
-        spheres = r if 1.0 in self.elongations else np.zeros(0)  # type: ignore[operator]
+        up_across, up_along = elongated(tuning.elongations)  # type: ignore[arg-type]
+        lying = tuning.elongations if tuning.lying_elongations is None else tuning.lying_elongations
+        lie_across, lie_along = elongated(lying if tuning.lying_yaws else ())  # type: ignore[arg-type]
+        n_yaws = tuning.lying_yaws if len(lie_across) else 0
+        spheres = r if 1.0 in tuning.elongations else np.zeros(0)  # type: ignore[operator]
         across = np.concatenate([spheres, up_across] + [lie_across] * n_yaws)
         along = np.concatenate([spheres, up_along] + [lie_along] * n_yaws)
         axes = np.tile(self.up_vector, (len(across), 1))
@@ -419,9 +428,9 @@ class BayesConfig:
         e1 = ref - up * (ref @ up)
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(up, e1)
-        yaw = np.pi * np.arange(self.lying_yaws) / max(self.lying_yaws, 1)
+        yaw = np.pi * np.arange(self.tuning.lying_yaws) / max(self.tuning.lying_yaws, 1)
         return np.cos(yaw)[:, None] * e1 + np.sin(yaw)[:, None] * e2
 
     def to_dict(self) -> dict[str, Any]:
-        """The options as plain JSON values."""
-        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v) for f in fields(self)}
+        """The options as plain JSON values, :attr:`sensor` and :attr:`tuning` as nested objects."""
+        return plain_options(self)

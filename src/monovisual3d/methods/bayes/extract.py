@@ -324,12 +324,12 @@ def _candidates(
 ) -> list[tuple[DetectedObject | None, NDArray[np.bool_]]]:
     """The look-ahead: refined candidates near the best grid score, each with the last-level cells it stands for."""
     cfg, hyp = problem.config, rows.hyp
-    floor = cfg.accept - cfg.prune_slack
+    floor = cfg.accept - cfg.tuning.prune_slack
     trial = work.active.copy()
     out = []
-    for _ in range(cfg.lookahead):
+    for _ in range(cfg.tuning.lookahead):
         c, k, score = work.best(trial)
-        if not np.isfinite(score) or score < max(floor, best - cfg.lookahead_margin):
+        if not np.isfinite(score) or score < max(floor, best - cfg.tuning.lookahead_margin):
             break
         key = (c, k)
         centre, radius = rows.centres[c], float(hyp.radii[k])
@@ -384,7 +384,7 @@ def _refresh(problem: Problem, rows: _Rows, work: _Work, taken: Taken, lazy: boo
     A stale cell is rescored before it is split: most drop out of the band then (their boxes are taken). A cell waiting
     to be split bounds its children only approximately (see the module docstring).
     """
-    margin = problem.config.lookahead_margin if lazy else np.inf
+    margin = problem.config.tuning.lookahead_margin if lazy else np.inf
     while True:
         best = float(work.row_best.max(initial=-np.inf))
         if not np.isfinite(best):
@@ -434,7 +434,7 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
             break
         _refresh(problem, rows, work, taken, lazy)
         best = float(work.row_best.max(initial=-np.inf))
-        if not np.isfinite(best) or best < cfg.accept - cfg.prune_slack:
+        if not np.isfinite(best) or best < cfg.accept - cfg.tuning.prune_slack:
             break
         candidates = _candidates(problem, rows, work, taken, best, cache, cells)
         for cand, near in candidates:

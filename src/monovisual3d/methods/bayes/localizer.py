@@ -126,7 +126,7 @@ def run(session: Session, config: BayesConfig, *, progress: Callable[[int, int],
     if loc.last.diagnostics.get("capped"):
         messages.append(
             f"the search kept only the best hypotheses at some level to stay within max_memory={config.max_memory:,} bytes "
-            f"and max_hypotheses={config.max_hypotheses:,}; a smaller workspace or a coarser resolution searches exhaustively"
+            f"and max_hypotheses={config.tuning.max_hypotheses:,}; a smaller workspace or a coarser resolution searches exhaustively"
         )
     for msg in messages:
         warnings.warn(InputWarning(msg), stacklevel=3)

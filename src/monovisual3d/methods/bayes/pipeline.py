@@ -70,11 +70,11 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     hyp = search(problem, grid)
     t1 = time.perf_counter()
     objects, taken = extract(problem, hyp)
-    if cfg.swap:
+    if cfg.tuning.swap:
         objects = swap_pass(problem, objects)
-    if cfg.steal:
+    if cfg.tuning.steal:
         objects, taken = steal_pass(problem, objects, taken, hyp)
-    if cfg.regroup:
+    if cfg.tuning.regroup:
         objects, taken = regroup_pass(problem, objects, taken, hyp)
     t2 = time.perf_counter()
     timing = {"search_score": t1 - t0, "extract_refine": t2 - t1}
@@ -87,11 +87,11 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
         timing["bundle"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     objects = shape_stage(problem, objects)
-    if cfg.swap and cfg.shape == "auto":
+    if cfg.tuning.shape_swap and cfg.shape == "auto":
         objects = shape_swap_pass(problem, objects)
-    if cfg.second_look and cfg.shape == "auto":
+    if cfg.tuning.second_look and cfg.shape == "auto":
         objects = second_look(problem, objects)
-    if cfg.view_assign and cfg.shape == "auto":
+    if cfg.tuning.view_assign and cfg.shape == "auto":
         objects = view_assignment(problem, objects)
     timing["shape"] = time.perf_counter() - t3
     objects, dropped = drop_isolated(problem, objects)

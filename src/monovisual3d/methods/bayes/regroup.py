@@ -54,7 +54,7 @@ class _Table:
     def of(cls, problem: Problem, hyp: Hypotheses) -> _Table:
         cfg = problem.config
         total, n_assoc, assoc = hyp.scores
-        flat = np.flatnonzero((n_assoc >= cfg.min_views) & (total >= cfg.accept - cfg.prune_slack))
+        flat = np.flatnonzero((n_assoc >= cfg.min_views) & (total >= cfg.accept - cfg.tuning.prune_slack))
         cell, k = np.divmod(flat, total.shape[1])
         assoc = assoc.reshape(len(assoc), -1)[:, flat]
         return cls.build(total.reshape(-1)[flat], assoc, cell, k)
@@ -183,13 +183,13 @@ def _reextract(
     live = live[table.using(pool.boxes, live) >= cfg.min_views]
     own = table.using(pool.own, live)
     live = live[own <= 1] if pool.split else live[(own < len(pool.own)) | (table.n_boxes(live) != len(pool.own))]
-    if _grid_worth_again(table, live, cfg.accept) < old_grid_worth - cfg.lookahead_margin:
+    if _grid_worth_again(table, live, cfg.accept) < old_grid_worth - cfg.tuning.lookahead_margin:
         return None
     out: list[DetectedObject] = []
     cache: dict[int, DetectedObject | None] = {}
     while len(live):
-        trial, tried, floor = live, [], table.score[live].max() - cfg.lookahead_margin
-        for _ in range(cfg.lookahead):
+        trial, tried, floor = live, [], table.score[live].max() - cfg.tuning.lookahead_margin
+        for _ in range(cfg.tuning.lookahead):
             h = int(trial[np.argmax(table.score[trial])]) if len(trial) else -1
             if h < 0 or table.score[h] < floor:
                 break

@@ -106,7 +106,7 @@ def score_hypotheses(
     else:
         scores = score_hypotheses_numpy(problem, available, centres_base, radii, blur, mask, semi_up, axes)
     if semi_up is not None and np.any(semi_up != radii):
-        scores[0][:, semi_up != radii] -= cfg.elongation_cost
+        scores[0][:, semi_up != radii] -= cfg.tuning.elongation_cost
     return scores
 
 
@@ -117,7 +117,7 @@ def shape_cost(problem: Problem, semi_up: float | None) -> float:
     boxes pin it to a fraction of that range, and without the cost chance alignments of false-positive
     boxes would find an elongated fit more often than a sphere.
     """
-    return 0.0 if semi_up is None else float(problem.config.elongation_cost)
+    return 0.0 if semi_up is None else float(problem.config.tuning.elongation_cost)
 
 
 def score_hypotheses_numpy(

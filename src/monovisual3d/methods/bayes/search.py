@@ -161,7 +161,7 @@ def hypothesis_cap(problem: Problem) -> int:
     """Hypotheses one level may hold: ``max_hypotheses``, lowered to half the memory budget."""
     cfg = problem.config
     budget = int(cfg.max_memory) // 2 // bytes_per_hypothesis(len(problem.views))
-    return max(len(cfg.hypothesis_bins[0]), min(cfg.max_hypotheses, budget))
+    return max(len(cfg.hypothesis_bins[0]), min(cfg.tuning.max_hypotheses, budget))
 
 
 def first_level(grid: VoxelGrid, start: float, resolution: float, max_cells: int = MAX_FIRST_LEVEL_CELLS) -> VoxelGrid:
@@ -310,8 +310,8 @@ def _box_dominated(
 ) -> NDArray[np.bool_]:
     """:func:`box_dominated` with the problem's margin, compiled with the numba backend."""
     if problem.config.backend == "numba":
-        return box_dominated_fused(total, assoc, n_boxes, problem.config.dominance_margin)
-    return box_dominated(total, assoc, n_boxes, problem.config.dominance_margin)
+        return box_dominated_fused(total, assoc, n_boxes, problem.config.tuning.dominance_margin)
+    return box_dominated(total, assoc, n_boxes, problem.config.tuning.dominance_margin)
 
 
 def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
@@ -391,9 +391,9 @@ def level_mask(problem: Problem, scores: Scores, dominated: NDArray[np.bool_] | 
     radii, semi_up = cfg.hypothesis_bins
     total, n_assoc, _ = scores
     keep = (
-        (total >= cfg.accept - cfg.prune_slack)
+        (total >= cfg.accept - cfg.tuning.prune_slack)
         & (n_assoc >= cfg.min_views)
-        & _plausible_shapes(total, radii, semi_up, cfg.elongation_slack + cfg.elongation_cost)
+        & _plausible_shapes(total, radii, semi_up, cfg.tuning.elongation_slack + cfg.tuning.elongation_cost)
     )
     return keep if dominated is None else keep & ~dominated
 
@@ -471,7 +471,7 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
     # large that a sphere explains an elongated box nearly as well (the cells of tall objects stay)
     deferred = bool(sphere_bins.any() and not sphere_bins.all())
     mask = np.ones((len(centres_grid), len(radii)), dtype=bool) & (sphere_bins if deferred else True)
-    floor = cfg.accept - cfg.prune_slack
+    floor = cfg.accept - cfg.tuning.prune_slack
     n_scored, counted = 0, True  # the cells from _cone_levels are already cone-checked at this size
     while True:
         centres = centres_grid @ R.T + t
@@ -496,10 +496,10 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
         if cell <= cfg.resolution * (1 + 1e-9) or len(centres) == 0:
             return Hypotheses(centres, radii, cell, scores, mask, n_scored, level.resolution, capped, semi_up, axes)
         # children inherit the radii their parent kept, widened (the parent's score is blurred in position, not radius)
-        children_mask = np.repeat(_widen(mask, cfg.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
+        children_mask = np.repeat(_widen(mask, cfg.tuning.radius_margin_bins), 8, axis=0)  # children of cell i: rows 8i..8i+7
         children_grid = split_cells(centres_grid, cell)
         n_children = int(children_mask.sum())
-        lazy = n_children > LAZY_LAST_LEVEL_ABOVE if cfg.lazy_last_level is None else cfg.lazy_last_level
+        lazy = n_children > LAZY_LAST_LEVEL_ABOVE if cfg.tuning.lazy_last_level is None else cfg.tuning.lazy_last_level
         # the extraction holds at most the whole last level: lazily only where that fits the budget (else chunked)
         if cell / 2 <= cfg.resolution * (1 + 1e-9) and lazy and n_children <= cap:
             children = children_grid @ R.T + t

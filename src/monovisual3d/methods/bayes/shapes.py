@@ -416,7 +416,7 @@ def occlusion_refit(
     out = []
     for o, f in zip(objects, flags):
         one_sided = f is not None and len(f[0]) >= MIN_VIEWS_ONE_SIDED and o.extra.get("semi_up") is None
-        if one_sided and problem.config.one_sided_refit and not problem.config.use_masks:
+        if one_sided and problem.config.tuning.one_sided_refit and not problem.config.use_masks:
             out.append(one_sided_refit(problem, o, f[0]))
         else:
             out.append(o if f is None or not f[1] else _refit(problem, o, f[0]))
@@ -433,7 +433,7 @@ def one_sided_refit(problem: Problem, o: DetectedObject, obs: list[Observation])
     outward misses alike (``inward_floor``, 3 nats, both sides), so an edge a leaf cuts by two or three sigmas still
     pulls the sphere inward. ``o`` itself when the fit fails or leaves the radius range.
     """
-    return _refit(problem, o, obs, (problem.config.cut_inward_floor, problem.model.outward_floor))
+    return _refit(problem, o, obs, (problem.config.tuning.cut_inward_floor, problem.model.outward_floor))
 
 
 def _refit(
