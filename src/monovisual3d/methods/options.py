@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..checks import parse_bytes
-from ..engine.threads import check_threads
+from ..kernels.threads import check_threads
 
 __all__ = ["check_shared_options"]
 
