@@ -39,12 +39,15 @@ def track_association(session: Session) -> tuple[list[int], list[Association]]:
 
 
 def bayes_association(session: Session, config: QuadricConfig) -> tuple[list[Association], list[str]]:
-    """The association the ``bayes`` method finds (``result.objects[i].associations``), and its warnings."""
-    from ..bayes.localizer import run as run_bayes
+    """The association the ``bayes`` method finds (``result.objects[i].associations``), and its warnings.
+
+    ``bayes`` is run through the methods registry, as any caller would: ``quadric`` imports no other method.
+    """
+    from .. import get_method
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = run_bayes(session, config.bayes_config())
+        result = get_method("bayes").run(session, config.bayes_config())
     messages = [f"association (bayes): {m}" for m in result.warnings]
     messages += [f"association (bayes): {w.message}" for w in caught if str(w.message) not in result.warnings]
     return [dict(o.associations) for o in result.objects], messages
