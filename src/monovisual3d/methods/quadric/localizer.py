@@ -10,10 +10,11 @@ import numpy as np
 
 from ...errors import InputError, InputWarning
 from ...geometry.ellipsoid import quaternion_xyzw_from_rotation, shape_of
+from ...geometry.quadric import ellipsoid_from_dual_quadric
 from ...result import DetectedObject, Result
 from ...session import Session
 from .config import QuadricConfig
-from .dual import camera_matrix, ellipsoid_from_dual_quadric, solve_dual_quadric
+from .dual import camera_matrix, solve_dual_quadric
 
 #: An object's association: view index -> detection index.
 Association = dict[int, int]
