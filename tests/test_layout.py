@@ -46,7 +46,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "truth",
         ),
     ),
-    ("geometry", ("geometry", "session.load")),  # the loader warns with geometry.baseline
+    ("geometry", ("geometry",)),
     ("kernels", ("kernels",)),
     ("methods", ("methods", "api", "")),
     ("sim/io/figures", ("sim", "io", "vision", "figures", "rerun_log")),
