@@ -6,10 +6,10 @@ Two kernels, each at growing sizes: the ``bayes`` hypothesis scoring (``score_hy
 paper scene's views, N centres x 16 radii) and the dense update of the paper method
 (``paper_update_fused``, n**3 cells, three views). Each size is timed with one thread and with
 numba's full pool (the work threshold is set to 1 for the timing, so that
-:func:`monovisual3d.engine.threads.thread_limit` alone fixes the count), interleaved call by call so that both
+:func:`monovisual3d.kernels.threads.thread_limit` alone fixes the count), interleaved call by call so that both
 see the same load, idle and with a busy-loop process on one core. The work estimate of each call
-(what :func:`~monovisual3d.engine.threads.threads_for` sees) is printed beside it:
-:data:`~monovisual3d.engine.threads.MIN_WORK_PER_THREAD` is chosen where "all" stops losing.
+(what :func:`~monovisual3d.kernels.threads.threads_for` sees) is printed beside it:
+:data:`~monovisual3d.kernels.threads.MIN_WORK_PER_THREAD` is chosen where "all" stops losing.
 """
 
 from __future__ import annotations
@@ -24,12 +24,12 @@ import numpy as np
 
 from monovisual3d.bench.timing import busy_core, machine_metadata
 from monovisual3d.bench.update_cases import bench_scene, paper_grid
-from monovisual3d.engine import threads
-from monovisual3d.engine.dense import NS_PER_CELL_VIEW, paper_update_fused
-from monovisual3d.engine.threads import thread_limit, threads_for
 from monovisual3d.frames import invert_transform
+from monovisual3d.kernels import threads
+from monovisual3d.kernels.threads import thread_limit, threads_for
 from monovisual3d.methods.bayes._kernels import score_hypotheses, score_work_ns
 from monovisual3d.methods.bayes.sensor import SensorModel
+from monovisual3d.methods.paper.engine.dense import NS_PER_CELL_VIEW, paper_update_fused
 
 
 def _score_case(n: int):  # type: ignore[no-untyped-def]

@@ -46,12 +46,46 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "truth",
         ),
     ),
-    ("geometry", ("geometry", "session.load")),  # the loader warns with geometry.baseline
-    ("engine", ("engine",)),
+    ("geometry", ("geometry",)),
+    ("kernels", ("kernels",)),
     ("methods", ("methods", "api", "")),
     ("sim/io/figures", ("sim", "io", "vision", "figures", "rerun_log")),
     ("apps", ("active", "batch", "bench", "experiments")),
     ("cli", ("cli",)),
+)
+
+#: Rules on top of the layers, each with what to do when it breaks. Names are relative to the package, as in
+#: :data:`LAYERS`: a name covers a module and, for a package, everything in it.
+#:
+#: Packages that import nothing above a layer, whatever :data:`LAYERS` says of their modules:
+#: ``(package, highest layer it may import, what to do instead)``.
+IMPORTS_UP_TO: tuple[tuple[str, str, str], ...] = (
+    (
+        "session",
+        "core",
+        "the session and its loader are the core's input contract: move what they need into the core "
+        "(as session/baseline.py), or move the call up to the caller that has that layer (api, cli)",
+    ),
+)
+#: Packages that never import these, even where the layers would allow it: ``(package, names, what to do instead)``.
+IMPORTS_NONE_OF: tuple[tuple[str, tuple[str, ...], str], ...] = (
+    (
+        "io",
+        ("methods", "api"),
+        "io turns files into sessions and runs no method: move the algebra it needs into geometry/ or the core "
+        "(as geometry/quadric.ellipsoid_from_dual_quadric)",
+    ),
+)
+#: Packages whose sub-packages own their parts: a module of ``package.a`` imports no module of ``package.b``
+#: (a != b) but the shared modules named: ``(package, shared modules, what to do instead)``.
+SIBLINGS_APART: tuple[tuple[str, tuple[str, ...], str], ...] = (
+    (
+        "methods",
+        ("methods", "methods.options"),
+        "a method imports no other method: run another method through the registry "
+        "(monovisual3d.methods.get_method(name).make_config(...) / .run(session, config)), and move what several "
+        "methods use to methods/options.py or a lower layer (kernels/, geometry/, the core)",
+    ),
 )
 
 #: Largest source file, lines.
@@ -219,12 +253,111 @@ def test_no_import_points_up_a_layer() -> None:
 
 
 def test_the_core_imports_no_upper_package() -> None:
-    """Spelled out for the core: nothing of methods, engine, sim, io, the figures or the applications."""
-    upper = ("methods", "engine", "sim", "io", "cli", "batch", "active", "bench", "experiments", "figures")
+    """Spelled out for the core: nothing of methods, kernels, sim, io, the figures or the applications."""
+    upper = ("methods", "kernels", "sim", "io", "cli", "batch", "active", "bench", "experiments", "figures")
     bad = sorted(
         f"{m} imports {n}" for m, imported in GRAPH.items() if _layer(m) == 0 for n in imported if n.split(".")[1] in upper
     )
     assert bad == [], "the core imports an upper package:\n" + "\n".join(bad)
+
+
+def _rel(module: str) -> str:
+    """A module's name relative to the package (``""`` for the package itself)."""
+    return module[len(PACKAGE_NAME) + 1 :] if module != PACKAGE_NAME else ""
+
+
+def _covers(name: str, module: str) -> bool:
+    """Whether ``name`` (relative, as in :data:`LAYERS`) is ``module`` or a package holding it."""
+    rel = _rel(module)
+    return rel == name or (name != "" and rel.startswith(name + "."))
+
+
+def _layer_named(name: str) -> int:
+    return [n for n, _ in LAYERS].index(name)
+
+
+def _capped_imports(graph: dict[str, set[str]]) -> list[str]:
+    """Breaks of :data:`IMPORTS_UP_TO` in an import graph, one line each."""
+    return sorted(
+        f"{m} imports {n} ({LAYERS[_layer(n)][0]}): {package} imports nothing above {top}; {todo}"
+        for package, top, todo in IMPORTS_UP_TO
+        for m, imported in graph.items()
+        if _covers(package, m)
+        for n in imported
+        if _layer(n) > _layer_named(top)
+    )
+
+
+def _banned_imports(graph: dict[str, set[str]]) -> list[str]:
+    """Breaks of :data:`IMPORTS_NONE_OF` in an import graph, one line each."""
+    return sorted(
+        f"{m} imports {n}: {package} imports none of {list(banned)}; {todo}"
+        for package, banned, todo in IMPORTS_NONE_OF
+        for m, imported in graph.items()
+        if _covers(package, m)
+        for n in imported
+        if any(_covers(b, n) for b in banned)
+    )
+
+
+def _sibling_imports(graph: dict[str, set[str]]) -> list[str]:
+    """Breaks of :data:`SIBLINGS_APART` in an import graph, one line each."""
+
+    def part(package: str, module: str) -> str | None:
+        """The sub-package (or module) of ``package`` that holds ``module``; None outside it."""
+        rel = _rel(module)
+        return rel.split(".")[package.count(".") + 1] if _covers(package, module) and rel != package else None
+
+    return sorted(
+        f"{m} imports {n}: {package}.{part(package, m)} and {package}.{part(package, n)} own their parts; {todo}"
+        for package, shared, todo in SIBLINGS_APART
+        for m, imported in graph.items()
+        if part(package, m) is not None and not any(_rel(m) == s for s in shared)
+        for n in imported
+        if part(package, n) not in (None, part(package, m)) and not any(_rel(n) == s for s in shared)
+    )
+
+
+def test_packages_held_below_their_layer() -> None:
+    """The session package imports only the core (:data:`IMPORTS_UP_TO`)."""
+    bad = _capped_imports(GRAPH)
+    assert bad == [], "imports above a package's cap (IMPORTS_UP_TO in tests/test_layout.py):\n" + "\n".join(bad)
+
+
+def test_packages_import_none_of_their_banned_names() -> None:
+    """io imports no method (:data:`IMPORTS_NONE_OF`)."""
+    bad = _banned_imports(GRAPH)
+    assert bad == [], "banned imports (IMPORTS_NONE_OF in tests/test_layout.py):\n" + "\n".join(bad)
+
+
+def test_methods_own_their_parts() -> None:
+    """No module of ``methods/X`` imports ``methods/Y`` (:data:`SIBLINGS_APART`); the registry and options are shared."""
+    bad = _sibling_imports(GRAPH)
+    assert bad == [], "imports between sibling packages (SIBLINGS_APART in tests/test_layout.py):\n" + "\n".join(bad)
+
+
+def test_the_rules_catch_what_they_forbid() -> None:
+    """Each rule, on an import graph that breaks it (the imports this package had before they were removed)."""
+    graph = {
+        "monovisual3d.session.load": {"monovisual3d.geometry.baseline", "monovisual3d.camera"},
+        "monovisual3d.io.lfd": {"monovisual3d.methods.quadric.dual", "monovisual3d.geometry.quadric"},
+        "monovisual3d.methods.quadric.localizer": {
+            "monovisual3d.methods.bayes.localizer",
+            "monovisual3d.methods.quadric.dual",
+            "monovisual3d.methods",
+            "monovisual3d.methods.options",
+        },
+        "monovisual3d.methods": {"monovisual3d.methods.bayes.localizer", "monovisual3d.methods.quadric.localizer"},
+    }
+    (capped,) = _capped_imports(graph)
+    assert capped.startswith("monovisual3d.session.load imports monovisual3d.geometry.baseline (geometry): session")
+    (banned,) = _banned_imports(graph)
+    assert banned.startswith("monovisual3d.io.lfd imports monovisual3d.methods.quadric.dual: io imports none of")
+    (sibling,) = _sibling_imports(graph)
+    assert sibling.startswith(
+        "monovisual3d.methods.quadric.localizer imports monovisual3d.methods.bayes.localizer: "
+        "methods.quadric and methods.bayes own their parts"
+    )
 
 
 def test_no_import_cycles() -> None:
@@ -236,7 +369,7 @@ def test_no_import_cycles() -> None:
 
 def test_the_import_graph_sees_lazy_imports() -> None:
     """The checks above read imports inside functions and the registry's strings (a module-level-only scan would not)."""
-    assert "monovisual3d.engine.dense" in GRAPH["monovisual3d.engine"]  # imported inside a function
+    assert "monovisual3d.methods.paper.engine.dense" in GRAPH["monovisual3d.methods.paper.engine"]  # imported inside a function
     assert "monovisual3d.methods.paper.run" in GRAPH["monovisual3d.methods"]  # a "module:function" registry string
     assert "monovisual3d.methods.paper.filter" in GRAPH["monovisual3d"]  # under TYPE_CHECKING
 

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from monovisual3d.engine.params import KERNELS
 from monovisual3d.experiments.reproduce import ReproduceConfig, ReproduceResult, ghost_table, render_report
 from monovisual3d.experiments.reproduce.aggregate import RunRecord, record_run
 from monovisual3d.experiments.reproduce.report import TEMPLATE_NAME, report_fields, report_template
+from monovisual3d.methods.paper.engine.params import KERNELS
 from monovisual3d.methods.paper.kmeans import CENTRES
 from monovisual3d.result import DetectedObject
 from monovisual3d.sim.scene import Scene

@@ -9,7 +9,7 @@ import monovisual3d
 
 PACKAGE = Path(monovisual3d.__file__).parent
 #: Packages and modules that must never import the figures, lazily or not (the simulator among them).
-BELOW = ("sim", "methods", "engine", "geometry", "io", "camera.py", "session", "result.py", "grid.py", "metrics.py")
+BELOW = ("sim", "methods", "kernels", "geometry", "io", "camera.py", "session", "result.py", "grid.py", "metrics.py")
 
 
 def imports_of(text: str, package: tuple[str, ...]) -> set[str]:

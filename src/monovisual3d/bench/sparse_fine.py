@@ -30,8 +30,8 @@ def sparse_fine_rows(
     say: Callable[[str], None],
 ) -> list[dict[str, Any]]:
     """Sparse at ``sparse_refine_to`` effective resolution over the paper's cube, one row per kernel."""
-    from ..engine.params import pack_views
-    from ..engine.sparse import levels_between
+    from ..methods.paper.engine.params import pack_views
+    from ..methods.paper.engine.sparse import levels_between
 
     n_v = len(views)
     # sparse at 1 mm effective resolution over the same cube (no dense grid could hold it: 1.7 G cells)

@@ -116,7 +116,7 @@ def _numba_row(
     meta: dict[str, Any],
 ) -> None:
     """The fused kernel's own state (float32, lazy normalisation); the reset to uniform is not timed."""
-    from ..engine.dense import DenseHistogram
+    from ..methods.paper.engine.dense import DenseHistogram
 
     h = DenseHistogram(grid, kernel=kernel)
     t, first = Timing(), []
@@ -150,7 +150,7 @@ def _sparse_row(
     rows: list[dict[str, Any]], grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, repeats: int
 ) -> None:
     """The coarse-to-fine path at the dense grid's resolution (root 16 cells up, threshold 1e-3)."""
-    from ..engine.params import pack_views
+    from ..methods.paper.engine.params import pack_views
 
     packed = pack_views(grid, camera, views, kernel, SIGMA_FRACTION)
     last: dict[str, Any] = {}
@@ -175,7 +175,7 @@ def _sparse_row(
 def _torch_row(
     rows: list[dict[str, Any]], grid: VoxelGrid, camera: Camera, views: list[View], kernel: str, repeats: int, device: Any
 ) -> None:
-    from ..engine.torch_backend import TorchDenseHistogram
+    from ..methods.paper.engine.torch_backend import TorchDenseHistogram
 
     h = TorchDenseHistogram(grid, kernel=kernel, device=str(device))
     t = time_call(partial(run_torch, h, camera, views), 1 if device.type == "cpu" else repeats)
@@ -209,11 +209,11 @@ def run_speed(
     sparse_refine_to : metres, effective resolution of the sparse path
     scaling : also run the scaling with views and boxes
     threads : most numba threads per kernel call (default: numba's, usually one per core; each call
-        takes fewer where its work is small, see :mod:`monovisual3d.engine.threads`)
+        takes fewer where its work is small, see :mod:`monovisual3d.kernels.threads`)
     methods : which of :data:`METHODS` to run (torch only where importable)
     progress : callable(str), told what runs next
     """
-    from ..engine.threads import thread_limit
+    from ..kernels.threads import thread_limit
 
     with thread_limit(threads):
         return _run_speed(quick, edges, kernels, repeats, naive_cells, torch_device, sparse_refine_to, scaling, methods, progress)
@@ -320,7 +320,7 @@ def _torch_device(torch_device: str | None, methods: tuple[str, ...], meta: dict
     """The torch device to time on, or None where torch is not importable (then noted in ``meta["skipped"]``)."""
     torch_dev = None
     try:
-        from ..engine.torch_backend import resolve_device
+        from ..methods.paper.engine.torch_backend import resolve_device
 
         torch_dev = resolve_device(torch_device)
     except ImportError:

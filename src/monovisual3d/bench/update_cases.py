@@ -124,7 +124,7 @@ def run_numpy(grid: VoxelGrid, camera: Camera, views: list[View], kernel: str) -
 
 
 def run_filter_path(grid: VoxelGrid, camera: Camera, views: list[View], kernel: str) -> None:
-    from ..engine.dense import paper_update_fused
+    from ..methods.paper.engine.dense import paper_update_fused
 
     p: Any = np.full(grid.n_cells, 1.0 / grid.n_cells, dtype=np.float32)
     for v in views:
@@ -132,7 +132,7 @@ def run_filter_path(grid: VoxelGrid, camera: Camera, views: list[View], kernel: 
 
 
 def run_sparse(grid: VoxelGrid, packed: Any, levels: int, threshold: float, out: dict[str, Any]) -> None:
-    from ..engine.sparse import refine
+    from ..methods.paper.engine.sparse import refine
 
     out["s"] = refine(grid, packed, levels, threshold=threshold)
 

@@ -11,7 +11,7 @@ from .update_cases import bench_scene, paper_grid, run_state
 
 def update_scaling(edge: int, repeats: int, quick: bool) -> dict[str, Any]:
     """Fused numba (Gaussian): time per update against views per pass and boxes per view."""
-    from ..engine.dense import DenseHistogram
+    from ..methods.paper.engine.dense import DenseHistogram
 
     out: dict[str, Any] = {"edge": edge, "kernel": "gaussian", "views": [], "boxes": []}
     for nv in (1, 3, 9) if not quick else (1, 3):

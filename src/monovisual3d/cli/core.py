@@ -124,7 +124,7 @@ def localize(
 def _localize_and_write(session: Path, config: Any, output: Path | None, quiet: bool, view: Path | None, strict: bool) -> None:
     """The body of ``localize`` after its checks: load, localise, write and print; ``strict``: exit 1 if incomplete."""
     from ..completeness import incomplete_reasons, merge_reasons
-    from ..geometry.baseline import geometry_warnings
+    from ..session.baseline import geometry_warnings
     from ..session.load import load_session
 
     loaded = load_session(session)

@@ -4,7 +4,7 @@
 - :mod:`.spheroid`: the box of an upright spheroid in closed form (the ``bayes`` search's elongated hypotheses);
 - :mod:`.ellipsoid`: the :class:`Ellipsoid`, closed-form and contour-sampled boxes, silhouette, volume;
 - :mod:`.solids`: the exact boxes of upright cylinders (their two rim circles) and cuboids (their corners);
-- :mod:`.quadric`: the dual quadric, the projected dual conic and the box of a conic;
+- :mod:`.quadric`: the dual quadric and back (the ellipsoid of a dual quadric), the projected dual conic, the box of a conic;
 - :mod:`.orientation`: the "upright" rotation and quaternions;
 - :mod:`.bounds`: the Cramer-Rao bound of the box-edge model for ellipsoids;
 - :mod:`.fit`: a least-squares fit of a sphere, spheroid, ellipsoid, cylinder or cuboid to associated boxes.
@@ -25,6 +25,7 @@ _LAZY = {
     "Ellipsoid": "ellipsoid",
     "bbox_from_dual_conic": "quadric",
     "dual_quadric": "quadric",
+    "ellipsoid_from_dual_quadric": "quadric",
     "ellipsoid_bbox": "ellipsoid",
     "ellipsoid_bbox_optical": "ellipsoid",
     "ellipsoid_contour_optical": "ellipsoid",

@@ -5,7 +5,9 @@ Under a pinhole camera ``P = K [R_optical_base | t_optical_base]`` the dual quad
 the dual conic ``C* = P Q* P^T``: the image lines ``l`` tangent to the silhouette are those with
 ``l^T C* l = 0``. The vertical tangent lines ``u = x`` (``l = (1, 0, -x)``) solve
 ``C*_11 - 2 x C*_13 + x^2 C*_33 = 0``, which gives the box in closed form (:func:`bbox_from_dual_conic`).
-All functions broadcast over leading batch dimensions.
+:func:`ellipsoid_from_dual_quadric` goes back from a dual quadric (of any scale, e.g. one solved for, or
+read from a file) to the ellipsoid's centre, semi-axes and axes. All functions but that one broadcast over
+leading batch dimensions.
 """
 
 from __future__ import annotations
@@ -44,6 +46,53 @@ def dual_quadric(centre: ArrayLike, semi_axes: ArrayLike, R_frame_ellipsoid: Arr
     out[..., 3, :3] = -c
     out[..., 3, 3] = -1.0
     return out
+
+
+def ellipsoid_from_dual_quadric(Q_star: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Centre, semi-axes and axes of the ellipsoid of a dual quadric (any non-zero scale).
+
+    With ``Q*`` scaled so that ``Q*[3, 3] = -1``: ``centre = -Q*[:3, 3]`` and
+    ``Q*[:3, :3] + centre centre^T = R diag(a^2, b^2, c^2) R^T`` (the inverse of :func:`dual_quadric`).
+
+    Parameters
+    ----------
+    Q_star : array_like, shape (4, 4)
+
+    Returns
+    -------
+    centre : ndarray, shape (3,), in the frame of ``Q*``
+    semi_axes : ndarray, shape (3,), ascending
+    R : ndarray, shape (3, 3), a rotation (det +1) whose columns are the axes
+
+    Raises
+    ------
+    InputError
+        When ``Q*`` is not finite and symmetric, ``Q*[3, 3]`` is 0 (centre at infinity), or the
+        matrix is not an ellipsoid (a non-positive ``a^2``).
+
+    Examples
+    --------
+    >>> c, s, R = ellipsoid_from_dual_quadric(3.0 * dual_quadric([1.0, 2.0, 3.0], [0.1, 0.2, 0.3], np.eye(3)))
+    >>> c.round(6).tolist(), s.round(6).tolist()
+    ([1.0, 2.0, 3.0], [0.1, 0.2, 0.3])
+    """
+    Q = np.asarray(Q_star, dtype=float)
+    if Q.shape != (4, 4) or not np.all(np.isfinite(Q)):
+        raise InputError(f"dual quadric: expected a finite 4 x 4 matrix, got shape {Q.shape}")
+    scale = float(np.max(np.abs(Q)))
+    if scale == 0 or not np.allclose(Q, Q.T, rtol=0, atol=1e-9 * scale):
+        raise InputError("dual quadric: expected a symmetric, non-zero 4 x 4 matrix")
+    if not abs(Q[3, 3]) > 1e-12 * scale:
+        raise InputError("dual quadric: Q*[3, 3] is 0, the centre lies at infinity (not an ellipsoid)")
+    Q = Q / -Q[3, 3]
+    centre = -Q[:3, 3]
+    shape = Q[:3, :3] + np.outer(centre, centre)
+    lam, R = np.linalg.eigh(0.5 * (shape + shape.T))
+    if not lam[0] > 0:
+        raise InputError(f"dual quadric: squared semi-axes {np.round(lam, 9).tolist()}, expected all positive (not an ellipsoid)")
+    if np.linalg.det(R) < 0:
+        R[:, 0] = -R[:, 0]
+    return centre, np.sqrt(lam), R
 
 
 def projected_dual_conic(

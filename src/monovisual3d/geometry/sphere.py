@@ -7,7 +7,7 @@
 - :func:`pinhole_sphere_boxes`: the same without distortion in a few algebraic operations (the
   refinement's hot path).
 
-The compiled kernels (``methods/bayes/_kernels.py``, ``engine``) are tested against these.
+The compiled kernels (``methods/bayes/_kernels.py``, ``methods/paper/engine``) are tested against these.
 """
 
 from __future__ import annotations

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from ..errors import InputError, InputWarning, one_line
 from ..geometry.ellipsoid import Ellipsoid
-from ..methods.quadric.dual import ellipsoid_from_dual_quadric
+from ..geometry.quadric import ellipsoid_from_dual_quadric
 from ..session import Session
 from ..session.load import session_from_dict
 from .image_size import image_size_from_principal_point, size_pair

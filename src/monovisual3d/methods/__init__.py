@@ -139,7 +139,7 @@ def run_method(
             )
     else:
         config = method.make_config(**options)
-    from ..engine.threads import thread_limit
+    from ..kernels.threads import thread_limit
 
     with thread_limit(config.threads):
         return method.run(session, config, progress=progress)

@@ -14,8 +14,8 @@ import dataclasses
 from typing import Any
 
 from ..checks import parse_bytes
-from ..engine.threads import check_threads
 from ..errors import InputError
+from ..kernels.threads import check_threads
 
 __all__ = ["check_shared_options", "nested_config", "option_names", "plain_options"]
 

@@ -6,8 +6,11 @@ path and what was expected, for example ``session.json: views[3].pose.quaternion
 
 - :mod:`.model`: the frozen dataclasses :class:`Session`, :class:`View`, :class:`Detection`, :class:`Workspace`
   (core: every layer may use them);
-- :mod:`.load`: the loader, ``dict`` or file -> :class:`Session` (:func:`~.load.load_session`); it warns about
-  view geometry with :mod:`monovisual3d.geometry.baseline`, so it sits in the geometry layer.
+- :mod:`.load`: the loader, ``dict`` or file -> :class:`Session` (:func:`~.load.load_session`);
+- :mod:`.baseline`: the loader's warnings about view geometry that cannot triangulate depth (one view, one
+  pose, too small a baseline).
+
+The whole package is core: it imports nothing above it.
 
 See ``docs/formats.md`` for the full description.
 """

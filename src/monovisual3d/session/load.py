@@ -31,8 +31,8 @@ from ..checks import (
 from ..errors import InputError, InputWarning, excerpt, one_line
 from ..file_kinds import wrong_kind
 from ..frames import T_base_optical_from_T_base_cameralink, check_transform, transform_from_position_quaternion
-from ..geometry.baseline import geometry_warnings
 from ..masks import rle_counts
+from .baseline import geometry_warnings
 from .model import Detection, Session, View, Workspace
 
 POSE_FRAMES = ("optical", "camera_link")

@@ -9,7 +9,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from monovisual3d import InputError
-from monovisual3d.engine.params import KERNELS
+from monovisual3d.methods.paper.engine.params import KERNELS
 from monovisual3d.methods.paper.kernels import (
     gaussian_kernel,
     paper_view_likelihood,

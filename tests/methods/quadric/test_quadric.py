@@ -14,11 +14,11 @@ from monovisual3d import Camera, localize
 from monovisual3d.errors import InputError
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import Ellipsoid, bbox_from_dual_conic, dual_quadric
+from monovisual3d.geometry.quadric import ellipsoid_from_dual_quadric
 from monovisual3d.methods.quadric.config import QuadricConfig
 from monovisual3d.methods.quadric.dual import (
     camera_matrix,
     conic_map,
-    ellipsoid_from_dual_quadric,
     inscribed_dual_conic,
     solve_dual_quadric,
     unvech4,
@@ -48,31 +48,6 @@ def test_inscribed_ellipse_touches_the_four_box_sides() -> None:
     for line in ([1, 0, -100], [1, 0, -180], [0, 1, -50], [0, 1, -250]):  # x = x1, x = x2, y = y1, y = y2
         assert abs(np.array(line) @ C @ np.array(line)) < 1e-9
     assert_allclose(bbox_from_dual_conic(C), box)
-
-
-def test_ellipsoid_from_dual_quadric_inverts_dual_quadric(rng: np.random.Generator) -> None:
-    for _ in range(5):
-        c, s = rng.normal(size=3), rng.uniform(0.01, 0.2, 3)
-        R = Rotation.random(random_state=rng.integers(1 << 31)).as_matrix()
-        centre, semi, R_hat = ellipsoid_from_dual_quadric(-rng.uniform(0.1, 10) * dual_quadric(c, s, R))
-        assert_allclose(centre, c, atol=1e-12)
-        assert_allclose(semi, np.sort(s), rtol=1e-9)
-        assert_allclose(dual_quadric(centre, semi, R_hat), dual_quadric(c, s, R), atol=1e-12)
-        assert np.linalg.det(R_hat) > 0
-
-
-@pytest.mark.parametrize(
-    ("Q", "pattern"),
-    [
-        (np.diag([1.0, 1.0, -1.0, -1.0]), "not an ellipsoid"),
-        (np.diag([1.0, 1.0, 1.0, 0.0]), "centre lies at infinity"),
-        (np.full((4, 4), np.nan), "finite 4 x 4"),
-        (np.arange(16.0).reshape(4, 4), "symmetric"),
-    ],
-)
-def test_ellipsoid_from_dual_quadric_rejects_what_is_not_an_ellipsoid(Q: np.ndarray, pattern: str) -> None:
-    with pytest.raises(InputError, match=pattern):
-        ellipsoid_from_dual_quadric(Q)
 
 
 def _ring(centre: np.ndarray, rng: np.random.Generator, n: int, distance: float, aim: np.ndarray | None = None) -> np.ndarray:

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from ... import __version__
 from ...camera import Camera
-from ...engine.params import KERNELS
+from ...methods.paper.engine.params import KERNELS
 from ...sim.scene import Scene
 from ...sim.viewpoints import PAPER_DISTANCE_M, PAPER_OFFSET_M
 from .aggregate import Aggregate, ReproduceResult, RunRecord, aggregate_records, select

@@ -22,10 +22,10 @@ from numpy.typing import NDArray
 
 from ...api import localize
 from ...camera import Camera
-from ...engine.params import KERNELS
 from ...errors import InputError, InputWarning
 from ...grid import VoxelGrid
 from ...methods.paper.config import PaperConfig
+from ...methods.paper.engine.params import KERNELS
 from ...methods.paper.filter import HistogramFilter
 from ...methods.paper.kmeans import CENTRES
 from ...result import DetectedObject

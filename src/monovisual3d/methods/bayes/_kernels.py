@@ -21,14 +21,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
-from ...engine._project import distort_xy  # the one compiled distortion (ids and coefficients of Camera.packed)
-from ...engine.threads import kernel_threads
+from ...kernels.project import distort_xy  # the one compiled distortion (ids and coefficients of Camera.packed)
+from ...kernels.threads import kernel_threads
 from .boxindex import SCAN_BELOW_BOXES, TileIndex, build_index
 from .sensor import SensorModel
 
 #: Single-thread cost of one hypothesis against one box of a scanned view in ``_score_kernel``, and of one
 #: hypothesis in a view looked up in the tile index, nanoseconds (the thread count's work estimate, see
-#: :mod:`monovisual3d.engine.threads`; measured on plant rows of 48 boxes per view: 210-290 ns single-threaded
+#: :mod:`monovisual3d.kernels.threads`; measured on plant rows of 48 boxes per view: 210-290 ns single-threaded
 #: at load 4, against 450-540 ns for the former edge index whose idle figure was 320).
 NS_PER_HYPOTHESIS_BOX, NS_PER_HYPOTHESIS_VIEW = 20.0, 160.0
 #: Single-thread cost of one point in one view in ``_cone_kernel``, nanoseconds.
@@ -36,7 +36,7 @@ NS_PER_POINT_VIEW = 20.0
 
 
 def _distort_xy(x: float, y: float, code: int, k: NDArray[np.float64]) -> tuple[float, float]:  # pragma: no cover - jitted
-    """:func:`monovisual3d.engine._project.distort_xy` with the packed coefficients ``k`` (8,)."""
+    """:func:`monovisual3d.kernels.project.distort_xy` with the packed coefficients ``k`` (8,)."""
     return distort_xy(x, y, code, k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7], 1.0)
 
 

@@ -5,7 +5,7 @@ Layout (one module per step of the paper's Algorithm 1):
 - :mod:`.config` — :class:`PaperConfig`, every option (numpy-free, so the CLI's ``--help`` stays light);
 - :mod:`.kernels` — the per-box square and Gaussian kernels and the per-view mixture (numpy reference);
 - :mod:`.filter` — the histogram filter over a voxel grid: :func:`paper_update` and the
-  incremental :class:`HistogramFilter`; the fast twins of its update live in :mod:`monovisual3d.engine`;
+  incremental :class:`HistogramFilter`; the fast twins of its update live in :mod:`monovisual3d.methods.paper.engine`;
 - :mod:`.kmeans` — from the posterior to objects: :func:`choose_k` and :func:`kmeans_objects`;
 - :mod:`.run` — :func:`run` on one session (dense, or the sparse coarse-to-fine path with ``refine_to``).
 """

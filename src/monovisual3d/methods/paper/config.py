@@ -27,11 +27,11 @@ class PaperConfig:
     max_memory : int or str, bytes (or text such as 2GiB): memory budget; a grid that does not fit is refused
         with a resolution that fits
     backend : {"numpy", "numba", "torch"}, engine of the dense update: the numpy reference, the fused
-        numba kernel (float32 posterior, see :mod:`monovisual3d.engine.dense`) or torch (``device``).
+        numba kernel (float32 posterior, see :mod:`monovisual3d.methods.paper.engine.dense`) or torch (``device``).
         Default ``"numba"`` (a core dependency); ``"numpy"`` is the readable reference the others are tested against.
     device : str or None, torch device ("cpu", "cuda"; None: cuda when available); backend "torch" only
     refine_to : float or None, metres: run the sparse coarse-to-fine path down to this resolution,
-        with ``resolution`` as the root level (see :mod:`monovisual3d.engine.sparse`)
+        with ``resolution`` as the root level (see :mod:`monovisual3d.methods.paper.engine.sparse`)
     threads : int or None, CPU threads of the compiled kernels (None: chosen by the amount of work)
     """
 
@@ -50,9 +50,9 @@ class PaperConfig:
     threads: int | None = None
 
     def __post_init__(self) -> None:
-        from ...engine.params import check_kernel
         from ...grid import _check_resolution
         from ..options import check_shared_options
+        from .engine.params import check_kernel
         from .kmeans import CENTRES, choose_k
 
         check_shared_options(self)
@@ -69,6 +69,6 @@ class PaperConfig:
         if not (is_real(self.keep_threshold) and 0.0 < self.keep_threshold <= 1.0):
             raise InputError(f"keep_threshold: got {self.keep_threshold!r}, expected a value in (0, 1]")
         choose_k([1], self.k)
-        from ...engine import check_backend
+        from .engine import check_backend
 
         check_backend(self.backend, self.device, self.refine_to, self.resolution)

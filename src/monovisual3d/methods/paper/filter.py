@@ -56,11 +56,11 @@ def paper_view_likelihood_grid(
 ) -> NDArray[np.float64]:
     """The per-view likelihood of every cell, flat (n_cells,), not yet normalised.
 
-    ``backend="numba"`` or ``"torch"`` use the fast engine (:mod:`monovisual3d.engine`); this
+    ``backend="numba"`` or ``"torch"`` use the fast engine (:mod:`monovisual3d.methods.paper.engine`); this
     function's numpy code is the reference they are tested against.
     """
     if backend != "numpy":
-        from ...engine import likelihood_grid
+        from .engine import likelihood_grid
 
         return likelihood_grid(grid, camera, view, kernel, sigma_fraction, backend=backend)
     boxes = view.boxes_xyxy
@@ -184,7 +184,7 @@ class HistogramFilter:
             )
             return False
         if self.config.backend != "numpy":
-            from ...engine import paper_update_backend
+            from .engine import paper_update_backend
 
             post = paper_update_backend(self._posterior, self.grid, self.camera, view, self.config)
         else:

@@ -4,7 +4,7 @@ All functions take projected cell centres ``uv`` of shape (N, 2) in pixels,
 with NaN for cells behind the camera, and boxes ``bbox_xyxy`` of shape (4,)
 or (M, 4). Cells behind the camera score zero, as in the paper.
 
-The kernel names and ids (:data:`monovisual3d.engine.params.KERNELS`) live in the engine,
+The kernel names and ids (:data:`monovisual3d.methods.paper.engine.params.KERNELS`) live in the engine,
 which compiles the fast twins of these functions.
 """
 
@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ...engine.params import check_kernel
 from ...errors import InputError
+from .engine.params import check_kernel
 
 
 def square_kernel(uv: NDArray[np.floating], bbox_xyxy: NDArray[np.floating]) -> NDArray[np.float64]:

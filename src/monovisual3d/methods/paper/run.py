@@ -3,7 +3,7 @@
 - dense (default): :class:`~monovisual3d.methods.paper.filter.HistogramFilter` over the paper's grid, view by
   view, then k-means (:mod:`~monovisual3d.methods.paper.kmeans`); the per-view update runs on
   ``PaperConfig.backend`` (compiled numba by default, the numpy reference, or torch);
-- sparse (``refine_to``): the coarse-to-fine active set of :mod:`monovisual3d.engine.sparse`.
+- sparse (``refine_to``): the coarse-to-fine active set of :mod:`monovisual3d.methods.paper.engine.sparse`.
 """
 
 from __future__ import annotations
@@ -14,11 +14,11 @@ from typing import Any
 
 import numpy as np
 
-from ...engine.sparse import DEFAULT_MAX_CELLS, SparseHistogramFilter
 from ...grid import VoxelGrid
 from ...result import Result
 from ...session import Session, View
 from .config import PaperConfig
+from .engine.sparse import DEFAULT_MAX_CELLS, SparseHistogramFilter
 from .filter import HistogramFilter
 from .kmeans import choose_k, kmeans_objects
 
@@ -78,7 +78,7 @@ def run_sparse(
     threshold: float | None = None,
     max_cells: int = DEFAULT_MAX_CELLS,
 ) -> Result:
-    """The paper's method on an active set refined to ``config.refine_to`` (:mod:`monovisual3d.engine.sparse`).
+    """The paper's method on an active set refined to ``config.refine_to`` (:mod:`monovisual3d.methods.paper.engine.sparse`).
 
     The fine grid follows the paper's policy (workspace box, or a cube of side
     ``2 * reach`` in front of the first camera with a detection) at

@@ -6,8 +6,8 @@ ellipsoid whose outlines best fit those ellipses (:mod:`.dual`). It needs the as
 detections' ``track`` ids when given, otherwise the one the ``bayes`` method finds (:mod:`.localizer`).
 
 - :mod:`.config` — :class:`QuadricConfig`;
-- :mod:`.dual` — the dual-quadric algebra: inscribed conics, the linear system, its preconditioning,
-  the ellipsoid of a dual quadric;
+- :mod:`.dual` — the dual-quadric solve: inscribed conics, the linear system, its preconditioning (the
+  ellipsoid of a dual quadric is geometry: :func:`monovisual3d.geometry.quadric.ellipsoid_from_dual_quadric`);
 - :mod:`.localizer` — :func:`run`: association, one solve per object, the result.
 """
 

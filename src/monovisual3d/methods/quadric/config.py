@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ...checks import is_real
 from ...errors import InputError
 from ...limits import DEFAULT_MAX_BYTES, DEFAULT_REACH_M
 from ..options import check_shared_options
-
-if TYPE_CHECKING:
-    from ..bayes.config import BayesConfig
 
 #: Where the box-to-object association comes from: the detections' track ids when present (``auto``),
 #: always the track ids (``tracks``), or always the ``bayes`` method's association (``bayes``).
@@ -59,13 +56,21 @@ class QuadricConfig:
         check_shared_options(self)
         object.__setattr__(self, "size_range", self.bayes_config().size_range)  # size_range and reach are checked there
 
-    def bayes_config(self) -> BayesConfig:
-        """The config of the ``bayes`` run that gives the association when there are no track ids."""
-        from ..bayes.config import BayesConfig
+    def bayes_options(self) -> dict[str, Any]:
+        """The options of the ``bayes`` run that gives the association when there are no track ids."""
+        return {
+            "size_range": self.size_range,
+            "reach": self.reach,
+            "backend": self.backend,
+            "threads": self.threads,
+            "max_memory": self.max_memory,
+        }
 
-        return BayesConfig(
-            size_range=self.size_range, reach=self.reach, backend=self.backend, threads=self.threads, max_memory=self.max_memory
-        )
+    def bayes_config(self) -> Any:
+        """The config of that ``bayes`` run, made through the methods registry (``quadric`` imports no other method)."""
+        from .. import get_method
+
+        return get_method("bayes").make_config(**self.bayes_options())
 
     def to_dict(self) -> dict[str, Any]:
         """The options as plain JSON values."""

@@ -1,4 +1,4 @@
-"""The dual-quadric algebra of the ``quadric`` method (Rubino, Crocco, Del Bue, TPAMI 2017: "LfD").
+"""The dual-quadric solve of the ``quadric`` method (Rubino, Crocco, Del Bue, TPAMI 2017: "LfD").
 
 An ellipsoid is its dual quadric ``Q*`` (4 x 4, symmetric, defined up to scale); under a camera
 ``P = K [R | t]`` (3 x 4, pixels) it projects to the dual conic ``C* ~ P Q* P^T`` of its outline.
@@ -23,7 +23,8 @@ otherwise it shares the outline's bounding box (its four tangent lines) but not 
 the estimate (LfD's modelling error, kept here: this is the published method).
 
 ``vech`` of a symmetric matrix lists its entries ``(i, j)`` with ``i <= j`` row by row
-(:data:`VECH3`, :data:`VECH4`).
+(:data:`VECH3`, :data:`VECH4`). The ellipsoid of the solved ``Q*`` is geometry, not the method:
+:func:`monovisual3d.geometry.quadric.ellipsoid_from_dual_quadric`.
 """
 
 from __future__ import annotations
@@ -179,54 +180,6 @@ def solve_dual_quadric(
     with np.errstate(divide="ignore", invalid="ignore"):
         Q = Q / -Q[3, 3] if Q[3, 3] != 0 else np.full((4, 4), np.nan)
     return Q, sv
-
-
-def ellipsoid_from_dual_quadric(Q_star: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Centre, semi-axes and axes of the ellipsoid of a dual quadric (any non-zero scale).
-
-    With ``Q*`` scaled so that ``Q*[3, 3] = -1``: ``centre = -Q*[:3, 3]`` and
-    ``Q*[:3, :3] + centre centre^T = R diag(a^2, b^2, c^2) R^T`` (the inverse of :func:`~monovisual3d.geometry.ellipsoid.dual_quadric`).
-
-    Parameters
-    ----------
-    Q_star : array_like, shape (4, 4)
-
-    Returns
-    -------
-    centre : ndarray, shape (3,), in the frame of ``Q*``
-    semi_axes : ndarray, shape (3,), ascending
-    R : ndarray, shape (3, 3), a rotation (det +1) whose columns are the axes
-
-    Raises
-    ------
-    InputError
-        When ``Q*`` is not finite and symmetric, ``Q*[3, 3]`` is 0 (centre at infinity), or the
-        matrix is not an ellipsoid (a non-positive ``a^2``).
-
-    Examples
-    --------
-    >>> from monovisual3d.geometry.ellipsoid import dual_quadric
-    >>> c, s, R = ellipsoid_from_dual_quadric(3.0 * dual_quadric([1.0, 2.0, 3.0], [0.1, 0.2, 0.3], np.eye(3)))
-    >>> c.round(6).tolist(), s.round(6).tolist()
-    ([1.0, 2.0, 3.0], [0.1, 0.2, 0.3])
-    """
-    Q = np.asarray(Q_star, dtype=float)
-    if Q.shape != (4, 4) or not np.all(np.isfinite(Q)):
-        raise InputError(f"dual quadric: expected a finite 4 x 4 matrix, got shape {Q.shape}")
-    scale = float(np.max(np.abs(Q)))
-    if scale == 0 or not np.allclose(Q, Q.T, rtol=0, atol=1e-9 * scale):
-        raise InputError("dual quadric: expected a symmetric, non-zero 4 x 4 matrix")
-    if not abs(Q[3, 3]) > 1e-12 * scale:
-        raise InputError("dual quadric: Q*[3, 3] is 0, the centre lies at infinity (not an ellipsoid)")
-    Q = Q / -Q[3, 3]
-    centre = -Q[:3, 3]
-    shape = Q[:3, :3] + np.outer(centre, centre)
-    lam, R = np.linalg.eigh(0.5 * (shape + shape.T))
-    if not lam[0] > 0:
-        raise InputError(f"dual quadric: squared semi-axes {np.round(lam, 9).tolist()}, expected all positive (not an ellipsoid)")
-    if np.linalg.det(R) < 0:
-        R[:, 0] = -R[:, 0]
-    return centre, np.sqrt(lam), R
 
 
 def camera_matrix(camera: Camera, T_base_optical: ArrayLike) -> NDArray[np.float64]:

@@ -10,10 +10,11 @@ import numpy as np
 
 from ...errors import InputError, InputWarning
 from ...geometry.ellipsoid import quaternion_xyzw_from_rotation, shape_of
+from ...geometry.quadric import ellipsoid_from_dual_quadric
 from ...result import DetectedObject, Result
 from ...session import Session
 from .config import QuadricConfig
-from .dual import camera_matrix, ellipsoid_from_dual_quadric, solve_dual_quadric
+from .dual import camera_matrix, solve_dual_quadric
 
 #: An object's association: view index -> detection index.
 Association = dict[int, int]
@@ -39,12 +40,15 @@ def track_association(session: Session) -> tuple[list[int], list[Association]]:
 
 
 def bayes_association(session: Session, config: QuadricConfig) -> tuple[list[Association], list[str]]:
-    """The association the ``bayes`` method finds (``result.objects[i].associations``), and its warnings."""
-    from ..bayes.localizer import run as run_bayes
+    """The association the ``bayes`` method finds (``result.objects[i].associations``), and its warnings.
+
+    ``bayes`` is run through the methods registry, as any caller would: ``quadric`` imports no other method.
+    """
+    from .. import get_method
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = run_bayes(session, config.bayes_config())
+        result = get_method("bayes").run(session, config.bayes_config())
     messages = [f"association (bayes): {m}" for m in result.warnings]
     messages += [f"association (bayes): {w.message}" for w in caught if str(w.message) not in result.warnings]
     return [dict(o.associations) for o in result.objects], messages

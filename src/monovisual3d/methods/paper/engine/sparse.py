@@ -14,7 +14,7 @@ The fine grid of resolution ``res`` is covered by octree cells at ``scale =
 1. every candidate cell gets, against *all* views so far, an upper bound of
    ``log f`` over the fine cell centres it contains (the projections of the
    cell are bounded by interval arithmetic, see
-   :func:`~monovisual3d.engine.numba_kernels.pixel_bounds`) and the value of
+   :func:`~monovisual3d.methods.paper.engine.numba_kernels.pixel_bounds`) and the value of
    ``log f`` at one fine cell inside it;
 2. ``M``, the largest such value seen so far, is a lower bound of the fine
    maximum, so a cell whose upper bound is below ``threshold * M`` contains
@@ -33,7 +33,7 @@ one fine cell each) and :attr:`SparsePosterior.stats` says so
 
 The same octree evaluation serves any per-view likelihood that has a point
 value and an upper bound over a box of space; only the kernel functions of
-:mod:`~monovisual3d.engine.numba_kernels` are specific to the paper.
+:mod:`~monovisual3d.methods.paper.engine.numba_kernels` are specific to the paper.
 """
 
 from __future__ import annotations
@@ -47,14 +47,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera
-from ..errors import InputError
-from ..frames import transform_points
-from ..grid import VoxelGrid
-from ..session import View
+from ....camera import Camera
+from ....errors import InputError
+from ....frames import transform_points
+from ....grid import VoxelGrid
+from ....kernels.threads import kernel_threads
+from ....session import View
 from .dense import numba_kernels
 from .params import DEFAULT_GAUSS_EPS, PackedViews, pack_views
-from .threads import kernel_threads
 
 #: Default relative threshold of the active set: cells below threshold * max are dropped.
 DEFAULT_THRESHOLD = 1e-6
@@ -159,7 +159,7 @@ def refine(
     Parameters
     ----------
     grid : VoxelGrid, the fine grid
-    packed : PackedViews, all views so far (see :func:`~monovisual3d.engine.params.pack_views`)
+    packed : PackedViews, all views so far (see :func:`~monovisual3d.methods.paper.engine.params.pack_views`)
     levels : int >= 0, octree levels above the fine grid
     threshold : float in (0, 1), relative threshold of the active set
     max_cells : int, most candidate cells held at once

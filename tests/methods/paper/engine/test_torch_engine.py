@@ -11,7 +11,7 @@ from monovisual3d.methods.paper.config import PaperConfig
 from monovisual3d.methods.paper.filter import HistogramFilter, paper_update, paper_view_likelihood_grid
 
 torch = pytest.importorskip("torch")
-from monovisual3d.engine.torch_backend import (  # noqa: E402
+from monovisual3d.methods.paper.engine.torch_backend import (  # noqa: E402
     TorchDenseHistogram,
     paper_likelihood_torch,
     paper_update_torch,

@@ -1,4 +1,4 @@
-"""Warnings about view geometry (:mod:`monovisual3d.geometry.baseline`): one view, one pose, too small a baseline."""
+"""Warnings about view geometry (:mod:`monovisual3d.session.baseline`): one view, one pose, too small a baseline."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 
 from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at
-from monovisual3d.geometry.baseline import MIN_BASELINE_DEG, geometry_warnings
 from monovisual3d.session import Session, View, Workspace
+from monovisual3d.session.baseline import MIN_BASELINE_DEG, geometry_warnings
 
 CAMERA = Camera(width=640, height=480, fx=500.0, fy=500.0, cx=320.0, cy=240.0)
 TARGET = np.array([0.0, 0.0, 1.0])

@@ -11,7 +11,7 @@ from monovisual3d.bench.speed import format_markdown, run_speed
 from monovisual3d.bench.update_cases import bench_scene, naive_update, paper_grid
 from monovisual3d.cli import app
 from monovisual3d.cli.bench import bench_app
-from monovisual3d.engine.dense import paper_update_fused
+from monovisual3d.methods.paper.engine.dense import paper_update_fused
 
 
 def test_bench_speed_quick_cli(tmp_path):
@@ -80,7 +80,7 @@ def test_naive_loop_computes_the_same_update():
 
 
 def test_missing_torch_is_reported_not_silently_dropped(monkeypatch):
-    import monovisual3d.engine.torch_backend as tb
+    import monovisual3d.methods.paper.engine.torch_backend as tb
 
     def no_torch():
         raise ImportError("torch is needed")

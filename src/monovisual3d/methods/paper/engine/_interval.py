@@ -1,6 +1,6 @@
 """Interval arithmetic: conservative pixel bounds of grid-frame boxes (tiles, octree cells) and of box kernels over them.
 
-Part of the kernels re-exported by :mod:`monovisual3d.engine.numba_kernels`. The bounds stay conservative even where
+Part of the kernels re-exported by :mod:`monovisual3d.methods.paper.engine.numba_kernels`. The bounds stay conservative even where
 a distortion polynomial folds over; tests compare them with dense sampling.
 """
 
@@ -11,11 +11,12 @@ import math
 import numpy as np
 from numba import njit
 
-from ._common import _O, CLASSIFY_MARGIN_PX
+from ....kernels.flags import NJIT_OPTIONS
+from ._common import CLASSIFY_MARGIN_PX
 
 
 # ---------------------------------------------------------------------- interval arithmetic
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def _imul(al, ah, bl, bh):  # pragma: no cover - compiled
     p1 = al * bl
     p2 = al * bh
@@ -24,7 +25,7 @@ def _imul(al, ah, bl, bh):  # pragma: no cover - compiled
     return min(min(p1, p2), min(p3, p4)), max(max(p1, p2), max(p3, p4))
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def _isq(lo, hi):  # pragma: no cover - compiled
     if lo >= 0.0:
         return lo * lo, hi * hi
@@ -33,14 +34,14 @@ def _isq(lo, hi):  # pragma: no cover - compiled
     return 0.0, max(lo * lo, hi * hi)
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def _iscale(c, lo, hi):  # pragma: no cover - compiled
     if c >= 0.0:
         return c * lo, c * hi
     return c * hi, c * lo
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def _ipoly(c1, c2, c3, c4, lo, hi):  # pragma: no cover - compiled
     """Interval of ``1 + t (c1 + t (c2 + t (c3 + t c4)))`` for t in [lo, hi]."""
     pl, ph = _imul(c4, c4, lo, hi)
@@ -50,7 +51,7 @@ def _ipoly(c1, c2, c3, c4, lo, hi):  # pragma: no cover - compiled
     return pl + 1.0, ph + 1.0
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def distort_bounds(model, dists, v, xl, xh, yl, yh):  # pragma: no cover - compiled
     """Conservative bounds of the distorted normalised coordinates over a rectangle (coefficients ``dists[v]``).
 
@@ -98,7 +99,7 @@ def distort_bounds(model, dists, v, xl, xh, yl, yh):  # pragma: no cover - compi
     return True, xdl, xdh, al + bl + cl, ah + bh + ch
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def pixel_bounds(Ts, intrs, dists, v, model, cx0, cx1, cy0, cy1, cz0, cz1):  # pragma: no cover - compiled
     """Pixel rectangle bounding the projections of all points of a grid-frame box.
 
@@ -139,7 +140,7 @@ def pixel_bounds(Ts, intrs, dists, v, model, cx0, cx1, cy0, cy1, cz0, cz1):  # p
     return True, fx * xdl + intrs[v, 2], fx * xdh + intrs[v, 2], fy * ydl + intrs[v, 3], fy * ydh + intrs[v, 3]
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def box_upper(kernel, pars, reaches, b, q_cut, ok, ul, uh, vl, vh):  # pragma: no cover - compiled
     """Upper bound of box ``b``'s kernel over a pixel rectangle, and whether it is exactly 1 there.
 

@@ -1,7 +1,7 @@
-"""The fused, tiled dense update of the histogram (see :mod:`monovisual3d.engine.numba_kernels` for the design).
+"""The fused, tiled dense update of the histogram (see :mod:`monovisual3d.methods.paper.engine.numba_kernels` for the design).
 
-Part of the kernels re-exported by :mod:`monovisual3d.engine.numba_kernels`; the Python driver is
-:mod:`monovisual3d.engine.dense`.
+Part of the kernels re-exported by :mod:`monovisual3d.methods.paper.engine.numba_kernels`; the Python driver is
+:mod:`monovisual3d.methods.paper.engine.dense`.
 """
 
 from __future__ import annotations
@@ -10,18 +10,19 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ._common import _O, EXP_NEG_MAX, exp_neg
+from ....kernels.flags import NJIT_OPTIONS
+from ....kernels.project import project_cells, project_cells32
+from ._common import EXP_NEG_MAX, exp_neg
 from ._interval import box_upper, pixel_bounds
 from ._mixture import add_box_row, add_gauss_row32
-from ._project import project_cells, project_cells32
 
 
 # ---------------------------------------------------------------------- dense update
-@njit(inline="always", **_O)
+@njit(inline="always", **NJIT_OPTIONS)
 def _cells_likelihood(packed, v0, nv, sel, nsel, cconst, precise, gx, gy, gz, res, m, F, F32, buf, buf32):  # pragma: no cover
     """``lk = buf[3, :m] = prod_v L_v`` at the cells ``(gx, gy, gz) + res * F[:, e]`` (boxes pre-selected per view).
 
-    ``packed`` is the :class:`~monovisual3d.engine.params.PackedViews` of :func:`dense_update`;
+    ``packed`` is the :class:`~monovisual3d.methods.paper.engine.params.PackedViews` of :func:`dense_update`;
     ``F``/``F32`` (3, m) hold the cell offsets in float64/float32; ``buf`` (4, m) and ``buf32`` (3, m)
     are scratch (u, v, acc[, lk]). Arguments are packed (the views, ``flags``, ``geo``) so that the call
     can be inlined (numba does not inline calls with more than 30 arguments) and costs nothing per tile.
@@ -63,7 +64,7 @@ def _cells_likelihood(packed, v0, nv, sel, nsel, cconst, precise, gx, gy, gz, re
                 lk[e] *= acc[e] * f
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def _tile_offsets(ni, nj, nk, F, F32):  # pragma: no cover - compiled
     """Cell offsets of an ``ni x nj x nk`` tile in C order into ``F`` (3, m) float64 and ``F32`` float32."""
     e = 0
@@ -79,7 +80,7 @@ def _tile_offsets(ni, nj, nk, F, F32):  # pragma: no cover - compiled
                 e += 1
 
 
-@njit(inline="always", **_O)
+@njit(inline="always", **NJIT_OPTIONS)
 def _tile_update(src, dst, flags, geo, res, in_scale, packed, sel, nsel, cconst, F, F32, buf, buf32):  # pragma: no cover
     """Update one tile; returns (sum, max) as described in :func:`dense_update`.
 
@@ -229,7 +230,7 @@ def _tile_update(src, dst, flags, geo, res, in_scale, packed, sel, nsel, cconst,
 TILES_PER_TASK = 16
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def _tile_range(
     g0,
     g1,
@@ -307,7 +308,7 @@ def _tile_range(
         tile_max[g] = tm
 
 
-@njit(parallel=True, **_O)
+@njit(parallel=True, **NJIT_OPTIONS)
 def dense_update(
     src,
     dst,
@@ -342,7 +343,7 @@ def dense_update(
     in_scale : ndarray, shape (S,), float64; linear: factor applied to the prior; log: offset subtracted
     log_space : bool, values hold log posteriors (``-inf`` for zero)
     view_offsets : ndarray, shape (S + 1,), int64, views of grid s in the packed arrays
-    packed : :class:`monovisual3d.engine.params.PackedViews`, the views (a named tuple of arrays)
+    packed : :class:`monovisual3d.methods.paper.engine.params.PackedViews`, the views (a named tuple of arrays)
     tile : ndarray, shape (3,), int64, tile size
     tile_offsets : ndarray, shape (S + 1,), int64, tiles of grid s
     tile_live : ndarray, shape (n_tiles,), bool, False where the tile's prior is known to be zero
@@ -403,14 +404,14 @@ def dense_update(
         )
 
 
-@njit(parallel=True, **_O)
+@njit(parallel=True, **NJIT_OPTIONS)
 def scale_inplace(values, factor):  # pragma: no cover - compiled
     """``values *= factor`` in parallel (the normalisation pass)."""
     for c in prange(values.shape[0]):
         values[c] = values[c] * factor
 
 
-@njit(parallel=True, **_O)
+@njit(parallel=True, **NJIT_OPTIONS)
 def exp_shift(values, offset, out):  # pragma: no cover - compiled
     """``out = exp(values - offset)`` (log-space state to a linear posterior)."""
     for c in prange(values.shape[0]):

@@ -34,11 +34,11 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera
-from ..errors import InputError
-from ..frames import invert_transform
-from ..grid import VoxelGrid
-from ..session import View
+from ....camera import Camera
+from ....errors import InputError
+from ....frames import invert_transform
+from ....grid import VoxelGrid
+from ....session import View
 
 #: Kernel ids understood by the fast kernels (the paper's Eq. 3 and Eq. 4).
 KERNEL_IDS = {"square": 0, "gaussian": 1}

@@ -1,6 +1,6 @@
 """The paper's box kernels (square, Gaussian) added over rows of pixels or at one point, and their upper bounds.
 
-Part of the kernels re-exported by :mod:`monovisual3d.engine.numba_kernels`; the numpy reference is
+Part of the kernels re-exported by :mod:`monovisual3d.methods.paper.engine.numba_kernels`; the numpy reference is
 :func:`monovisual3d.methods.paper.kernels.paper_view_likelihood`.
 """
 
@@ -10,11 +10,12 @@ import math
 
 from numba import njit
 
-from ._common import _F, _O, FAR_PX, exp_neg, exp_neg32
-from ._project import project_point
+from ....kernels.flags import NJIT_OPTIONS
+from ....kernels.project import FAR_PX, project_point
+from ._common import _F, exp_neg, exp_neg32
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def add_box_row(kernel, par, q_cut, ub, vb, n, acc):  # pragma: no cover - compiled
     """``acc[t] += k(ub[t], vb[t])`` for one box, t < n, float64 (branch free)."""
     if kernel == 0:
@@ -39,7 +40,7 @@ def add_box_row(kernel, par, q_cut, ub, vb, n, acc):  # pragma: no cover - compi
             acc[t] += e if q <= q_cut else 0.0
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def add_gauss_row32(par, q_cut, ub, vb, n, acc):  # pragma: no cover - compiled
     """Float32 twin of the Gaussian branch of :func:`add_box_row` (8 lanes on AVX2)."""
     cu = _F(par[0])
@@ -56,7 +57,7 @@ def add_gauss_row32(par, q_cut, ub, vb, n, acc):  # pragma: no cover - compiled
         acc[t] += e if q <= qc else zero
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def box_point(kernel, pars, b, q_cut, u, v):  # pragma: no cover - compiled
     """Box ``b``'s kernel at one pixel (scalar twin of :func:`add_box_row`)."""
     if kernel == 0:
@@ -67,7 +68,7 @@ def box_point(kernel, pars, b, q_cut, u, v):  # pragma: no cover - compiled
     return math.exp(-q) if q <= q_cut else 0.0
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def mixture_point(Ts, intrs, dist_id, dists, kern_id, inv_n, box_off, box_par, q_cut, v, gx, gy, gz):  # pragma: no cover
     """The paper's mixture likelihood of view ``v`` at one grid-frame point (cut-off applied)."""
     u, w = project_point(Ts, intrs, dists, v, dist_id[v], gx, gy, gz)
@@ -80,7 +81,7 @@ def mixture_point(Ts, intrs, dist_id, dists, kern_id, inv_n, box_off, box_par, q
     return acc * inv_n[v]
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def add_box_upper_row(kernel, par, q_cut, uc, vc, ru, rv, n, acc):  # pragma: no cover - compiled
     """``acc[e] +=`` the maximum of one box's kernel over the rectangle ``uc +- ru, vc +- rv`` (branch free)."""
     if kernel == 0:

@@ -1,14 +1,15 @@
 """Warnings about view geometry that cannot triangulate depth: one view, one pose, or too small a baseline.
 
 The session loader (:mod:`monovisual3d.session.load`) calls :func:`geometry_warnings` on every session it
-loads; the CLI also calls it with ``single_view=True`` before a method runs.
+loads; the CLI also calls it with ``single_view=True`` before a method runs. Numpy only, on the session's
+poses: part of the core, so that the loader needs nothing above it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..session import Session
+from .model import Session
 
 #: Views whose camera positions span less than this angle, seen from the scene, cannot triangulate depth well.
 MIN_BASELINE_DEG = 3.0

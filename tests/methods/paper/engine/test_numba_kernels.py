@@ -8,8 +8,8 @@ from numpy.testing import assert_allclose
 
 from conftest import DISTORTIONS, make_camera
 from monovisual3d.camera import DISTORTION_IDS, distort_normalised
-from monovisual3d.engine import numba_kernels as nk
-from monovisual3d.engine.params import box_params_from_xyxy, gauss_q_cut
+from monovisual3d.methods.paper.engine import numba_kernels as nk
+from monovisual3d.methods.paper.engine.params import box_params_from_xyxy, gauss_q_cut
 
 
 def test_exp_neg_matches_numpy_to_1e12():

@@ -1,7 +1,7 @@
 """Octree evaluation of the sparse coarse-to-fine path: point values and upper bounds of cells at any level.
 
-Part of the kernels re-exported by :mod:`monovisual3d.engine.numba_kernels`; the Python driver is
-:mod:`monovisual3d.engine.sparse`.
+Part of the kernels re-exported by :mod:`monovisual3d.methods.paper.engine.numba_kernels`; the Python driver is
+:mod:`monovisual3d.methods.paper.engine.sparse`.
 """
 
 from __future__ import annotations
@@ -11,16 +11,16 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._common import _O
+from ....kernels.flags import NJIT_OPTIONS
+from ....kernels.project import project_cells, sphere_bounds
 from ._interval import box_upper, pixel_bounds
 from ._mixture import add_box_row, add_box_upper_row
-from ._project import project_cells, sphere_bounds
 
 #: Candidate cells evaluated together (vector loops) by :func:`octree_eval`.
 OCTREE_CHUNK = 256
 
 
-@njit(parallel=True, **_O)
+@njit(parallel=True, **NJIT_OPTIONS)
 def octree_eval(
     ijk,
     scale,
@@ -48,7 +48,7 @@ def octree_eval(
     res : float, fine resolution, metres
     shape : ndarray, shape (3,), int64, fine grid shape
     view_lo, view_hi : int, the views of the packed arrays to use
-    packed : :class:`monovisual3d.engine.params.PackedViews`, the views (a named tuple of arrays)
+    packed : :class:`monovisual3d.methods.paper.engine.params.PackedViews`, the views (a named tuple of arrays)
     log_cut : float, the bound stops being accumulated (left below ``log_cut``) once it falls
         under it: such cells are discarded by the caller anyway
     out_log_point : ndarray, shape (M,), float64, ``sum_v log L_v`` at the fine cell

@@ -27,10 +27,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera
-from ..errors import InputError, MissingExtra
-from ..grid import VoxelGrid
-from ..session import View
+from ....camera import Camera
+from ....errors import InputError, MissingExtra
+from ....grid import VoxelGrid
+from ....session import View
 from .params import DEFAULT_GAUSS_EPS, PackedViews, pack_views
 
 #: Cells per chunk on CUDA and on CPU (bounds the temporaries: about chunk x boxes x 4 bytes each).

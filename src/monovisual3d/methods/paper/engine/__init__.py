@@ -22,9 +22,9 @@ if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
     from numpy.typing import NDArray
 
-    from ..camera import Camera
-    from ..grid import VoxelGrid
-    from ..session import View
+    from ....camera import Camera
+    from ....grid import VoxelGrid
+    from ....session import View
 
 
 def check_backend(backend: str, device: str | None = None, refine_to: float | None = None, resolution: float = 1.0) -> None:
@@ -40,8 +40,8 @@ def check_backend(backend: str, device: str | None = None, refine_to: float | No
     """
     import math
 
-    from ..checks import is_real
-    from ..errors import InputError
+    from ....checks import is_real
+    from ....errors import InputError
 
     if backend not in BACKENDS:
         raise InputError(f"backend: got {backend!r}, expected one of {list(BACKENDS)}")

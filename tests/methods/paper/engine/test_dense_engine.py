@@ -1,6 +1,6 @@
 """The fused numba update against the numpy reference (methods/paper/kernels.py and filter.py).
 
-Tolerances (see monovisual3d.engine.dense):
+Tolerances (see monovisual3d.methods.paper.engine.dense):
 - float64: the likelihood to 1e-12 absolute (the Gaussian cut-off drops terms below
   gauss_eps = 1e-12) and rounding; posteriors to rtol 1e-9 + 1e-10 of the maximum (per
   view the cut-off moves a cell by at most gauss_eps / max(L) <= N * gauss_eps of the maximum);
@@ -17,16 +17,16 @@ import pytest
 from numpy.testing import assert_allclose
 
 from conftest import make_camera, paper_cube, scene_views
-from monovisual3d.engine.dense import (
+from monovisual3d.errors import InputError
+from monovisual3d.grid import VoxelGrid
+from monovisual3d.methods.paper.config import PaperConfig
+from monovisual3d.methods.paper.engine.dense import (
     DenseHistogram,
     DenseHistogramBatch,
     numba_kernels,
     paper_likelihood_fused,
     paper_update_fused,
 )
-from monovisual3d.errors import InputError
-from monovisual3d.grid import VoxelGrid
-from monovisual3d.methods.paper.config import PaperConfig
 from monovisual3d.methods.paper.filter import HistogramFilter, paper_update, paper_view_likelihood_grid
 from monovisual3d.session import Detection, View
 

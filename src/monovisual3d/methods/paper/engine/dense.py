@@ -13,7 +13,7 @@ Two ways in:
   normalisation so that each view costs a single pass over memory, and
   batching: many views of one grid, or many grids (sessions), in one kernel call.
 
-Tolerance against the numpy reference (tested in ``tests/engine``): float64
+Tolerance against the numpy reference (tested in ``tests/methods/paper/engine``): float64
 storage agrees to ``rtol=1e-9`` plus the Gaussian cut-off (each cell's
 likelihood is under-estimated by less than ``gauss_eps``, absolute); float32
 storage to ``rtol=1e-5`` of the posterior maximum per view.
@@ -28,12 +28,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera
-from ..errors import InputError
-from ..grid import VoxelGrid
-from ..session import View
+from ....camera import Camera
+from ....errors import InputError
+from ....grid import VoxelGrid
+from ....kernels.threads import kernel_threads
+from ....session import View
 from .params import DEFAULT_GAUSS_EPS, DEFAULT_TILE, PackedViews, concat_packed, pack_views, tile_counts
-from .threads import kernel_threads
 
 #: Single-thread cost of one cell in one view of :func:`numba_kernels.dense_update`, nanoseconds
 #: (4.5-8 measured in CPU time on the 2 M-cell benchmark, six boxes per view, float32; the thread
@@ -187,7 +187,7 @@ def paper_update_fused(
         folded in one pass; the result equals the sequential updates unless one of them
         would have been skipped (then use one view per call).
     kernel, sigma_fraction : the paper's kernel options
-    gauss_eps : Gaussian cut-off (see :mod:`monovisual3d.engine.params`)
+    gauss_eps : Gaussian cut-off (see :mod:`monovisual3d.methods.paper.engine.params`)
     dtype : float32 (default) or float64, dtype of the returned posterior
 
     Returns
@@ -249,7 +249,7 @@ class DenseHistogramBatch:
     ----------
     grids : VoxelGrid or sequence of VoxelGrid
     kernel, sigma_fraction : the paper's kernel options
-    gauss_eps : Gaussian cut-off (see :mod:`monovisual3d.engine.params`)
+    gauss_eps : Gaussian cut-off (see :mod:`monovisual3d.methods.paper.engine.params`)
     dtype : float32 (default, 4 bytes per cell) or float64
     log_space : store log posteriors (no underflow over many Gaussian views; slower)
     tile : tile size along (i, j, k)

@@ -1,6 +1,6 @@
-"""Shared settings and scalar helpers of the numba kernels: fast-math flags, ``exp(-q)`` in float64 and float32.
+"""Settings and scalar helpers of the engine's numba kernels: classification margin, ``exp(-q)`` in float64 and float32.
 
-Part of the kernels re-exported by :mod:`monovisual3d.engine.numba_kernels` (see its docstring for the design).
+Part of the kernels re-exported by :mod:`monovisual3d.methods.paper.engine.numba_kernels` (see its docstring for the design).
 """
 
 from __future__ import annotations
@@ -12,24 +12,18 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
-#: LLVM fast-math flags used: reassociation (vectorised reductions), contraction (FMA),
-#: reciprocal and approximate functions, no signed zeros. Not ``nnan``/``ninf``: the log
-#: variant stores -inf and the code relies on comparisons with it.
-FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
-#: Pixel coordinate given to cells behind the camera: no box reaches it.
-FAR_PX = 1e30
+from ....kernels.flags import NJIT_OPTIONS
+
 #: Margin (pixels) of the tile/box classification, far above float64 rounding of pixel coordinates.
 CLASSIFY_MARGIN_PX = 1e-6
 #: Largest argument of :func:`exp_neg` (larger q are clamped; callers cut at q_cut < 43).
 EXP_NEG_MAX = 43.0
 
-_O = {"cache": True, "fastmath": FASTMATH, "nogil": True}
-
 # Taylor coefficients of exp(-s) around 0, s = q / 64 - 0.3375 in [-0.3375, 0.3375].
 _EXP_C = math.exp(-0.3375)
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def exp_neg(q):  # pragma: no cover - compiled
     """``exp(-q)`` for ``0 <= q <= 43``, branch free, relative error < 1e-12.
 
@@ -77,7 +71,7 @@ def _pow2_from_biased(typingctx, f):  # pragma: no cover - compiled
 _F = np.float32
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def exp_neg32(q):  # pragma: no cover - compiled
     """``exp(-q)`` in float32 for ``0 <= q <= 87`` (Cephes ``expf``), relative error < 2e-7, branch free."""
     x = -q

@@ -18,7 +18,8 @@ for that call from the amount of work:
 Work is counted in *work items* of about one nanosecond of single-thread
 time: each call site multiplies its loop count (cells times views, hypotheses
 times boxes) by a measured cost per iteration (``NS_PER_*`` constants next to
-the calls in :mod:`.dense`, :mod:`.sparse` and the ``bayes`` kernels). A
+the calls in :mod:`monovisual3d.methods.paper.engine.dense`,
+:mod:`monovisual3d.methods.paper.engine.sparse` and the ``bayes`` kernels). A
 second thread starts paying off at about 20 ms of work (``benchmarks/threads.py``
 measures the crossover, idle and with a busy-loop process on one core): below
 that, waking the pool and waiting for a thread that shares its core with

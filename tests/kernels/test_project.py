@@ -8,7 +8,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from monovisual3d.camera import DISTORTION_IDS, Camera, PackedCamera
-from monovisual3d.engine import numba_kernels as nk
+from monovisual3d.kernels import project
 from monovisual3d.methods.bayes._kernels import camera_arrays, cone_counts_fused
 
 #: One camera per distortion model (and both plumb_bob lengths), coefficients of a real wide lens.
@@ -27,7 +27,7 @@ CAMERAS = {
 def _distort_rows(model, d, xy, one):  # pragma: no cover - compiled
     out = np.empty_like(xy)
     for n in range(xy.shape[0]):
-        x, y = nk.distort_xy(xy[n, 0], xy[n, 1], model, d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], one)
+        x, y = project.distort_xy(xy[n, 0], xy[n, 1], model, d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], one)
         out[n, 0] = x
         out[n, 1] = y
     return out
@@ -95,15 +95,15 @@ def test_compiled_projections_match_camera_project(name):
     n = len(p_optical)
     front = p_optical[:, 2] > 0
     # scalar twin
-    uv_point = np.array([nk.project_point(T, intr, dists, 0, p.distortion_id, *q) for q in p_optical])
+    uv_point = np.array([project.project_point(T, intr, dists, 0, p.distortion_id, *q) for q in p_optical])
     assert_allclose(uv_point[front], uv_ref[front], rtol=1e-12, atol=1e-9)
-    assert (uv_point[~front] == nk.FAR_PX).all()
+    assert (uv_point[~front] == project.FAR_PX).all()
     # row kernels: points as res * offsets from a corner
     res = 0.01
     F = p_optical / res
     kernels = (
-        (nk.project_cells, np.float64, {"rtol": 1e-12, "atol": 1e-8}),
-        (nk.project_cells32, np.float32, {"rtol": 0, "atol": 0.05}),
+        (project.project_cells, np.float64, {"rtol": 1e-12, "atol": 1e-8}),
+        (project.project_cells32, np.float32, {"rtol": 0, "atol": 0.05}),
     )
     for kernel, dtype, tolerance in kernels:
         Fd = F.astype(dtype)
@@ -112,7 +112,7 @@ def test_compiled_projections_match_camera_project(name):
         kernel(T[0], p.intrinsics, p.distortion_id, p.distortion, *corner, res, n, *(Fd[:, c].copy() for c in range(3)), ub, vb)
         assert_allclose(np.column_stack([ub, vb])[front], uv_ref[front], **tolerance)
         if dtype == np.float64:
-            assert (ub[~front] == nk.FAR_PX).all()
+            assert (ub[~front] == project.FAR_PX).all()
 
 
 @pytest.mark.parametrize("name", ["none", "rational", "equidistant"])

@@ -1,23 +1,28 @@
 """Projection of grid cells to pixels: the one compiled distortion function and the row / point projections.
 
-Part of the kernels re-exported by :mod:`monovisual3d.engine.numba_kernels`. Every compiled kernel of the
-package (these engines and the ``bayes`` kernels) distorts through :func:`distort_xy`, whose model ids and
-coefficient layout are :data:`monovisual3d.camera.DISTORTION_IDS` and
-:meth:`monovisual3d.camera.Camera.packed`. The numpy reference is :meth:`monovisual3d.camera.Camera.project`
-(tested against these in ``tests/engine/test_project.py``).
+Shared by the methods: every compiled kernel of the package (the ``paper`` engine and the ``bayes`` kernels)
+distorts through :func:`distort_xy`, whose model ids and coefficient layout are
+:data:`monovisual3d.camera.DISTORTION_IDS` and :meth:`monovisual3d.camera.Camera.packed`. The numpy reference is
+:meth:`monovisual3d.camera.Camera.project` (tested against these in ``tests/kernels/test_project.py``).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
-from ._common import _F, _O, FAR_PX
+from .flags import NJIT_OPTIONS
+
+#: Pixel coordinate given to cells behind the camera: no box reaches it.
+FAR_PX = 1e30
+
+_F = np.float32
 
 
 # ---------------------------------------------------------------------- distortion
-@njit(inline="always", **_O)
+@njit(inline="always", **NJIT_OPTIONS)
 def distort_xy(x, y, model, k1, k2, p1, p2, k3, k4, k5, k6, one):  # pragma: no cover - compiled
     """Distort normalised coordinates ``(x, y)``: the one compiled copy of :func:`monovisual3d.camera.distort_normalised`.
 
@@ -58,7 +63,7 @@ def distort_xy(x, y, model, k1, k2, p1, p2, k3, k4, k5, k6, one):  # pragma: no 
     return xd, yd
 
 
-@njit(inline="always", **_O)
+@njit(inline="always", **NJIT_OPTIONS)
 def distort_packed(x, y, model, dists, v):  # pragma: no cover - compiled
     """:func:`distort_xy` with the coefficients of row ``v`` of ``dists`` (V, 8), float64.
 
@@ -70,7 +75,7 @@ def distort_packed(x, y, model, dists, v):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------- per-row evaluation
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def project_cells(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb):  # pragma: no cover - compiled
     """Pixels of ``n`` grid-frame points ``(gx, gy, gz) + res * (fi[e], fj[e], fk[e])`` into ``ub``, ``vb``.
 
@@ -141,7 +146,7 @@ def project_cells(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb):  #
             vb[e] = fy * yd + cy if front else FAR_PX
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def project_cells32(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb):  # pragma: no cover - compiled
     """Float32 twin of :func:`project_cells` (8 SIMD lanes) for the float32 Gaussian path.
 
@@ -160,7 +165,7 @@ def project_cells32(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb): 
         _project_rows32(T, intr, 2, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb)
 
 
-@njit(inline="always", **_O)
+@njit(inline="always", **NJIT_OPTIONS)
 def _project_rows32(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb):  # pragma: no cover - compiled
     """The loop of :func:`project_cells32` for one (constant) distortion model, float32."""
     bx = _F(T[0, 0] * gx + T[0, 1] * gy + T[0, 2] * gz + T[0, 3])
@@ -195,7 +200,7 @@ def _project_rows32(T, intr, model, d, gx, gy, gz, res, n, fi, fj, fk, ub, vb): 
         vb[e] = fy * yd + cy if front else far
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def project_point(Ts, intrs, dists, v, model, gx, gy, gz):  # pragma: no cover - compiled
     """Pixel ``(u, v)`` of one grid-frame point in view ``v``; :data:`FAR_PX` behind the camera.
 
@@ -211,7 +216,7 @@ def project_point(Ts, intrs, dists, v, model, gx, gy, gz):  # pragma: no cover -
     return intrs[v, 0] * x + intrs[v, 2], intrs[v, 1] * y + intrs[v, 3]
 
 
-@njit(**_O)
+@njit(**NJIT_OPTIONS)
 def sphere_bounds(T, intr, n, cm0, cm1, cm2, rho, uc, vc, ru, rv):  # pragma: no cover - compiled
     """Pixel centre and half extents bounding the projection of balls (no distortion; vectorised).
 

@@ -9,7 +9,8 @@ import sys
 import numba
 import pytest
 
-from monovisual3d.engine.threads import (
+from monovisual3d.errors import InputError
+from monovisual3d.kernels.threads import (
     MIN_WORK_PER_THREAD,
     check_threads,
     kernel_threads,
@@ -17,7 +18,6 @@ from monovisual3d.engine.threads import (
     thread_limit,
     threads_for,
 )
-from monovisual3d.errors import InputError
 
 
 def test_small_work_gets_one_thread():
@@ -65,7 +65,7 @@ def test_kernel_threads_sets_and_restores_numba_count():
 
 def test_numba_num_threads_env_caps_the_pool():
     code = (
-        "from monovisual3d.engine.threads import threads_for, kernel_threads\n"
+        "from monovisual3d.kernels.threads import threads_for, kernel_threads\n"
         "import os\n"
         "with kernel_threads(10**15) as n: pass\n"
         "print(threads_for(10**15), n, os.environ.get('OMP_WAIT_POLICY'))\n"

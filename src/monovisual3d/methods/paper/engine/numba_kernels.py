@@ -1,7 +1,7 @@
 """Fused, parallel numba kernels of the histogram update (the fast twin of methods/paper/kernels.py and filter.py).
 
 The readable numpy reference is :func:`monovisual3d.methods.paper.filter.paper_view_likelihood_grid`
-with :func:`monovisual3d.methods.paper.filter.paper_update`; tests in ``tests/engine`` compare the
+with :func:`monovisual3d.methods.paper.filter.paper_update`; tests in ``tests/methods/paper/engine`` compare the
 two. Nothing here builds an N x 3 array of cell centres: centres come from the
 cell indices inside the loops.
 
@@ -36,7 +36,7 @@ Accuracy
 --------
 Geometry and kernels are evaluated in float64; storage may be float32. The
 Gaussian cut-off under-estimates each cell's likelihood by less than
-``gauss_eps`` (see :mod:`monovisual3d.engine.params`). :func:`exp_neg` has a
+``gauss_eps`` (see :mod:`monovisual3d.methods.paper.engine.params`). :func:`exp_neg` has a
 relative error below 1e-12 on its range.
 
 All kernels are compiled with ``cache=True``; the first call in a fresh
@@ -45,23 +45,25 @@ processes load the cache.
 
 The kernels live in modules by concept, all re-exported here:
 
-- :mod:`._common`: fast-math flags, :func:`exp_neg` / :func:`exp_neg32`;
-- :mod:`._project`: :func:`distort_xy` (the one compiled distortion), row and point projections;
+- :mod:`._common`: :func:`exp_neg` / :func:`exp_neg32`, the classification margin;
 - :mod:`._interval`: interval arithmetic, :func:`pixel_bounds`, :func:`box_upper`;
 - :mod:`._mixture`: the box kernels over rows of pixels and at points;
 - :mod:`._dense`: :func:`dense_update` and the normalisation passes;
 - :mod:`._octree`: :func:`octree_eval` of the sparse path.
 
+They project through the kernels shared with the other methods, :mod:`monovisual3d.kernels.project`
+(:func:`~monovisual3d.kernels.project.distort_xy`, the one compiled distortion, the row and point projections),
+and compile with :data:`monovisual3d.kernels.flags.NJIT_OPTIONS`.
+
 Parallel entry points (:func:`dense_update`, :func:`scale_inplace`, :func:`exp_shift`,
-:func:`octree_eval`) are called through :mod:`monovisual3d.engine.threads`, which picks the thread
+:func:`octree_eval`) are called through :mod:`monovisual3d.kernels.threads`, which picks the thread
 count by the amount of work.
 """
 
 from __future__ import annotations
 
-from ._common import _O, CLASSIFY_MARGIN_PX, EXP_NEG_MAX, FAR_PX, FASTMATH, exp_neg, exp_neg32  # noqa: F401
+from ._common import CLASSIFY_MARGIN_PX, EXP_NEG_MAX, exp_neg, exp_neg32  # noqa: F401
 from ._dense import TILES_PER_TASK, dense_update, exp_shift, scale_inplace  # noqa: F401
 from ._interval import _imul, _ipoly, _iscale, _isq, box_upper, distort_bounds, pixel_bounds  # noqa: F401
 from ._mixture import add_box_row, add_box_upper_row, add_gauss_row32, box_point, mixture_point  # noqa: F401
 from ._octree import OCTREE_CHUNK, octree_eval  # noqa: F401
-from ._project import distort_packed, distort_xy, project_cells, project_cells32, project_point, sphere_bounds  # noqa: F401

@@ -10,11 +10,11 @@ from numpy.testing import assert_allclose
 
 from conftest import make_camera, scene_views
 from monovisual3d import Session, localize
-from monovisual3d.engine.dense import DenseHistogram
-from monovisual3d.engine.params import pack_views
-from monovisual3d.engine.sparse import SparseHistogramFilter, levels_between, refine
 from monovisual3d.errors import InputError
 from monovisual3d.grid import VoxelGrid
+from monovisual3d.methods.paper.engine.dense import DenseHistogram
+from monovisual3d.methods.paper.engine.params import pack_views
+from monovisual3d.methods.paper.engine.sparse import SparseHistogramFilter, levels_between, refine
 from monovisual3d.session import Detection, View
 from monovisual3d.sim.scenes import paper_scene
 
