@@ -19,7 +19,7 @@ from monovisual3d.methods.bayes.aspects import as_sphere
 from monovisual3d.methods.bayes.problem import build_problem
 from monovisual3d.methods.bayes.shape_swap import boxes_meet, centres_agree, epipolar_trades, is_tall, meeting_points
 from monovisual3d.methods.bayes.shapes import SPHERE_PARAMETERS, fitted_answer, shape_value
-from monovisual3d.result import DetectedObject
+from monovisual3d.methods.bayes.state import Found
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes
 
@@ -67,7 +67,7 @@ def test_a_hidden_edge_costs_nothing_within_the_nearer_box_only():
     seen = whole.copy()
     seen[0] += 8.0  # the left 8 px (1.4 edge sigmas) hidden
     problem = _problem(T_base_optical[None], seen[None, None])
-    obj = DetectedObject(centre, 0.0, 0.03, None, {0: 0}, 1, {})
+    obj = Found(centre, 0.0, 0.03, None, {0: 0}, 1)
     answer = (obj, sphere, SPHERE_PARAMETERS)
     free = np.full((1, 4), np.nan)
     seen_edges = shape_value(problem, obj, answer, 4)
@@ -78,9 +78,9 @@ def test_a_hidden_edge_costs_nothing_within_the_nearer_box_only():
 
 
 def test_only_upright_elongated_objects_are_tall():
-    def obj(shape: str, semi_axes: list[float]) -> DetectedObject:
+    def obj(shape: str, semi_axes: list[float]) -> Found:
         q = np.array([0.0, 0.0, 0.0, 1.0])
-        return DetectedObject(TARGET, 0.0, 0.03, None, {}, 1, {}, shape=shape, semi_axes=np.array(semi_axes), quaternion_xyzw=q)
+        return Found(TARGET, 0.0, 0.03, None, {}, 1, shape=shape, semi_axes=np.array(semi_axes), quaternion_xyzw=q)
 
     assert is_tall(obj("spheroid", [0.025, 0.025, 0.06]))
     assert not is_tall(obj("sphere", [0.03, 0.03, 0.03]))
@@ -99,7 +99,7 @@ def test_the_pair_refit_keeps_the_farther_container_behind_the_nearer_box():
     )
     depths = np.einsum("kj,nj->kn", np.linalg.inv(poses)[:, 2, :3], CENTRES) + np.linalg.inv(poses)[:, 2, 3:4]
     problem = _problem(poses, visible_part_boxes(whole, depths))
-    pair = [DetectedObject(c, 0.0, 0.03, None, {0: i, 1: i, 2: i}, 1, {"semi_up": 0.06}) for i, c in enumerate(CENTRES)]
+    pair = [Found(c, 0.0, 0.03, None, {0: i, 1: i, 2: i}, 1, semi_up=0.06) for i, c in enumerate(CENTRES)]
     assert np.all(depths[:, 0] > depths[:, 1])  # the first container is the farther one in every view
     hidden_to = shape_swap._cut_by_each_other(
         problem, pair, [fitted_answer(problem, o, shapes=("spheroid",))[0][1] for o in pair]
@@ -159,9 +159,9 @@ def test_a_sphere_kept_behind_a_container_is_refitted_with_every_model():
     u, _, vt = np.linalg.svd(poses[:, :3, :3])
     poses[:, :3, :3] = u @ vt
     problem = _problem(poses, SUBSET_BOXES)
-    start = DetectedObject(SUBSET_CENTRES[1], 0.0, 0.03, None, {0: 1, 1: 1, 2: 1}, 1, {"semi_up": 0.06})
+    start = Found(SUBSET_CENTRES[1], 0.0, 0.03, None, {0: 1, 1: 1, 2: 1}, 1, semi_up=0.06)
     near = fitted_answer(problem, start, shapes=("spheroid",))[0][0]
-    far = as_sphere(DetectedObject(np.array([0.629759, -0.013098, 0.293926]), 0.0, 0.0629, None, {0: 0, 1: 0, 2: 0}, 1, {}))
+    far = as_sphere(Found(np.array([0.629759, -0.013098, 0.293926]), 0.0, 0.0629, None, {0: 0, 1: 0, 2: 0}, 1))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the fits' bounded solver
         bar = shape_swap._held_value(problem, [far, near]) + shape_swap.MIN_GAIN_NATS
@@ -211,9 +211,7 @@ def _spheres_seen(rng: np.random.Generator, n_views: int, n_objects: int):
         poses.append(look_at(p, TARGET))
     poses = np.array(poses)
     boxes = np.stack([Ellipsoid.sphere(c, r).bbox(CAM, poses) for c, r in zip(centres, radii)], axis=1)
-    objects = [
-        DetectedObject(c, 0.0, r, None, {v: j for v in range(n_views)}, 1, {}) for j, (c, r) in enumerate(zip(centres, radii))
-    ]
+    objects = [Found(c, 0.0, r, None, {v: j for v in range(n_views)}, 1) for j, (c, r) in enumerate(zip(centres, radii))]
     return _problem(poses, boxes), objects
 
 

@@ -162,26 +162,26 @@ def test_predicted_boxes_and_stds_batched_equal_one_object_at_a_time():
     from monovisual3d.methods.bayes.config import BayesConfig
     from monovisual3d.methods.bayes.problem import Problem, ViewData
     from monovisual3d.methods.bayes.sensor import box_edge_sigma_px
-    from monovisual3d.result import DetectedObject
+    from monovisual3d.methods.bayes.state import Found
 
     rng = np.random.default_rng(8)
     views = tuple(ViewData(i, invert_transform(T), np.zeros((0, 4)), (), None) for i, T in enumerate(poses()))
     problem = Problem(CAM, BayesConfig(), SensorModel(), views)
     objects = []
     for i in range(12):
-        extra = {} if i % 3 == 0 else {"semi_up": 0.05} if i % 3 == 1 else {"semi_up": 0.06, "axis": [0.0, 1.0, 0.0]}
+        learned = {} if i % 3 == 0 else {"semi_up": 0.05} if i % 3 == 1 else {"semi_up": 0.06, "axis": np.array([0.0, 1.0, 0.0])}
         a = rng.normal(size=(3, 3)) * 1e-3
         cov = a @ a.T if i % 2 else None
-        objects.append(DetectedObject(TARGET + rng.normal(0, 0.1, 3), 1.0, 0.02 + 0.01 * rng.random(), cov, extra=extra))
-    objects.append(DetectedObject(np.array([-1.0, 0.0, 0.5]), 1.0, 0.03))  # behind every camera
+        objects.append(Found(TARGET + rng.normal(0, 0.1, 3), 1.0, 0.02 + 0.01 * rng.random(), cov, **learned))
+    objects.append(Found(np.array([-1.0, 0.0, 0.5]), 1.0, 0.03))  # behind every camera
     for v, vd in enumerate(views):
         boxes, depth, std = _predicted(problem, objects, v)
         R, t = vd.T_optical_base[:3, :3], vd.T_optical_base[:3, 3]
         for i, o in enumerate(objects):
             p = R @ o.position + t
-            if "semi_up" in o.extra:
-                up = R @ np.asarray(o.extra.get("axis", problem.config.up_vector), dtype=float)
-                box = predict_spheroid_boxes(CAM, p[None], [o.radius], [o.extra["semi_up"]], up)[0][0, 0]
+            if o.semi_up is not None:
+                up = R @ (problem.config.up_vector if o.axis is None else o.axis)
+                box = predict_spheroid_boxes(CAM, p[None], [o.radius], [o.semi_up], up)[0][0, 0]
             else:
                 box = predict_sphere_boxes(CAM, p[None], np.array([o.radius]))[0][0, 0]
             assert_allclose(boxes[i], box, rtol=1e-12, atol=1e-9)

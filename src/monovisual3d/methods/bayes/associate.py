@@ -13,11 +13,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ...result import DetectedObject
 from .likelihood import box_scores
-from .problem import Problem, Taken
-from .scoring import associations_list, axis_of, boxes_of, fit_fixed, pose_px, predicted_boxes, refine_and_check, semi_up_of
-from .search import Hypotheses, last_level, same_place_m
+from .problem import Problem
+from .scoring import associations_list, boxes_of, fit_fixed, pose_px, predicted_boxes, refine_and_check
+from .search import last_level, same_place_m
+from .state import Found, Hypotheses, Taken
 
 #: The steal pass tries one candidate per this many accepted objects (at least ``lookahead``): each try is local, and
 #: with ``lookahead`` (3) tries for a whole scene a row of 128 fruit (``bench.scale.row_session(128, 5, 0)``) left a fruit
@@ -30,7 +30,7 @@ SWAP_GAIN_NATS = 1.0
 
 
 def _pair_gates(
-    problem: Problem, v: int, objects: list[DetectedObject], boxes: NDArray[np.float64], rows: NDArray[np.intp]
+    problem: Problem, v: int, objects: list[Found], boxes: NDArray[np.float64], rows: NDArray[np.intp]
 ) -> NDArray[np.bool_]:
     """Which pairs (``rows[i]``, ``j``) of ``objects`` (M) are worth a swap refit in view ``v``, shape (len(rows), M):
     their predicted ``boxes`` (M, 4) overlap with a positive area and :func:`swap_worth_fitting` says so."""
@@ -48,12 +48,12 @@ def _pair_gates(
 
 #: Fits of :func:`fit_fixed` already made in a swap pass: (start position bytes, radius, semi-axis along the axis (and the
 #: axis of a lying object), association) -> fit.
-_Fits = dict[tuple[bytes, float, float | tuple[float, ...] | None, tuple[int, ...]], "DetectedObject | None"]
+_Fits = dict[tuple[bytes, float, float | tuple[float, ...] | None, tuple[int, ...]], "Found | None"]
 
 
-def _fit(problem: Problem, o: DetectedObject, assoc: list[int], fits: _Fits) -> DetectedObject | None:
+def _fit(problem: Problem, o: Found, assoc: list[int], fits: _Fits) -> Found | None:
     """``fit_fixed`` from ``o`` with ``assoc``, made once per pass (the pass's second round meets the same pairs)."""
-    semi_up, axis = semi_up_of(o), axis_of(o)
+    semi_up, axis = o.semi_up, o.axis
     shape = semi_up if axis is None else (semi_up, *axis.tolist())
     key = (np.asarray(o.position, dtype=np.float64).tobytes(), float(o.radius), shape, tuple(assoc))  # type: ignore[arg-type]
     if key not in fits:
@@ -64,8 +64,8 @@ def _fit(problem: Problem, o: DetectedObject, assoc: list[int], fits: _Fits) -> 
 def swap_worth_fitting(
     problem: Problem,
     v: int,
-    first: list[DetectedObject],
-    second: list[DetectedObject],
+    first: list[Found],
+    second: list[Found],
     first_boxes: NDArray[np.float64],
     second_boxes: NDArray[np.float64],
 ) -> NDArray[np.bool_]:
@@ -93,9 +93,7 @@ def swap_worth_fitting(
     return s[:, 1] + s[:, 3] >= s[:, 0] + s[:, 2] - model.match_bonus
 
 
-def _try_swap(
-    problem: Problem, v: int, a: DetectedObject, b: DetectedObject, fits: _Fits
-) -> tuple[DetectedObject, DetectedObject] | None:
+def _try_swap(problem: Problem, v: int, a: Found, b: Found, fits: _Fits) -> tuple[Found, Found] | None:
     """``a`` and ``b`` refit with their boxes in view ``v`` swapped, if their summed score grows by more than :data:`SWAP_GAIN_NATS`."""
     assoc_a, assoc_b = associations_list(problem, a), associations_list(problem, b)
     assoc_a[v], assoc_b[v] = assoc_b[v], assoc_a[v]
@@ -106,7 +104,7 @@ def _try_swap(
     return new_a, new_b
 
 
-def _swap_view(problem: Problem, v: int, objects: list[DetectedObject], fits: _Fits) -> bool:
+def _swap_view(problem: Problem, v: int, objects: list[Found], fits: _Fits) -> bool:
     """One round of :func:`swap_pass` in view ``v``: the pairs in order, ``objects`` updated in place; whether any swapped."""
     holders = [i for i, o in enumerate(objects) if problem.views[v].index in o.associations]
     held = [objects[i] for i in holders]
@@ -130,7 +128,7 @@ def _swap_view(problem: Problem, v: int, objects: list[DetectedObject], fits: _F
     return changed
 
 
-def swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def swap_pass(problem: Problem, objects: list[Found]) -> list[Found]:
     """Fix greedy association mistakes between fruit that overlap in a view (one hiding the other).
 
     For every view and every pair of objects whose predicted boxes overlap
@@ -168,7 +166,7 @@ def _steal_candidates(problem: Problem, hyp: Hypotheses, taken: Taken) -> NDArra
     return (total0 >= cfg.accept - cfg.tuning.prune_slack) & (n0 >= cfg.min_views) & (n_free >= 1) & (n_held >= 1)
 
 
-def _replacement(problem: Problem, o: DetectedObject, v: int, free: NDArray[np.bool_], used: set[tuple[int, int]]) -> int:
+def _replacement(problem: Problem, o: Found, v: int, free: NDArray[np.bool_], used: set[tuple[int, int]]) -> int:
     """The free box of view ``v`` (``free``: per box, whether nothing holds it; ``used``: boxes given away already)
     that best fits the prediction of ``o`` there within the sensor model's gate, or -1 (none)."""
     vd, cam = problem.views[v], problem.camera
@@ -184,23 +182,23 @@ def _replacement(problem: Problem, o: DetectedObject, v: int, free: NDArray[np.b
 
 def _loser_refit(
     problem: Problem,
-    o: DetectedObject,
+    o: Found,
     keep: list[int],
     lost: list[int],
     free: list[NDArray[np.bool_]],
     used: set[tuple[int, int]],
-) -> tuple[DetectedObject | None, set[tuple[int, int]]]:
+) -> tuple[Found | None, set[tuple[int, int]]]:
     """A holder refit without the boxes of views ``lost``, or with a free box of its own there instead (the box the
     candidate's neighbour would have had, left free when the extraction gave the holder the candidate's), whichever
     scores higher; and the free boxes it then takes."""
-    plain = fit_fixed(problem, o.position, float(o.radius), keep, semi_up_of(o), axis_of(o))  # type: ignore[arg-type]
+    plain = fit_fixed(problem, o.position, float(o.radius), keep, o.semi_up, o.axis)  # type: ignore[arg-type]
     swapped = list(keep)
     for v in lost:
         swapped[v] = _replacement(problem, o, v, free[v], used)
     extra = {(v, swapped[v]) for v in lost if swapped[v] >= 0}
     if not extra:
         return plain, set()
-    alt = fit_fixed(problem, o.position, float(o.radius), swapped, semi_up_of(o), axis_of(o))  # type: ignore[arg-type]
+    alt = fit_fixed(problem, o.position, float(o.radius), swapped, o.semi_up, o.axis)  # type: ignore[arg-type]
     if alt is not None and (plain is None or alt.score > plain.score):
         return alt, extra
     return plain, set()
@@ -208,7 +206,7 @@ def _loser_refit(
 
 def _try_steal(
     problem: Problem,
-    objects: list[DetectedObject],
+    objects: list[Found],
     taken: Taken,
     holder: dict[tuple[int, int], int],
     centre: NDArray[np.float64],
@@ -216,7 +214,7 @@ def _try_steal(
     wanted: list[int],
     semi_up: float | None = None,
     axis: NDArray[np.float64] | None = None,
-) -> tuple[DetectedObject, dict[int, DetectedObject], set[tuple[int, int]]] | None:
+) -> tuple[Found, dict[int, Found], set[tuple[int, int]]] | None:
     """The candidate refined with the boxes it wants (held ones released), the holders refit without them (or with a
     free box of their own in that view), and the free boxes those holders take."""
     cfg = problem.config
@@ -226,7 +224,7 @@ def _try_steal(
         return None
     mine = boxes_of(problem, new)
     free = problem.available((taken - stolen) | mine)
-    losers: dict[int, DetectedObject] = {}
+    losers: dict[int, Found] = {}
     used: set[tuple[int, int]] = set()
     for i in sorted({holder[b] for b in mine if b in holder}):
         own = associations_list(problem, objects[i])
@@ -244,9 +242,7 @@ def _try_steal(
     return (new, losers, used) if gain > cfg.accept else None
 
 
-def steal_pass(
-    problem: Problem, objects: list[DetectedObject], taken: Taken, hyp: Hypotheses
-) -> tuple[list[DetectedObject], Taken]:
+def steal_pass(problem: Problem, objects: list[Found], taken: Taken, hyp: Hypotheses) -> tuple[list[Found], Taken]:
     """Give a fruit back the box a neighbour took when the neighbour can do without it.
 
     The greedy extraction can give a fruit the box of a neighbour that lost its

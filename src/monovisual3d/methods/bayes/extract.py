@@ -35,10 +35,10 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ...grid import child_rows
-from ...result import DetectedObject
-from .problem import Problem, Taken
+from .problem import Problem
 from .scoring import boxes_of, refine_and_check, score_hypotheses, score_one
-from .search import Hypotheses, same_place_m, score_children
+from .search import same_place_m, score_children
+from .state import Found, Hypotheses, Taken
 
 
 def _extended(
@@ -319,9 +319,9 @@ def _candidates(
     work: _Work,
     taken: Taken,
     best: float,
-    cache: dict[tuple[int, int], DetectedObject | None],
+    cache: dict[tuple[int, int], Found | None],
     cells: _Cells,
-) -> list[tuple[DetectedObject | None, NDArray[np.bool_]]]:
+) -> list[tuple[Found | None, NDArray[np.bool_]]]:
     """The look-ahead: refined candidates near the best grid score, each with the last-level cells it stands for."""
     cfg, hyp = problem.config, rows.hyp
     floor = cfg.accept - cfg.tuning.prune_slack
@@ -344,7 +344,7 @@ def _candidates(
     return out
 
 
-def _take(problem: Problem, rows: _Rows, work: _Work, taken: Taken, obj: DetectedObject, cells: _Cells) -> Taken:
+def _take(problem: Problem, rows: _Rows, work: _Work, taken: Taken, obj: Found, cells: _Cells) -> Taken:
     """Give ``obj`` its boxes: suppress the cells around it and mark stale the hypotheses that used its boxes."""
     new = boxes_of(problem, obj)
     taken = taken | new
@@ -400,21 +400,19 @@ def _refresh(problem: Problem, rows: _Rows, work: _Work, taken: Taken, lazy: boo
         _split(problem, rows, work, taken, parents)
 
 
-def best_accepted(candidates: list[DetectedObject | None]) -> DetectedObject | None:
+def best_accepted(candidates: list[Found | None]) -> Found | None:
     """The best-scoring of the look-ahead's refined candidates (None: refused), None if every one was refused."""
     accepted = [c for c in candidates if c is not None]
     return max(accepted, key=lambda o: o.score) if accepted else None
 
 
-def still_valid(
-    problem: Problem, cache: dict[Any, DetectedObject | None], taken_obj: DetectedObject
-) -> dict[Any, DetectedObject | None]:
+def still_valid(problem: Problem, cache: dict[Any, Found | None], taken_obj: Found) -> dict[Any, Found | None]:
     """The cached refined candidates that stay valid once ``taken_obj`` is taken: accepted, and sharing no box with it."""
     mine = boxes_of(problem, taken_obj)
     return {key: o for key, o in cache.items() if o is not None and o is not taken_obj and not mine & boxes_of(problem, o)}
 
 
-def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[DetectedObject], Taken]:
+def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[Found], Taken]:
     """Objects found greedily in ``hyp``, and the boxes they took.
 
     ``lazy=False`` rescores every stale hypothesis after each taken object (the reference the lazy rescoring is
@@ -424,9 +422,9 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
     cfg = problem.config
     rows = _Rows.of(hyp)
     work = _Work.from_scores(*hyp.scores, cfg.min_views, pending=np.arange(len(rows.centres)) < rows.n_parents)
-    objects: list[DetectedObject] = []
+    objects: list[Found] = []
     taken: Taken = frozenset()
-    cache: dict[tuple[int, int], DetectedObject | None] = {}
+    cache: dict[tuple[int, int], Found | None] = {}
     cells = _Cells.of(rows.fine_centres)
     max_iter = sum(len(vd.boxes) for vd in problem.views) * 3 + 10
     for _ in range(max_iter):

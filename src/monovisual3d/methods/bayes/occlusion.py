@@ -12,11 +12,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...result import DetectedObject
 from .problem import Problem
 from .refine import Observation
 from .scoring import associations_list, observations, predicted_boxes
 from .sensor import box_edge_sigma_px
+from .state import Found
 
 #: The occlusion refit censors an edge when a nearer object's silhouette covers its extreme point by at least this
 #: many standard deviations of the two objects' projected positions (:func:`occluded_edges`): a chosen margin
@@ -28,7 +28,7 @@ EDGE_AT_OCCLUDER_SIGMAS = 3.0
 
 
 def _predicted(
-    problem: Problem, objects: list[DetectedObject], v: int
+    problem: Problem, objects: list[Found], v: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Predicted boxes (N, 4), pixels, centre depths (N,), metres, and the std (N, 2), pixels, of each object's
     projected centre along x and y in view ``v`` (its position covariance through the pinhole projection's
@@ -233,14 +233,14 @@ def _whole_sides_pairs(
 Predicted = list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
 
 
-def predicted_views(problem: Problem, objects: list[DetectedObject]) -> Predicted:
+def predicted_views(problem: Problem, objects: list[Found]) -> Predicted:
     """What :func:`occlusion_flags` needs of every view, computed once for several calls on the same objects."""
     return [_predicted(problem, objects, v) for v in range(len(problem.views))]
 
 
 def occlusion_flags(
     problem: Problem,
-    objects: list[DetectedObject],
+    objects: list[Found],
     trusted: list[bool] | None = None,
     whole_sides: bool = False,
     predicted: Predicted | None = None,
@@ -260,7 +260,7 @@ def occlusion_flags(
     """
     cfg = problem.config
     preds = predicted_views(problem, objects) if predicted is None else predicted
-    elongated = np.array([o.extra.get("semi_up") is not None for o in objects], dtype=bool)
+    elongated = np.array([o.semi_up is not None for o in objects], dtype=bool)
     counted = np.ones(len(objects), dtype=bool) if trusted is None else np.asarray(trusted, dtype=bool)
     # [i, j]: object j is nearer than i, counts, and its predicted box comes within the pair's margin of i's (only
     # such an object can cut or cover an edge of i's box)
@@ -275,7 +275,7 @@ def occlusion_flags(
     ]
     out: list[tuple[list[Observation], frozenset[int]] | None] = []
     for i, o in enumerate(objects):
-        if o.extra.get("pose_corrected") or sum(a >= 0 for a in assoc[i]) < cfg.min_views:
+        if o.pose_corrected or sum(a >= 0 for a in assoc[i]) < cfg.min_views:
             out.append(None)
             continue
         obs, cut = [], set()

@@ -36,6 +36,7 @@ from .search import search
 from .second_look import second_look
 from .shape_swap import shape_swap_pass
 from .shapes import shape_stage
+from .state import Found
 from .view_assign import view_assignment
 from .view_shift import view_shifts
 
@@ -79,11 +80,11 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     t2 = time.perf_counter()
     timing = {"search_score": t1 - t0, "extract_refine": t2 - t1}
     corrections: list[dict[str, Any]] = []
-    spheres = [o for o in objects if o.extra.get("semi_up") is None]
+    spheres = [o for o in objects if o.semi_up is None]
     if cfg.poses_uncertain and spheres:
         # the joint refinement models spheres; objects found as upright spheroids keep their own fit
         refined, corrections = bundle(problem, spheres)
-        objects = refined + [o for o in objects if o.extra.get("semi_up") is not None]
+        objects = refined + [o for o in objects if o.semi_up is not None]
         timing["bundle"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     objects = shape_stage(problem, objects)
@@ -97,7 +98,8 @@ def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
     objects, dropped = drop_isolated(problem, objects)
     objects.sort(key=lambda o: -o.score)
     shifts = [] if cfg.poses_uncertain else view_shifts(problem, objects)
-    return Estimate(objects, corrections, timing, {**hyp.stats(), "isolated_dropped": dropped, "view_shifts": shifts})
+    diagnostics = {**hyp.stats(), "isolated_dropped": dropped, "view_shifts": shifts}
+    return Estimate([o.as_result() for o in objects], corrections, timing, diagnostics)
 
 
 def check_work(problem: Problem) -> None:
@@ -117,7 +119,7 @@ def check_work(problem: Problem) -> None:
         )
 
 
-def bundle(problem: Problem, objects: list[DetectedObject]) -> tuple[list[DetectedObject], list[dict[str, Any]]]:
+def bundle(problem: Problem, objects: list[Found]) -> tuple[list[Found], list[dict[str, Any]]]:
     """Refine all objects jointly with a pose correction per view (:mod:`.bundle`).
 
     Returns the objects (an object whose joint solution diverged keeps its own)
@@ -151,8 +153,8 @@ def bundle(problem: Problem, objects: list[DetectedObject]) -> tuple[list[Detect
         if not (np.all(np.isfinite(b.centres[i])) and lo <= b.radii[i] <= hi):
             out.append(o)  # keep the per-object solution rather than a diverged joint one
             continue
-        extra = {**o.extra, "radius_std": float(b.radius_std[i]), "pose_corrected": True}
-        out.append(DetectedObject(b.centres[i], o.score, float(b.radii[i]), b.covariances[i], o.associations, o.n_cells, extra))
+        learned = {**o.learned(), "radius_std": float(b.radius_std[i]), "pose_corrected": True}
+        out.append(Found(b.centres[i], o.score, float(b.radii[i]), b.covariances[i], o.associations, o.n_cells, **learned))
     corrections = []
     for v, vd in enumerate(views):
         T_corrected = correction_transform(b.rotvec_optical[v], b.translation_optical[v]) @ vd.T_optical_base

@@ -23,9 +23,6 @@ from ...session import View
 from .config import BayesConfig
 from .sensor import SensorModel
 
-#: Boxes explained by accepted objects: ``(v, j)`` pairs, ``v`` indexing ``Problem.views``.
-Taken = frozenset[tuple[int, int]]
-
 
 @dataclass(frozen=True)
 class ViewData:

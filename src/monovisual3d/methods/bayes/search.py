@@ -46,15 +46,16 @@ of it fits (the extraction may hold it all), so a capped last level is scored he
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ...grid import VoxelGrid, cell_half_diagonal, child_rows, cone_counts, split_cells
 from ._kernels import box_dominated_fused, cone_counts_fused
-from .problem import Problem, Taken
-from .scoring import Scores, score_hypotheses
+from .problem import Problem
+from .scoring import score_hypotheses
+from .state import Hypotheses, Scores, Taken
 
 #: Cells of the first search level at most (chosen so the first level takes well under a second).
 MAX_FIRST_LEVEL_CELLS = 2_000_000
@@ -78,70 +79,6 @@ LYING_MIN_BOX_ASPECT = 1.3
 #: broadside is wide in both, a fruit a neighbour cuts in one view is wide in that one only (in a dense row, one in
 #: two fruit; their lying bins cost a quarter of the search there and explained nothing).
 MIN_WIDE_VIEWS = 2
-
-
-@dataclass(frozen=True)
-class Hypotheses:
-    """The last search level: hypotheses scored with every box available (or the level above it, with
-    ``child_cell``: its cells' children are scored by the extraction).
-
-    Attributes
-    ----------
-    centres_base : ndarray, shape (N, 3), metres, base frame: cell centres
-    radii : ndarray, shape (K,), metres: the shape bins' semi-axis across ``up`` (a sphere's radius)
-    cell : float, metres, cell size of the level
-    scores : (total (N, K), n_assoc (N, K), assoc (V, N, K)), see :data:`.scoring.Scores`
-    mask : ndarray, shape (N, K), bool: the radius bins scored per cell
-    n_scored : int, hypotheses the search scored over all levels (not the children the extraction scores)
-    start_cell : float, metres, cell size of the first level
-    capped : bool, whether a level had more hypotheses than the budget and kept only the best cells
-    semi_up : ndarray, shape (K,), metres: the bins' semi-axis along their axis (equal to ``radii`` for spheres)
-    axes : ndarray, shape (K, 3), unit, base frame: the bins' symmetry axis (``up``; horizontal for lying bins)
-    child_cell : float, metres, or None: the last level's cell size when that level is left to the extraction
-        (:func:`search`): the hypotheses are then the level above it, each cell's children to be scored when it
-        nears the best
-    children_base : ndarray, shape (8N, 3), metres, base frame, or None: the centres of each cell's 8 children
-        (rows ``8 i`` to ``8 i + 7``: cell ``i``'s), with ``child_cell``
-    children_mask : ndarray, shape (8N, K), bool, or None: the bins each child would score (its parent's, widened)
-    """
-
-    centres_base: NDArray[np.float64]
-    radii: NDArray[np.float64]
-    cell: float
-    scores: Scores
-    mask: NDArray[np.bool_]
-    n_scored: int
-    start_cell: float
-    capped: bool
-    semi_up: NDArray[np.float64] | None = None
-    axes: NDArray[np.float64] | None = None
-    child_cell: float | None = None
-    children_base: NDArray[np.float64] | None = None
-    children_mask: NDArray[np.bool_] | None = None
-
-    def bin_semi_up(self, k: int) -> float | None:
-        """Semi-axis along its axis of bin ``k`` (metres), None for a sphere bin."""
-        if self.semi_up is None or self.semi_up[k] == self.radii[k]:
-            return None
-        return float(self.semi_up[k])
-
-    def bin_axis(self, k: int) -> NDArray[np.float64] | None:
-        """Symmetry axis (3,), base frame, of the spheroid bin ``k``; None for a sphere bin or without ``axes``."""
-        if self.axes is None or self.bin_semi_up(k) is None:
-            return None
-        return self.axes[k]
-
-    def stats(self) -> dict[str, float | int | bool]:
-        """``cell_size`` (the last level's), ``n_scored`` (by the search), ``n_cells_kept`` (the search's cells: those of
-        the level above the last where ``lazy_last_level``), ``start_cell_size``, ``capped``, ``lazy_last_level``."""
-        return {
-            "cell_size": self.cell if self.child_cell is None else self.child_cell,
-            "n_scored": self.n_scored,
-            "n_cells_kept": len(self.centres_base),
-            "start_cell_size": self.start_cell,
-            "capped": self.capped,
-            "lazy_last_level": self.child_cell is not None,
-        }
 
 
 def same_place_m(cell: float, radius: float) -> float:

@@ -43,7 +43,6 @@ from numpy.typing import NDArray
 
 from ...geometry.ellipsoid import Ellipsoid
 from ...geometry.fit import fit_parameters
-from ...result import DetectedObject
 from .aspects import looks_round
 from .associate import SWAP_GAIN_NATS
 from .occlusion import ends_at_occluder, spans
@@ -51,6 +50,7 @@ from .problem import Problem
 from .scoring import associations_list
 from .sensor import box_edge_sigma_px
 from .shapes import Answer, fitted_answer, shape_value
+from .state import Found
 
 #: Nats by which a move must beat the pair as the shape stage left it (the swap pass's, :data:`.associate.SWAP_GAIN_NATS`, doubled: the shape
 #: models have more freedom to fit a wrong association than the search's spheres).
@@ -96,7 +96,7 @@ def boxes_meet(problem: Problem, a: NDArray[np.float64], b: NDArray[np.float64])
     return bool(min(a[2], b[2]) - max(a[0], b[0]) > -MEET_SIGMAS * sigma)
 
 
-def _meets(problem: Problem, a: DetectedObject, b: DetectedObject) -> list[int]:
+def _meets(problem: Problem, a: Found, b: Found) -> list[int]:
     """The views (indices into ``problem.views``) where the boxes ``a`` and ``b`` hold meet (:func:`boxes_meet`)."""
     ja, jb = associations_list(problem, a), associations_list(problem, b)
     views = problem.views
@@ -107,9 +107,7 @@ def _meets(problem: Problem, a: DetectedObject, b: DetectedObject) -> list[int]:
     ]
 
 
-def _fits(
-    problem: Problem, objs: list[DetectedObject], shapes: tuple[str, ...] | None = TRADE_SHAPES
-) -> list[tuple[Answer, int] | None]:
+def _fits(problem: Problem, objs: list[Found], shapes: tuple[str, ...] | None = TRADE_SHAPES) -> list[tuple[Answer, int] | None]:
     """:func:`.shapes.fitted_answer` (of ``shapes``) of each object of a pair, refitted with the edges the other one
     hides censored."""
     fits = [fitted_answer(problem, o, shapes=shapes) for o in objs]
@@ -122,7 +120,7 @@ def _fits(
     ]
 
 
-def _cut_by_each_other(problem: Problem, objs: list[DetectedObject], shapes: list[Ellipsoid]) -> list[NDArray[np.float64]]:
+def _cut_by_each_other(problem: Problem, objs: list[Found], shapes: list[Ellipsoid]) -> list[NDArray[np.float64]]:
     """Per object of a pair, how far each of its edges (K, 4) (in the order of :func:`.aspects.object_boxes`) may be
     hidden: where the other, nearer there (by the centres of ``shapes``), spans it and has its box's facing edge at
     that edge (a box of the visible part, :func:`.occlusion.ends_at_occluder`), the nearer box's far side, pixels;
@@ -142,18 +140,14 @@ def _cut_by_each_other(problem: Problem, objs: list[DetectedObject], shapes: lis
     return out
 
 
-def _value(
-    problem: Problem, objs: list[DetectedObject], shapes: tuple[str, ...] | None = TRADE_SHAPES
-) -> tuple[float, list[DetectedObject]]:
+def _value(problem: Problem, objs: list[Found], shapes: tuple[str, ...] | None = TRADE_SHAPES) -> tuple[float, list[Found]]:
     """The summed value (nats) of a pair holding what they hold under the models ``shapes``, and the pair as fitted
     (-inf and the pair itself when one has no fit)."""
     values, fitted = pair_values(problem, objs, shapes)
     return sum(values), fitted
 
 
-def pair_values(
-    problem: Problem, objs: list[DetectedObject], shapes: tuple[str, ...] | None = None
-) -> tuple[list[float], list[DetectedObject]]:
+def pair_values(problem: Problem, objs: list[Found], shapes: tuple[str, ...] | None = None) -> tuple[list[float], list[Found]]:
     """The value (nats) of each of a pair holding what they hold under the models ``shapes`` (None: every model of the
     shape stage), the edges one hides of the other left out, and the pair as fitted (-inf each and the pair itself when
     one has no fit)."""
@@ -165,20 +159,20 @@ def pair_values(
     return values, [f[0][0] for f in fits]  # type: ignore[index]
 
 
-def holding(problem: Problem, o: DetectedObject, assoc: list[int]) -> DetectedObject:
+def holding(problem: Problem, o: Found, assoc: list[int]) -> Found:
     """``o`` holding the boxes ``assoc`` (over ``problem.views``, -1: none) instead of its own."""
     held = {problem.views[v].index: j for v, j in enumerate(assoc) if j >= 0}
-    return DetectedObject(o.position, o.score, o.radius, o.covariance, held, o.n_cells, o.extra)
+    return Found(o.position, o.score, o.radius, o.covariance, held, o.n_cells, **o.learned())
 
 
-def as_answer(problem: Problem, o: DetectedObject) -> Answer:
+def as_answer(problem: Problem, o: Found) -> Answer:
     """An object of the shape stage as an :data:`.shapes.Answer` (its ellipsoid and number of parameters)."""
-    model = o.extra.get("solid") or o.shape or "sphere"
+    model = o.solid or o.shape or "sphere"
     n = len(fit_parameters(model, free_orientation=problem.config.free_orientation))
     return o, Ellipsoid(o.position, o.semi_axes, o.quaternion_xyzw), n  # type: ignore[arg-type]
 
 
-def _held_value(problem: Problem, objs: list[DetectedObject]) -> float:
+def _held_value(problem: Problem, objs: list[Found]) -> float:
     """The value (nats) of a pair as the shape stage left it, judged as :func:`_value` judges a fit."""
     answers = [as_answer(problem, o) for o in objs]
     cut = _cut_by_each_other(problem, objs, [a[1] for a in answers])
@@ -188,12 +182,12 @@ def _held_value(problem: Problem, objs: list[DetectedObject]) -> float:
 
 def _best_trade(
     problem: Problem,
-    a: DetectedObject,
-    b: DetectedObject,
+    a: Found,
+    b: Found,
     views: list[int],
     judge: tuple[str, ...] | None = TRADE_SHAPES,
     refit: bool = True,
-) -> list[DetectedObject] | None:
+) -> list[Found] | None:
     """``a`` and ``b`` as the shape models fit them, after the trade of one of ``views``'s boxes (or, with ``refit``,
     holding what they hold), whichever the models ``judge`` (None: every model) prefer by more than
     :data:`MIN_GAIN_NATS` to the pair as it is; None: none is. Without ``refit`` the pair refitted as it holds its boxes
@@ -222,7 +216,7 @@ def _best_trade(
     return fitted if value > bar else None  # fitted with every model, the pair must still win
 
 
-def _cut_sphere(problem: Problem, o: DetectedObject) -> bool:
+def _cut_sphere(problem: Problem, o: Found) -> bool:
     """Whether the shape stage kept ``o`` as the search's sphere though its boxes are not round (:func:`.aspects.looks_round`):
     the sensor model took them for cut by something unseen. Beside a tall object whose box ends them, the pair is
     refitted with every model when no spheroid move wins (:func:`_best_trade`): the spheroid screen cannot express a
@@ -230,7 +224,7 @@ def _cut_sphere(problem: Problem, o: DetectedObject) -> bool:
     return o.shape == "sphere" and not looks_round(problem, o)
 
 
-def is_tall(o: DetectedObject) -> bool:
+def is_tall(o: Found) -> bool:
     """Whether the shape stage made ``o`` an upright object at least :data:`TALL_RATIO` times as tall as it is wide
     (its third semi-axis is the vertical one)."""
     s = np.asarray(o.semi_axes, dtype=float) if o.semi_axes is not None else None
@@ -290,7 +284,7 @@ def _meeting_points(
     return point, ok, uv, half
 
 
-def epipolar_trades(problem: Problem, objects: list[DetectedObject]) -> NDArray[np.bool_]:
+def epipolar_trades(problem: Problem, objects: list[Found]) -> NDArray[np.bool_]:
     """Which trades the epipolar geometry allows, shape (M, M, V): ``[i, k, v]`` where objects ``i`` and ``k`` both
     hold a box in view ``v`` and the centre of ``k``'s box there lies near the epipolar line of ``i``'s box centre in
     each other view ``i`` holds (within :data:`SCREEN_MARGIN` times the two boxes' :data:`CENTRE_TOLERANCE` of their
@@ -323,21 +317,21 @@ def epipolar_trades(problem: Problem, objects: list[DetectedObject]) -> NDArray[
     return ok & ok.transpose(1, 0, 2)
 
 
-def _traded(problem: Problem, a: DetectedObject, b: DetectedObject, v: int) -> tuple[list[int], list[int]]:
+def _traded(problem: Problem, a: Found, b: Found, v: int) -> tuple[list[int], list[int]]:
     """The associations (over ``problem.views``) of ``a`` and ``b`` after they trade their boxes in view ``v``."""
     ta, tb = associations_list(problem, a), associations_list(problem, b)
     ta[v], tb[v] = tb[v], ta[v]
     return ta, tb
 
 
-def shape_swap_pass(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def shape_swap_pass(problem: Problem, objects: list[Found]) -> list[Found]:
     """Trade boxes between, or refit, pairs of objects side by side, one of them tall, where the shape models say so;
     then trade a view's boxes between pairs of objects that the geometry lets trade, where every shape model says so
     (the module docstring)."""
     return _distant_trades(problem, _tall_pairs(problem, list(objects)))
 
 
-def _tall_pairs(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def _tall_pairs(problem: Problem, objects: list[Found]) -> list[Found]:
     """The pass over pairs side by side, one of them tall (:func:`is_tall`, :func:`boxes_meet`)."""
     tall = [is_tall(o) for o in objects]
     for i in range(len(objects)):
@@ -349,7 +343,7 @@ def _tall_pairs(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
     return objects
 
 
-def _distant_trades(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def _distant_trades(problem: Problem, objects: list[Found]) -> list[Found]:
     """The pass over every pair whose trade of a view's boxes the box centres allow (:func:`epipolar_trades`, then
     :func:`centres_agree_many`); an object that traded is not offered another trade (its screen is stale)."""
     if len(objects) < 2:

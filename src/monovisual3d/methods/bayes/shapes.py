@@ -59,7 +59,6 @@ from ...errors import InputError
 from ...geometry.ellipsoid import Ellipsoid
 from ...geometry.fit import fit_shape_by_bic
 from ...geometry.solids import SOLIDS
-from ...result import DetectedObject
 from .aspects import (
     ROUNDNESS_THRESHOLD,
     as_sphere,
@@ -78,8 +77,9 @@ from .likelihood import box_scores
 from .occlusion import occlusion_flags, predicted_views
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
-from .scoring import axis_of, pose_px, semi_up_of, spheroid_axis
+from .scoring import pose_px, spheroid_axis
 from .solid_choice import solid_if_clear, solid_may_win
+from .state import Found
 
 #: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
 MIN_VIEWS_FOR_ELLIPSOID = 4
@@ -93,7 +93,7 @@ MIN_VIEWS_FOR_LYING = 3
 #: clear evidence (:func:`.solid_choice.solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
 #: to 2.4-2.5 mm with exact boxes (benchmarks/solid_shape_bias.py).
 MIN_VIEWS_FOR_CUBOID = 3
-#: Radius (metres: the search's sphere's, or its spheroid's horizontal semi-axis, ``DetectedObject.radius``) beyond
+#: Radius (metres: the search's sphere's, or its spheroid's horizontal semi-axis, ``Found.radius``) beyond
 #: which ``auto`` fits an object with every model, the solids included, however round its boxes look. A wrong shape
 #: moves the centre by a fraction of the object's size: a fruit's few millimetres, a large object's tens. A flat 200 x 160 x 30 mm tray seen from 55 degrees above has near-square boxes;
 #: kept the search's sphere of 110-125 mm radius, it came out 20-57 mm low, where the cuboid fits its boxes to 2-3 px
@@ -145,11 +145,11 @@ def sensor_score(
 
 
 #: A shape answer of the stage: the object, its ellipsoid and its number of fitted parameters.
-Answer = tuple[DetectedObject, Ellipsoid, int]
+Answer = tuple[Found, Ellipsoid, int]
 
 
 def beats(
-    problem: Problem, obj: DetectedObject, new: Answer, old: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
+    problem: Problem, obj: Found, new: Answer, old: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
 ) -> bool:
     """Whether the answer ``new`` is preferred to ``old`` by the Bayesian information criterion of the sensor model
     on ``obj``'s boxes: its log-likelihood ratio must exceed ``old``'s by more than ``ln(n_edges) / 2`` nats per
@@ -157,13 +157,13 @@ def beats(
     :func:`monovisual3d.geometry.fit.fit_shape_by_bic`, with the ``bayes`` sensor model (a cut box is occlusion
     there, at most ``inward_floor`` per edge) in place of Gaussian edges; the edges nearer objects hide no further
     than ``hidden_to`` scored as :func:`boxes_as_seen` says."""
-    gain = sensor_score(problem, *boxes_as_seen(problem, obj, new, hidden_to), new[1], new[0].extra.get("solid"))
-    gain -= sensor_score(problem, *boxes_as_seen(problem, obj, old, hidden_to), old[1], old[0].extra.get("solid"))
+    gain = sensor_score(problem, *boxes_as_seen(problem, obj, new, hidden_to), new[1], new[0].solid)
+    gain -= sensor_score(problem, *boxes_as_seen(problem, obj, old, hidden_to), old[1], old[0].solid)
     return gain > 0.5 * (new[2] - old[2]) * math.log(max(n_edges, 1))
 
 
 def boxes_as_seen(
-    problem: Problem, obj: DetectedObject, answer: Answer, hidden_to: NDArray[np.float64] | None = None
+    problem: Problem, obj: Found, answer: Answer, hidden_to: NDArray[np.float64] | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The poses (K, 4, 4) and boxes (K, 4), pixels, of :func:`object_boxes`, each edge a nearer object hides
     (``hidden_to`` (K, 4), pixels, finite: how far it may be hidden) moved to where ``answer`` predicts it within that
@@ -172,13 +172,13 @@ def boxes_as_seen(
     poses, boxes = object_boxes(problem, obj)
     if hidden_to is None or not np.isfinite(hidden_to).any():
         return poses, boxes
-    pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
+    pred = solid_boxes(problem.camera, poses, answer[1], answer[0].solid)
     lo = np.maximum(np.minimum(pred[:, :2], boxes[:, :2]), hidden_to[:, :2])  # nan-propagating: seen edges stay
     hi = np.minimum(np.maximum(pred[:, 2:], boxes[:, 2:]), hidden_to[:, 2:])
     return poses, np.where(np.isfinite(hidden_to), np.concatenate([lo, hi], axis=1), boxes)
 
 
-def _sphere_answer(obj: DetectedObject) -> Answer:
+def _sphere_answer(obj: Found) -> Answer:
     """:func:`as_sphere` as an :data:`Answer`: a sphere has 4 parameters."""
     o = as_sphere(obj)
     return o, Ellipsoid.sphere(o.position, float(o.radius)), SPHERE_PARAMETERS  # type: ignore[arg-type]
@@ -204,7 +204,7 @@ def _fit_options(
 
 def _fitted(
     problem: Problem,
-    obj: DetectedObject,
+    obj: Found,
     shapes: tuple[str, ...],
     censored: NDArray[np.bool_] | None = None,
     search_sphere: bool = True,
@@ -235,31 +235,29 @@ def _fitted(
             except InputError:
                 continue
     best = solid_if_clear(min(fits.values(), key=lambda f: f.bic), fits)
-    if search_sphere and best.model == "sphere" and cfg.shape == "auto" and obj.extra.get("semi_up") is None:
+    if search_sphere and best.model == "sphere" and cfg.shape == "auto" and obj.semi_up is None:
         return _sphere_answer(obj), best.n_edges
     e = best.ellipsoid
-    extra = {k: v for k, v in obj.extra.items() if k != "solid"}
-    extra.update(shape_bic=float(best.bic), shape_rms_px=float(best.rms_px))
     shape = SOLID_SHAPES.get(best.model, best.model)
-    if shape != best.model:
-        extra["solid"] = best.model
-    o = DetectedObject.from_ellipsoid(
-        e.centre_base,
-        e.semi_axes,
-        e.quaternion_xyzw,
+    learned = {**obj.learned(), "shape_bic": float(best.bic), "shape_rms_px": float(best.rms_px)}
+    learned["solid"] = best.model if shape != best.model else None
+    o = Found(
+        np.asarray(e.centre_base, dtype=float),
         obj.score,
-        shape,
         covariance=best.centre_covariance,
         associations=obj.associations,
         n_cells=obj.n_cells,
-        extra=extra,
+        shape=shape,
+        semi_axes=np.asarray(e.semi_axes, dtype=float),
+        quaternion_xyzw=np.asarray(e.quaternion_xyzw, dtype=float),
+        **learned,
     )
     return (o, e, best.n_parameters), best.n_edges
 
 
 def fitted_answer(
     problem: Problem,
-    obj: DetectedObject,
+    obj: Found,
     censored: NDArray[np.bool_] | None = None,
     shapes: tuple[str, ...] | None = None,
     hidden_to: NDArray[np.float64] | None = None,
@@ -274,7 +272,7 @@ def fitted_answer(
 
 
 def shape_value(
-    problem: Problem, obj: DetectedObject, answer: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
+    problem: Problem, obj: Found, answer: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
 ) -> float:
     """The sensor model's log-likelihood ratio (nats) of the object's boxes given ``answer``, less ``ln(n_edges) / 2``
     per parameter: the Bayesian information criterion of :func:`beats`, as a value to compare associations by.
@@ -282,7 +280,7 @@ def shape_value(
     ``hidden_to`` (K, 4), pixels, NaN where an edge is seen: an edge a nearer object hides, whose true place lies
     between the observed edge and this coordinate (the far side of the nearer box); a prediction there costs nothing,
     one beyond it is scored from it."""
-    score = sensor_score(problem, *boxes_as_seen(problem, obj, answer, hidden_to), answer[1], answer[0].extra.get("solid"))
+    score = sensor_score(problem, *boxes_as_seen(problem, obj, answer, hidden_to), answer[1], answer[0].solid)
     return score - 0.5 * answer[2] * math.log(max(n_edges, 1))
 
 
@@ -312,11 +310,11 @@ def _lying_shapes(n_views: int) -> tuple[str, ...]:
 
 def fit_shape(
     problem: Problem,
-    obj: DetectedObject,
+    obj: Found,
     cut: frozenset[int] = frozenset(),
     censored: NDArray[np.bool_] | None = None,
     hidden_to: NDArray[np.float64] | None = None,
-) -> DetectedObject:
+) -> Found:
     """One object through the shape stage (see the module docstring); ``cut``: the session indices of the views where
     a nearer object cuts its box (:func:`.occlusion.occlusion_flags`). An object elongated both ways (a lying object, or a sphere
     whose boxes are cut) whose every uncut box has its sphere's aspect stays a sphere without the lying fits; one
@@ -367,14 +365,14 @@ def fit_shape(
         both_ways = np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)
         if cut and not both_ways and not outgrown():
             return answer[0]  # the boxes nearer objects do not cut are not elongated both ways: the cuts made it look so
-    solid = answer[0].extra.get("solid")
+    solid = answer[0].solid
     solids = _upright_solids(n_views) if large and cfg.solids and not solids_fitted else ((solid,) if solid else ())
     return _better_fit(problem, obj, answer, _lying_shapes(n_views) + solids, censored, hidden_to)
 
 
 def _large_round_fit(
-    problem: Problem, obj: DetectedObject, censored: NDArray[np.bool_] | None, hidden_to: NDArray[np.float64] | None
-) -> DetectedObject:
+    problem: Problem, obj: Found, censored: NDArray[np.bool_] | None, hidden_to: NDArray[np.float64] | None
+) -> Found:
     """A large object (:data:`LARGE_RADIUS_M`) whose boxes look round, fitted with every model (:func:`_better_fit`)."""
     shapes = _every_shape(len(obj.associations), problem.config.solids)
     return _better_fit(problem, obj, _sphere_answer(obj), shapes, censored, hidden_to)
@@ -382,26 +380,26 @@ def _large_round_fit(
 
 def _better_fit(
     problem: Problem,
-    obj: DetectedObject,
+    obj: Found,
     answer: Answer,
     shapes: tuple[str, ...],
     censored: NDArray[np.bool_] | None,
     hidden_to: NDArray[np.float64] | None,
-) -> DetectedObject:
+) -> Found:
     """``answer`` or the lowest-BIC fit of ``shapes`` (:func:`_fitted`): a solid won by its evidence (a flat tray:
     :func:`.solid_choice.solid_if_clear`) is taken unless ``answer`` is a solid already; an ellipsoid model (a lying
     object) only where it :func:`beats` ``answer``."""
     new = _fitted(problem, obj, shapes, censored, hidden_to=hidden_to)
     if new is None:
         return answer[0]
-    if new[0][0].extra.get("solid"):
-        return answer[0] if answer[0].extra.get("solid") else new[0][0]
+    if new[0][0].solid:
+        return answer[0] if answer[0].solid else new[0][0]
     return new[0][0] if beats(problem, obj, new[0], answer, new[1], hidden_to) else answer[0]
 
 
 def occlusion_refit(
-    problem: Problem, objects: list[DetectedObject], flags: list[tuple[list[Observation], frozenset[int]] | None] | None = None
-) -> list[DetectedObject]:
+    problem: Problem, objects: list[Found], flags: list[tuple[list[Observation], frozenset[int]] | None] | None = None
+) -> list[Found]:
     """Refit each object whose boxes a nearer object cuts, those edges censored (only outward residuals count).
 
     The refinement of the extraction takes an occluded box as a full one; its robust loss stops an edge
@@ -415,7 +413,7 @@ def occlusion_refit(
     flags = occlusion_flags(problem, objects) if flags is None else flags
     out = []
     for o, f in zip(objects, flags):
-        one_sided = f is not None and len(f[0]) >= MIN_VIEWS_ONE_SIDED and o.extra.get("semi_up") is None
+        one_sided = f is not None and len(f[0]) >= MIN_VIEWS_ONE_SIDED and o.semi_up is None
         if one_sided and problem.config.tuning.one_sided_refit and not problem.config.use_masks:
             out.append(one_sided_refit(problem, o, f[0]))
         else:
@@ -423,7 +421,7 @@ def occlusion_refit(
     return out
 
 
-def one_sided_refit(problem: Problem, o: DetectedObject, obs: list[Observation]) -> DetectedObject:
+def one_sided_refit(problem: Problem, o: Found, obs: list[Observation]) -> Found:
     """The sphere ``o`` refitted on its box observations ``obs`` (edges a nearer object cuts censored, from
     :func:`.occlusion.occlusion_flags`) with a loss that tells a cut from noise by its side: an edge inside the prediction costs
     at most ``BayesConfig.cut_inward_floor`` nats, one outside at most the sensor model's ``outward_floor``
@@ -436,29 +434,27 @@ def one_sided_refit(problem: Problem, o: DetectedObject, obs: list[Observation])
     return _refit(problem, o, obs, (problem.config.tuning.cut_inward_floor, problem.model.outward_floor))
 
 
-def _refit(
-    problem: Problem, o: DetectedObject, obs: list[Observation], floors: tuple[float, float] | None = None
-) -> DetectedObject:
+def _refit(problem: Problem, o: Found, obs: list[Observation], floors: tuple[float, float] | None = None) -> Found:
     """``o`` refitted on ``obs`` from its estimate; ``o`` itself when the fit fails or leaves the radius range.
     ``floors``: see :func:`.refine.refine_sphere` (spheres only)."""
     cfg, r = problem.config, float(o.radius)  # type: ignore[arg-type]
-    b = o.extra.get("semi_up")
+    b = o.semi_up
     if b is None:
         fit = refine_sphere(problem.camera, obs, o.position, r, problem.model, use_masks=cfg.use_masks, floors=floors)
     else:
-        fit = refine_spheroid(problem.camera, obs, o.position, r, float(b), problem.model, spheroid_axis(problem, axis_of(o)))
+        fit = refine_spheroid(problem.camera, obs, o.position, r, float(b), problem.model, spheroid_axis(problem, o.axis))
     sizes = [fit.radius] + ([] if fit.semi_up is None else [fit.semi_up])
     lo, hi = cfg.fit_radius_range
     if not (fit.success and all(lo <= s <= hi for s in sizes)):
         return o
-    extra = {**o.extra, "radius_std": fit.radius_std if np.isfinite(fit.radius_std) else None}
+    learned = {**o.learned(), "radius_std": fit.radius_std if np.isfinite(fit.radius_std) else None}
     if fit.semi_up is not None:
-        extra["semi_up"] = float(fit.semi_up)
+        learned["semi_up"] = float(fit.semi_up)
     cov = fit.covariance if np.all(np.isfinite(fit.covariance)) else None
-    return DetectedObject(fit.centre, o.score, float(fit.radius), cov, o.associations, o.n_cells, extra)
+    return Found(fit.centre, o.score, float(fit.radius), cov, o.associations, o.n_cells, **learned)
 
 
-def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def shape_stage(problem: Problem, objects: list[Found]) -> list[Found]:
     """Every object through :func:`occlusion_refit`, then :func:`fit_shape` (an object whose boxes look elongated both
     ways only because nearer objects cut them stays a sphere).
 
@@ -478,7 +474,7 @@ def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
     predicted = predicted_views(problem, objects)
     flags = occlusion_flags(problem, objects, predicted=predicted)
     refitted = occlusion_refit(problem, objects, flags)
-    trusted = [semi_up_of(o) is not None or looks_round(problem, o) for o in objects]
+    trusted = [o.semi_up is not None or looks_round(problem, o) for o in objects]
     shape_flags = occlusion_flags(problem, objects, trusted, whole_sides=True, predicted=predicted)
     out = []
     for o, f in zip(refitted, shape_flags):
