@@ -12,8 +12,9 @@ from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.methods.bayes.config import BayesConfig
+from monovisual3d.methods.bayes.fits import free_boxes
 from monovisual3d.methods.bayes.problem import build_problem
-from monovisual3d.methods.bayes.second_look import free_boxes, second_look
+from monovisual3d.methods.bayes.second_look import second_look
 from monovisual3d.methods.bayes.state import Found
 from monovisual3d.sim.noise import NoiseModel
 from monovisual3d.sim.scenes import default_camera, paper_scene

@@ -24,8 +24,9 @@ from monovisual3d.methods.bayes.aspects import (
     possibly_cut,
     sticks_out,
 )
+from monovisual3d.methods.bayes.fits import lowest_bic_fit
 from monovisual3d.methods.bayes.problem import Problem, build_problem
-from monovisual3d.methods.bayes.shapes import _fitted, fit_shape
+from monovisual3d.methods.bayes.shapes import fit_shape
 from monovisual3d.methods.bayes.state import Found
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.scenes import default_camera, paper_scene
@@ -141,7 +142,7 @@ def test_a_sphere_cut_to_tall_slivers_by_neighbours_or_leaves_stays_a_sphere():
     problem = build_problem(CAM, BayesConfig(), alike)
     assert elongated_one_way(aspect_deviations(problem, obj)) and possibly_cut(problem, obj)
     # the sensor model's test is what keeps the sphere: the best fit alone takes the slivers at face value
-    best = _fitted(problem, obj, ("sphere", "spheroid"))
+    best = lowest_bic_fit(problem, obj, ("sphere", "spheroid"))
     assert best is not None and best[0][0].shape == "spheroid"
     o = fit_shape(problem, obj, cut=frozenset({0, 1, 2}))
     assert o.shape == "sphere"
@@ -152,7 +153,7 @@ def test_a_sphere_cut_to_tall_slivers_by_neighbours_or_leaves_stays_a_sphere():
     unlike = build_problem(CAM, BayesConfig(), _cut(_session([true]), {0: (0, 0.6), 1: (2, 0.25), 2: (0, 0.25)}))
     d = aspect_deviations(unlike, obj)
     assert elongated_one_way(d) and not consistently_elongated(d) and possibly_cut(unlike, obj)
-    assert _fitted(unlike, obj, ("sphere", "spheroid"))[0][0].shape == "spheroid"  # type: ignore[index]
+    assert lowest_bic_fit(unlike, obj, ("sphere", "spheroid"))[0][0].shape == "spheroid"  # type: ignore[index]
     o = fit_shape(unlike, obj)
     assert o.shape == "sphere"
     assert_allclose(o.position, true.centre_base, atol=1e-12)

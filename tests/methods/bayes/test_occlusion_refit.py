@@ -10,16 +10,8 @@ from monovisual3d.camera import Camera
 from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.methods.bayes import shapes
-from monovisual3d.methods.bayes.occlusion import (
-    OCCLUSION_MARGIN_SIGMAS,
-    _meeting,
-    _predicted,
-    _view_flags,
-    _whole_sides_pairs,
-    covered_sides,
-    occluded_edges,
-    spans,
-)
+from monovisual3d.methods.bayes.box_sides import boxes_near, covered_sides, occluded_edges, spans
+from monovisual3d.methods.bayes.occlusion import OCCLUSION_MARGIN_SIGMAS, _predicted, _view_flags, _whole_sides_pairs
 from monovisual3d.methods.bayes.refine import Observation, _BoxResiduals, observation_residuals, refine_sphere
 from monovisual3d.methods.bayes.sensor import SensorModel
 from monovisual3d.session import Workspace
@@ -108,7 +100,7 @@ def test_a_fruit_half_hidden_by_a_nearer_one_is_localised_better_with_the_refit(
 
 
 def test_boxes_that_do_not_meet_widened_by_their_pads_flag_nothing():
-    """``occlusion_flags`` skips the nearer boxes that ``_meeting`` rules out: on random boxes and stds, a pair it
+    """``occlusion_flags`` skips the nearer boxes that ``boxes_near`` rules out: on random boxes and stds, a pair it
     rules out gets no flag from either test at the pair's margin, and a pair that overlaps is never ruled out."""
     rng = np.random.default_rng(5)
     n = 60
@@ -116,7 +108,7 @@ def test_boxes_that_do_not_meet_widened_by_their_pads_flag_nothing():
     boxes = np.hstack([corner, corner + rng.uniform(5, 120, (n, 2))])
     boxes[3] = np.nan
     std = rng.uniform(0, 25, (n, 2))
-    meets = _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std)
+    meets = boxes_near(boxes, OCCLUSION_MARGIN_SIGMAS * std)
     assert not meets[3].any() and not meets.diagonal().any()
     ruled_out = 0
     for i in range(n):
@@ -226,8 +218,8 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
     combined over each object's nearer objects: random boxes, stds, straight occluders, objects without a box; and
     each edge it censors may be hidden as far as the farthest far side of the nearer boxes that hide it (as seen, or
     as predicted where the nearer object holds no box), widened by the pair's margin."""
+    from monovisual3d.methods.bayes.box_sides import EDGE_AT_OCCLUDER_SIGMAS
     from monovisual3d.methods.bayes.config import BayesConfig
-    from monovisual3d.methods.bayes.occlusion import EDGE_AT_OCCLUDER_SIGMAS
     from monovisual3d.methods.bayes.problem import Problem, ViewData
     from monovisual3d.methods.bayes.sensor import box_edge_sigma_px
 
@@ -243,7 +235,7 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
     assoc = [int(k) if rng.random() < 0.8 else -1 for k in range(n)]  # object k holds box k of the view, or none
     view = ViewData(0, np.eye(4), observed, (), None)
     problem = Problem(CAM, BayesConfig(), SensorModel(), (view,))
-    meets = _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None])
+    meets = boxes_near(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None])
     for i in range(n):  # an observed edge near a straight occluder's facing edge: both sides of the tolerance
         js = np.flatnonzero(meets[i] & straight)
         if len(js) and i % 2:
@@ -277,7 +269,7 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
     # a farther box whose right side a tall nearer box covers, its observed right edge d sigmas from the occluder's left
     pair = np.array([[100.0, 50, 160, 200], [150.0, 40, 230, 210]])
     std2, depth2 = np.full((2, 2), 0.5), np.array([1.0, 0.5])
-    meets2 = _meeting(pair, OCCLUSION_MARGIN_SIGMAS * std2) & (depth2[None, :] < depth2[:, None])
+    meets2 = boxes_near(pair, OCCLUSION_MARGIN_SIGMAS * std2) & (depth2[None, :] < depth2[:, None])
     seen = []
     for d in (0.5, 2.0, 2.5, 4.5, 6.0):
         obs = np.array([[100.0, 50, 150.0, 200], pair[1]])

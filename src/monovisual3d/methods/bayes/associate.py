@@ -13,10 +13,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from .fits import SWAP_GAIN_NATS
+from .hypotheses import last_level, same_place_m
 from .likelihood import box_scores
 from .problem import Problem
 from .scoring import associations_list, boxes_of, fit_fixed, pose_px, predicted_boxes, refine_and_check
-from .search import last_level, same_place_m
 from .state import Found, Hypotheses, Taken
 
 #: The steal pass tries one candidate per this many accepted objects (at least ``lookahead``): each try is local, and
@@ -24,9 +25,6 @@ from .state import Found, Hypotheses, Taken
 #: near its end without the box a neighbour took once the search's radii reached 160 mm and changed the order of the
 #: candidates; the rows of 12-96 fruit and the accuracy benchmark's scenes keep their objects.
 OBJECTS_PER_STEAL_CANDIDATE = 4
-#: Nats by which a swap of two objects' boxes in one view must raise their summed score: a chosen margin over the
-#: refits' rounding, not a fitted value.
-SWAP_GAIN_NATS = 1.0
 
 
 def _pair_gates(

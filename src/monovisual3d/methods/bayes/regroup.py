@@ -22,10 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .extract import BoxUsers, best_accepted, still_valid
+from .hypotheses import BoxUsers, best_accepted, same_place_m, still_valid
 from .problem import Problem
 from .scoring import associations_list, boxes_of, refine_and_check
-from .search import same_place_m
 from .state import Found, Hypotheses, Taken
 
 #: Hypotheses on an object's boxes tried per object (the best, at distinct places) to find the objects to regroup with

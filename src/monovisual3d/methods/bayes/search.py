@@ -51,11 +51,12 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ...grid import VoxelGrid, cell_half_diagonal, child_rows, cone_counts, split_cells
-from ._kernels import box_dominated_fused, cone_counts_fused
+from ...grid import VoxelGrid, cell_half_diagonal, split_cells
+from ._kernels import box_dominated_fused
+from .hypotheses import cone_counts_at, cone_counts_within, level_mask
 from .problem import Problem
 from .scoring import score_hypotheses
-from .state import Hypotheses, Scores, Taken
+from .state import Hypotheses, Scores
 
 #: Cells of the first search level at most (chosen so the first level takes well under a second).
 MAX_FIRST_LEVEL_CELLS = 2_000_000
@@ -79,14 +80,6 @@ LYING_MIN_BOX_ASPECT = 1.3
 #: broadside is wide in both, a fruit a neighbour cuts in one view is wide in that one only (in a dense row, one in
 #: two fruit; their lying bins cost a quarter of the search there and explained nothing).
 MIN_WIDE_VIEWS = 2
-
-
-def same_place_m(cell: float, radius: float) -> float:
-    """Metres within which hypotheses stand for the same object as one at that place: two cells of the search's
-    ``cell`` (metres; its resolution, below which the grid cannot tell places apart) or the object's ``radius``
-    (metres), whichever is larger. The extraction's look-ahead, the steal and the regroup passes try one candidate per
-    such place."""
-    return max(2 * cell, radius)
 
 
 def bytes_per_hypothesis(n_views: int) -> int:
@@ -113,15 +106,6 @@ def first_level(grid: VoxelGrid, start: float, resolution: float, max_cells: int
     shape = tuple(max(1, math.ceil(s / cell - 1e-9)) for s in size)
     del resolution  # the level sizes are start / 2**i, so any start >= resolution ends at it
     return VoxelGrid(grid.T_base_grid, shape, cell)  # type: ignore[arg-type]
-
-
-def _cone_counts(problem: Problem, centres_base: NDArray[np.float64], half_diagonal: float) -> NDArray[np.int32]:
-    if problem.config.backend == "numba":
-        views = problem.views
-        return cone_counts_fused(
-            problem.camera, [vd.T_optical_base for vd in views], [vd.boxes for vd in views], centres_base, half_diagonal
-        )
-    return cone_counts(problem.camera, [vd.view for vd in problem.views], centres_base, half_diagonal)
 
 
 def size_gated_counts(problem: Problem, centres_base: NDArray[np.float64], half_diagonal: float) -> NDArray[np.int32]:
@@ -171,7 +155,7 @@ def _first_cells(problem: Problem, grid: VoxelGrid) -> NDArray[np.float64]:
     for start in range(0, grid.n_cells, CHUNK_CELLS):
         c_grid = grid.centres_grid(np.arange(start, min(start + CHUNK_CELLS, grid.n_cells)))
         c_base = c_grid @ R.T + t
-        counts = size_gated_counts(problem, c_base, half) if coarse else _cone_counts(problem, c_base, half)
+        counts = size_gated_counts(problem, c_base, half) if coarse else cone_counts_within(problem, c_base, half)
         kept.append(c_grid[counts >= problem.config.min_views])
     return np.concatenate(kept) if kept else np.zeros((0, 3))
 
@@ -258,23 +242,6 @@ def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
     return mask
 
 
-def _plausible_shapes(
-    total: NDArray[np.float64], radii: NDArray[np.float64], semi_up: NDArray[np.float64], slack: float
-) -> NDArray[np.bool_]:
-    """Which bins of each cell stay in the search: every sphere bin, and the elongated bins (upright or lying spheroids)
-    scoring at least the cell's best sphere bin minus ``slack`` nats, shape (N, K) (the search passes
-    ``elongation_slack + elongation_cost``: the box evidence is compared, not the prior).
-
-    A round object's box is explained better by a sphere at every level, so its elongated bins stop being
-    refined early (they would only cost time); a tall object's are better than any sphere and stay.
-    """
-    sphere = semi_up == radii
-    if sphere.all() or not sphere.any():
-        return np.ones(total.shape, dtype=bool)
-    best_sphere = total[:, sphere].max(axis=1, keepdims=True)
-    return sphere[None, :] | (total >= best_sphere - slack)
-
-
 def lying_bins(problem: Problem) -> NDArray[np.bool_]:
     """Which shape bins lie (their axis perpendicular to ``up``), shape (K,)."""
     cfg = problem.config
@@ -318,53 +285,6 @@ def _score_deferred(
     total[np.ix_(rows, cols)], n_assoc[np.ix_(rows, cols)] = t[:, cols], n[:, cols]
     assoc[:, rows[:, None], cols[None, :]] = a[:, :, cols]
     return total, n_assoc, assoc, int(mask.sum())
-
-
-def level_mask(problem: Problem, scores: Scores, dominated: NDArray[np.bool_] | None) -> NDArray[np.bool_]:
-    """The hypotheses a level keeps, shape (N, K): at least ``accept - prune_slack`` (scores only fall as boxes are
-    taken, so one below it never matters again), ``min_views`` views, a plausible shape (:func:`_plausible_shapes`)
-    and, with ``dominated`` (N, K), not explained away (:func:`box_dominated`)."""
-    cfg = problem.config
-    radii, semi_up = cfg.hypothesis_bins
-    total, n_assoc, _ = scores
-    keep = (
-        (total >= cfg.accept - cfg.tuning.prune_slack)
-        & (n_assoc >= cfg.min_views)
-        & _plausible_shapes(total, radii, semi_up, cfg.tuning.elongation_slack + cfg.tuning.elongation_cost)
-    )
-    return keep if dominated is None else keep & ~dominated
-
-
-def cone_counts_at(problem: Problem, centres_base: NDArray[np.float64], cell: float) -> NDArray[np.int32]:
-    """Views whose widened viewing cones hold each cell of size ``cell`` (metres) centred at ``centres_base`` (N, 3)."""
-    return _cone_counts(problem, centres_base, cell_half_diagonal(cell))
-
-
-def score_children(
-    problem: Problem, hyp: Hypotheses, kids: NDArray[np.intp], taken: Taken
-) -> tuple[NDArray[np.intp], Scores, NDArray[np.bool_]]:
-    """The last-level cells ``kids`` (indices into ``hyp.children_base``) in at least ``min_views`` viewing cones,
-    scored with the boxes not in ``taken``, that keep a bin (:func:`level_mask` without the explaining away): their
-    indices (M,), scores and kept bins (M, K)."""
-    assert hyp.child_cell is not None and hyp.children_base is not None and hyp.children_mask is not None
-    kids = kids[cone_counts_at(problem, hyp.children_base[kids], hyp.child_cell) >= problem.config.min_views]
-    centres, mask = hyp.children_base[kids], hyp.children_mask[kids]
-    t, n, a = score_hypotheses(problem, taken, centres, hyp.radii, hyp.child_cell, mask, hyp.semi_up, hyp.axes)
-    keep = level_mask(problem, (t, n, a), None)
-    good = keep.any(axis=1)
-    return kids[good], (t[good], n[good], a[:, good]), keep[good]
-
-
-def last_level(problem: Problem, hyp: Hypotheses, cells: NDArray[np.bool_]) -> Hypotheses:
-    """The last level in the children of ``hyp``'s cells ``cells`` (N,) bool, scored with every box: what the search
-    keeps there, without its explaining away, as a last-level :class:`Hypotheses` (``hyp`` itself when it is the last
-    level)."""
-    if hyp.child_cell is None:
-        return hyp
-    kids, scores, keep = score_children(problem, hyp, child_rows(np.flatnonzero(cells)), frozenset())
-    assert hyp.children_base is not None
-    last = Hypotheses(hyp.children_base[kids], hyp.radii, hyp.child_cell, scores, keep, hyp.n_scored, hyp.start_cell, hyp.capped)
-    return replace(last, semi_up=hyp.semi_up, axes=hyp.axes)
 
 
 def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[NDArray[np.float64], float, bool]:

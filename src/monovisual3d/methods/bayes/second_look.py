@@ -56,12 +56,22 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .aspects import object_boxes, solid_boxes
+from .fits import (
+    MIN_GAIN_NATS,
+    MIN_VIEWS_FOR_LYING,
+    Budget,
+    as_answer,
+    fit_hiders,
+    fit_value,
+    free_boxes,
+    holding,
+    misses,
+    others_than,
+    pair_values,
+)
 from .problem import Problem
-from .scoring import associations_list, boxes_of
-from .sensor import box_edge_sigma_px
-from .shape_swap import MEET_SIGMAS, MIN_GAIN_NATS, as_answer, centres_agree_many, holding, meeting_points, pair_values
-from .shapes import MIN_VIEWS_FOR_LYING, Answer, fitted_answer, sensor_scores, shape_value
+from .rays import centres_agree_many, meeting_points
+from .scoring import associations_list
 from .state import Found
 
 #: Views a new object needs: those from which the shape stage fits the yawed ellipsoid of a lying object.
@@ -72,108 +82,11 @@ MAX_FITS = 16
 #: Views of its own boxes a new object needs where it is hidden (:func:`_hidden`) in every other view in which it would
 #: be in the image: two, as for the search (two views fix a point; a third that sees nothing of it says nothing).
 MIN_VIEWS_HIDDEN = 2
-#: An object is hidden behind a nearer one's box when its predicted box lies inside it within this many of that box's
-#: edge sigmas (:func:`.sensor.box_edge_sigma_px`), as two boxes meet in :mod:`.shape_swap`.
-HIDDEN_SIGMAS = MEET_SIGMAS
 #: Shape fits a pair's value costs (:func:`_pair`): each of the two, fitted, then refitted with what the other hides.
 PAIR_FITS = 4
 #: At most this many combinations are screened in one pass (for all at once: about 0.3 s for 16,000); where more would
 #: be (a cluttered scene, many views: they grow as the product of the views' free boxes), that part does not run.
 MAX_SCREENED = 20_000
-
-
-def free_boxes(problem: Problem, objects: list[Found]) -> list[NDArray[np.intp]]:
-    """Per view of ``problem.views``, the indices of the boxes no object holds."""
-    held = set().union(*(boxes_of(problem, o) for o in objects))
-    return [
-        np.array([j for j in range(len(vd.boxes)) if (v, j) not in held], dtype=np.intp) for v, vd in enumerate(problem.views)
-    ]
-
-
-def _hiders(problem: Problem, answer: Answer, assoc: list[int], occluders: Sequence[Found] = ()) -> list[int]:
-    """Per view without a box where the answer's predicted box lies in the image and in front of the camera (in view
-    order), the index of the one of ``occluders`` that hides it there (:func:`_hidden`), -1 where none does: a miss,
-    which costs the sensor model's miss term."""
-    empty = [v for v, j in enumerate(assoc) if j < 0]
-    if not empty:
-        return []
-    poses = np.array([np.linalg.inv(problem.views[v].T_optical_base) for v in empty])
-    pred = solid_boxes(problem.camera, poses, answer[1], answer[0].solid)
-    depth = np.array([problem.depth(v, answer[1].centre_base) for v in empty])
-    size = np.array([problem.camera.width, problem.camera.height], dtype=float)
-    inside = (depth > 0) & np.all(pred[:, 2:] > 0, axis=1) & np.all(pred[:, :2] < size, axis=1)
-    return [_hidden(problem, v, b, d, occluders) for v, b, d, i in zip(empty, pred, depth, inside) if i]
-
-
-def _misses(problem: Problem, answer: Answer, assoc: list[int], occluders: Sequence[Found] = ()) -> int:
-    """The views of :func:`_hiders` where no occluder hides the answer: each costs the sensor model's miss term."""
-    return _hiders(problem, answer, assoc, occluders).count(-1)
-
-
-def _hidden(problem: Problem, v: int, box: NDArray[np.float64], depth: float, occluders: Sequence[Found]) -> int:
-    """The index of the first of ``occluders`` that is nearer in view ``v`` than ``depth`` (metres) and holds a box
-    there that the predicted box (4,), pixels, lies wholly inside, within :data:`HIDDEN_SIGMAS` of that box's edge
-    noise: the object is hidden behind it, and a detector draws no box of it (two containers in line with the
-    camera); -1: none."""
-    for n, o in enumerate(occluders):
-        j = associations_list(problem, o)[v]
-        if j < 0 or problem.depth(v, o.position) >= depth:
-            continue
-        near = problem.views[v].boxes[j]
-        tol = HIDDEN_SIGMAS * box_edge_sigma_px(problem.model, near)
-        if np.all(box[:2] >= near[:2] - tol[:2]) and np.all(box[2:] <= near[2:] + tol[2:]):
-            return n
-    return -1
-
-
-def _fitted_value(
-    problem: Problem, seed: Found, assoc: list[int], occluders: Sequence[Found] = ()
-) -> tuple[float, Found | None, list[int]]:
-    """``seed`` holding the boxes ``assoc`` (over ``problem.views``), fitted with every shape model, its value (nats;
-    -inf and None without a fit, or when the fit leaves a box it holds unexplained: a box scored as a miss is no part
-    of the object) and its :func:`_hiders` among ``occluders`` (each -1 a miss, counted in the value)."""
-    obj = holding(problem, seed, assoc)
-    fit = fitted_answer(problem, obj)
-    if fit is None:
-        return -np.inf, None, []
-    answer, n_edges = fit
-    poses, boxes = object_boxes(problem, obj)
-    if np.any(sensor_scores(problem, poses, boxes, answer[1], answer[0].solid) <= problem.model.miss_term):
-        return -np.inf, None, []
-    hiders = _hiders(problem, answer, assoc, occluders)
-    return shape_value(problem, answer[0], answer, n_edges) + hiders.count(-1) * problem.model.miss_term, answer[0], hiders
-
-
-@dataclasses.dataclass
-class Budget:
-    """What the pass may still spend: combinations to screen, and shape fits (each with every model)."""
-
-    screened: int = MAX_SCREENED
-    fits: int = MAX_FITS
-
-    def screen(self, n: float) -> bool:
-        """Whether ``n`` more combinations may be screened (and count them)."""
-        if n > self.screened:
-            return False
-        self.screened -= int(n)
-        return True
-
-
-def fit_value(
-    problem: Problem, budget: Budget, seed: Found, assoc: list[int], occluders: Sequence[Found] = ()
-) -> tuple[float, Found | None]:
-    """:func:`_fitted_value` (value and fitted object) while the budget lasts (-inf and None after)."""
-    return _fit_hiders(problem, budget, seed, assoc, occluders)[:2]
-
-
-def _fit_hiders(
-    problem: Problem, budget: Budget, seed: Found, assoc: list[int], occluders: Sequence[Found] = ()
-) -> tuple[float, Found | None, list[int]]:
-    """:func:`_fitted_value` while the budget lasts (-inf, None and no hiders after)."""
-    if budget.fits <= 0:
-        return -np.inf, None, []
-    budget.fits -= 1
-    return _fitted_value(problem, seed, assoc, occluders)
 
 
 def _bar(problem: Problem, budget: Budget, o: Found, others: Sequence[Found] = ()) -> float:
@@ -224,9 +137,9 @@ def second_look(problem: Problem, objects: list[Found]) -> list[Found]:
     :data:`MIN_VIEWS` views by new ones of their boxes and the free ones, where the shape models say so; then find the
     objects hidden behind others in some views (:func:`_uncovered`). The module docstring; at most :data:`MAX_FITS`
     shape fits for the first two parts, as many for the last."""
-    budget = Budget()
+    budget = Budget(MAX_FITS, MAX_SCREENED)
     objects = _released(problem, _grown_and_new(problem, objects, budget), budget)
-    return _uncovered(problem, objects, Budget())
+    return _uncovered(problem, objects, Budget(MAX_FITS, MAX_SCREENED))
 
 
 def _grown_and_new(problem: Problem, objects: list[Found], budget: Budget) -> list[Found]:
@@ -325,7 +238,7 @@ def _uncovered(problem: Problem, objects: list[Found], budget: Budget) -> list[F
     candidates = [c for c, ok in zip(candidates, keep) if ok]
     scored, bars = [], {}
     for i, assoc in [candidates[k] for k in _by_size([a for _, a in candidates])]:
-        alone, fitted, hiders = _fit_hiders(problem, budget, _new_seed(), assoc, objects)
+        alone, fitted, hiders = fit_hiders(problem, budget, _new_seed(), assoc, objects)
         if fitted is None or alone <= problem.config.accept or (i < 0 and -1 in hiders):
             continue  # a screen before the pair's fits: alone, the new object must already be worth ``accept``
         k = i if i >= 0 else next((h for h in hiders if h >= 0), -1)
@@ -373,7 +286,7 @@ def _pair(
         return [-np.inf, -np.inf], []
     others = others_than(objects, k)
     for n, (o, a) in enumerate(zip(pair, (assoc, partner))):
-        values[n] += _misses(problem, as_answer(problem, o), a, [*others, pair[1 - n]]) * problem.model.miss_term
+        values[n] += misses(problem, as_answer(problem, o), a, [*others, pair[1 - n]]) * problem.model.miss_term
     return values, pair
 
 
@@ -413,11 +326,6 @@ def _take(
             out[i] = dataclasses.replace(fitted[1], score=float(values[1]))
             changed.add(i)
     return out
-
-
-def others_than(objects: Sequence[Found], i: int) -> list[Found]:
-    """``objects`` without the ``i``-th (all of them for ``i`` -1)."""
-    return [o for k, o in enumerate(objects) if k != i]
 
 
 def _new_seed() -> Found:

@@ -29,11 +29,21 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from .aspects import solid_boxes
+from .fits import (
+    MIN_GAIN_NATS,
+    Answer,
+    Budget,
+    as_answer,
+    fit_value,
+    fitted_answer,
+    free_boxes,
+    holding,
+    others_than,
+    sensor_scores,
+)
 from .problem import Problem
+from .rays import centres_agree_many
 from .scoring import associations_list
-from .second_look import Budget, fit_value, free_boxes, others_than
-from .shape_swap import MIN_GAIN_NATS, as_answer, centres_agree_many, holding
-from .shapes import Answer, fitted_answer, sensor_scores
 from .state import Found
 
 #: At most this many shape fits (each with every model, 10-50 ms) in one pass: a group of three objects costs nine (a
