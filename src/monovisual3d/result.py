@@ -154,7 +154,7 @@ class Result:
     diagnostics : dict, method-specific statistics (e.g. the bayes search's hypothesis counts, the sparse
         engine's active set)
     pose_corrections : list of dict, per view: the estimated correction of its reported pose (``bayes`` with a
-        stated pose uncertainty; empty otherwise), see :func:`monovisual3d.methods.bayes.pipeline.bundle`
+        stated pose uncertainty; empty otherwise), see :func:`monovisual3d.methods.bayes.poses.bundle`
     """
 
     objects: list[DetectedObject]

@@ -109,10 +109,10 @@ def test_swap_gate_passes_a_swapped_pair_and_stops_a_right_one():
     from monovisual3d.camera import Camera
     from monovisual3d.frames import look_at
     from monovisual3d.geometry.sphere import sphere_bbox
-    from monovisual3d.methods.bayes.associate import swap_worth_fitting
     from monovisual3d.methods.bayes.problem import build_problem
     from monovisual3d.methods.bayes.scoring import predicted_boxes
     from monovisual3d.methods.bayes.state import Found
+    from monovisual3d.methods.bayes.swap import swap_worth_fitting
     from monovisual3d.session import Detection, Session, View
 
     centres, radii = np.array([[0.7, -0.03, 0.5], [0.7, 0.03, 0.5]]), [0.025, 0.025]

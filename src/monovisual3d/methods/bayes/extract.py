@@ -38,7 +38,7 @@ from ...grid import child_rows
 from .hypotheses import BoxUsers, best_accepted, same_place_m, score_children, still_valid
 from .problem import Problem
 from .scoring import boxes_of, refine_and_check, score_hypotheses, score_one
-from .state import Found, Hypotheses, Taken
+from .state import Found, Hypotheses, State, Taken
 
 
 def _extended(
@@ -389,3 +389,9 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
         cache = still_valid(problem, cache, obj)
         taken = _take(problem, rows, work, taken, obj, cells)
     return objects, taken
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: the objects :func:`extract` takes from the search's hypotheses."""
+    assert state.hypotheses is not None
+    return state.with_objects(extract(problem, state.hypotheses)[0])

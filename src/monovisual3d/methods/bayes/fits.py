@@ -37,7 +37,7 @@ from .state import Found
 SWAP_GAIN_NATS = 1.0
 
 
-#: Nats by which a move must beat the pair as the shape stage left it (the swap pass's, :data:`.associate.SWAP_GAIN_NATS`, doubled: the shape
+#: Nats by which a move must beat the pair as the shape stage left it (the swap pass's, :data:`SWAP_GAIN_NATS`, doubled: the shape
 #: models have more freedom to fit a wrong association than the search's spheres).
 MIN_GAIN_NATS = 2.0 * SWAP_GAIN_NATS
 

@@ -24,10 +24,12 @@ rows, table tops and Aldoma: unchanged. Other seed sets: ``docs/accuracy.md``.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from .problem import Problem
-from .state import Found
+from .state import Found, State
 
 #: Well-seen objects needed before the scene's depth range says anything.
 MIN_WELL_SEEN = 3
@@ -83,3 +85,11 @@ def drop_isolated(problem: Problem, objects: list[Found]) -> tuple[list[Found], 
     """``objects`` without those :func:`isolated_in_depth` flags, and how many were dropped."""
     flags = isolated_in_depth(problem, objects)
     return [o for o, f in zip(objects, flags) if not f], int(flags.sum())
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: the objects without those :func:`isolated_in_depth` flags, best score first, and how many were
+    dropped."""
+    objects, dropped = drop_isolated(problem, list(state.objects))
+    objects.sort(key=lambda o: -o.score)
+    return replace(state.with_objects(objects), isolated_dropped=dropped)

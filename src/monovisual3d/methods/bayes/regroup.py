@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 
 from .hypotheses import BoxUsers, best_accepted, same_place_m, still_valid
 from .problem import Problem
-from .scoring import associations_list, boxes_of, refine_and_check
-from .state import Found, Hypotheses, Taken
+from .scoring import associations_list, boxes_of, held_boxes, refine_and_check
+from .state import Found, Hypotheses, State, Taken
 
 #: Hypotheses on an object's boxes tried per object (the best, at distinct places) to find the objects to regroup with
 #: it: one per box of a three-view object, the commonest crossing (each of its boxes has one rightful holder).
@@ -211,7 +211,7 @@ def _reextract(
     return out
 
 
-def regroup_pass(problem: Problem, objects: list[Found], taken: Taken, hyp: Hypotheses) -> tuple[list[Found], Taken]:
+def regroup_pass(problem: Problem, objects: list[Found], hyp: Hypotheses) -> list[Found]:
     """Each object with the holders of the boxes that the search's other hypotheses on its boxes want, extracted
     again as if the object's boxes belonged to different objects or one of them were wrong; kept where the boxes
     are then explained better (see the module).
@@ -221,7 +221,8 @@ def regroup_pass(problem: Problem, objects: list[Found], taken: Taken, hyp: Hypo
     whose hypothesis table holds the parents only)."""
     cfg = problem.config
     if not objects or hyp.scores[0].size == 0 or hyp.child_cell is not None:
-        return objects, taken
+        return objects
+    taken = held_boxes(problem, objects)
     table = _Table.of(problem, hyp)
     current, alive = list(objects), [True] * len(objects)
     holders = {b: g for g, o in enumerate(current) for b in boxes_of(problem, o)}
@@ -251,4 +252,10 @@ def regroup_pass(problem: Problem, objects: list[Found], taken: Taken, hyp: Hypo
                 taken, free = pool.taken, pool.boxes
                 kept += 1
         i += 1
-    return [o for o, a in zip(current, alive) if a], taken
+    return [o for o, a in zip(current, alive) if a]
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: :func:`regroup_pass` on the state's objects and the search's hypotheses."""
+    assert state.hypotheses is not None
+    return state.with_objects(regroup_pass(problem, list(state.objects), state.hypotheses))

@@ -6,7 +6,7 @@ All functions are pure: they read a :class:`~.problem.Problem` and an explicit
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -382,3 +382,8 @@ def associations_list(problem: Problem, obj: Found) -> list[int]:
 def boxes_of(problem: Problem, obj: Found) -> set[tuple[int, int]]:
     """The ``(v, j)`` boxes an object holds."""
     return {(v, j) for v, j in enumerate(associations_list(problem, obj)) if j >= 0}
+
+
+def held_boxes(problem: Problem, objects: Iterable[Found]) -> Taken:
+    """The ``(v, j)`` boxes the ``objects`` hold: those the extraction and its repairs have explained."""
+    return frozenset().union(*(boxes_of(problem, o) for o in objects))

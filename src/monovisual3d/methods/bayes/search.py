@@ -56,7 +56,7 @@ from ._kernels import box_dominated_fused
 from .hypotheses import cone_counts_at, cone_counts_within, level_mask
 from .problem import Problem
 from .scoring import score_hypotheses
-from .state import Hypotheses, Scores
+from .state import Hypotheses, Scores, State
 
 #: Cells of the first search level at most (chosen so the first level takes well under a second).
 MAX_FIRST_LEVEL_CELLS = 2_000_000
@@ -364,3 +364,9 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
             return replace(parent, child_cell=cell / 2, children_base=children, children_mask=children_mask)
         centres_grid, mask = children_grid, children_mask
         cell /= 2
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: the search over the problem's region."""
+    assert problem.region is not None
+    return replace(state, hypotheses=search(problem, problem.region))

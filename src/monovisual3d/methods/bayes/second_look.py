@@ -72,7 +72,7 @@ from .fits import (
 from .problem import Problem
 from .rays import centres_agree_many, meeting_points
 from .scoring import associations_list
-from .state import Found
+from .state import Found, State
 
 #: Views a new object needs: those from which the shape stage fits the yawed ellipsoid of a lying object.
 MIN_VIEWS = MIN_VIEWS_FOR_LYING
@@ -331,3 +331,8 @@ def _take(
 def _new_seed() -> Found:
     """A placeholder object for a combination of free boxes: the shape fits start from the boxes alone."""
     return Found(np.zeros(3), 0.0, None, None, {}, 0)
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: :func:`second_look` on the state's objects."""
+    return state.with_objects(second_look(problem, list(state.objects)))

@@ -1,7 +1,7 @@
 """Pair moves judged with the shape models: two objects side by side, one of them tall, trade a view's boxes, or are
 refitted together, when the shapes fitted that way explain their boxes better.
 
-The search, the extraction and the swap pass (:mod:`.associate`) compare associations with spheres and spheroids. A
+The search, the extraction and the swap pass (:mod:`.swap`) compare associations with spheres and spheroids. A
 box-shaped container is neither: its box width changes with the view by up to 41 % as the camera goes round it,
 which no spheroid follows. Two such containers side by side, seen from about their height with boxes of their
 visible parts (the farther box ends where the nearer one begins), then get an association or a fit that spheroids
@@ -44,7 +44,7 @@ from .fits import MIN_GAIN_NATS, as_answer, cut_by_each_other, holding, pair_val
 from .problem import Problem
 from .rays import centres_agree_many, epipolar_trades
 from .scoring import associations_list
-from .state import Found
+from .state import Found, State
 
 #: The models that judge a trade: with the edges one object hides of the other left out, an upright spheroid fits a
 #: container's remaining edges (its width's change with the view lies mostly in the hidden edges); the accepted trade's
@@ -180,3 +180,8 @@ def _distant_trades(problem: Problem, objects: list[Found]) -> list[Found]:
             objects[i], objects[k] = traded
             moved |= {i, k}
     return objects
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: :func:`shape_swap_pass` on the state's objects."""
+    return state.with_objects(shape_swap_pass(problem, list(state.objects)))

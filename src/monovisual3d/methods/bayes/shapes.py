@@ -70,7 +70,7 @@ from .occlusion import occlusion_flags, predicted_views
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
 from .scoring import spheroid_axis
-from .state import Found
+from .state import Found, State
 
 #: Radius (metres: the search's sphere's, or its spheroid's horizontal semi-axis, ``Found.radius``) beyond
 #: which ``auto`` fits an object with every model, the solids included, however round its boxes look. A wrong shape
@@ -274,3 +274,8 @@ def shape_stage(problem: Problem, objects: list[Found]) -> list[Found]:
             censored = hidden_to = None  # the refit changed the association: the flags no longer apply
         out.append(fit_shape(problem, o, frozenset() if f is None else f[1], censored, hidden_to))
     return out
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: every object through :func:`shape_stage`."""
+    return state.with_objects(shape_stage(problem, list(state.objects)))

@@ -7,7 +7,8 @@ state. :class:`Hypotheses` is what the search leaves for the extraction and the 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -164,3 +165,28 @@ class Hypotheses:
             "capped": self.capped,
             "lazy_last_level": self.child_cell is not None,
         }
+
+
+@dataclass(frozen=True)
+class State:
+    """What one pass hands the next (:data:`.pipeline.PASSES`): a pass returns a new state, the old one unchanged.
+
+    Attributes
+    ----------
+    objects : tuple of Found, the objects found so far
+    hypotheses : Hypotheses or None, the search's (set by the search pass)
+    pose_corrections : tuple of dict, per view with detections, its estimated pose correction (the poses pass, with a
+        stated pose uncertainty; :func:`.poses.pose_corrections`)
+    isolated_dropped : int, objects the isolated pass dropped
+    view_shifts : tuple of dict, views whose boxes all sit off the same way (:func:`.view_shift.view_shifts`)
+    """
+
+    objects: tuple[Found, ...] = ()
+    hypotheses: Hypotheses | None = None
+    pose_corrections: tuple[dict[str, Any], ...] = ()
+    isolated_dropped: int = 0
+    view_shifts: tuple[dict[str, Any], ...] = ()
+
+    def with_objects(self, objects: Iterable[Found]) -> State:
+        """This state with ``objects`` in place of its own."""
+        return replace(self, objects=tuple(objects))

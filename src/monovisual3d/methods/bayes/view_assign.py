@@ -44,7 +44,7 @@ from .fits import (
 from .problem import Problem
 from .rays import centres_agree_many
 from .scoring import associations_list
-from .state import Found
+from .state import Found, State
 
 #: At most this many shape fits (each with every model, 10-50 ms) in one pass: a group of three objects costs nine (a
 #: fit from the other views each, then each refitted as it held its boxes and as assigned), one of four twelve.
@@ -176,3 +176,8 @@ def _reassigned(problem: Problem, objects: list[Found], v: int, group: list[int]
     if not after > before + MIN_GAIN_NATS:
         return objects
     return [fitted.get(i, o) for i, o in enumerate(objects)]
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: :func:`view_assignment` on the state's objects."""
+    return state.with_objects(view_assignment(problem, list(state.objects)))

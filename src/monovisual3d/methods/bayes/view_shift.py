@@ -21,6 +21,7 @@ with a few objects in view; a few tenths of a degree stay within the boxes' nois
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -30,7 +31,7 @@ from ...geometry.ellipsoid import Ellipsoid
 from .aspects import object_boxes, solid_boxes
 from .problem import Problem
 from .sensor import box_edge_sigma_px, censored_edges
-from .state import Found
+from .state import Found, State
 
 #: Views an object must be seen in for its predicted boxes to judge a view (with two, the fit splits any offset
 #: evenly between them and both views look shifted).
@@ -98,3 +99,8 @@ def view_shifts(problem: Problem, objects: list[Found]) -> list[dict[str, Any]]:
         if chi2 > CHI2_THRESHOLD and float(np.hypot(*shift)) >= MIN_SHIFT_PX:
             out.append({"view": v, "shift_px": [float(x) for x in shift], "n_objects": len(d), "chi2": chi2})
     return out
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: the views whose boxes sit off together, in the state's diagnostics."""
+    return replace(state, view_shifts=tuple(view_shifts(problem, list(state.objects))))

@@ -1,11 +1,9 @@
-"""Two local repairs of the greedy association (after :func:`.extract.extract`).
+"""The steal pass: a fruit gets back the box a neighbour took, where the neighbour can do without it.
 
-- :func:`swap_pass`: overlapping objects swap their boxes in a view when that
-  fits both better (a fruit given the box of the fruit in front of it).
-- :func:`steal_pass`: a fruit left with one view gets back a box a neighbour
-  took when the neighbour can do without it, or with its own box there.
-
-Both return new lists; the ``taken`` set is passed and returned explicitly.
+The greedy extraction can give a fruit the box of a neighbour that lost its own box in that view (occluded or missed):
+the neighbour is then left with one view and never accepted. :func:`steal_pass` offers the search's hypotheses that
+use a free box and a held one; the holders give up the held boxes (or take a free box of their own there) and the
+move is kept where everything stays acceptable and the evidence grows by more than ``accept``.
 """
 
 from __future__ import annotations
@@ -13,136 +11,17 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from .fits import SWAP_GAIN_NATS
 from .hypotheses import last_level, same_place_m
 from .likelihood import box_scores
 from .problem import Problem
-from .scoring import associations_list, boxes_of, fit_fixed, pose_px, predicted_boxes, refine_and_check
-from .state import Found, Hypotheses, Taken
+from .scoring import associations_list, boxes_of, fit_fixed, held_boxes, pose_px, predicted_boxes, refine_and_check
+from .state import Found, Hypotheses, State, Taken
 
 #: The steal pass tries one candidate per this many accepted objects (at least ``lookahead``): each try is local, and
 #: with ``lookahead`` (3) tries for a whole scene a row of 128 fruit (``bench.scale.row_session(128, 5, 0)``) left a fruit
 #: near its end without the box a neighbour took once the search's radii reached 160 mm and changed the order of the
 #: candidates; the rows of 12-96 fruit and the accuracy benchmark's scenes keep their objects.
 OBJECTS_PER_STEAL_CANDIDATE = 4
-
-
-def _pair_gates(
-    problem: Problem, v: int, objects: list[Found], boxes: NDArray[np.float64], rows: NDArray[np.intp]
-) -> NDArray[np.bool_]:
-    """Which pairs (``rows[i]``, ``j``) of ``objects`` (M) are worth a swap refit in view ``v``, shape (len(rows), M):
-    their predicted ``boxes`` (M, 4) overlap with a positive area and :func:`swap_worth_fitting` says so."""
-    b = boxes
-    gate = (np.minimum(b[rows, None, 2], b[None, :, 2]) > np.maximum(b[rows, None, 0], b[None, :, 0])) & (
-        np.minimum(b[rows, None, 3], b[None, :, 3]) > np.maximum(b[rows, None, 1], b[None, :, 1])
-    )
-    gate[np.arange(len(rows)), rows] = False
-    r, c = np.nonzero(gate)
-    if len(r):
-        first, second = [objects[i] for i in rows[r]], [objects[j] for j in c]
-        gate[r, c] = swap_worth_fitting(problem, v, first, second, boxes[rows[r]], boxes[c])
-    return gate
-
-
-#: Fits of :func:`fit_fixed` already made in a swap pass: (start position bytes, radius, semi-axis along the axis (and the
-#: axis of a lying object), association) -> fit.
-_Fits = dict[tuple[bytes, float, float | tuple[float, ...] | None, tuple[int, ...]], "Found | None"]
-
-
-def _fit(problem: Problem, o: Found, assoc: list[int], fits: _Fits) -> Found | None:
-    """``fit_fixed`` from ``o`` with ``assoc``, made once per pass (the pass's second round meets the same pairs)."""
-    semi_up, axis = o.semi_up, o.axis
-    shape = semi_up if axis is None else (semi_up, *axis.tolist())
-    key = (np.asarray(o.position, dtype=np.float64).tobytes(), float(o.radius), shape, tuple(assoc))  # type: ignore[arg-type]
-    if key not in fits:
-        fits[key] = fit_fixed(problem, o.position, float(o.radius), assoc, semi_up, axis)  # type: ignore[arg-type]
-    return fits[key]
-
-
-def swap_worth_fitting(
-    problem: Problem,
-    v: int,
-    first: list[Found],
-    second: list[Found],
-    first_boxes: NDArray[np.float64],
-    second_boxes: NDArray[np.float64],
-) -> NDArray[np.bool_]:
-    """Whether swapping the boxes of objects ``first[p]`` and ``second[p]`` (P pairs, predicted at ``first_boxes`` and
-    ``second_boxes``, (P, 4)) in view ``v`` loses less than ``match_bonus`` nats at their current positions (the gate
-    before the two refits), shape (P,) bool.
-
-    A refit moves each object by a fraction of its box to fit the other views too; a swap that already costs
-    more than a whole box's match where the objects stand is not recovered by that (on the accuracy benchmark's
-    scenes and dense rows no swap beyond the gate was ever kept, and the gate skips 95 % of the refits).
-    """
-    vd, cam, model = problem.views[v], problem.camera, problem.model
-    ja = np.array([associations_list(problem, a)[v] for a in first], dtype=np.intp)
-    jb = np.array([associations_list(problem, b)[v] for b in second], dtype=np.intp)
-    depth = [
-        np.array([o.position for o in objs], dtype=float).reshape(-1, 3) @ vd.T_optical_base[2, :3] for objs in (first, second)
-    ]
-    sa, sb = (np.broadcast_to(pose_px(problem, d + vd.T_optical_base[2, 3]), d.shape) for d in depth)
-    # per pair, 4 rows: a with its box, a with b's, b with its box, b with a's
-    pred = np.stack([first_boxes, first_boxes, second_boxes, second_boxes], axis=1)
-    which = np.stack([ja, jb, jb, ja], axis=1)
-    px = np.stack([sa, sa, sb, sb], axis=1)
-    s = box_scores(pred.reshape(-1, 4), vd.boxes[which.ravel()], model, cam.width, cam.height, px.ravel()).reshape(-1, 4)
-    s = np.maximum(np.where(which >= 0, s, -np.inf), model.miss_term)
-    return s[:, 1] + s[:, 3] >= s[:, 0] + s[:, 2] - model.match_bonus
-
-
-def _try_swap(problem: Problem, v: int, a: Found, b: Found, fits: _Fits) -> tuple[Found, Found] | None:
-    """``a`` and ``b`` refit with their boxes in view ``v`` swapped, if their summed score grows by more than :data:`SWAP_GAIN_NATS`."""
-    assoc_a, assoc_b = associations_list(problem, a), associations_list(problem, b)
-    assoc_a[v], assoc_b[v] = assoc_b[v], assoc_a[v]
-    new_a = _fit(problem, a, assoc_a, fits)
-    new_b = _fit(problem, b, assoc_b, fits)
-    if new_a is None or new_b is None or new_a.score + new_b.score <= a.score + b.score + SWAP_GAIN_NATS:
-        return None
-    return new_a, new_b
-
-
-def _swap_view(problem: Problem, v: int, objects: list[Found], fits: _Fits) -> bool:
-    """One round of :func:`swap_pass` in view ``v``: the pairs in order, ``objects`` updated in place; whether any swapped."""
-    holders = [i for i, o in enumerate(objects) if problem.views[v].index in o.associations]
-    held = [objects[i] for i in holders]
-    boxes = predicted_boxes(problem, v, held)[0]
-    gate = _pair_gates(problem, v, held, boxes, np.arange(len(held)))  # symmetric; updated where objects change
-    changed = False
-    for pa, ia in enumerate(holders):
-        pb = pa
-        while len(later := np.flatnonzero(gate[pa, pb + 1 :])):  # the next partner worth a refit, as things are now
-            pb += 1 + int(later[0])
-            ib = holders[pb]
-            swapped = _try_swap(problem, v, objects[ia], objects[ib], fits)
-            if swapped is None:
-                continue
-            objects[ia], objects[ib] = held[pa], held[pb] = swapped
-            boxes[[pa, pb]] = predicted_boxes(problem, v, list(swapped))[0]
-            moved = np.array([pa, pb])
-            gate[moved] = _pair_gates(problem, v, held, boxes, moved)
-            gate[:, moved] = gate[moved].T
-            changed = True
-    return changed
-
-
-def swap_pass(problem: Problem, objects: list[Found]) -> list[Found]:
-    """Fix greedy association mistakes between fruit that overlap in a view (one hiding the other).
-
-    For every view and every pair of objects whose predicted boxes overlap
-    there, swap their boxes in that view, refit both, and keep the swap if
-    their summed score grows by more than 1 nat. The set of taken boxes does
-    not change.
-    """
-    objects = list(objects)
-    fits: _Fits = {}
-    for _ in range(2):
-        changed = False
-        for v in range(len(problem.views)):
-            changed |= _swap_view(problem, v, objects, fits)
-        if not changed:
-            break
-    return objects
 
 
 def _box_counts(problem: Problem, hyp: Hypotheses, taken: Taken) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -240,7 +119,7 @@ def _try_steal(
     return (new, losers, used) if gain > cfg.accept else None
 
 
-def steal_pass(problem: Problem, objects: list[Found], taken: Taken, hyp: Hypotheses) -> tuple[list[Found], Taken]:
+def steal_pass(problem: Problem, objects: list[Found], hyp: Hypotheses) -> list[Found]:
     """Give a fruit back the box a neighbour took when the neighbour can do without it.
 
     The greedy extraction can give a fruit the box of a neighbour that lost its
@@ -258,8 +137,9 @@ def steal_pass(problem: Problem, objects: list[Found], taken: Taken, hyp: Hypoth
     both stay acceptable and the summed score grows by more than ``accept``.
     """
     cfg = problem.config
+    taken = held_boxes(problem, objects)
     if not objects or hyp.scores[0].size == 0 or len(taken) == sum(len(vd.boxes) for vd in problem.views):
-        return objects, taken
+        return objects
     objects = list(objects)
     holder = {b: i for i, o in enumerate(objects) for b in boxes_of(problem, o)}
     if hyp.child_cell is not None:  # the extraction split the last level lazily: score it where a free box is
@@ -287,4 +167,10 @@ def steal_pass(problem: Problem, objects: list[Found], taken: Taken, hyp: Hypoth
         mine = boxes_of(problem, new)
         taken = taken | mine | replacements
         holder.update({b: len(objects) - 1 for b in mine})
-    return objects, taken
+    return objects
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: :func:`steal_pass` on the state's objects and the search's hypotheses."""
+    assert state.hypotheses is not None
+    return state.with_objects(steal_pass(problem, list(state.objects), state.hypotheses))

@@ -1,4 +1,4 @@
-"""The association repairs after the greedy extraction (:mod:`monovisual3d.methods.bayes.associate`)."""
+"""The steal pass (:mod:`monovisual3d.methods.bayes.steal`)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.methods.bayes import BayesConfig
-from monovisual3d.methods.bayes.associate import _replacement
 from monovisual3d.methods.bayes.problem import build_problem
 from monovisual3d.methods.bayes.state import Found
+from monovisual3d.methods.bayes.steal import _replacement
 from monovisual3d.session import Detection, Session, View
 
 CAM = Camera.from_hfov(640, 480, 69.0)
