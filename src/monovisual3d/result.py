@@ -58,21 +58,9 @@ class DetectedObject:
     quaternion_xyzw: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
-        if self.shape is not None and self.shape not in OBJECT_SHAPES:
-            raise ValueError(f"shape: got {self.shape!r}, expected one of {list(OBJECT_SHAPES)}")
-        if self.semi_axes is not None:
-            s = np.asarray(self.semi_axes, dtype=float)
-            if s.shape != (3,) or not np.all(np.isfinite(s)) or not np.all(s > 0):
-                raise ValueError(f"semi_axes: got {self.semi_axes!r}, expected three positive lengths in metres")
-            self.semi_axes = s
-            if self.radius is None:
-                self.radius = float(np.cbrt(np.prod(s)))
-        if self.quaternion_xyzw is not None:
-            q = np.asarray(self.quaternion_xyzw, dtype=float)
-            n = float(np.linalg.norm(q)) if q.shape == (4,) else 0.0
-            if not abs(n - 1.0) < 1e-3:
-                raise ValueError(f"quaternion_xyzw: got {self.quaternion_xyzw!r}, expected a unit quaternion (x, y, z, w)")
-            self.quaternion_xyzw = q / n
+        self.semi_axes, self.radius, self.quaternion_xyzw = normalised_shape(
+            self.shape, self.semi_axes, self.radius, self.quaternion_xyzw
+        )
         _check_extra(self.extra)
 
     @classmethod
@@ -121,6 +109,30 @@ class DetectedObject:
         return out
 
 
+def normalised_shape(
+    shape: str | None, semi_axes: ArrayLike | None, radius: float | None, quaternion_xyzw: ArrayLike | None
+) -> tuple[NDArray[np.float64] | None, float | None, NDArray[np.float64] | None]:
+    """An object's shape fields checked and normalised: ``semi_axes`` as floats (3,), ``radius`` the volume-equivalent
+    radius ``(a b c)^(1/3)`` when not given, ``quaternion_xyzw`` of unit norm (ValueError naming the field when one is
+    not what it should be)."""
+    if shape is not None and shape not in OBJECT_SHAPES:
+        raise ValueError(f"shape: got {shape!r}, expected one of {list(OBJECT_SHAPES)}")
+    s = q = None
+    if semi_axes is not None:
+        s = np.asarray(semi_axes, dtype=float)
+        if s.shape != (3,) or not np.all(np.isfinite(s)) or not np.all(s > 0):
+            raise ValueError(f"semi_axes: got {semi_axes!r}, expected three positive lengths in metres")
+        if radius is None:
+            radius = float(np.cbrt(np.prod(s)))
+    if quaternion_xyzw is not None:
+        q = np.asarray(quaternion_xyzw, dtype=float)
+        n = float(np.linalg.norm(q)) if q.shape == (4,) else 0.0
+        if not abs(n - 1.0) < 1e-3:
+            raise ValueError(f"quaternion_xyzw: got {quaternion_xyzw!r}, expected a unit quaternion (x, y, z, w)")
+        q = q / n
+    return s, radius, q
+
+
 def _check_extra(extra: dict[str, Any]) -> None:
     clash = sorted(STANDARD_KEYS.intersection(extra))
     if clash:
@@ -142,7 +154,7 @@ class Result:
     diagnostics : dict, method-specific statistics (e.g. the bayes search's hypothesis counts, the sparse
         engine's active set)
     pose_corrections : list of dict, per view: the estimated correction of its reported pose (``bayes`` with a
-        stated pose uncertainty; empty otherwise), see :func:`monovisual3d.methods.bayes.pipeline.bundle`
+        stated pose uncertainty; empty otherwise), see :func:`monovisual3d.methods.bayes.poses.bundle`
     """
 
     objects: list[DetectedObject]

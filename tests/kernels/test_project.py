@@ -9,7 +9,8 @@ from numpy.testing import assert_allclose
 
 from monovisual3d.camera import DISTORTION_IDS, Camera, PackedCamera
 from monovisual3d.kernels import project
-from monovisual3d.methods.bayes._kernels import camera_arrays, cone_counts_fused
+from monovisual3d.methods.bayes._kernels import cone_counts_fused
+from monovisual3d.methods.bayes._predict import camera_arrays
 
 #: One camera per distortion model (and both plumb_bob lengths), coefficients of a real wide lens.
 CAMERAS = {

@@ -12,9 +12,10 @@ from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.methods.bayes.config import BayesConfig
+from monovisual3d.methods.bayes.fits import free_boxes
 from monovisual3d.methods.bayes.problem import build_problem
-from monovisual3d.methods.bayes.second_look import free_boxes, second_look
-from monovisual3d.result import DetectedObject
+from monovisual3d.methods.bayes.second_look import second_look
+from monovisual3d.methods.bayes.state import Found
 from monovisual3d.sim.noise import NoiseModel
 from monovisual3d.sim.scenes import default_camera, paper_scene
 from monovisual3d.sim.viewpoints import paper_poses
@@ -92,7 +93,7 @@ def _problem(boxes_per_view):
 
 def test_free_boxes_are_those_no_object_holds():
     problem = _problem([[[10, 10, 50, 50], [60, 60, 90, 90]], [[10, 10, 50, 50]], [[1, 1, 9, 9], [20, 20, 40, 40]]])
-    holder = DetectedObject(np.zeros(3), 9.0, 0.03, None, {0: 1, 2: 0}, 1, {})
+    holder = Found(np.zeros(3), 9.0, 0.03, None, {0: 1, 2: 0}, 1)
     free = free_boxes(problem, [holder])
     assert [f.tolist() for f in free] == [[0], [0], [1]]
     assert [f.tolist() for f in free_boxes(problem, [])] == [[0, 1], [0], [0, 1]]
@@ -138,7 +139,7 @@ def test_free_boxes_in_every_view_make_one_object_holding_them_all():
 def test_an_object_seen_twice_takes_its_free_box_of_a_third_view():
     views = _lying_object_views([-60.0, 0.0, 60.0])
     problem = build_problem(TABLE_CAM, BayesConfig(size_range=SIZE_RANGE_M), views)
-    twice = DetectedObject(LYING_M + 0.01, 9.0, 0.08, None, {0: 0, 1: 0}, 1, {})
+    twice = Found(LYING_M + 0.01, 9.0, 0.08, None, {0: 0, 1: 0}, 1)
     out = second_look(problem, [twice])
     assert len(out) == 1
     assert out[0].associations == {0: 0, 1: 0, 2: 0}

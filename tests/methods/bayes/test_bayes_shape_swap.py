@@ -14,12 +14,14 @@ from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import Ellipsoid
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.geometry.solids import cuboid_bbox
-from monovisual3d.methods.bayes import BayesConfig, shape_swap
+from monovisual3d.methods.bayes import BayesConfig, fits, shape_swap
 from monovisual3d.methods.bayes.aspects import as_sphere
+from monovisual3d.methods.bayes.box_sides import boxes_meet
+from monovisual3d.methods.bayes.fits import SPHERE_PARAMETERS, cut_by_each_other, fitted_answer, shape_value
 from monovisual3d.methods.bayes.problem import build_problem
-from monovisual3d.methods.bayes.shape_swap import boxes_meet, centres_agree, epipolar_trades, is_tall, meeting_points
-from monovisual3d.methods.bayes.shapes import SPHERE_PARAMETERS, fitted_answer, shape_value
-from monovisual3d.result import DetectedObject
+from monovisual3d.methods.bayes.rays import centres_agree, epipolar_trades, meeting_points
+from monovisual3d.methods.bayes.shape_swap import is_tall
+from monovisual3d.methods.bayes.state import Found
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.noise import perturb_boxes, visible_part_boxes
 
@@ -51,10 +53,10 @@ def test_meeting_points_are_where_the_box_centres_rays_meet():
 def test_boxes_meet_side_by_side_only():
     problem = _problem(np.eye(4)[None], np.array([[[100.0, 100, 160, 300]]]))
     left = np.array([100.0, 100, 160, 300])
-    assert boxes_meet(problem, left, np.array([160.0, 110, 200, 290]))  # abutting: one hides part of the other
-    assert boxes_meet(problem, left, np.array([140.0, 90, 220, 310]))  # overlapping
-    assert not boxes_meet(problem, left, np.array([180.0, 100, 220, 300]))  # a gap of 20 px, 4 edge sigmas
-    assert not boxes_meet(problem, left, np.array([160.0, 250, 220, 400]))  # corners only: 50 of 150 px of height
+    assert boxes_meet(problem.model, left, np.array([160.0, 110, 200, 290]))  # abutting: one hides part of the other
+    assert boxes_meet(problem.model, left, np.array([140.0, 90, 220, 310]))  # overlapping
+    assert not boxes_meet(problem.model, left, np.array([180.0, 100, 220, 300]))  # a gap of 20 px, 4 edge sigmas
+    assert not boxes_meet(problem.model, left, np.array([160.0, 250, 220, 400]))  # corners only: 50 of 150 px of height
 
 
 def test_a_hidden_edge_costs_nothing_within_the_nearer_box_only():
@@ -67,7 +69,7 @@ def test_a_hidden_edge_costs_nothing_within_the_nearer_box_only():
     seen = whole.copy()
     seen[0] += 8.0  # the left 8 px (1.4 edge sigmas) hidden
     problem = _problem(T_base_optical[None], seen[None, None])
-    obj = DetectedObject(centre, 0.0, 0.03, None, {0: 0}, 1, {})
+    obj = Found(centre, 0.0, 0.03, None, {0: 0}, 1)
     answer = (obj, sphere, SPHERE_PARAMETERS)
     free = np.full((1, 4), np.nan)
     seen_edges = shape_value(problem, obj, answer, 4)
@@ -78,9 +80,9 @@ def test_a_hidden_edge_costs_nothing_within_the_nearer_box_only():
 
 
 def test_only_upright_elongated_objects_are_tall():
-    def obj(shape: str, semi_axes: list[float]) -> DetectedObject:
+    def obj(shape: str, semi_axes: list[float]) -> Found:
         q = np.array([0.0, 0.0, 0.0, 1.0])
-        return DetectedObject(TARGET, 0.0, 0.03, None, {}, 1, {}, shape=shape, semi_axes=np.array(semi_axes), quaternion_xyzw=q)
+        return Found(TARGET, 0.0, 0.03, None, {}, 1, shape=shape, semi_axes=np.array(semi_axes), quaternion_xyzw=q)
 
     assert is_tall(obj("spheroid", [0.025, 0.025, 0.06]))
     assert not is_tall(obj("sphere", [0.03, 0.03, 0.03]))
@@ -99,16 +101,14 @@ def test_the_pair_refit_keeps_the_farther_container_behind_the_nearer_box():
     )
     depths = np.einsum("kj,nj->kn", np.linalg.inv(poses)[:, 2, :3], CENTRES) + np.linalg.inv(poses)[:, 2, 3:4]
     problem = _problem(poses, visible_part_boxes(whole, depths))
-    pair = [DetectedObject(c, 0.0, 0.03, None, {0: i, 1: i, 2: i}, 1, {"semi_up": 0.06}) for i, c in enumerate(CENTRES)]
+    pair = [Found(c, 0.0, 0.03, None, {0: i, 1: i, 2: i}, 1, semi_up=0.06) for i, c in enumerate(CENTRES)]
     assert np.all(depths[:, 0] > depths[:, 1])  # the first container is the farther one in every view
-    hidden_to = shape_swap._cut_by_each_other(
-        problem, pair, [fitted_answer(problem, o, shapes=("spheroid",))[0][1] for o in pair]
-    )[0]
+    hidden_to = cut_by_each_other(problem, pair, [fitted_answer(problem, o, shapes=("spheroid",))[0][1] for o in pair])[0]
     assert np.isfinite(hidden_to).sum(axis=1).tolist() == [1, 1, 1]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the fits' bounded solver
         open_ended = fitted_answer(problem, pair[0], np.isfinite(hidden_to), ("sphere", "spheroid"))[0]
-        refit = shape_swap._fits(problem, pair)[0][0]
+        refit = fits._fits(problem, pair, ("spheroid",))[0][0]
     error_mm = [1e3 * np.linalg.norm(a[1].centre_base - CENTRES[0]) for a in (open_ended, refit)]
     assert open_ended[0].shape == "sphere" and error_mm[0] > 35
     hidden = np.isfinite(hidden_to)
@@ -159,12 +159,12 @@ def test_a_sphere_kept_behind_a_container_is_refitted_with_every_model():
     u, _, vt = np.linalg.svd(poses[:, :3, :3])
     poses[:, :3, :3] = u @ vt
     problem = _problem(poses, SUBSET_BOXES)
-    start = DetectedObject(SUBSET_CENTRES[1], 0.0, 0.03, None, {0: 1, 1: 1, 2: 1}, 1, {"semi_up": 0.06})
+    start = Found(SUBSET_CENTRES[1], 0.0, 0.03, None, {0: 1, 1: 1, 2: 1}, 1, semi_up=0.06)
     near = fitted_answer(problem, start, shapes=("spheroid",))[0][0]
-    far = as_sphere(DetectedObject(np.array([0.629759, -0.013098, 0.293926]), 0.0, 0.0629, None, {0: 0, 1: 0, 2: 0}, 1, {}))
+    far = as_sphere(Found(np.array([0.629759, -0.013098, 0.293926]), 0.0, 0.0629, None, {0: 0, 1: 0, 2: 0}, 1))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the fits' bounded solver
-        bar = shape_swap._held_value(problem, [far, near]) + shape_swap.MIN_GAIN_NATS
+        bar = shape_swap._held_value(problem, [far, near]) + fits.MIN_GAIN_NATS
         assert shape_swap._value(problem, [far, near])[0] < bar < shape_swap._value(problem, [far, near], None)[0]
         out = shape_swap._best_trade(problem, far, near, shape_swap._meets(problem, far, near))
     assert out is not None
@@ -211,9 +211,7 @@ def _spheres_seen(rng: np.random.Generator, n_views: int, n_objects: int):
         poses.append(look_at(p, TARGET))
     poses = np.array(poses)
     boxes = np.stack([Ellipsoid.sphere(c, r).bbox(CAM, poses) for c, r in zip(centres, radii)], axis=1)
-    objects = [
-        DetectedObject(c, 0.0, r, None, {v: j for v in range(n_views)}, 1, {}) for j, (c, r) in enumerate(zip(centres, radii))
-    ]
+    objects = [Found(c, 0.0, r, None, {v: j for v in range(n_views)}, 1) for j, (c, r) in enumerate(zip(centres, radii))]
     return _problem(poses, boxes), objects
 
 

@@ -24,9 +24,10 @@ from monovisual3d.methods.bayes.aspects import (
     possibly_cut,
     sticks_out,
 )
+from monovisual3d.methods.bayes.fits import lowest_bic_fit
 from monovisual3d.methods.bayes.problem import Problem, build_problem
-from monovisual3d.methods.bayes.shapes import _fitted, fit_shape
-from monovisual3d.result import DetectedObject
+from monovisual3d.methods.bayes.shapes import fit_shape
+from monovisual3d.methods.bayes.state import Found
 from monovisual3d.session import Detection, Session, View, Workspace
 from monovisual3d.sim.scenes import default_camera, paper_scene
 from monovisual3d.sim.simulate import simulate
@@ -73,11 +74,11 @@ def test_a_lying_object_from_three_views_is_an_ellipsoid(yaw):
     assert_allclose(np.sort(o.semi_axes), np.sort(LYING), atol=2e-3)
 
 
-def _object_at(e: Ellipsoid, radius: float) -> tuple[Problem, DetectedObject]:
+def _object_at(e: Ellipsoid, radius: float) -> tuple[Problem, Found]:
     """The problem of ``_session([e])`` and a sphere estimate of radius ``radius`` at ``e``'s centre holding its boxes."""
     session = _session([e])
     problem = build_problem(CAM, BayesConfig(), session.views)
-    return problem, DetectedObject(e.centre_base, 10.0, radius, associations={v: 0 for v in range(len(session.views))})
+    return problem, Found(e.centre_base, 10.0, radius, associations={v: 0 for v in range(len(session.views))})
 
 
 def test_aspect_deviations_say_upright_lying_or_round():
@@ -109,7 +110,7 @@ def _cut(session: Session, cuts: dict[int, tuple[int, float]]) -> list[View]:
 def test_one_truncated_box_does_not_make_a_sphere_elongated():
     views = _cut(_session([Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)]), {1: (2, 0.4)})  # a leaf hides 40 % in one view
     problem = build_problem(CAM, BayesConfig(), views)
-    obj = DetectedObject(np.array([0.6, 0.0, 0.5]), 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
+    obj = Found(np.array([0.6, 0.0, 0.5]), 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
     assert np.sum(np.abs(aspect_deviations(problem, obj)) > ROUNDNESS_THRESHOLD) == 1
     assert looks_round(problem, obj)
 
@@ -120,7 +121,7 @@ def test_a_sphere_cut_wide_in_one_view_and_tall_in_another_stays_a_sphere():
     true = Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)
     views = _cut(_session([true]), {0: (1, 0.35), 2: (2, 0.35)})
     problem = build_problem(CAM, BayesConfig(), views)
-    obj = DetectedObject(true.centre_base, 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
+    obj = Found(true.centre_base, 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
     d = aspect_deviations(problem, obj)
     assert not looks_round(problem, obj) and not elongated_one_way(d)
     o = fit_shape(problem, obj)
@@ -136,12 +137,12 @@ def test_a_sphere_cut_to_tall_slivers_by_neighbours_or_leaves_stays_a_sphere():
     sensor model, which scores the cut edges as occlusion: it does not, and the fruit stays the sphere. (Cuts of 20 %
     or less still give the spheroid: within the edge noise, the sensor model cannot tell.)"""
     true = Ellipsoid.sphere([0.6, 0.0, 0.5], 0.03)
-    obj = DetectedObject(true.centre_base, 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
+    obj = Found(true.centre_base, 10.0, 0.03, associations={0: 0, 1: 0, 2: 0})
     alike = _cut(_session([true]), {0: (0, 0.3), 1: (2, 0.3), 2: (0, 0.3)})  # 30 % of the width hidden, one side
     problem = build_problem(CAM, BayesConfig(), alike)
     assert elongated_one_way(aspect_deviations(problem, obj)) and possibly_cut(problem, obj)
     # the sensor model's test is what keeps the sphere: the best fit alone takes the slivers at face value
-    best = _fitted(problem, obj, ("sphere", "spheroid"))
+    best = lowest_bic_fit(problem, obj, ("sphere", "spheroid"))
     assert best is not None and best[0][0].shape == "spheroid"
     o = fit_shape(problem, obj, cut=frozenset({0, 1, 2}))
     assert o.shape == "sphere"
@@ -152,7 +153,7 @@ def test_a_sphere_cut_to_tall_slivers_by_neighbours_or_leaves_stays_a_sphere():
     unlike = build_problem(CAM, BayesConfig(), _cut(_session([true]), {0: (0, 0.6), 1: (2, 0.25), 2: (0, 0.25)}))
     d = aspect_deviations(unlike, obj)
     assert elongated_one_way(d) and not consistently_elongated(d) and possibly_cut(unlike, obj)
-    assert _fitted(unlike, obj, ("sphere", "spheroid"))[0][0].shape == "spheroid"  # type: ignore[index]
+    assert lowest_bic_fit(unlike, obj, ("sphere", "spheroid"))[0][0].shape == "spheroid"  # type: ignore[index]
     o = fit_shape(unlike, obj)
     assert o.shape == "sphere"
     assert_allclose(o.position, true.centre_base, atol=1e-12)

@@ -217,7 +217,7 @@ def test_localize_with_stated_uncertainty_on_a_rotated_view(rotated_view):
     e, reported = rotated_view
     s = session(reported)
     r = mv.localize(s, alpha=0.0, sigma0_px=0.5, pose_sigma_mm=2.0, pose_sigma_deg=0.5)
-    assert len(r.objects) == 6 and "bundle" in r.timing_s
+    assert len(r.objects) == 6 and "poses" in r.timing_s
     for o in r.objects:
         assert o.extra["pose_corrected"]
         assert_allclose(o.covariance, o.covariance.T, rtol=1e-9, atol=1e-15)

@@ -13,9 +13,10 @@ from monovisual3d.methods.bayes import extract as extract_module
 from monovisual3d.methods.bayes import search as search_module
 from monovisual3d.methods.bayes.config import BayesConfig
 from monovisual3d.methods.bayes.extract import _extended, extract
+from monovisual3d.methods.bayes.hypotheses import last_level
 from monovisual3d.methods.bayes.localizer import region_grid
 from monovisual3d.methods.bayes.problem import build_problem
-from monovisual3d.methods.bayes.search import last_level, search
+from monovisual3d.methods.bayes.search import search
 
 
 def _search(problem, grid, lazy_last_level):

@@ -13,7 +13,7 @@ from monovisual3d.geometry.ellipsoid import Ellipsoid
 from monovisual3d.methods.bayes import BayesConfig
 from monovisual3d.methods.bayes.isolated import depths_per_view, isolated_in_depth
 from monovisual3d.methods.bayes.problem import build_problem
-from monovisual3d.result import DetectedObject
+from monovisual3d.methods.bayes.state import Found
 from monovisual3d.session import Detection, Session, View
 from monovisual3d.sim.scenes import default_camera
 from monovisual3d.sim.viewpoints import paper_poses
@@ -29,8 +29,8 @@ def _problem(config: BayesConfig):
     return build_problem(CAM, config, views)
 
 
-def _object(position, n_views: int) -> DetectedObject:
-    return DetectedObject(np.asarray(position, dtype=float), 10.0, 0.025, associations={v: 0 for v in range(n_views)})
+def _object(position, n_views: int) -> Found:
+    return Found(np.asarray(position, dtype=float), 10.0, 0.025, associations={v: 0 for v in range(n_views)})
 
 
 def test_depths_per_view_are_the_optical_z_of_each_centre() -> None:
@@ -86,8 +86,8 @@ def test_a_two_view_object_is_judged_by_its_depth_in_the_views_that_see_it() -> 
     plant = [_object(p, 3) for p in PLANT]
     d = depths_per_view(problem, plant + [_object(off, 2)])
     assert np.all(d[3, :2] < d[:3, :2].min(axis=0) - 0.1) and d[:3, 2].min() < d[3, 2] < d[:3, 2].max()
-    seen_01 = DetectedObject(off, 10.0, 0.025, associations={0: 0, 1: 0})
-    seen_12 = DetectedObject(off, 10.0, 0.025, associations={1: 0, 2: 0})
+    seen_01 = Found(off, 10.0, 0.025, associations={0: 0, 1: 0})
+    seen_12 = Found(off, 10.0, 0.025, associations={1: 0, 2: 0})
     assert isolated_in_depth(problem, plant + [seen_01, seen_12]).tolist() == [False] * 3 + [True, False]
 
 

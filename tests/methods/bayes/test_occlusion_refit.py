@@ -10,16 +10,8 @@ from monovisual3d.camera import Camera
 from monovisual3d.frames import invert_transform, look_at
 from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.methods.bayes import shapes
-from monovisual3d.methods.bayes.occlusion import (
-    OCCLUSION_MARGIN_SIGMAS,
-    _meeting,
-    _predicted,
-    _view_flags,
-    _whole_sides_pairs,
-    covered_sides,
-    occluded_edges,
-    spans,
-)
+from monovisual3d.methods.bayes.box_sides import boxes_near, covered_sides, occluded_edges, spans
+from monovisual3d.methods.bayes.occlusion import OCCLUSION_MARGIN_SIGMAS, _predicted, _view_flags, _whole_sides_pairs
 from monovisual3d.methods.bayes.refine import Observation, _BoxResiduals, observation_residuals, refine_sphere
 from monovisual3d.methods.bayes.sensor import SensorModel
 from monovisual3d.session import Workspace
@@ -108,7 +100,7 @@ def test_a_fruit_half_hidden_by_a_nearer_one_is_localised_better_with_the_refit(
 
 
 def test_boxes_that_do_not_meet_widened_by_their_pads_flag_nothing():
-    """``occlusion_flags`` skips the nearer boxes that ``_meeting`` rules out: on random boxes and stds, a pair it
+    """``occlusion_flags`` skips the nearer boxes that ``boxes_near`` rules out: on random boxes and stds, a pair it
     rules out gets no flag from either test at the pair's margin, and a pair that overlaps is never ruled out."""
     rng = np.random.default_rng(5)
     n = 60
@@ -116,7 +108,7 @@ def test_boxes_that_do_not_meet_widened_by_their_pads_flag_nothing():
     boxes = np.hstack([corner, corner + rng.uniform(5, 120, (n, 2))])
     boxes[3] = np.nan
     std = rng.uniform(0, 25, (n, 2))
-    meets = _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std)
+    meets = boxes_near(boxes, OCCLUSION_MARGIN_SIGMAS * std)
     assert not meets[3].any() and not meets.diagonal().any()
     ruled_out = 0
     for i in range(n):
@@ -162,26 +154,26 @@ def test_predicted_boxes_and_stds_batched_equal_one_object_at_a_time():
     from monovisual3d.methods.bayes.config import BayesConfig
     from monovisual3d.methods.bayes.problem import Problem, ViewData
     from monovisual3d.methods.bayes.sensor import box_edge_sigma_px
-    from monovisual3d.result import DetectedObject
+    from monovisual3d.methods.bayes.state import Found
 
     rng = np.random.default_rng(8)
     views = tuple(ViewData(i, invert_transform(T), np.zeros((0, 4)), (), None) for i, T in enumerate(poses()))
     problem = Problem(CAM, BayesConfig(), SensorModel(), views)
     objects = []
     for i in range(12):
-        extra = {} if i % 3 == 0 else {"semi_up": 0.05} if i % 3 == 1 else {"semi_up": 0.06, "axis": [0.0, 1.0, 0.0]}
+        learned = {} if i % 3 == 0 else {"semi_up": 0.05} if i % 3 == 1 else {"semi_up": 0.06, "axis": np.array([0.0, 1.0, 0.0])}
         a = rng.normal(size=(3, 3)) * 1e-3
         cov = a @ a.T if i % 2 else None
-        objects.append(DetectedObject(TARGET + rng.normal(0, 0.1, 3), 1.0, 0.02 + 0.01 * rng.random(), cov, extra=extra))
-    objects.append(DetectedObject(np.array([-1.0, 0.0, 0.5]), 1.0, 0.03))  # behind every camera
+        objects.append(Found(TARGET + rng.normal(0, 0.1, 3), 1.0, 0.02 + 0.01 * rng.random(), cov, **learned))
+    objects.append(Found(np.array([-1.0, 0.0, 0.5]), 1.0, 0.03))  # behind every camera
     for v, vd in enumerate(views):
         boxes, depth, std = _predicted(problem, objects, v)
         R, t = vd.T_optical_base[:3, :3], vd.T_optical_base[:3, 3]
         for i, o in enumerate(objects):
             p = R @ o.position + t
-            if "semi_up" in o.extra:
-                up = R @ np.asarray(o.extra.get("axis", problem.config.up_vector), dtype=float)
-                box = predict_spheroid_boxes(CAM, p[None], [o.radius], [o.extra["semi_up"]], up)[0][0, 0]
+            if o.semi_up is not None:
+                up = R @ (problem.config.up_vector if o.axis is None else o.axis)
+                box = predict_spheroid_boxes(CAM, p[None], [o.radius], [o.semi_up], up)[0][0, 0]
             else:
                 box = predict_sphere_boxes(CAM, p[None], np.array([o.radius]))[0][0, 0]
             assert_allclose(boxes[i], box, rtol=1e-12, atol=1e-9)
@@ -226,8 +218,8 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
     combined over each object's nearer objects: random boxes, stds, straight occluders, objects without a box; and
     each edge it censors may be hidden as far as the farthest far side of the nearer boxes that hide it (as seen, or
     as predicted where the nearer object holds no box), widened by the pair's margin."""
+    from monovisual3d.methods.bayes.box_sides import EDGE_AT_OCCLUDER_SIGMAS
     from monovisual3d.methods.bayes.config import BayesConfig
-    from monovisual3d.methods.bayes.occlusion import EDGE_AT_OCCLUDER_SIGMAS
     from monovisual3d.methods.bayes.problem import Problem, ViewData
     from monovisual3d.methods.bayes.sensor import box_edge_sigma_px
 
@@ -243,7 +235,7 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
     assoc = [int(k) if rng.random() < 0.8 else -1 for k in range(n)]  # object k holds box k of the view, or none
     view = ViewData(0, np.eye(4), observed, (), None)
     problem = Problem(CAM, BayesConfig(), SensorModel(), (view,))
-    meets = _meeting(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None])
+    meets = boxes_near(boxes, OCCLUSION_MARGIN_SIGMAS * std) & (depth[None, :] < depth[:, None])
     for i in range(n):  # an observed edge near a straight occluder's facing edge: both sides of the tolerance
         js = np.flatnonzero(meets[i] & straight)
         if len(js) and i % 2:
@@ -277,7 +269,7 @@ def test_flags_of_all_objects_at_once_equal_the_tests_one_pair_at_a_time():
     # a farther box whose right side a tall nearer box covers, its observed right edge d sigmas from the occluder's left
     pair = np.array([[100.0, 50, 160, 200], [150.0, 40, 230, 210]])
     std2, depth2 = np.full((2, 2), 0.5), np.array([1.0, 0.5])
-    meets2 = _meeting(pair, OCCLUSION_MARGIN_SIGMAS * std2) & (depth2[None, :] < depth2[:, None])
+    meets2 = boxes_near(pair, OCCLUSION_MARGIN_SIGMAS * std2) & (depth2[None, :] < depth2[:, None])
     seen = []
     for d in (0.5, 2.0, 2.5, 4.5, 6.0):
         obs = np.array([[100.0, 50, 150.0, 200], pair[1]])

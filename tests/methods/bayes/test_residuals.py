@@ -7,7 +7,7 @@ from numpy.testing import assert_array_equal
 
 from monovisual3d.camera import Camera
 from monovisual3d.geometry.sphere import predict_sphere_boxes
-from monovisual3d.methods.bayes._kernels import camera_arrays
+from monovisual3d.methods.bayes._predict import camera_arrays
 from monovisual3d.methods.bayes._residuals import _box_residuals_kernel
 from monovisual3d.methods.bayes.sensor import inward_edge_offsets
 

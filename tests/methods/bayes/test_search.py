@@ -109,10 +109,10 @@ def test_swap_gate_passes_a_swapped_pair_and_stops_a_right_one():
     from monovisual3d.camera import Camera
     from monovisual3d.frames import look_at
     from monovisual3d.geometry.sphere import sphere_bbox
-    from monovisual3d.methods.bayes.associate import swap_worth_fitting
     from monovisual3d.methods.bayes.problem import build_problem
     from monovisual3d.methods.bayes.scoring import predicted_boxes
-    from monovisual3d.result import DetectedObject
+    from monovisual3d.methods.bayes.state import Found
+    from monovisual3d.methods.bayes.swap import swap_worth_fitting
     from monovisual3d.session import Detection, Session, View
 
     centres, radii = np.array([[0.7, -0.03, 0.5], [0.7, 0.03, 0.5]]), [0.025, 0.025]
@@ -122,10 +122,10 @@ def test_swap_gate_passes_a_swapped_pair_and_stops_a_right_one():
     session = Session(camera, tuple(views), None)
     problem = build_problem(session.camera, BayesConfig(use_masks=False), session.views)
     v = 0
-    pred = predicted_boxes(problem, v, [DetectedObject(c, 20.0, r, None, {}) for c, r in zip(centres, radii)])[0]
+    pred = predicted_boxes(problem, v, [Found(c, 20.0, r, None, {}) for c, r in zip(centres, radii)])[0]
     own = [int(np.argmin(np.abs(problem.views[v].boxes - p).sum(axis=1))) for p in pred]
-    right = [DetectedObject(c, 20.0, r, None, {problem.views[v].index: j}) for c, r, j in zip(centres, radii, own)]
-    mixed = [DetectedObject(c, 20.0, r, None, {problem.views[v].index: j}) for c, r, j in zip(centres, radii, own[::-1])]
+    right = [Found(c, 20.0, r, None, {problem.views[v].index: j}) for c, r, j in zip(centres, radii, own)]
+    mixed = [Found(c, 20.0, r, None, {problem.views[v].index: j}) for c, r, j in zip(centres, radii, own[::-1])]
     assert_array_equal(swap_worth_fitting(problem, v, right[:1], right[1:], pred[:1], pred[1:]), [False])
     assert_array_equal(swap_worth_fitting(problem, v, mixed[:1], mixed[1:], pred[:1], pred[1:]), [True])
     # several pairs at once: each answer as alone
@@ -143,21 +143,21 @@ def test_predicted_boxes_of_many_objects_are_each_alone():
     from monovisual3d.geometry.spheroid import predict_spheroid_boxes
     from monovisual3d.methods.bayes.problem import build_problem
     from monovisual3d.methods.bayes.scoring import predicted_boxes
-    from monovisual3d.result import DetectedObject
+    from monovisual3d.methods.bayes.state import Found
     from monovisual3d.session import Detection, View
 
     camera = Camera.from_hfov(1280, 720, 69.0)
     T = look_at(np.array([0.1, 0.05, 0.6]), np.array([0.7, 0.0, 0.5]))
     problem = build_problem(camera, BayesConfig(use_masks=False), [View(T, (Detection(np.array([0.0, 0, 10, 10])),))])
     objects = [
-        DetectedObject(np.array([0.7, -0.05, 0.5]), 1.0, 0.03, None, {}),
-        DetectedObject(np.array([0.72, 0.0, 0.45]), 1.0, 0.025, None, {}, extra={"semi_up": 0.06}),
-        DetectedObject(np.array([0.68, 0.06, 0.52]), 1.0, 0.02, None, {}, extra={"semi_up": 0.05, "axis": [0.6, 0.8, 0.0]}),
+        Found(np.array([0.7, -0.05, 0.5]), 1.0, 0.03, None, {}),
+        Found(np.array([0.72, 0.0, 0.45]), 1.0, 0.025, None, {}, semi_up=0.06),
+        Found(np.array([0.68, 0.06, 0.52]), 1.0, 0.02, None, {}, semi_up=0.05, axis=np.array([0.6, 0.8, 0.0])),
     ]
     R, t = problem.views[0].T_optical_base[:3, :3], problem.views[0].T_optical_base[:3, 3]
     ups = [np.array([0.0, 0, 1]), np.array([0.0, 0, 1]), np.array([0.6, 0.8, 0])]
     alone = [
-        predict_spheroid_boxes(camera, (R @ o.position + t)[None], [o.radius], [o.extra.get("semi_up", o.radius)], R @ u)[0][0, 0]
+        predict_spheroid_boxes(camera, (R @ o.position + t)[None], [o.radius], [o.semi_up or o.radius], R @ u)[0][0, 0]
         for o, u in zip(objects, ups)
     ]
     boxes, visible, p_optical = predicted_boxes(problem, 0, objects)

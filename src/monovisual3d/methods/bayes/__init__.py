@@ -1,22 +1,14 @@
 """The ``bayes`` method: generative, size-aware box likelihood with explaining-away extraction.
 
-Layout (a pipeline of pure functions over frozen data):
+:mod:`.pipeline` is the method, one ordered list of passes (:data:`.pipeline.PASSES`) over one state
+(:mod:`.state`); :mod:`.localizer` its front ends, :class:`BayesLocalizer` (incremental) and :func:`run` (one session);
+:mod:`.config` its options (:class:`BayesConfig`, with the sensor model :class:`SensorModel` and the developer knobs
+:class:`~.config.BayesTuning` nested). ``docs/architecture.md`` lists the package module by module.
 
-- :mod:`.config` — :class:`BayesConfig`, every option and switch;
-- :mod:`.likelihood` — the sensor model: predicted boxes, edge likelihood, miss term;
-- :mod:`.problem` — the frozen inputs of one estimate, and the ``taken`` set of explained boxes;
-- :mod:`.scoring` — scoring and fitting one object (:mod:`.refine`, :mod:`.masks`);
-- :mod:`.search` -> :mod:`.extract` -> :mod:`.associate` -> :mod:`.bundle`: the stages,
-  run in order by :func:`.pipeline.estimate`;
-- :mod:`.localizer` — :class:`BayesLocalizer` (incremental) and :func:`run` (one session);
-- :mod:`._kernels` — the fused numba kernels, tested against the numpy references.
-
-Ghosts (cone intersections of different fruit) lose: their implied sizes
-disagree between views and they have no box in the other views, and once the
-real fruit have taken the boxes, nothing is left. With a stated pose
-uncertainty (``pose_sigma_mm``, ``pose_sigma_deg``) the edge noise includes the
-pose error projected into pixels, and all objects are refined jointly with a
-pose correction per view (``Result.pose_corrections``).
+Ghosts (cone intersections of different fruit) lose: their implied sizes disagree between views and they have no box
+in the other views, and once the real fruit have taken the boxes, nothing is left. With a stated pose uncertainty
+(``pose_sigma_mm``, ``pose_sigma_deg``) the edge noise includes the pose error projected into pixels, and the spheres
+are refined jointly with a pose correction per view (``Result.pose_corrections``).
 """
 
 from __future__ import annotations

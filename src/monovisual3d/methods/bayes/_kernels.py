@@ -21,8 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
-from ...kernels.project import distort_xy  # the one compiled distortion (ids and coefficients of Camera.packed)
 from ...kernels.threads import kernel_threads
+from ._predict import _distort_xy, _in_front, _spheroid_box_px, camera_arrays
 from .boxindex import SCAN_BELOW_BOXES, TileIndex, build_index
 from .sensor import SensorModel
 
@@ -33,74 +33,6 @@ from .sensor import SensorModel
 NS_PER_HYPOTHESIS_BOX, NS_PER_HYPOTHESIS_VIEW = 20.0, 160.0
 #: Single-thread cost of one point in one view in ``_cone_kernel``, nanoseconds.
 NS_PER_POINT_VIEW = 20.0
-
-
-def _distort_xy(x: float, y: float, code: int, k: NDArray[np.float64]) -> tuple[float, float]:  # pragma: no cover - jitted
-    """:func:`monovisual3d.kernels.project.distort_xy` with the packed coefficients ``k`` (8,)."""
-    return distort_xy(x, y, code, k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7], 1.0)
-
-
-def _sphere_box_px(X, Y, Z, r, fx, fy, cx, cy, code, coeffs):  # pragma: no cover - jitted
-    """Pixel box (x1, y1, x2, y2) of a sphere at optical (X, Y, Z), radius r, for Z > r: as ``predict_sphere_boxes``.
-
-    ``tan(phi -/+ h) = (t -/+ s) / (1 +/- t s)`` with ``t = X / Z`` and ``s = tan(h) = r / sqrt(X^2 + Z^2 - r^2)``
-    (no trigonometry); with distortion, each edge is distorted at the centre's other coordinate.
-    """
-    tx = X / Z
-    ty = Y / Z
-    r2 = r * r
-    sx_ = r / math.sqrt(X * X + Z * Z - r2)
-    sy_ = r / math.sqrt(Y * Y + Z * Z - r2)
-    nx1 = (tx - sx_) / (1.0 + tx * sx_)
-    nx2 = (tx + sx_) / (1.0 - tx * sx_)
-    ny1 = (ty - sy_) / (1.0 + ty * sy_)
-    ny2 = (ty + sy_) / (1.0 - ty * sy_)
-    if code != 0:
-        nx1, _ = _distort_xy(nx1, ty, code, coeffs)
-        nx2, _ = _distort_xy(nx2, ty, code, coeffs)
-        _, ny1 = _distort_xy(tx, ny1, code, coeffs)
-        _, ny2 = _distort_xy(tx, ny2, code, coeffs)
-    return fx * nx1 + cx, fy * ny1 + cy, fx * nx2 + cx, fy * ny2 + cy
-
-
-def _spheroid_box_px(X, Y, Z, a, b, ux, uy, uz, fx, fy, cx, cy, code, coeffs):  # pragma: no cover - jitted
-    """Pixel box of an upright spheroid (semi-axis ``a`` across the unit axis ``u``, ``b`` along it) at optical
-    (X, Y, Z), for ``Z > 0`` and ``Z^2 > a^2 + (b^2 - a^2) uz^2``: as ``geometry.spheroid.predict_spheroid_boxes``.
-
-    The tangent lines of the projected dual conic ``C* = c c^T - A``; ``a == b`` uses :func:`_sphere_box_px`.
-    """
-    a2 = a * a
-    d = b * b - a2
-    if d == 0.0:
-        return _sphere_box_px(X, Y, Z, a, fx, fy, cx, cy, code, coeffs)
-    c11 = X * X - (a2 + d * ux * ux)
-    c22 = Y * Y - (a2 + d * uy * uy)
-    c33 = Z * Z - (a2 + d * uz * uz)
-    c13 = X * Z - d * ux * uz
-    c23 = Y * Z - d * uy * uz
-    qx = c13 * c13 - c11 * c33
-    qy = c23 * c23 - c22 * c33
-    sx_ = math.sqrt(qx) if qx > 0.0 else 0.0
-    sy_ = math.sqrt(qy) if qy > 0.0 else 0.0
-    nx1 = (c13 - sx_) / c33
-    nx2 = (c13 + sx_) / c33
-    ny1 = (c23 - sy_) / c33
-    ny2 = (c23 + sy_) / c33
-    if code != 0:
-        tx = X / Z
-        ty = Y / Z
-        nx1, _ = _distort_xy(nx1, ty, code, coeffs)
-        nx2, _ = _distort_xy(nx2, ty, code, coeffs)
-        _, ny1 = _distort_xy(tx, ny1, code, coeffs)
-        _, ny2 = _distort_xy(tx, ny2, code, coeffs)
-    return fx * nx1 + cx, fy * ny1 + cy, fx * nx2 + cx, fy * ny2 + cy
-
-
-def _in_front(Z, a, b, uz):  # pragma: no cover - jitted
-    """Whether the spheroid lies entirely in front of the camera (``Z > r`` for a sphere)."""
-    if a == b:
-        return Z > a
-    return Z > 0.0 and Z * Z > a * a + (b * b - a * a) * uz * uz
 
 
 def _edge_ll(d: float, sigma: float, in_floor: float, out_floor: float) -> float:  # pragma: no cover - jitted
@@ -422,11 +354,7 @@ def box_dominated_fused(
     return out
 
 
-_distort_xy = numba.njit(cache=True, inline="always")(_distort_xy)
 _edge_ll = numba.njit(cache=True, inline="always")(_edge_ll)
-_sphere_box_px = numba.njit(cache=True, inline="always")(_sphere_box_px)
-_spheroid_box_px = numba.njit(cache=True, inline="always")(_spheroid_box_px)
-_in_front = numba.njit(cache=True, inline="always")(_in_front)
 _query = numba.njit(cache=True, inline="always")(_query)
 _cell_shift_px = numba.njit(cache=True, inline="always")(_cell_shift_px)
 _beats = numba.njit(cache=True, inline="always")(_beats)
@@ -463,13 +391,6 @@ def score_work_ns(n_boxes: NDArray[np.int64]) -> float:
     """Estimated single-thread nanoseconds of ``_score_kernel`` per hypothesis for views of ``n_boxes`` boxes."""
     scanned = n_boxes <= SCAN_BELOW_BOXES
     return float(NS_PER_HYPOTHESIS_BOX * n_boxes[scanned].sum() + NS_PER_HYPOTHESIS_VIEW * np.count_nonzero(~scanned))
-
-
-def camera_arrays(camera: Camera) -> tuple[NDArray[np.float64], int, NDArray[np.float64]]:
-    """``fx, fy, cx, cy, width, height`` (6,), the distortion id and the 8 coefficients of :meth:`Camera.packed`."""
-    p = camera.packed()
-    cam = np.concatenate([p.intrinsics, [float(p.width), float(p.height)]])
-    return cam, p.distortion_id, p.distortion
 
 
 def model_params(model: SensorModel) -> NDArray[np.float64]:

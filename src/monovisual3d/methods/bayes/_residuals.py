@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
-from ._kernels import _in_front, _spheroid_box_px, camera_arrays
+from ._predict import _in_front, _spheroid_box_px, camera_arrays
 from .sensor import UNDEFINED_RESIDUAL, SensorModel
 
 

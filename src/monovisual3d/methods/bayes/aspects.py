@@ -17,9 +17,9 @@ from ...frames import invert_transform
 from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
 from ...geometry.solids import cuboid_bbox, cylinder_bbox
 from ...geometry.sphere import predict_sphere_boxes
-from ...result import DetectedObject
 from .problem import Problem
 from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
+from .state import Found
 
 #: ``auto`` fits shapes when |log(box aspect / sphere's predicted aspect)| exceeds this in at least
 #: :data:`MIN_ELONGATED_BOXES` boxes not cut by the image border, and in at least :data:`MIN_ELONGATED_FRACTION` of them.
@@ -66,7 +66,7 @@ HIDDEN_CUT_SIGMAS = 3.0
 OUTSIDE_SIGMAS = 3.0
 
 
-def object_boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def object_boxes(problem: Problem, obj: Found) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The object's poses ``T_base_optical`` (K, 4, 4) and associated boxes (K, 4)."""
     items = sorted(obj.associations.items())
     views = [problem.view_at(v) for v, _ in items]
@@ -75,7 +75,7 @@ def object_boxes(problem: Problem, obj: DetectedObject) -> tuple[NDArray[np.floa
     return poses, boxes
 
 
-def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> NDArray[np.float64]:
+def aspect_deviations(problem: Problem, obj: Found, cut: frozenset[int] = frozenset()) -> NDArray[np.float64]:
     """``log(box aspect / aspect of the object's sphere's predicted box)`` of each associated box not cut by the image
     border nor in the views ``cut`` (session view indices: a nearer object cuts the box there), shape (K,) (aspect:
     height / width; positive: taller than the sphere's box). A cut box shows the cut, not the object's aspect."""
@@ -94,7 +94,7 @@ def aspect_deviations(problem: Problem, obj: DetectedObject, cut: frozenset[int]
     return np.log(h[ok] / w[ok]) - np.log((pred[:, 3] - pred[:, 1]) / (pred[:, 2] - pred[:, 0]))
 
 
-def looks_round(problem: Problem, obj: DetectedObject, cut: frozenset[int] = frozenset()) -> bool:
+def looks_round(problem: Problem, obj: Found, cut: frozenset[int] = frozenset()) -> bool:
     """Whether the object's untruncated boxes (leaving out the views ``cut``) have the aspect its sphere predicts
     (:func:`round_aspects` of their :func:`aspect_deviations`)."""
     return round_aspects(aspect_deviations(problem, obj, cut))
@@ -152,13 +152,13 @@ def consistently_elongated(deviations: NDArray[np.floating]) -> bool:
     return len(d) >= 2 and float(np.ptp(d)) < abs(float(np.median(d)))
 
 
-def sticks_out(problem: Problem, obj: DetectedObject) -> bool:
+def sticks_out(problem: Problem, obj: Found) -> bool:
     """Whether an edge of the object's boxes (not at the image border) lies more than :data:`OUTSIDE_SIGMAS` edge
     sigmas outside its sphere's predicted box: no occluder makes a box larger, so the sphere is the wrong shape there."""
     return bool(np.any(_edge_depths(problem, obj) < -OUTSIDE_SIGMAS))
 
 
-def _edge_depths(problem: Problem, obj: DetectedObject) -> NDArray[np.float64]:
+def _edge_depths(problem: Problem, obj: Found) -> NDArray[np.float64]:
     """How far each edge of the object's boxes (K, 4) lies inside its sphere's predicted box, in edge sigmas
     (negative: outside; NaN at the image border, where a box is truncated)."""
     poses, boxes = object_boxes(problem, obj)
@@ -170,7 +170,7 @@ def _edge_depths(problem: Problem, obj: DetectedObject) -> NDArray[np.float64]:
     return np.where(at_border, np.nan, depth)
 
 
-def possibly_cut(problem: Problem, obj: DetectedObject) -> bool:
+def possibly_cut(problem: Problem, obj: Found) -> bool:
     """Whether an edge of the object's boxes (not at the image border) lies more than :data:`HIDDEN_CUT_SIGMAS` edge
     sigmas inside its sphere's predicted box: an occluder the search does not see (a leaf) may have cut it there."""
     return bool(np.any(_edge_depths(problem, obj) > HIDDEN_CUT_SIGMAS))
@@ -186,22 +186,22 @@ def solid_boxes(camera: Camera, poses: NDArray[np.float64], e: Ellipsoid, solid:
     return ellipsoid_bbox(camera, poses, e.centre_base, e.semi_axes, e.rotation, clip=False)
 
 
-def as_sphere(obj: DetectedObject) -> DetectedObject:
+def as_sphere(obj: Found) -> Found:
     """The sphere estimate with its shape fields filled in (an upright spheroid of the search: its
     volume-equivalent radius)."""
     r = float(obj.radius)  # type: ignore[arg-type]
-    b = obj.extra.get("semi_up")
+    b = obj.semi_up
     if b is not None:
         r = float((r * r * float(b)) ** (1 / 3))
-    return DetectedObject(
+    return Found(
         obj.position,
         obj.score,
         r,
         obj.covariance,
         obj.associations,
         obj.n_cells,
-        obj.extra,
         shape="sphere",
         semi_axes=np.array([r, r, r]),
         quaternion_xyzw=np.array([0.0, 0.0, 0.0, 1.0]),
+        **obj.learned(),
     )

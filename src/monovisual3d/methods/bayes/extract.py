@@ -35,10 +35,10 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ...grid import child_rows
-from ...result import DetectedObject
-from .problem import Problem, Taken
+from .hypotheses import BoxUsers, best_accepted, same_place_m, score_children, still_valid
+from .problem import Problem
 from .scoring import boxes_of, refine_and_check, score_hypotheses, score_one
-from .search import Hypotheses, same_place_m, score_children
+from .state import Found, Hypotheses, State, Taken
 
 
 def _extended(
@@ -206,50 +206,6 @@ def _holders(n_assoc: NDArray[np.int32]) -> NDArray[np.intp]:
 
 
 @dataclass
-class BoxUsers:
-    """Which hypotheses associate each box of one view: sorted runs of (box, hypothesis) pairs, a hypothesis as its
-    flat index ``row * K + bin``, and its association as it was when the run was added (a row rescored since has its
-    new associations in a later run; :meth:`_Work.using` checks the current ones). Adding a run merges it with the
-    runs before it while they are not twice as long, so a look-up searches a few runs and the merges cost
-    ``O(n log n)`` over all the rescoring.
-    """
-
-    runs: list[tuple[NDArray[np.int16], NDArray[np.intp]]]
-
-    @classmethod
-    def of(cls, assoc_v: NDArray[np.int16], rows: NDArray[np.intp], held: NDArray[np.intp] | None = None) -> BoxUsers:
-        """The index of the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,) (``held``: see :meth:`add`)."""
-        users = cls([])
-        users.add(assoc_v, rows, held)
-        return users
-
-    def add(self, assoc_v: NDArray[np.int16], rows: NDArray[np.intp], held: NDArray[np.intp] | None = None) -> None:
-        """Index the associations ``assoc_v`` (M, K) of the rows ``rows`` (M,); ``held``, optional: the flat indices
-        into (M, K) of every hypothesis that holds a box in some view (:func:`_holders`), where to look."""
-        flat, k = assoc_v.reshape(-1), assoc_v.shape[1]
-        cells = np.flatnonzero(flat >= 0) if held is None else held[flat[held] >= 0]
-        js = flat[cells]
-        order = np.argsort(js, kind="stable")
-        cells = cells[order]
-        self.runs.append((js[order], rows[cells // k] * k + cells % k))
-        while len(self.runs) >= 2 and len(self.runs[-2][0]) <= 2 * len(self.runs[-1][0]):
-            (j1, r1), (j2, r2) = self.runs.pop(), self.runs.pop()
-            js, rs = np.concatenate([j2, j1]), np.concatenate([r2, r1])
-            order = np.argsort(js, kind="stable")
-            self.runs.append((js[order], rs[order]))
-
-    def hypotheses(self, boxes: NDArray[np.intp]) -> NDArray[np.intp]:
-        """Hypotheses (flat indices ``row * K + bin``) indexed with one of ``boxes`` (repeats possible; some no longer
-        use it)."""
-        out = []
-        keys = np.asarray(boxes).astype(np.int16)  # in the runs' type: a key of another type would convert each run
-        for js, rs in self.runs:
-            lo, hi = np.searchsorted(js, keys, side="left"), np.searchsorted(js, keys, side="right")
-            out += [rs[a:b] for a, b in zip(lo, hi)]
-        return np.concatenate(out) if out else np.zeros(0, dtype=np.intp)
-
-
-@dataclass
 class _Rows:
     """The rows the extraction draws from, and the last-level cells they stand for.
 
@@ -319,9 +275,9 @@ def _candidates(
     work: _Work,
     taken: Taken,
     best: float,
-    cache: dict[tuple[int, int], DetectedObject | None],
+    cache: dict[tuple[int, int], Found | None],
     cells: _Cells,
-) -> list[tuple[DetectedObject | None, NDArray[np.bool_]]]:
+) -> list[tuple[Found | None, NDArray[np.bool_]]]:
     """The look-ahead: refined candidates near the best grid score, each with the last-level cells it stands for."""
     cfg, hyp = problem.config, rows.hyp
     floor = cfg.accept - cfg.tuning.prune_slack
@@ -344,7 +300,7 @@ def _candidates(
     return out
 
 
-def _take(problem: Problem, rows: _Rows, work: _Work, taken: Taken, obj: DetectedObject, cells: _Cells) -> Taken:
+def _take(problem: Problem, rows: _Rows, work: _Work, taken: Taken, obj: Found, cells: _Cells) -> Taken:
     """Give ``obj`` its boxes: suppress the cells around it and mark stale the hypotheses that used its boxes."""
     new = boxes_of(problem, obj)
     taken = taken | new
@@ -400,21 +356,7 @@ def _refresh(problem: Problem, rows: _Rows, work: _Work, taken: Taken, lazy: boo
         _split(problem, rows, work, taken, parents)
 
 
-def best_accepted(candidates: list[DetectedObject | None]) -> DetectedObject | None:
-    """The best-scoring of the look-ahead's refined candidates (None: refused), None if every one was refused."""
-    accepted = [c for c in candidates if c is not None]
-    return max(accepted, key=lambda o: o.score) if accepted else None
-
-
-def still_valid(
-    problem: Problem, cache: dict[Any, DetectedObject | None], taken_obj: DetectedObject
-) -> dict[Any, DetectedObject | None]:
-    """The cached refined candidates that stay valid once ``taken_obj`` is taken: accepted, and sharing no box with it."""
-    mine = boxes_of(problem, taken_obj)
-    return {key: o for key, o in cache.items() if o is not None and o is not taken_obj and not mine & boxes_of(problem, o)}
-
-
-def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[DetectedObject], Taken]:
+def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[Found], Taken]:
     """Objects found greedily in ``hyp``, and the boxes they took.
 
     ``lazy=False`` rescores every stale hypothesis after each taken object (the reference the lazy rescoring is
@@ -424,9 +366,9 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
     cfg = problem.config
     rows = _Rows.of(hyp)
     work = _Work.from_scores(*hyp.scores, cfg.min_views, pending=np.arange(len(rows.centres)) < rows.n_parents)
-    objects: list[DetectedObject] = []
+    objects: list[Found] = []
     taken: Taken = frozenset()
-    cache: dict[tuple[int, int], DetectedObject | None] = {}
+    cache: dict[tuple[int, int], Found | None] = {}
     cells = _Cells.of(rows.fine_centres)
     max_iter = sum(len(vd.boxes) for vd in problem.views) * 3 + 10
     for _ in range(max_iter):
@@ -447,3 +389,9 @@ def extract(problem: Problem, hyp: Hypotheses, lazy: bool = True) -> tuple[list[
         cache = still_valid(problem, cache, obj)
         taken = _take(problem, rows, work, taken, obj, cells)
     return objects, taken
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: the objects :func:`extract` takes from the search's hypotheses."""
+    assert state.hypotheses is not None
+    return state.with_objects(extract(problem, state.hypotheses)[0])

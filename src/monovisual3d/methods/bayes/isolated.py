@@ -24,10 +24,12 @@ rows, table tops and Aldoma: unchanged. Other seed sets: ``docs/accuracy.md``.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from ...result import DetectedObject
 from .problem import Problem
+from .state import Found, State
 
 #: Well-seen objects needed before the scene's depth range says anything.
 MIN_WELL_SEEN = 3
@@ -43,14 +45,14 @@ WELL_SEEN_VIEWS = 3
 SPREAD_FACTOR = 1.0
 
 
-def depths_per_view(problem: Problem, objects: list[DetectedObject]) -> np.ndarray:
+def depths_per_view(problem: Problem, objects: list[Found]) -> np.ndarray:
     """Depth (optical z, metres) of each object's centre in each of the problem's views, shape (objects, views)."""
     p = np.array([o.position for o in objects], dtype=float).reshape(-1, 3)
     T = np.stack([vd.T_optical_base for vd in problem.views])  # (V, 4, 4)
     return np.einsum("vj,nj->nv", T[:, 2, :3], p) + T[:, 2, 3]
 
 
-def isolated_in_depth(problem: Problem, objects: list[DetectedObject]) -> np.ndarray:
+def isolated_in_depth(problem: Problem, objects: list[Found]) -> np.ndarray:
     """Which objects lie apart in depth from the well-seen ones, shape (objects,), bool.
 
     An object seen in fewer than :data:`WELL_SEEN_VIEWS` views is flagged when it lies more than ``isolated_margin``
@@ -79,7 +81,15 @@ def isolated_in_depth(problem: Problem, objects: list[DetectedObject]) -> np.nda
     return out
 
 
-def drop_isolated(problem: Problem, objects: list[DetectedObject]) -> tuple[list[DetectedObject], int]:
+def drop_isolated(problem: Problem, objects: list[Found]) -> tuple[list[Found], int]:
     """``objects`` without those :func:`isolated_in_depth` flags, and how many were dropped."""
     flags = isolated_in_depth(problem, objects)
     return [o for o, f in zip(objects, flags) if not f], int(flags.sum())
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: the objects without those :func:`isolated_in_depth` flags, best score first, and how many were
+    dropped."""
+    objects, dropped = drop_isolated(problem, list(state.objects))
+    objects.sort(key=lambda o: -o.score)
+    return replace(state.with_objects(objects), isolated_dropped=dropped)

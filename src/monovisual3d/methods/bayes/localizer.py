@@ -80,7 +80,7 @@ class BayesLocalizer:
 
     def estimate(self) -> list[DetectedObject]:
         """Objects found in the views so far (see :mod:`.pipeline`)."""
-        self.last = estimate(build_problem(self.camera, self.config, self.views), self.grid)
+        self.last = estimate(build_problem(self.camera, self.config, self.views, self.grid))
         return list(self.last.objects)
 
     @property

@@ -1,43 +1,147 @@
-"""The ``bayes`` pipeline as pure functions: search -> extract -> associate -> refine/bundle.
+"""The ``bayes`` method: one ordered list of passes over one state.
 
-:func:`estimate` runs the stages over a frozen :class:`~.problem.Problem`:
+:data:`PASSES`, in order, each ``(problem, state) -> state`` (:class:`~.state.State`), run by :func:`estimate`:
 
-1. :func:`.search.search` scores (cell, radius) hypotheses coarse to fine;
-2. :func:`.extract.extract` takes objects greedily with look-ahead (explaining away);
-3. :func:`.associate.swap_pass` and :func:`.associate.steal_pass` repair the association
-   (config fields ``swap`` and ``steal``);
-4. with a stated pose uncertainty, :func:`bundle` refines all objects jointly with a pose
-   correction per view (:mod:`.bundle`);
-5. :func:`.shapes.shape_stage` gives each object its shape (sphere, spheroid or ellipsoid);
-6. :func:`.isolated.drop_isolated` drops weakly seen objects that lie apart in depth from every well-seen one.
+1. ``search``: score sphere and spheroid hypotheses on the voxel grid, coarse to fine, ghosts explained away
+2. ``extract``: take the best hypothesis as an object, refined, with its boxes; repeat with the boxes left
+3. ``swap``: two objects that overlap in a view trade their boxes there where both fit better (switch ``tuning.swap``)
+4. ``steal``: give an object back the box a neighbour took where the neighbour can do without it (switch
+   ``tuning.steal``)
+5. ``regroup``: extract again an object whose boxes are several fruit's, with its neighbours (switch
+   ``tuning.regroup``; only where the search scored its last level)
+6. ``poses``: refine the spheres jointly with a correction of each view's stated-uncertain pose (only where a pose
+   uncertainty is stated)
+7. ``shapes``: refit each object with the edges nearer objects cut left out, then fit its shape
+8. ``shape_swap``: pairs side by side, one tall, trade boxes or are refitted where the shapes say so (switch
+   ``tuning.shape_swap``; only where shape is auto)
+9. ``second_look``: grow objects by, and build new ones from, the boxes no object holds (switch
+   ``tuning.second_look``; only where shape is auto)
+10. ``view_assign``: assign afresh one view's boxes around a free box to the objects there (switch
+   ``tuning.view_assign``; only where shape is auto)
+11. ``isolated``: drop weakly seen objects that lie apart in depth from the well-seen ones; best first
+12. ``view_shifts``: name the views whose boxes all sit off the same way (a pose off) (only where no pose uncertainty
+   is stated)
+
+The problem (:class:`~.problem.Problem`: camera, options, the views with boxes, the region searched) stays fixed;
+each pass reads the state the one before left and returns a new one. The passes share the helpers below them
+(:mod:`.fits`, :mod:`.rays`, :mod:`.hypotheses`, :mod:`.occlusion`, :mod:`.scoring`), never each other.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from ...errors import InputError
-from ...frames import invert_transform
-from ...grid import VoxelGrid
 from ...limits import MAX_BAYES_BOXES_PER_VIEW, MAX_BAYES_VIEWS
 from ...result import DetectedObject
-from .associate import steal_pass, swap_pass
-from .bundle import bundle_adjust, correction_transform
-from .extract import extract
-from .isolated import drop_isolated
+from . import extract, isolated, poses, regroup, search, second_look, shape_swap, shapes, steal, swap, view_assign, view_shift
 from .problem import Problem
-from .refine import Observation
-from .regroup import regroup_pass
-from .search import search
-from .second_look import second_look
-from .shape_swap import shape_swap_pass
-from .shapes import shape_stage
-from .view_assign import view_assignment
-from .view_shift import view_shifts
+from .state import State
+
+
+@dataclass(frozen=True)
+class Condition:
+    """Where a pass runs: ``holds(problem, state)``, and a short ``label`` the docs print."""
+
+    label: str
+    holds: Callable[[Problem, State], bool]
+
+
+#: The moves judged with every model of the shape stage need ``shape`` auto.
+SHAPE_AUTO = Condition("shape is auto", lambda problem, state: problem.config.shape == "auto")
+#: The regroup reads every hypothesis of the last level, which the search leaves to the extraction in a dense scene.
+LAST_LEVEL_SEARCHED = Condition(
+    "the search scored its last level",
+    lambda problem, state: state.hypotheses is not None and state.hypotheses.child_cell is None,
+)
+#: A pose uncertainty is stated (``pose_sigma_mm``, ``pose_sigma_deg``): the poses are refined.
+POSES_UNCERTAIN = Condition("a pose uncertainty is stated", lambda problem, state: problem.config.poses_uncertain)
+#: No pose uncertainty is stated: a view whose boxes sit off together says that its pose is off.
+POSES_EXACT = Condition("no pose uncertainty is stated", lambda problem, state: not problem.config.poses_uncertain)
+
+
+@dataclass(frozen=True)
+class Pass:
+    """One pass of the method.
+
+    Attributes
+    ----------
+    name : str, also the key of its time in ``Result.timing_s``
+    purpose : str, what it does, one line
+    run : the pass, ``(problem, state) -> state``
+    switch : str or None, the :class:`~.config.BayesTuning` field that turns it off (an ablation), None: none
+    when : Condition or None, runs only where it holds (None: always)
+    """
+
+    name: str
+    purpose: str
+    run: Callable[[Problem, State], State]
+    switch: str | None = None
+    when: Condition | None = None
+
+    def runs(self, problem: Problem, state: State) -> bool:
+        """Whether the pass runs on this problem and state."""
+        on = self.switch is None or bool(getattr(problem.config.tuning, self.switch))
+        return on and (self.when is None or self.when.holds(problem, state))
+
+
+#: The method, in order.
+PASSES: tuple[Pass, ...] = (
+    Pass("search", "score sphere and spheroid hypotheses on the voxel grid, coarse to fine, ghosts explained away", search.run),
+    Pass("extract", "take the best hypothesis as an object, refined, with its boxes; repeat with the boxes left", extract.run),
+    Pass("swap", "two objects that overlap in a view trade their boxes there where both fit better", swap.run, "swap"),
+    Pass("steal", "give an object back the box a neighbour took where the neighbour can do without it", steal.run, "steal"),
+    Pass(
+        "regroup",
+        "extract again an object whose boxes are several fruit's, with its neighbours",
+        regroup.run,
+        "regroup",
+        LAST_LEVEL_SEARCHED,
+    ),
+    Pass(
+        "poses",
+        "refine the spheres jointly with a correction of each view's stated-uncertain pose",
+        poses.run,
+        None,
+        POSES_UNCERTAIN,
+    ),
+    Pass("shapes", "refit each object with the edges nearer objects cut left out, then fit its shape", shapes.run),
+    Pass(
+        "shape_swap",
+        "pairs side by side, one tall, trade boxes or are refitted where the shapes say so",
+        shape_swap.run,
+        "shape_swap",
+        SHAPE_AUTO,
+    ),
+    Pass(
+        "second_look",
+        "grow objects by, and build new ones from, the boxes no object holds",
+        second_look.run,
+        "second_look",
+        SHAPE_AUTO,
+    ),
+    Pass(
+        "view_assign",
+        "assign afresh one view's boxes around a free box to the objects there",
+        view_assign.run,
+        "view_assign",
+        SHAPE_AUTO,
+    ),
+    Pass("isolated", "drop weakly seen objects that lie apart in depth from the well-seen ones; best first", isolated.run),
+    Pass("view_shifts", "name the views whose boxes all sit off the same way (a pose off)", view_shift.run, None, POSES_EXACT),
+)
+
+
+def describe_passes() -> str:
+    """The passes as the module docstring lists them: one numbered line each, with its switch and condition."""
+    lines = []
+    for i, p in enumerate(PASSES, 1):
+        notes = ([f"switch ``tuning.{p.switch}``"] if p.switch else []) + ([f"only where {p.when.label}"] if p.when else [])
+        lines.append(f"{i}. ``{p.name}``: {p.purpose}" + (f" ({'; '.join(notes)})" if notes else ""))
+    return "\n".join(lines)
 
 
 @dataclass(frozen=True)
@@ -48,8 +152,8 @@ class Estimate:
     ----------
     objects : list of DetectedObject, best score first
     pose_corrections : list of dict, per view with detections (empty unless a pose uncertainty is stated)
-    timing_s : dict, seconds per stage
-    diagnostics : dict, search statistics (see :meth:`.search.Hypotheses.stats`), ``isolated_dropped`` (objects
+    timing_s : dict, seconds per pass (by its name)
+    diagnostics : dict, search statistics (see :meth:`.state.Hypotheses.stats`), ``isolated_dropped`` (objects
         :mod:`.isolated` dropped) and ``view_shifts`` (views whose boxes sit off together, :func:`.view_shift.view_shifts`;
         empty where a pose error is stated)
     """
@@ -60,44 +164,21 @@ class Estimate:
     diagnostics: dict[str, Any] = field(default_factory=dict)
 
 
-def estimate(problem: Problem, grid: VoxelGrid | None) -> Estimate:
-    """Objects in the problem's views (nothing without a grid or with fewer than ``min_views`` views)."""
-    cfg = problem.config
-    if grid is None or len(problem.views) < cfg.min_views:
+def estimate(problem: Problem) -> Estimate:
+    """Objects in the problem's views: :data:`PASSES` in order (nothing without a region or with fewer than
+    ``min_views`` views)."""
+    if problem.region is None or len(problem.views) < problem.config.min_views:
         return Estimate([])
     check_work(problem)
-    t0 = time.perf_counter()
-    hyp = search(problem, grid)
-    t1 = time.perf_counter()
-    objects, taken = extract(problem, hyp)
-    if cfg.tuning.swap:
-        objects = swap_pass(problem, objects)
-    if cfg.tuning.steal:
-        objects, taken = steal_pass(problem, objects, taken, hyp)
-    if cfg.tuning.regroup:
-        objects, taken = regroup_pass(problem, objects, taken, hyp)
-    t2 = time.perf_counter()
-    timing = {"search_score": t1 - t0, "extract_refine": t2 - t1}
-    corrections: list[dict[str, Any]] = []
-    spheres = [o for o in objects if o.extra.get("semi_up") is None]
-    if cfg.poses_uncertain and spheres:
-        # the joint refinement models spheres; objects found as upright spheroids keep their own fit
-        refined, corrections = bundle(problem, spheres)
-        objects = refined + [o for o in objects if o.extra.get("semi_up") is not None]
-        timing["bundle"] = time.perf_counter() - t2
-    t3 = time.perf_counter()
-    objects = shape_stage(problem, objects)
-    if cfg.tuning.shape_swap and cfg.shape == "auto":
-        objects = shape_swap_pass(problem, objects)
-    if cfg.tuning.second_look and cfg.shape == "auto":
-        objects = second_look(problem, objects)
-    if cfg.tuning.view_assign and cfg.shape == "auto":
-        objects = view_assignment(problem, objects)
-    timing["shape"] = time.perf_counter() - t3
-    objects, dropped = drop_isolated(problem, objects)
-    objects.sort(key=lambda o: -o.score)
-    shifts = [] if cfg.poses_uncertain else view_shifts(problem, objects)
-    return Estimate(objects, corrections, timing, {**hyp.stats(), "isolated_dropped": dropped, "view_shifts": shifts})
+    state, timing = State(), {}
+    for p in PASSES:
+        if p.runs(problem, state):
+            t0 = time.perf_counter()
+            state = p.run(problem, state)
+            timing[p.name] = time.perf_counter() - t0
+    assert state.hypotheses is not None
+    diagnostics = {**state.hypotheses.stats(), "isolated_dropped": state.isolated_dropped, "view_shifts": list(state.view_shifts)}
+    return Estimate([o.as_result() for o in state.objects], list(state.pose_corrections), timing, diagnostics)
 
 
 def check_work(problem: Problem) -> None:
@@ -115,55 +196,3 @@ def check_work(problem: Problem) -> None:
             f"views[{v}].detections: {most:,} boxes, more than the {MAX_BAYES_BOXES_PER_VIEW:,} per view the bayes search takes "
             "on (limits.MAX_BAYES_BOXES_PER_VIEW); thin the detections (e.g. a higher score threshold) or split the session"
         )
-
-
-def bundle(problem: Problem, objects: list[DetectedObject]) -> tuple[list[DetectedObject], list[dict[str, Any]]]:
-    """Refine all objects jointly with a pose correction per view (:mod:`.bundle`).
-
-    Returns the objects (an object whose joint solution diverged keeps its own)
-    and, per view with detections, its estimated pose correction: ``view``
-    (index in the session), ``rotvec_optical_rad`` and ``translation_optical_m``
-    (``p_optical_true = exp([rotvec]x) @ p_optical_reported + translation``),
-    their posterior std ``std_rotvec_optical_rad`` and ``std_translation_optical_m``,
-    and ``T_base_optical_corrected`` (4x4 nested lists).
-    """
-    cfg, views = problem.config, problem.views
-    obs = [
-        (i, v, Observation(vd.T_optical_base, vd.boxes[j], vd.contours[j] if cfg.use_masks else None))
-        for i, o in enumerate(objects)
-        for v, vd in enumerate(views)
-        if (j := o.associations.get(vd.index, -1)) >= 0
-    ]
-    b = bundle_adjust(
-        problem.camera,
-        obs,
-        np.stack([o.position for o in objects]),
-        np.array([float(o.radius) for o in objects]),  # type: ignore[arg-type]
-        problem.model,
-        position_sigma=cfg.pose_position_sigma,
-        rotation_sigma=cfg.pose_rotation_sigma,
-        use_masks=cfg.use_masks,
-        n_views=len(views),
-    )
-    out = []
-    for i, o in enumerate(objects):
-        lo, hi = cfg.fit_radius_range
-        if not (np.all(np.isfinite(b.centres[i])) and lo <= b.radii[i] <= hi):
-            out.append(o)  # keep the per-object solution rather than a diverged joint one
-            continue
-        extra = {**o.extra, "radius_std": float(b.radius_std[i]), "pose_corrected": True}
-        out.append(DetectedObject(b.centres[i], o.score, float(b.radii[i]), b.covariances[i], o.associations, o.n_cells, extra))
-    corrections = []
-    for v, vd in enumerate(views):
-        T_corrected = correction_transform(b.rotvec_optical[v], b.translation_optical[v]) @ vd.T_optical_base
-        corrections.append(
-            {
-                "view": vd.index,
-                "rotvec_optical_rad": b.rotvec_optical[v].tolist(),
-                "translation_optical_m": b.translation_optical[v].tolist(),
-                "std_rotvec_optical_rad": b.pose_std[v, :3].tolist(),
-                "std_translation_optical_m": b.pose_std[v, 3:].tolist(),
-                "T_base_optical_corrected": invert_transform(T_corrected).tolist(),
-            }
-        )
-    return out, corrections

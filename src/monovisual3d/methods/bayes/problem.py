@@ -18,13 +18,11 @@ from numpy.typing import NDArray
 from ...camera import Camera
 from ...errors import InputError
 from ...frames import invert_transform
+from ...grid import VoxelGrid
 from ...masks import contour_points
 from ...session import View
 from .config import BayesConfig
 from .sensor import SensorModel
-
-#: Boxes explained by accepted objects: ``(v, j)`` pairs, ``v`` indexing ``Problem.views``.
-Taken = frozenset[tuple[int, int]]
 
 
 @dataclass(frozen=True)
@@ -49,12 +47,14 @@ class ViewData:
 
 @dataclass(frozen=True)
 class Problem:
-    """Camera, options, sensor model and the views with detections of one estimate."""
+    """Camera, options, sensor model, the views with detections of one estimate, and the region searched
+    (:class:`~monovisual3d.grid.VoxelGrid`, only a description: None before a view has detections)."""
 
     camera: Camera
     config: BayesConfig
     model: SensorModel
     views: tuple[ViewData, ...]
+    region: VoxelGrid | None = None
     #: The last ``taken`` set of :meth:`available` and its answer (an extraction asks hundreds of times between takes).
     _last_available: dict[frozenset[tuple[int, int]], list[NDArray[np.bool_]]] = field(
         default_factory=dict, init=False, compare=False, repr=False
@@ -91,8 +91,9 @@ class Problem:
         return float(T[2, :3] @ p_base + T[2, 3])
 
 
-def build_problem(camera: Camera, config: BayesConfig, views: Sequence[View]) -> Problem:
-    """The :class:`Problem` of ``views`` (views without detections are left out; masks decoded once)."""
+def build_problem(camera: Camera, config: BayesConfig, views: Sequence[View], region: VoxelGrid | None = None) -> Problem:
+    """The :class:`Problem` of ``views`` searched over ``region`` (views without detections are left out; masks decoded
+    once)."""
     data = []
     for i, v in enumerate(views):
         if not v.detections:
@@ -107,4 +108,4 @@ def build_problem(camera: Camera, config: BayesConfig, views: Sequence[View]) ->
             else:
                 contours.append(None)
         data.append(ViewData(i, invert_transform(v.T_base_optical), v.boxes_xyxy, tuple(contours), v))
-    return Problem(camera, config, config.sensor, tuple(data))
+    return Problem(camera, config, config.sensor, tuple(data), region)

@@ -22,11 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ...result import DetectedObject
-from .extract import BoxUsers, best_accepted, still_valid
-from .problem import Problem, Taken
-from .scoring import associations_list, boxes_of, refine_and_check
-from .search import Hypotheses, same_place_m
+from .hypotheses import BoxUsers, best_accepted, same_place_m, still_valid
+from .problem import Problem
+from .scoring import associations_list, boxes_of, held_boxes, refine_and_check
+from .state import Found, Hypotheses, State, Taken
 
 #: Hypotheses on an object's boxes tried per object (the best, at distinct places) to find the objects to regroup with
 #: it: one per box of a three-view object, the commonest crossing (each of its boxes has one rightful holder).
@@ -86,7 +85,7 @@ class _Table:
         return count
 
 
-def _grid_worth_of(problem: Problem, table: _Table, objects: list[DetectedObject]) -> float:
+def _grid_worth_of(problem: Problem, table: _Table, objects: list[Found]) -> float:
     """The summed grid score above ``accept`` of the best hypotheses with exactly the objects' associations (nats;
     NaN where the table has none: the refinement re-associated the object)."""
     worth = 0.0
@@ -112,12 +111,12 @@ def _grid_worth_again(table: _Table, live: NDArray[np.intp], accept: float) -> f
     return worth
 
 
-def _worth(objects: list[DetectedObject], accept: float) -> float:
+def _worth(objects: list[Found], accept: float) -> float:
     """The summed score above ``accept`` of ``objects`` (nats)."""
     return float(sum(o.score - accept for o in objects))
 
 
-def _group(problem: Problem, hyp: Hypotheses, table: _Table, obj: DetectedObject, holders: dict[Box, int]) -> set[int]:
+def _group(problem: Problem, hyp: Hypotheses, table: _Table, obj: Found, holders: dict[Box, int]) -> set[int]:
     """The holders (indices, from ``holders``: box -> object) of the boxes that the best hypotheses on ``obj``'s
     boxes with another association, at distinct places, want."""
     own = np.asarray(associations_list(problem, obj))
@@ -147,7 +146,7 @@ class _Pool:
     own: set[Box]
     split: bool
 
-    def allows(self, obj: DetectedObject | None, problem: Problem) -> bool:
+    def allows(self, obj: Found | None, problem: Problem) -> bool:
         if obj is None:
             return False
         mine = boxes_of(problem, obj)
@@ -158,7 +157,7 @@ class _Pool:
         self.taken = self.taken | boxes
 
 
-def _refined(problem: Problem, hyp: Hypotheses, table: _Table, h: int, pool: _Pool) -> DetectedObject | None:
+def _refined(problem: Problem, hyp: Hypotheses, table: _Table, h: int, pool: _Pool) -> Found | None:
     """Hypothesis ``h`` refined on the boxes of ``pool`` it wants (re-associating among those not taken)."""
     c, k = int(table.cell[h]), int(table.bin[h])
     wanted = [int(a) if (v, int(a)) in pool.boxes else -1 for v, a in enumerate(table.assoc[:, h])]
@@ -170,7 +169,7 @@ def _refined(problem: Problem, hyp: Hypotheses, table: _Table, h: int, pool: _Po
 
 def _reextract(
     problem: Problem, hyp: Hypotheses, table: _Table, pool: _Pool, released: set[Box], old_grid_worth: float
-) -> list[DetectedObject] | None:
+) -> list[Found] | None:
     """Objects extracted greedily from ``pool``, each from a hypothesis using a ``released`` box (those on free boxes
     alone the extraction refused already), as the extraction does: per step the best hypotheses at up to
     ``lookahead`` distinct places within ``lookahead_margin`` of the best are refined and the best accepted one is
@@ -185,8 +184,8 @@ def _reextract(
     live = live[own <= 1] if pool.split else live[(own < len(pool.own)) | (table.n_boxes(live) != len(pool.own))]
     if _grid_worth_again(table, live, cfg.accept) < old_grid_worth - cfg.tuning.lookahead_margin:
         return None
-    out: list[DetectedObject] = []
-    cache: dict[int, DetectedObject | None] = {}
+    out: list[Found] = []
+    cache: dict[int, Found | None] = {}
     while len(live):
         trial, tried, floor = live, [], table.score[live].max() - cfg.tuning.lookahead_margin
         for _ in range(cfg.tuning.lookahead):
@@ -212,9 +211,7 @@ def _reextract(
     return out
 
 
-def regroup_pass(
-    problem: Problem, objects: list[DetectedObject], taken: Taken, hyp: Hypotheses
-) -> tuple[list[DetectedObject], Taken]:
+def regroup_pass(problem: Problem, objects: list[Found], hyp: Hypotheses) -> list[Found]:
     """Each object with the holders of the boxes that the search's other hypotheses on its boxes want, extracted
     again as if the object's boxes belonged to different objects or one of them were wrong; kept where the boxes
     are then explained better (see the module).
@@ -224,7 +221,8 @@ def regroup_pass(
     whose hypothesis table holds the parents only)."""
     cfg = problem.config
     if not objects or hyp.scores[0].size == 0 or hyp.child_cell is not None:
-        return objects, taken
+        return objects
+    taken = held_boxes(problem, objects)
     table = _Table.of(problem, hyp)
     current, alive = list(objects), [True] * len(objects)
     holders = {b: g for g, o in enumerate(current) for b in boxes_of(problem, o)}
@@ -254,4 +252,10 @@ def regroup_pass(
                 taken, free = pool.taken, pool.boxes
                 kept += 1
         i += 1
-    return [o for o, a in zip(current, alive) if a], taken
+    return [o for o, a in zip(current, alive) if a]
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: :func:`regroup_pass` on the state's objects and the search's hypotheses."""
+    assert state.hypotheses is not None
+    return state.with_objects(regroup_pass(problem, list(state.objects), state.hypotheses))

@@ -6,7 +6,7 @@ All functions are pure: they read a :class:`~.problem.Problem` and an explicit
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -15,17 +15,13 @@ from numpy.typing import NDArray
 from ...frames import transform_points
 from ...geometry.spheroid import predict_spheroid_boxes
 from ...grid import cell_half_diagonal
-from ...result import DetectedObject
 from ._kernels import score_hypotheses as score_hypotheses_fused
 from .boxindex import TileIndex, build_index
 from .likelihood import box_scores, pose_sigma_px, view_scores
-from .problem import Problem, Taken
+from .problem import Problem
 from .refine import Observation, Refined, refine_sphere, refine_spheroid
 from .sensor import cell_shift_px, gate_widening_px
-
-#: The scores of hypotheses: total (N, K) nats, -inf where not scored; views with an associated box (N, K);
-#: associated box per view (V, N, K), -1 for none.
-Scores = tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int16]]
+from .state import Found, Scores, Taken
 
 
 def pose_px(problem: Problem, depth: NDArray[np.floating] | float) -> NDArray[np.float64] | float:
@@ -189,18 +185,6 @@ def _radius_ok(problem: Problem, radius: float, semi_up: float | None = None) ->
     return lo <= radius <= hi and (semi_up is None or lo <= semi_up <= hi)
 
 
-def semi_up_of(obj: DetectedObject) -> float | None:
-    """The semi-axis along its axis of an object found as a spheroid (metres); None for a sphere."""
-    b = obj.extra.get("semi_up")
-    return None if b is None else float(b)
-
-
-def axis_of(obj: DetectedObject) -> NDArray[np.float64] | None:
-    """The horizontal symmetry axis (3,), base frame, of an object found as a lying spheroid; None otherwise (``up``)."""
-    u = obj.extra.get("axis")
-    return None if u is None else np.asarray(u, dtype=float)
-
-
 def spheroid_axis(problem: Problem, axis: NDArray[np.float64] | None) -> NDArray[np.float64]:
     """A spheroid's symmetry axis, base frame: ``axis``, or ``up`` when None."""
     return problem.config.up_vector if axis is None else np.asarray(axis, dtype=float)
@@ -239,7 +223,7 @@ def shape_boxes(
 
 
 def predicted_boxes(
-    problem: Problem, v: int, objects: Sequence[DetectedObject]
+    problem: Problem, v: int, objects: Sequence[Found]
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
     """:func:`shape_boxes` of found ``objects`` (M): each a sphere, or a spheroid along its axis."""
     return shape_boxes(
@@ -247,8 +231,8 @@ def predicted_boxes(
         v,
         np.array([o.position for o in objects], dtype=float),
         np.array([float(o.radius) for o in objects]),  # type: ignore[arg-type]
-        np.array([semi_up_of(o) or float(o.radius) for o in objects]),  # type: ignore[arg-type]
-        [axis_of(o) for o in objects],
+        np.array([o.semi_up or float(o.radius) for o in objects]),  # type: ignore[arg-type]
+        [o.axis for o in objects],
     )
 
 
@@ -270,23 +254,23 @@ def _refine(
 
 def _object(
     problem: Problem, refined: object, score: float, assoc: Sequence[int], n_views: int, axis: NDArray[np.float64] | None = None
-) -> DetectedObject:
+) -> Found:
     """The accepted object; an undetermined covariance (singular Gauss-Newton matrix, e.g. all views from one
     pose) is reported as None, never as NaN."""
     cov = refined.covariance  # type: ignore[attr-defined]
     radius_std = float(refined.radius_std)  # type: ignore[attr-defined]
-    extra: dict[str, Any] = {"radius_std": radius_std if np.isfinite(radius_std) else None, "n_views": int(n_views)}
-    if getattr(refined, "semi_up", None) is not None:
-        extra["semi_up"] = float(refined.semi_up)  # type: ignore[attr-defined]
-        if axis is not None and abs(float(np.dot(axis, problem.config.up_vector))) < 1 - 1e-9:
-            extra["axis"] = [float(x) for x in axis]  # lying: the long axis, base frame
-    return DetectedObject(
+    semi_up = getattr(refined, "semi_up", None)
+    lying = semi_up is not None and axis is not None and abs(float(np.dot(axis, problem.config.up_vector))) < 1 - 1e-9
+    return Found(
         position=refined.centre,  # type: ignore[attr-defined]
         score=score,
         radius=float(refined.radius),  # type: ignore[attr-defined]
         covariance=cov if cov is not None and np.all(np.isfinite(cov)) else None,
         associations={vd.index: int(a) for vd, a in zip(problem.views, assoc) if a >= 0},
-        extra=extra,
+        semi_up=None if semi_up is None else float(semi_up),
+        axis=np.array([float(x) for x in axis]) if lying else None,  # type: ignore[union-attr]  # lying: the long axis
+        radius_std=radius_std if np.isfinite(radius_std) else None,
+        n_views=int(n_views),
     )
 
 
@@ -298,7 +282,7 @@ def refine_and_check(
     assoc0: Sequence[int],
     semi_up0: float | None = None,
     axis: NDArray[np.float64] | None = None,
-) -> DetectedObject | None:
+) -> Found | None:
     """Refine a hypothesis, re-associating its boxes among those not ``taken``; None unless it is accepted.
 
     Accepted: at least ``min_views`` associated views, a plausible radius and a
@@ -364,7 +348,7 @@ def fit_fixed(
     assoc: Sequence[int],
     semi_up0: float | None = None,
     axis: NDArray[np.float64] | None = None,
-) -> DetectedObject | None:
+) -> Found | None:
     """Refine one object with a fixed association and score it with that association (None: no valid fit).
 
     ``semi_up0``: a spheroid along ``axis`` (default ``up``)."""
@@ -390,11 +374,16 @@ def fit_fixed(
     return _object(problem, refined, score - shape_cost(problem, refined.semi_up), assoc, len(obs), axis)
 
 
-def associations_list(problem: Problem, obj: DetectedObject) -> list[int]:
+def associations_list(problem: Problem, obj: Found) -> list[int]:
     """An object's association as a list over ``problem.views`` (-1: none)."""
     return [obj.associations.get(vd.index, -1) for vd in problem.views]
 
 
-def boxes_of(problem: Problem, obj: DetectedObject) -> set[tuple[int, int]]:
+def boxes_of(problem: Problem, obj: Found) -> set[tuple[int, int]]:
     """The ``(v, j)`` boxes an object holds."""
     return {(v, j) for v, j in enumerate(associations_list(problem, obj)) if j >= 0}
+
+
+def held_boxes(problem: Problem, objects: Iterable[Found]) -> Taken:
+    """The ``(v, j)`` boxes the ``objects`` hold: those the extraction and its repairs have explained."""
+    return frozenset().union(*(boxes_of(problem, o) for o in objects))

@@ -46,15 +46,17 @@ of it fits (the extraction may hold it all), so a capped last level is scored he
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ...grid import VoxelGrid, cell_half_diagonal, child_rows, cone_counts, split_cells
-from ._kernels import box_dominated_fused, cone_counts_fused
-from .problem import Problem, Taken
-from .scoring import Scores, score_hypotheses
+from ...grid import VoxelGrid, cell_half_diagonal, split_cells
+from ._kernels import box_dominated_fused
+from .hypotheses import cone_counts_at, cone_counts_within, level_mask
+from .problem import Problem
+from .scoring import score_hypotheses
+from .state import Hypotheses, Scores, State
 
 #: Cells of the first search level at most (chosen so the first level takes well under a second).
 MAX_FIRST_LEVEL_CELLS = 2_000_000
@@ -78,78 +80,6 @@ LYING_MIN_BOX_ASPECT = 1.3
 #: broadside is wide in both, a fruit a neighbour cuts in one view is wide in that one only (in a dense row, one in
 #: two fruit; their lying bins cost a quarter of the search there and explained nothing).
 MIN_WIDE_VIEWS = 2
-
-
-@dataclass(frozen=True)
-class Hypotheses:
-    """The last search level: hypotheses scored with every box available (or the level above it, with
-    ``child_cell``: its cells' children are scored by the extraction).
-
-    Attributes
-    ----------
-    centres_base : ndarray, shape (N, 3), metres, base frame: cell centres
-    radii : ndarray, shape (K,), metres: the shape bins' semi-axis across ``up`` (a sphere's radius)
-    cell : float, metres, cell size of the level
-    scores : (total (N, K), n_assoc (N, K), assoc (V, N, K)), see :data:`.scoring.Scores`
-    mask : ndarray, shape (N, K), bool: the radius bins scored per cell
-    n_scored : int, hypotheses the search scored over all levels (not the children the extraction scores)
-    start_cell : float, metres, cell size of the first level
-    capped : bool, whether a level had more hypotheses than the budget and kept only the best cells
-    semi_up : ndarray, shape (K,), metres: the bins' semi-axis along their axis (equal to ``radii`` for spheres)
-    axes : ndarray, shape (K, 3), unit, base frame: the bins' symmetry axis (``up``; horizontal for lying bins)
-    child_cell : float, metres, or None: the last level's cell size when that level is left to the extraction
-        (:func:`search`): the hypotheses are then the level above it, each cell's children to be scored when it
-        nears the best
-    children_base : ndarray, shape (8N, 3), metres, base frame, or None: the centres of each cell's 8 children
-        (rows ``8 i`` to ``8 i + 7``: cell ``i``'s), with ``child_cell``
-    children_mask : ndarray, shape (8N, K), bool, or None: the bins each child would score (its parent's, widened)
-    """
-
-    centres_base: NDArray[np.float64]
-    radii: NDArray[np.float64]
-    cell: float
-    scores: Scores
-    mask: NDArray[np.bool_]
-    n_scored: int
-    start_cell: float
-    capped: bool
-    semi_up: NDArray[np.float64] | None = None
-    axes: NDArray[np.float64] | None = None
-    child_cell: float | None = None
-    children_base: NDArray[np.float64] | None = None
-    children_mask: NDArray[np.bool_] | None = None
-
-    def bin_semi_up(self, k: int) -> float | None:
-        """Semi-axis along its axis of bin ``k`` (metres), None for a sphere bin."""
-        if self.semi_up is None or self.semi_up[k] == self.radii[k]:
-            return None
-        return float(self.semi_up[k])
-
-    def bin_axis(self, k: int) -> NDArray[np.float64] | None:
-        """Symmetry axis (3,), base frame, of the spheroid bin ``k``; None for a sphere bin or without ``axes``."""
-        if self.axes is None or self.bin_semi_up(k) is None:
-            return None
-        return self.axes[k]
-
-    def stats(self) -> dict[str, float | int | bool]:
-        """``cell_size`` (the last level's), ``n_scored`` (by the search), ``n_cells_kept`` (the search's cells: those of
-        the level above the last where ``lazy_last_level``), ``start_cell_size``, ``capped``, ``lazy_last_level``."""
-        return {
-            "cell_size": self.cell if self.child_cell is None else self.child_cell,
-            "n_scored": self.n_scored,
-            "n_cells_kept": len(self.centres_base),
-            "start_cell_size": self.start_cell,
-            "capped": self.capped,
-            "lazy_last_level": self.child_cell is not None,
-        }
-
-
-def same_place_m(cell: float, radius: float) -> float:
-    """Metres within which hypotheses stand for the same object as one at that place: two cells of the search's
-    ``cell`` (metres; its resolution, below which the grid cannot tell places apart) or the object's ``radius``
-    (metres), whichever is larger. The extraction's look-ahead, the steal and the regroup passes try one candidate per
-    such place."""
-    return max(2 * cell, radius)
 
 
 def bytes_per_hypothesis(n_views: int) -> int:
@@ -176,15 +106,6 @@ def first_level(grid: VoxelGrid, start: float, resolution: float, max_cells: int
     shape = tuple(max(1, math.ceil(s / cell - 1e-9)) for s in size)
     del resolution  # the level sizes are start / 2**i, so any start >= resolution ends at it
     return VoxelGrid(grid.T_base_grid, shape, cell)  # type: ignore[arg-type]
-
-
-def _cone_counts(problem: Problem, centres_base: NDArray[np.float64], half_diagonal: float) -> NDArray[np.int32]:
-    if problem.config.backend == "numba":
-        views = problem.views
-        return cone_counts_fused(
-            problem.camera, [vd.T_optical_base for vd in views], [vd.boxes for vd in views], centres_base, half_diagonal
-        )
-    return cone_counts(problem.camera, [vd.view for vd in problem.views], centres_base, half_diagonal)
 
 
 def size_gated_counts(problem: Problem, centres_base: NDArray[np.float64], half_diagonal: float) -> NDArray[np.int32]:
@@ -234,7 +155,7 @@ def _first_cells(problem: Problem, grid: VoxelGrid) -> NDArray[np.float64]:
     for start in range(0, grid.n_cells, CHUNK_CELLS):
         c_grid = grid.centres_grid(np.arange(start, min(start + CHUNK_CELLS, grid.n_cells)))
         c_base = c_grid @ R.T + t
-        counts = size_gated_counts(problem, c_base, half) if coarse else _cone_counts(problem, c_base, half)
+        counts = size_gated_counts(problem, c_base, half) if coarse else cone_counts_within(problem, c_base, half)
         kept.append(c_grid[counts >= problem.config.min_views])
     return np.concatenate(kept) if kept else np.zeros((0, 3))
 
@@ -321,23 +242,6 @@ def _widen(mask: NDArray[np.bool_], bins: int) -> NDArray[np.bool_]:
     return mask
 
 
-def _plausible_shapes(
-    total: NDArray[np.float64], radii: NDArray[np.float64], semi_up: NDArray[np.float64], slack: float
-) -> NDArray[np.bool_]:
-    """Which bins of each cell stay in the search: every sphere bin, and the elongated bins (upright or lying spheroids)
-    scoring at least the cell's best sphere bin minus ``slack`` nats, shape (N, K) (the search passes
-    ``elongation_slack + elongation_cost``: the box evidence is compared, not the prior).
-
-    A round object's box is explained better by a sphere at every level, so its elongated bins stop being
-    refined early (they would only cost time); a tall object's are better than any sphere and stay.
-    """
-    sphere = semi_up == radii
-    if sphere.all() or not sphere.any():
-        return np.ones(total.shape, dtype=bool)
-    best_sphere = total[:, sphere].max(axis=1, keepdims=True)
-    return sphere[None, :] | (total >= best_sphere - slack)
-
-
 def lying_bins(problem: Problem) -> NDArray[np.bool_]:
     """Which shape bins lie (their axis perpendicular to ``up``), shape (K,)."""
     cfg = problem.config
@@ -381,53 +285,6 @@ def _score_deferred(
     total[np.ix_(rows, cols)], n_assoc[np.ix_(rows, cols)] = t[:, cols], n[:, cols]
     assoc[:, rows[:, None], cols[None, :]] = a[:, :, cols]
     return total, n_assoc, assoc, int(mask.sum())
-
-
-def level_mask(problem: Problem, scores: Scores, dominated: NDArray[np.bool_] | None) -> NDArray[np.bool_]:
-    """The hypotheses a level keeps, shape (N, K): at least ``accept - prune_slack`` (scores only fall as boxes are
-    taken, so one below it never matters again), ``min_views`` views, a plausible shape (:func:`_plausible_shapes`)
-    and, with ``dominated`` (N, K), not explained away (:func:`box_dominated`)."""
-    cfg = problem.config
-    radii, semi_up = cfg.hypothesis_bins
-    total, n_assoc, _ = scores
-    keep = (
-        (total >= cfg.accept - cfg.tuning.prune_slack)
-        & (n_assoc >= cfg.min_views)
-        & _plausible_shapes(total, radii, semi_up, cfg.tuning.elongation_slack + cfg.tuning.elongation_cost)
-    )
-    return keep if dominated is None else keep & ~dominated
-
-
-def cone_counts_at(problem: Problem, centres_base: NDArray[np.float64], cell: float) -> NDArray[np.int32]:
-    """Views whose widened viewing cones hold each cell of size ``cell`` (metres) centred at ``centres_base`` (N, 3)."""
-    return _cone_counts(problem, centres_base, cell_half_diagonal(cell))
-
-
-def score_children(
-    problem: Problem, hyp: Hypotheses, kids: NDArray[np.intp], taken: Taken
-) -> tuple[NDArray[np.intp], Scores, NDArray[np.bool_]]:
-    """The last-level cells ``kids`` (indices into ``hyp.children_base``) in at least ``min_views`` viewing cones,
-    scored with the boxes not in ``taken``, that keep a bin (:func:`level_mask` without the explaining away): their
-    indices (M,), scores and kept bins (M, K)."""
-    assert hyp.child_cell is not None and hyp.children_base is not None and hyp.children_mask is not None
-    kids = kids[cone_counts_at(problem, hyp.children_base[kids], hyp.child_cell) >= problem.config.min_views]
-    centres, mask = hyp.children_base[kids], hyp.children_mask[kids]
-    t, n, a = score_hypotheses(problem, taken, centres, hyp.radii, hyp.child_cell, mask, hyp.semi_up, hyp.axes)
-    keep = level_mask(problem, (t, n, a), None)
-    good = keep.any(axis=1)
-    return kids[good], (t[good], n[good], a[:, good]), keep[good]
-
-
-def last_level(problem: Problem, hyp: Hypotheses, cells: NDArray[np.bool_]) -> Hypotheses:
-    """The last level in the children of ``hyp``'s cells ``cells`` (N,) bool, scored with every box: what the search
-    keeps there, without its explaining away, as a last-level :class:`Hypotheses` (``hyp`` itself when it is the last
-    level)."""
-    if hyp.child_cell is None:
-        return hyp
-    kids, scores, keep = score_children(problem, hyp, child_rows(np.flatnonzero(cells)), frozenset())
-    assert hyp.children_base is not None
-    last = Hypotheses(hyp.children_base[kids], hyp.radii, hyp.child_cell, scores, keep, hyp.n_scored, hyp.start_cell, hyp.capped)
-    return replace(last, semi_up=hyp.semi_up, axes=hyp.axes)
 
 
 def _cone_levels(problem: Problem, level: VoxelGrid, cap_cells: int) -> tuple[NDArray[np.float64], float, bool]:
@@ -507,3 +364,9 @@ def search(problem: Problem, grid: VoxelGrid) -> Hypotheses:
             return replace(parent, child_cell=cell / 2, children_base=children, children_mask=children_mask)
         centres_grid, mask = children_grid, children_mask
         cell /= 2
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: the search over the problem's region."""
+    assert problem.region is not None
+    return replace(state, hypotheses=search(problem, problem.region))

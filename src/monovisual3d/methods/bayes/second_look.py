@@ -56,13 +56,23 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ...result import DetectedObject
-from .aspects import object_boxes, solid_boxes
+from .fits import (
+    MIN_GAIN_NATS,
+    MIN_VIEWS_FOR_LYING,
+    Budget,
+    as_answer,
+    fit_hiders,
+    fit_value,
+    free_boxes,
+    holding,
+    misses,
+    others_than,
+    pair_values,
+)
 from .problem import Problem
-from .scoring import associations_list, boxes_of
-from .sensor import box_edge_sigma_px
-from .shape_swap import MEET_SIGMAS, MIN_GAIN_NATS, as_answer, centres_agree_many, holding, meeting_points, pair_values
-from .shapes import MIN_VIEWS_FOR_LYING, Answer, fitted_answer, sensor_scores, shape_value
+from .rays import centres_agree_many, meeting_points
+from .scoring import associations_list
+from .state import Found, State
 
 #: Views a new object needs: those from which the shape stage fits the yawed ellipsoid of a lying object.
 MIN_VIEWS = MIN_VIEWS_FOR_LYING
@@ -72,9 +82,6 @@ MAX_FITS = 16
 #: Views of its own boxes a new object needs where it is hidden (:func:`_hidden`) in every other view in which it would
 #: be in the image: two, as for the search (two views fix a point; a third that sees nothing of it says nothing).
 MIN_VIEWS_HIDDEN = 2
-#: An object is hidden behind a nearer one's box when its predicted box lies inside it within this many of that box's
-#: edge sigmas (:func:`.sensor.box_edge_sigma_px`), as two boxes meet in :mod:`.shape_swap`.
-HIDDEN_SIGMAS = MEET_SIGMAS
 #: Shape fits a pair's value costs (:func:`_pair`): each of the two, fitted, then refitted with what the other hides.
 PAIR_FITS = 4
 #: At most this many combinations are screened in one pass (for all at once: about 0.3 s for 16,000); where more would
@@ -82,101 +89,7 @@ PAIR_FITS = 4
 MAX_SCREENED = 20_000
 
 
-def free_boxes(problem: Problem, objects: list[DetectedObject]) -> list[NDArray[np.intp]]:
-    """Per view of ``problem.views``, the indices of the boxes no object holds."""
-    held = set().union(*(boxes_of(problem, o) for o in objects))
-    return [
-        np.array([j for j in range(len(vd.boxes)) if (v, j) not in held], dtype=np.intp) for v, vd in enumerate(problem.views)
-    ]
-
-
-def _hiders(problem: Problem, answer: Answer, assoc: list[int], occluders: Sequence[DetectedObject] = ()) -> list[int]:
-    """Per view without a box where the answer's predicted box lies in the image and in front of the camera (in view
-    order), the index of the one of ``occluders`` that hides it there (:func:`_hidden`), -1 where none does: a miss,
-    which costs the sensor model's miss term."""
-    empty = [v for v, j in enumerate(assoc) if j < 0]
-    if not empty:
-        return []
-    poses = np.array([np.linalg.inv(problem.views[v].T_optical_base) for v in empty])
-    pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
-    depth = np.array([problem.depth(v, answer[1].centre_base) for v in empty])
-    size = np.array([problem.camera.width, problem.camera.height], dtype=float)
-    inside = (depth > 0) & np.all(pred[:, 2:] > 0, axis=1) & np.all(pred[:, :2] < size, axis=1)
-    return [_hidden(problem, v, b, d, occluders) for v, b, d, i in zip(empty, pred, depth, inside) if i]
-
-
-def _misses(problem: Problem, answer: Answer, assoc: list[int], occluders: Sequence[DetectedObject] = ()) -> int:
-    """The views of :func:`_hiders` where no occluder hides the answer: each costs the sensor model's miss term."""
-    return _hiders(problem, answer, assoc, occluders).count(-1)
-
-
-def _hidden(problem: Problem, v: int, box: NDArray[np.float64], depth: float, occluders: Sequence[DetectedObject]) -> int:
-    """The index of the first of ``occluders`` that is nearer in view ``v`` than ``depth`` (metres) and holds a box
-    there that the predicted box (4,), pixels, lies wholly inside, within :data:`HIDDEN_SIGMAS` of that box's edge
-    noise: the object is hidden behind it, and a detector draws no box of it (two containers in line with the
-    camera); -1: none."""
-    for n, o in enumerate(occluders):
-        j = associations_list(problem, o)[v]
-        if j < 0 or problem.depth(v, o.position) >= depth:
-            continue
-        near = problem.views[v].boxes[j]
-        tol = HIDDEN_SIGMAS * box_edge_sigma_px(problem.model, near)
-        if np.all(box[:2] >= near[:2] - tol[:2]) and np.all(box[2:] <= near[2:] + tol[2:]):
-            return n
-    return -1
-
-
-def _fitted_value(
-    problem: Problem, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
-) -> tuple[float, DetectedObject | None, list[int]]:
-    """``seed`` holding the boxes ``assoc`` (over ``problem.views``), fitted with every shape model, its value (nats;
-    -inf and None without a fit, or when the fit leaves a box it holds unexplained: a box scored as a miss is no part
-    of the object) and its :func:`_hiders` among ``occluders`` (each -1 a miss, counted in the value)."""
-    obj = holding(problem, seed, assoc)
-    fit = fitted_answer(problem, obj)
-    if fit is None:
-        return -np.inf, None, []
-    answer, n_edges = fit
-    poses, boxes = object_boxes(problem, obj)
-    if np.any(sensor_scores(problem, poses, boxes, answer[1], answer[0].extra.get("solid")) <= problem.model.miss_term):
-        return -np.inf, None, []
-    hiders = _hiders(problem, answer, assoc, occluders)
-    return shape_value(problem, answer[0], answer, n_edges) + hiders.count(-1) * problem.model.miss_term, answer[0], hiders
-
-
-@dataclasses.dataclass
-class Budget:
-    """What the pass may still spend: combinations to screen, and shape fits (each with every model)."""
-
-    screened: int = MAX_SCREENED
-    fits: int = MAX_FITS
-
-    def screen(self, n: float) -> bool:
-        """Whether ``n`` more combinations may be screened (and count them)."""
-        if n > self.screened:
-            return False
-        self.screened -= int(n)
-        return True
-
-
-def fit_value(
-    problem: Problem, budget: Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
-) -> tuple[float, DetectedObject | None]:
-    """:func:`_fitted_value` (value and fitted object) while the budget lasts (-inf and None after)."""
-    return _fit_hiders(problem, budget, seed, assoc, occluders)[:2]
-
-
-def _fit_hiders(
-    problem: Problem, budget: Budget, seed: DetectedObject, assoc: list[int], occluders: Sequence[DetectedObject] = ()
-) -> tuple[float, DetectedObject | None, list[int]]:
-    """:func:`_fitted_value` while the budget lasts (-inf, None and no hiders after)."""
-    if budget.fits <= 0:
-        return -np.inf, None, []
-    budget.fits -= 1
-    return _fitted_value(problem, seed, assoc, occluders)
-
-
-def _bar(problem: Problem, budget: Budget, o: DetectedObject, others: Sequence[DetectedObject] = ()) -> float:
+def _bar(problem: Problem, budget: Budget, o: Found, others: Sequence[Found] = ()) -> float:
     """What ``o`` grown must be worth (nats): ``o`` refitted as it holds its boxes, judged as :func:`_fitted_value`
     judges a fit (so that it wins by its new box, not by the refit), and :data:`.shape_swap.MIN_GAIN_NATS` more; where
     that refit fails or leaves one of its boxes unexplained, ``accept``, as a new object."""
@@ -203,7 +116,7 @@ def _new_combinations(free: list[NDArray[np.intp]]) -> list[list[int]]:
     return [list(a) for a in itertools.product(*options) if sum(j >= 0 for j in a) >= MIN_VIEWS]
 
 
-def _candidates(problem: Problem, objects: list[DetectedObject], free: list[NDArray[np.intp]]) -> list[tuple[int, list[int]]]:
+def _candidates(problem: Problem, objects: list[Found], free: list[NDArray[np.intp]]) -> list[tuple[int, list[int]]]:
     """Associations to fit: ``(i, assoc)`` for object ``i`` grown by free boxes, ``(-1, assoc)`` for a new object of
     free boxes (in :data:`MIN_VIEWS` views or more); only those whose box-centre rays meet, the most boxes first."""
     out: list[tuple[int, list[int]]] = []
@@ -219,17 +132,17 @@ def _candidates(problem: Problem, objects: list[DetectedObject], free: list[NDAr
     return [kept[k] for k in _by_size([a for _, a in kept])]
 
 
-def second_look(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def second_look(problem: Problem, objects: list[Found]) -> list[Found]:
     """Grow objects by, and build new objects from, the boxes no object holds, then replace objects seen in fewer than
     :data:`MIN_VIEWS` views by new ones of their boxes and the free ones, where the shape models say so; then find the
     objects hidden behind others in some views (:func:`_uncovered`). The module docstring; at most :data:`MAX_FITS`
     shape fits for the first two parts, as many for the last."""
-    budget = Budget()
+    budget = Budget(MAX_FITS, MAX_SCREENED)
     objects = _released(problem, _grown_and_new(problem, objects, budget), budget)
-    return _uncovered(problem, objects, Budget())
+    return _uncovered(problem, objects, Budget(MAX_FITS, MAX_SCREENED))
 
 
-def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: Budget) -> list[DetectedObject]:
+def _grown_and_new(problem: Problem, objects: list[Found], budget: Budget) -> list[Found]:
     """Objects grown by free boxes and new objects of free boxes (the module docstring); ``objects`` itself when no
     view holds free boxes or too many combinations would be screened."""
     free = free_boxes(problem, objects)
@@ -266,7 +179,7 @@ def _grown_and_new(problem: Problem, objects: list[DetectedObject], budget: Budg
     return out
 
 
-def _released(problem: Problem, objects: list[DetectedObject], budget: Budget) -> list[DetectedObject]:
+def _released(problem: Problem, objects: list[Found], budget: Budget) -> list[Found]:
     """Each object seen in fewer than :data:`MIN_VIEWS` views replaced by new objects of its boxes and the free ones
     (each worth ``accept``, in :data:`MIN_VIEWS` or more views, one of its boxes at least) when together they are worth
     :data:`.shape_swap.MIN_GAIN_NATS` more than it: a ghost of two objects' boxes in two views, whose other boxes
@@ -302,7 +215,7 @@ def _released(problem: Problem, objects: list[DetectedObject], budget: Budget) -
     return out
 
 
-def _uncovered(problem: Problem, objects: list[DetectedObject], budget: Budget) -> list[DetectedObject]:
+def _uncovered(problem: Problem, objects: list[Found], budget: Budget) -> list[Found]:
     """New objects of free boxes in :data:`MIN_VIEWS_HIDDEN` views, hidden behind a nearer object in every other view
     where they would be in the image (:func:`_hidden`); and new objects of free boxes in that many views or more and
     one box another object holds, which that object gives up. Each is judged with the object it concerns (the one that
@@ -325,7 +238,7 @@ def _uncovered(problem: Problem, objects: list[DetectedObject], budget: Budget) 
     candidates = [c for c, ok in zip(candidates, keep) if ok]
     scored, bars = [], {}
     for i, assoc in [candidates[k] for k in _by_size([a for _, a in candidates])]:
-        alone, fitted, hiders = _fit_hiders(problem, budget, _new_seed(), assoc, objects)
+        alone, fitted, hiders = fit_hiders(problem, budget, _new_seed(), assoc, objects)
         if fitted is None or alone <= problem.config.accept or (i < 0 and -1 in hiders):
             continue  # a screen before the pair's fits: alone, the new object must already be worth ``accept``
         k = i if i >= 0 else next((h for h in hiders if h >= 0), -1)
@@ -344,7 +257,7 @@ def _uncovered(problem: Problem, objects: list[DetectedObject], budget: Budget) 
     return _take(problem, objects, scored)
 
 
-def _may_hide(problem: Problem, objects: list[DetectedObject], i: int, assoc: list[int], point: NDArray[np.float64]) -> bool:
+def _may_hide(problem: Problem, objects: list[Found], i: int, assoc: list[int], point: NDArray[np.float64]) -> bool:
     """A screen of :func:`_uncovered`'s candidates that hold object ``i``'s box (``i`` >= 0): the point their box-centre
     rays meet (``point`` (3,), metres) lies in that view no farther than ``i``'s far side (its centre's depth and its
     largest semi-axis), as it must for ``i`` to hide behind the new object there. (A cut box's centre is not its
@@ -359,8 +272,8 @@ def _may_hide(problem: Problem, objects: list[DetectedObject], i: int, assoc: li
 
 
 def _pair(
-    problem: Problem, budget: Budget, objects: list[DetectedObject], k: int, assoc: list[int], partner: list[int]
-) -> tuple[list[float], list[DetectedObject]]:
+    problem: Problem, budget: Budget, objects: list[Found], k: int, assoc: list[int], partner: list[int]
+) -> tuple[list[float], list[Found]]:
     """A new object holding ``assoc`` and object ``k`` holding ``partner`` (over ``problem.views``), fitted and valued
     as a pair (:func:`.shape_swap.pair_values`), each less its misses behind the other objects and the other of the
     pair (-inf each when the budget is spent or a fit fails)."""
@@ -373,13 +286,11 @@ def _pair(
         return [-np.inf, -np.inf], []
     others = others_than(objects, k)
     for n, (o, a) in enumerate(zip(pair, (assoc, partner))):
-        values[n] += _misses(problem, as_answer(problem, o), a, [*others, pair[1 - n]]) * problem.model.miss_term
+        values[n] += misses(problem, as_answer(problem, o), a, [*others, pair[1 - n]]) * problem.model.miss_term
     return values, pair
 
 
-def _lent_combinations(
-    problem: Problem, objects: list[DetectedObject], free: list[NDArray[np.intp]]
-) -> list[tuple[int, list[int]]]:
+def _lent_combinations(problem: Problem, objects: list[Found], free: list[NDArray[np.intp]]) -> list[tuple[int, list[int]]]:
     """The boxes :func:`_uncovered` offers a new object: ``(-1, assoc)``, free boxes in :data:`MIN_VIEWS_HIDDEN` views;
     ``(i, assoc)``, object ``i``'s box in one view (an object seen in :data:`MIN_VIEWS` views or more, which keeps two)
     and free boxes in other views, :data:`MIN_VIEWS_HIDDEN` views or more in all."""
@@ -397,9 +308,9 @@ def _lent_combinations(
 
 def _take(
     problem: Problem,
-    objects: list[DetectedObject],
-    scored: list[tuple[float, int, list[int], list[DetectedObject], list[float]]],
-) -> list[DetectedObject]:
+    objects: list[Found],
+    scored: list[tuple[float, int, list[int], list[Found], list[float]]],
+) -> list[Found]:
     """``objects`` with the candidates of :func:`_uncovered` ``(gain, i, assoc, [new, refitted i], [values])`` taken,
     the largest gains first, each box and each object ``i`` once."""
     out = list(objects)
@@ -417,11 +328,11 @@ def _take(
     return out
 
 
-def others_than(objects: Sequence[DetectedObject], i: int) -> list[DetectedObject]:
-    """``objects`` without the ``i``-th (all of them for ``i`` -1)."""
-    return [o for k, o in enumerate(objects) if k != i]
-
-
-def _new_seed() -> DetectedObject:
+def _new_seed() -> Found:
     """A placeholder object for a combination of free boxes: the shape fits start from the boxes alone."""
-    return DetectedObject(np.zeros(3), 0.0, None, None, {}, 0, {})
+    return Found(np.zeros(3), 0.0, None, None, {}, 0)
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: :func:`second_look` on the state's objects."""
+    return state.with_objects(second_look(problem, list(state.objects)))

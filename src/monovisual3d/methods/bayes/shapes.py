@@ -50,16 +50,9 @@ Bayesian information criterion.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import NDArray
 
-from ...errors import InputError
-from ...geometry.ellipsoid import Ellipsoid
-from ...geometry.fit import fit_shape_by_bic
-from ...geometry.solids import SOLIDS
-from ...result import DetectedObject
 from .aspects import (
     ROUNDNESS_THRESHOLD,
     as_sphere,
@@ -67,42 +60,24 @@ from .aspects import (
     consistently_elongated,
     elongated_one_way,
     looks_round,
-    object_boxes,
     possibly_cut,
     round_aspects,
-    solid_boxes,
     sticks_out,
     strongly_elongated,
 )
-from .likelihood import box_scores
+from .fits import Answer, beats, every_shape, lowest_bic_fit, lying_shapes, sphere_answer, upright_shapes, upright_solids
 from .occlusion import occlusion_flags, predicted_views
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
-from .scoring import axis_of, pose_px, semi_up_of, spheroid_axis
-from .solid_choice import solid_if_clear, solid_may_win
+from .scoring import spheroid_axis
+from .state import Found, State
 
-#: Views an object needs before ``auto`` also tries the three-axis ellipsoid (it is weakly determined from fewer).
-MIN_VIEWS_FOR_ELLIPSOID = 4
-#: Views from which ``auto`` also fits the ellipsoid (upright axis, two horizontal semi-axes, yaw: 7 parameters), the
-#: model of a lying object (a can, a box, a cucumber on its side), whose horizontal outline is not a circle. Three
-#: views give 12 box edges, each a plane tangent to the object (a lying 5 x 5 x 12 cm object from three views:
-#: tests/methods/bayes/test_bayes_shapes.py); the fit must then beat the first answer (:func:`beats`).
-MIN_VIEWS_FOR_LYING = 3
-#: Views from which ``solids`` also fits the yawed cuboid (7 parameters, as the ellipsoid; a square box's width changes
-#: with the yaw from view to view, a cylinder's does not). From 3 views it is weakly determined and kept only with
-#: clear evidence (:func:`.solid_choice.solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
-#: to 2.4-2.5 mm with exact boxes (benchmarks/solid_shape_bias.py).
-MIN_VIEWS_FOR_CUBOID = 3
-#: Radius (metres: the search's sphere's, or its spheroid's horizontal semi-axis, ``DetectedObject.radius``) beyond
+#: Radius (metres: the search's sphere's, or its spheroid's horizontal semi-axis, ``Found.radius``) beyond
 #: which ``auto`` fits an object with every model, the solids included, however round its boxes look. A wrong shape
 #: moves the centre by a fraction of the object's size: a fruit's few millimetres, a large object's tens. A flat 200 x 160 x 30 mm tray seen from 55 degrees above has near-square boxes;
 #: kept the search's sphere of 110-125 mm radius, it came out 20-57 mm low, where the cuboid fits its boxes to 2-3 px
 #: RMS (the sphere 13-22 px) and lands 2-6 mm off. Fruit (the paper's tomatoes, 20-40 mm) never pay for the fits.
 LARGE_RADIUS_M = 0.06
-#: Parameters of a sphere: centre and radius.
-SPHERE_PARAMETERS = 4
-#: The shape a solid reports: that of the ellipsoid with the same semi-axes (its radius or half-sides).
-SOLID_SHAPES = {"cylinder": "spheroid", "cuboid": "ellipsoid"}
 
 # Why ``BayesConfig.cut_inward_floor`` is 1.5 nats: the inward floor of the loss of the final sphere refit
 # (:func:`one_sided_refit`), the outward one staying the
@@ -123,200 +98,13 @@ SOLID_SHAPES = {"cylinder": "spheroid", "cuboid": "ellipsoid"}
 MIN_VIEWS_ONE_SIDED = 3
 
 
-def sensor_scores(
-    problem: Problem, poses: NDArray[np.float64], boxes: NDArray[np.float64], e: Ellipsoid, solid: str | None = None
-) -> NDArray[np.float64]:
-    """Log-likelihood ratio (nats) of each box (K, 4) seen from ``poses`` (K, 4, 4) given the ellipsoid ``e`` (the
-    solid ``solid`` with its semi-axes, :func:`solid_boxes`): the ``bayes`` sensor model's box scores (occlusion and
-    truncation included), a miss (``SensorModel.miss_term``: the box not explained) at worst, shape (K,)."""
-    cam, model = problem.camera, problem.model
-    pred = solid_boxes(cam, poses, e, solid)
-    T_optical_base = np.linalg.inv(poses)
-    depth = T_optical_base[:, 2, :3] @ e.centre_base + T_optical_base[:, 2, 3]
-    s = box_scores(pred, boxes, model, cam.width, cam.height, np.asarray(pose_px(problem, depth), dtype=float))
-    return np.maximum(np.nan_to_num(np.asarray(s, dtype=float), nan=-np.inf), model.miss_term)
-
-
-def sensor_score(
-    problem: Problem, poses: NDArray[np.float64], boxes: NDArray[np.float64], e: Ellipsoid, solid: str | None = None
-) -> float:
-    """:func:`sensor_scores` summed (nats)."""
-    return float(np.sum(sensor_scores(problem, poses, boxes, e, solid)))
-
-
-#: A shape answer of the stage: the object, its ellipsoid and its number of fitted parameters.
-Answer = tuple[DetectedObject, Ellipsoid, int]
-
-
-def beats(
-    problem: Problem, obj: DetectedObject, new: Answer, old: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
-) -> bool:
-    """Whether the answer ``new`` is preferred to ``old`` by the Bayesian information criterion of the sensor model
-    on ``obj``'s boxes: its log-likelihood ratio must exceed ``old``'s by more than ``ln(n_edges) / 2`` nats per
-    extra parameter (fewer parameters lower the bar). The criterion of
-    :func:`monovisual3d.geometry.fit.fit_shape_by_bic`, with the ``bayes`` sensor model (a cut box is occlusion
-    there, at most ``inward_floor`` per edge) in place of Gaussian edges; the edges nearer objects hide no further
-    than ``hidden_to`` scored as :func:`boxes_as_seen` says."""
-    gain = sensor_score(problem, *boxes_as_seen(problem, obj, new, hidden_to), new[1], new[0].extra.get("solid"))
-    gain -= sensor_score(problem, *boxes_as_seen(problem, obj, old, hidden_to), old[1], old[0].extra.get("solid"))
-    return gain > 0.5 * (new[2] - old[2]) * math.log(max(n_edges, 1))
-
-
-def boxes_as_seen(
-    problem: Problem, obj: DetectedObject, answer: Answer, hidden_to: NDArray[np.float64] | None = None
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The poses (K, 4, 4) and boxes (K, 4), pixels, of :func:`object_boxes`, each edge a nearer object hides
-    (``hidden_to`` (K, 4), pixels, finite: how far it may be hidden) moved to where ``answer`` predicts it within that
-    range: a prediction between the observed edge and the limit costs nothing, one past the limit is scored from it,
-    one inside the observed edge as before (a cut)."""
-    poses, boxes = object_boxes(problem, obj)
-    if hidden_to is None or not np.isfinite(hidden_to).any():
-        return poses, boxes
-    pred = solid_boxes(problem.camera, poses, answer[1], answer[0].extra.get("solid"))
-    lo = np.maximum(np.minimum(pred[:, :2], boxes[:, :2]), hidden_to[:, :2])  # nan-propagating: seen edges stay
-    hi = np.minimum(np.maximum(pred[:, 2:], boxes[:, 2:]), hidden_to[:, 2:])
-    return poses, np.where(np.isfinite(hidden_to), np.concatenate([lo, hi], axis=1), boxes)
-
-
-def _sphere_answer(obj: DetectedObject) -> Answer:
-    """:func:`as_sphere` as an :data:`Answer`: a sphere has 4 parameters."""
-    o = as_sphere(obj)
-    return o, Ellipsoid.sphere(o.position, float(o.radius)), SPHERE_PARAMETERS  # type: ignore[arg-type]
-
-
-def _fit_options(
-    problem: Problem, censored: NDArray[np.bool_] | None, hidden_to: NDArray[np.float64] | None
-) -> dict[str, object]:
-    """The options of :func:`~monovisual3d.geometry.fit.fit_ellipsoid_to_boxes` the shape stage fits with: the
-    configuration's vertical, sizes and orientation, the sensor model's noise and border, the hidden edges."""
-    cfg = problem.config
-    return {
-        "up": cfg.up_vector,
-        "size_range": cfg.semi_axis_range,
-        "box_sigma": problem.model.alpha,
-        "edge_sigma_px": problem.model.sigma0_px,
-        "border_px": problem.model.border_px,
-        "free_orientation": cfg.free_orientation,
-        "censored": censored,
-        "hidden_to": hidden_to,
-    }
-
-
-def _fitted(
-    problem: Problem,
-    obj: DetectedObject,
-    shapes: tuple[str, ...],
-    censored: NDArray[np.bool_] | None = None,
-    search_sphere: bool = True,
-    hidden_to: NDArray[np.float64] | None = None,
-) -> tuple[Answer, int] | None:
-    """The lowest-BIC fit of ``shapes`` to the object's boxes as an :data:`Answer` and the edges it used (None: too
-    few usable edges), leaving out the ``censored`` edges (K, 4) (cut by nearer objects; in the order of
-    :func:`object_boxes`), each hidden no further than ``hidden_to`` (K, 4), pixels, where given
-    (:func:`~monovisual3d.geometry.fit.fit_ellipsoid_to_boxes`); under ``auto`` a sphere fit of an object the search
-    found as a sphere gives the search's sphere (its refinement, with masks and pose noise, is the better sphere
-    estimate) unless not ``search_sphere``.
-    The solids among ``shapes`` are fitted after the ellipsoid models, where they could win
-    (:func:`.solid_choice.solid_may_win`), and chosen by :func:`.solid_choice.solid_if_clear`."""
-    cfg = problem.config
-    poses, boxes = object_boxes(problem, obj)
-    options = _fit_options(problem, censored, hidden_to)
-    ellipsoids, solids = [s for s in shapes if s not in SOLIDS], [s for s in shapes if s in SOLIDS]
-    if not ellipsoids:  # no ellipsoid model to weigh the solids against: fit them all
-        ellipsoids, solids = list(shapes), []
-    try:  # a model that cannot win is not fitted (a dense row's cut fruit): the same best
-        _, fits = fit_shape_by_bic(problem.camera, poses, boxes, shapes=ellipsoids, every_model=False, **options)
-    except InputError:
-        return None
-    for solid in solids:
-        if solid_may_win(solid, fits, cfg.free_orientation, problem.model.sigma0_px):
-            try:
-                fits.update(fit_shape_by_bic(problem.camera, poses, boxes, shapes=(solid,), **options)[1])
-            except InputError:
-                continue
-    best = solid_if_clear(min(fits.values(), key=lambda f: f.bic), fits)
-    if search_sphere and best.model == "sphere" and cfg.shape == "auto" and obj.extra.get("semi_up") is None:
-        return _sphere_answer(obj), best.n_edges
-    e = best.ellipsoid
-    extra = {k: v for k, v in obj.extra.items() if k != "solid"}
-    extra.update(shape_bic=float(best.bic), shape_rms_px=float(best.rms_px))
-    shape = SOLID_SHAPES.get(best.model, best.model)
-    if shape != best.model:
-        extra["solid"] = best.model
-    o = DetectedObject.from_ellipsoid(
-        e.centre_base,
-        e.semi_axes,
-        e.quaternion_xyzw,
-        obj.score,
-        shape,
-        covariance=best.centre_covariance,
-        associations=obj.associations,
-        n_cells=obj.n_cells,
-        extra=extra,
-    )
-    return (o, e, best.n_parameters), best.n_edges
-
-
-def fitted_answer(
-    problem: Problem,
-    obj: DetectedObject,
-    censored: NDArray[np.bool_] | None = None,
-    shapes: tuple[str, ...] | None = None,
-    hidden_to: NDArray[np.float64] | None = None,
-) -> tuple[Answer, int] | None:
-    """The lowest-BIC fit of ``shapes`` (default: every model ``auto`` may fit, upright and lying, the solids with
-    ``BayesConfig.solids``) to the object's boxes as an :data:`Answer` with the edges it used (a sphere fitted, not
-    the search's), the ``censored`` edges (K, 4) one-sided (only a prediction inside one costs; not counted as
-    edges), each hidden no further than ``hidden_to`` (K, 4), pixels, where given; None: too few usable edges."""
-    if shapes is None:
-        shapes = _every_shape(len(obj.associations), problem.config.solids)
-    return _fitted(problem, obj, shapes, censored, search_sphere=False, hidden_to=hidden_to)
-
-
-def shape_value(
-    problem: Problem, obj: DetectedObject, answer: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
-) -> float:
-    """The sensor model's log-likelihood ratio (nats) of the object's boxes given ``answer``, less ``ln(n_edges) / 2``
-    per parameter: the Bayesian information criterion of :func:`beats`, as a value to compare associations by.
-
-    ``hidden_to`` (K, 4), pixels, NaN where an edge is seen: an edge a nearer object hides, whose true place lies
-    between the observed edge and this coordinate (the far side of the nearer box); a prediction there costs nothing,
-    one beyond it is scored from it."""
-    score = sensor_score(problem, *boxes_as_seen(problem, obj, answer, hidden_to), answer[1], answer[0].extra.get("solid"))
-    return score - 0.5 * answer[2] * math.log(max(n_edges, 1))
-
-
-def _upright_shapes(n_views: int, solids: bool = False) -> tuple[str, ...]:
-    """The models ``auto`` compares for an object elongated the same way in every view; with ``solids``
-    (``BayesConfig.solids``) the upright solids too (a can, a bottle, a box)."""
-    ellipsoids = ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_ELLIPSOID else ())
-    return ellipsoids + (_upright_solids(n_views) if solids else ())
-
-
-def _upright_solids(n_views: int) -> tuple[str, ...]:
-    """The upright solids ``solids`` fits: a cylinder, and a cuboid with a yaw from :data:`MIN_VIEWS_FOR_CUBOID` views
-    (a box lying on a table is one too: its sides are upright)."""
-    return ("cylinder",) + (("cuboid",) if n_views >= MIN_VIEWS_FOR_CUBOID else ())
-
-
-def _every_shape(n_views: int, solids: bool) -> tuple[str, ...]:
-    """Every model ``auto`` may fit from ``n_views`` views, upright and lying, the solids with ``solids``."""
-    return tuple(dict.fromkeys(_upright_shapes(n_views, solids) + _lying_shapes(n_views)))
-
-
-def _lying_shapes(n_views: int) -> tuple[str, ...]:
-    """The models ``auto`` compares for an object elongated both ways or wide (the ellipsoid from
-    :data:`MIN_VIEWS_FOR_LYING` views)."""
-    return ("sphere", "spheroid") + (("ellipsoid",) if n_views >= MIN_VIEWS_FOR_LYING else ())
-
-
 def fit_shape(
     problem: Problem,
-    obj: DetectedObject,
+    obj: Found,
     cut: frozenset[int] = frozenset(),
     censored: NDArray[np.bool_] | None = None,
     hidden_to: NDArray[np.float64] | None = None,
-) -> DetectedObject:
+) -> Found:
     """One object through the shape stage (see the module docstring); ``cut``: the session indices of the views where
     a nearer object cuts its box (:func:`.occlusion.occlusion_flags`). An object elongated both ways (a lying object, or a sphere
     whose boxes are cut) whose every uncut box has its sphere's aspect stays a sphere without the lying fits; one
@@ -338,7 +126,7 @@ def fit_shape(
     if cfg.shape == "sphere" or n_views < 2:
         return as_sphere(obj)
     if cfg.shape != "auto":
-        fit = _fitted(problem, obj, (cfg.shape,), censored, hidden_to=hidden_to)
+        fit = lowest_bic_fit(problem, obj, (cfg.shape,), censored, hidden_to=hidden_to)
         return as_sphere(obj) if fit is None else fit[0][0]
     deviations = aspect_deviations(problem, obj)
 
@@ -350,58 +138,58 @@ def fit_shape(
         return _large_round_fit(problem, obj, censored, hidden_to) if large else as_sphere(obj)
     solids_fitted = False  # the upright solids, where the first fit already weighed them
     if elongated_one_way(deviations):
-        upright = _upright_shapes(n_views, cfg.solids)
+        upright = upright_shapes(n_views, cfg.solids)
         solids_fitted = cfg.solids
-        fit = _fitted(problem, obj, upright, censored, hidden_to=hidden_to)
+        fit = lowest_bic_fit(problem, obj, upright, censored, hidden_to=hidden_to)
         uncut = aspect_deviations(problem, obj, cut) if cut else deviations  # the boxes no nearer object cuts
         shows_shape = elongated_one_way(uncut) and consistently_elongated(uncut)
         cut_here = (cut and not shows_shape) or (possibly_cut(problem, obj) and not consistently_elongated(deviations))
-        if fit is not None and cut_here and not beats(problem, obj, fit[0], _sphere_answer(obj), fit[1], hidden_to):
+        if fit is not None and cut_here and not beats(problem, obj, fit[0], sphere_answer(obj), fit[1], hidden_to):
             return as_sphere(obj)  # its boxes are cut, which the sensor model explains as well as the fit does
-        if fit is None or np.all(deviations > 0) or set(_lying_shapes(n_views)) <= set(upright):
+        if fit is None or np.all(deviations > 0) or set(lying_shapes(n_views)) <= set(upright):
             return as_sphere(obj) if fit is None else fit[0][0]  # taller in every view: upright, round in plan
         answer = fit[0]  # wider in every view: lying (seen from one side) or flat
     else:  # elongated both ways (lying, or a sphere whose boxes are cut), or one box only but outgrown or strongly
-        answer = _sphere_answer(obj)
+        answer = sphere_answer(obj)
         uncut = aspect_deviations(problem, obj, cut) if cut else deviations
         both_ways = np.any(uncut > ROUNDNESS_THRESHOLD) and np.any(uncut < -ROUNDNESS_THRESHOLD)
         if cut and not both_ways and not outgrown():
             return answer[0]  # the boxes nearer objects do not cut are not elongated both ways: the cuts made it look so
-    solid = answer[0].extra.get("solid")
-    solids = _upright_solids(n_views) if large and cfg.solids and not solids_fitted else ((solid,) if solid else ())
-    return _better_fit(problem, obj, answer, _lying_shapes(n_views) + solids, censored, hidden_to)
+    solid = answer[0].solid
+    solids = upright_solids(n_views) if large and cfg.solids and not solids_fitted else ((solid,) if solid else ())
+    return _better_fit(problem, obj, answer, lying_shapes(n_views) + solids, censored, hidden_to)
 
 
 def _large_round_fit(
-    problem: Problem, obj: DetectedObject, censored: NDArray[np.bool_] | None, hidden_to: NDArray[np.float64] | None
-) -> DetectedObject:
+    problem: Problem, obj: Found, censored: NDArray[np.bool_] | None, hidden_to: NDArray[np.float64] | None
+) -> Found:
     """A large object (:data:`LARGE_RADIUS_M`) whose boxes look round, fitted with every model (:func:`_better_fit`)."""
-    shapes = _every_shape(len(obj.associations), problem.config.solids)
-    return _better_fit(problem, obj, _sphere_answer(obj), shapes, censored, hidden_to)
+    shapes = every_shape(len(obj.associations), problem.config.solids)
+    return _better_fit(problem, obj, sphere_answer(obj), shapes, censored, hidden_to)
 
 
 def _better_fit(
     problem: Problem,
-    obj: DetectedObject,
+    obj: Found,
     answer: Answer,
     shapes: tuple[str, ...],
     censored: NDArray[np.bool_] | None,
     hidden_to: NDArray[np.float64] | None,
-) -> DetectedObject:
-    """``answer`` or the lowest-BIC fit of ``shapes`` (:func:`_fitted`): a solid won by its evidence (a flat tray:
+) -> Found:
+    """``answer`` or the lowest-BIC fit of ``shapes`` (:func:`lowest_bic_fit`): a solid won by its evidence (a flat tray:
     :func:`.solid_choice.solid_if_clear`) is taken unless ``answer`` is a solid already; an ellipsoid model (a lying
     object) only where it :func:`beats` ``answer``."""
-    new = _fitted(problem, obj, shapes, censored, hidden_to=hidden_to)
+    new = lowest_bic_fit(problem, obj, shapes, censored, hidden_to=hidden_to)
     if new is None:
         return answer[0]
-    if new[0][0].extra.get("solid"):
-        return answer[0] if answer[0].extra.get("solid") else new[0][0]
+    if new[0][0].solid:
+        return answer[0] if answer[0].solid else new[0][0]
     return new[0][0] if beats(problem, obj, new[0], answer, new[1], hidden_to) else answer[0]
 
 
 def occlusion_refit(
-    problem: Problem, objects: list[DetectedObject], flags: list[tuple[list[Observation], frozenset[int]] | None] | None = None
-) -> list[DetectedObject]:
+    problem: Problem, objects: list[Found], flags: list[tuple[list[Observation], frozenset[int]] | None] | None = None
+) -> list[Found]:
     """Refit each object whose boxes a nearer object cuts, those edges censored (only outward residuals count).
 
     The refinement of the extraction takes an occluded box as a full one; its robust loss stops an edge
@@ -415,7 +203,7 @@ def occlusion_refit(
     flags = occlusion_flags(problem, objects) if flags is None else flags
     out = []
     for o, f in zip(objects, flags):
-        one_sided = f is not None and len(f[0]) >= MIN_VIEWS_ONE_SIDED and o.extra.get("semi_up") is None
+        one_sided = f is not None and len(f[0]) >= MIN_VIEWS_ONE_SIDED and o.semi_up is None
         if one_sided and problem.config.tuning.one_sided_refit and not problem.config.use_masks:
             out.append(one_sided_refit(problem, o, f[0]))
         else:
@@ -423,7 +211,7 @@ def occlusion_refit(
     return out
 
 
-def one_sided_refit(problem: Problem, o: DetectedObject, obs: list[Observation]) -> DetectedObject:
+def one_sided_refit(problem: Problem, o: Found, obs: list[Observation]) -> Found:
     """The sphere ``o`` refitted on its box observations ``obs`` (edges a nearer object cuts censored, from
     :func:`.occlusion.occlusion_flags`) with a loss that tells a cut from noise by its side: an edge inside the prediction costs
     at most ``BayesConfig.cut_inward_floor`` nats, one outside at most the sensor model's ``outward_floor``
@@ -436,29 +224,27 @@ def one_sided_refit(problem: Problem, o: DetectedObject, obs: list[Observation])
     return _refit(problem, o, obs, (problem.config.tuning.cut_inward_floor, problem.model.outward_floor))
 
 
-def _refit(
-    problem: Problem, o: DetectedObject, obs: list[Observation], floors: tuple[float, float] | None = None
-) -> DetectedObject:
+def _refit(problem: Problem, o: Found, obs: list[Observation], floors: tuple[float, float] | None = None) -> Found:
     """``o`` refitted on ``obs`` from its estimate; ``o`` itself when the fit fails or leaves the radius range.
     ``floors``: see :func:`.refine.refine_sphere` (spheres only)."""
     cfg, r = problem.config, float(o.radius)  # type: ignore[arg-type]
-    b = o.extra.get("semi_up")
+    b = o.semi_up
     if b is None:
         fit = refine_sphere(problem.camera, obs, o.position, r, problem.model, use_masks=cfg.use_masks, floors=floors)
     else:
-        fit = refine_spheroid(problem.camera, obs, o.position, r, float(b), problem.model, spheroid_axis(problem, axis_of(o)))
+        fit = refine_spheroid(problem.camera, obs, o.position, r, float(b), problem.model, spheroid_axis(problem, o.axis))
     sizes = [fit.radius] + ([] if fit.semi_up is None else [fit.semi_up])
     lo, hi = cfg.fit_radius_range
     if not (fit.success and all(lo <= s <= hi for s in sizes)):
         return o
-    extra = {**o.extra, "radius_std": fit.radius_std if np.isfinite(fit.radius_std) else None}
+    learned = {**o.learned(), "radius_std": fit.radius_std if np.isfinite(fit.radius_std) else None}
     if fit.semi_up is not None:
-        extra["semi_up"] = float(fit.semi_up)
+        learned["semi_up"] = float(fit.semi_up)
     cov = fit.covariance if np.all(np.isfinite(fit.covariance)) else None
-    return DetectedObject(fit.centre, o.score, float(fit.radius), cov, o.associations, o.n_cells, extra)
+    return Found(fit.centre, o.score, float(fit.radius), cov, o.associations, o.n_cells, **learned)
 
 
-def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def shape_stage(problem: Problem, objects: list[Found]) -> list[Found]:
     """Every object through :func:`occlusion_refit`, then :func:`fit_shape` (an object whose boxes look elongated both
     ways only because nearer objects cut them stays a sphere).
 
@@ -478,7 +264,7 @@ def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
     predicted = predicted_views(problem, objects)
     flags = occlusion_flags(problem, objects, predicted=predicted)
     refitted = occlusion_refit(problem, objects, flags)
-    trusted = [semi_up_of(o) is not None or looks_round(problem, o) for o in objects]
+    trusted = [o.semi_up is not None or looks_round(problem, o) for o in objects]
     shape_flags = occlusion_flags(problem, objects, trusted, whole_sides=True, predicted=predicted)
     out = []
     for o, f in zip(refitted, shape_flags):
@@ -488,3 +274,8 @@ def shape_stage(problem: Problem, objects: list[DetectedObject]) -> list[Detecte
             censored = hidden_to = None  # the refit changed the association: the flags no longer apply
         out.append(fit_shape(problem, o, frozenset() if f is None else f[1], censored, hidden_to))
     return out
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: every object through :func:`shape_stage`."""
+    return state.with_objects(shape_stage(problem, list(state.objects)))

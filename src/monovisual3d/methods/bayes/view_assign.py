@@ -28,13 +28,23 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from ...result import DetectedObject
 from .aspects import solid_boxes
+from .fits import (
+    MIN_GAIN_NATS,
+    Answer,
+    Budget,
+    as_answer,
+    fit_value,
+    fitted_answer,
+    free_boxes,
+    holding,
+    others_than,
+    sensor_scores,
+)
 from .problem import Problem
+from .rays import centres_agree_many
 from .scoring import associations_list
-from .second_look import Budget, fit_value, free_boxes, others_than
-from .shape_swap import MIN_GAIN_NATS, as_answer, centres_agree_many, holding
-from .shapes import Answer, fitted_answer, sensor_scores
+from .state import Found, State
 
 #: At most this many shape fits (each with every model, 10-50 ms) in one pass: a group of three objects costs nine (a
 #: fit from the other views each, then each refitted as it held its boxes and as assigned), one of four twelve.
@@ -69,7 +79,7 @@ def _pose(problem: Problem, v: int) -> NDArray[np.float64]:
     return np.linalg.inv(problem.views[v].T_optical_base)[None]
 
 
-def _judged_from_others(problem: Problem, o: DetectedObject, v: int, budget: Budget) -> Answer | None:
+def _judged_from_others(problem: Problem, o: Found, v: int, budget: Budget) -> Answer | None:
     """``o`` fitted (every model) from its boxes in the views other than ``v``; None from fewer than
     :data:`MIN_OTHER_VIEWS` views, without a fit, or when the budget is spent."""
     assoc = associations_list(problem, o)
@@ -81,7 +91,7 @@ def _judged_from_others(problem: Problem, o: DetectedObject, v: int, budget: Bud
     return None if fit is None else fit[0]
 
 
-def view_assignment(problem: Problem, objects: list[DetectedObject]) -> list[DetectedObject]:
+def view_assignment(problem: Problem, objects: list[Found]) -> list[Found]:
     """Objects around each free box reassigned that view's boxes where the shape models prefer it (module docstring)."""
     budget = Budget(fits=MAX_FITS)
     out = list(objects)
@@ -97,7 +107,7 @@ def view_assignment(problem: Problem, objects: list[DetectedObject]) -> list[Det
     return out
 
 
-def _members(problem: Problem, objects: list[DetectedObject], v: int, group: list[int]) -> list[int]:
+def _members(problem: Problem, objects: list[Found], v: int, group: list[int]) -> list[int]:
     """The objects a group of boxes in view ``v`` concerns: those holding one of them, and those without a box in the
     view, in front of the camera, whose box as the shape stage fitted it meets one."""
     boxes, pose = problem.views[v].boxes, _pose(problem, v)
@@ -108,14 +118,14 @@ def _members(problem: Problem, objects: list[DetectedObject], v: int, group: lis
             out += [i] if j in group else []
             continue
         _, e, _ = as_answer(problem, o)
-        pred = solid_boxes(problem.camera, pose, e, o.extra.get("solid"))[0]
+        pred = solid_boxes(problem.camera, pose, e, o.solid)[0]
         if any(_overlap(pred, boxes[k]) for k in group):
             out.append(i)
     return out
 
 
 def _free_box_fits_one(
-    problem: Problem, objects: list[DetectedObject], members: list[int], v: int, group: list[int], free: set[int]
+    problem: Problem, objects: list[Found], members: list[int], v: int, group: list[int], free: set[int]
 ) -> bool:
     """Whether one of the group's free boxes, in place of what a member holds in view ``v``, still meets that member's
     other boxes (:func:`.shape_swap.centres_agree_many`): otherwise it is no member's (a false positive beside a fruit)
@@ -130,9 +140,7 @@ def _free_box_fits_one(
     return bool(assocs) and bool(np.any(centres_agree_many(problem, np.array(assocs, dtype=np.intp))))
 
 
-def _reassigned(
-    problem: Problem, objects: list[DetectedObject], v: int, group: list[int], budget: Budget, free: set[int]
-) -> list[DetectedObject]:
+def _reassigned(problem: Problem, objects: list[Found], v: int, group: list[int], budget: Budget, free: set[int]) -> list[Found]:
     """``objects`` with the boxes of ``group`` in view ``v`` assigned afresh where that is worth it (module docstring)."""
     members = _members(problem, objects, v, group)
     if not members or len(members) > MAX_OBJECTS or not _free_box_fits_one(problem, objects, members, v, group, free):
@@ -147,7 +155,7 @@ def _reassigned(
             held = associations_list(problem, objects[i])[v]
             score[r, group.index(held) if held >= 0 else len(group) + r] = 0.0
             continue
-        score[r, : len(group)] = sensor_scores(problem, poses, boxes[group], answer[1], answer[0].extra.get("solid"))
+        score[r, : len(group)] = sensor_scores(problem, poses, boxes[group], answer[1], answer[0].solid)
         score[r, len(group) + r] = problem.model.miss_term
     rows, cols = linear_sum_assignment(score, maximize=True)
     new = {members[r]: (group[c] if c < len(group) else -1) for r, c in zip(rows, cols)}
@@ -168,3 +176,8 @@ def _reassigned(
     if not after > before + MIN_GAIN_NATS:
         return objects
     return [fitted.get(i, o) for i, o in enumerate(objects)]
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: :func:`view_assignment` on the state's objects."""
+    return state.with_objects(view_assignment(problem, list(state.objects)))

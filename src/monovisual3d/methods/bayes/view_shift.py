@@ -21,16 +21,17 @@ with a few objects in view; a few tenths of a degree stay within the boxes' nois
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ...geometry.ellipsoid import Ellipsoid
-from ...result import DetectedObject
 from .aspects import object_boxes, solid_boxes
 from .problem import Problem
 from .sensor import box_edge_sigma_px, censored_edges
+from .state import Found, State
 
 #: Views an object must be seen in for its predicted boxes to judge a view (with two, the fit splits any offset
 #: evenly between them and both views look shifted).
@@ -60,14 +61,14 @@ def shift_message(shift: dict[str, Any], focal_px: float) -> str:
     )
 
 
-def centre_offsets(problem: Problem, obj: DetectedObject) -> tuple[list[int], NDArray[np.float64], NDArray[np.float64]]:
+def centre_offsets(problem: Problem, obj: Found) -> tuple[list[int], NDArray[np.float64], NDArray[np.float64]]:
     """The session indices of the views an object holds a box in (K), the offsets (K, 2) of those boxes' centres from
     the centres its fitted model predicts, pixels, and the centres' noise (K, 2), pixels; NaN rows for a box on the
     image border."""
     views = sorted(obj.associations)
     poses, boxes = object_boxes(problem, obj)
     e = Ellipsoid(obj.position, obj.semi_axes, obj.quaternion_xyzw)  # type: ignore[arg-type]
-    pred = solid_boxes(problem.camera, poses, e, obj.extra.get("solid"))
+    pred = solid_boxes(problem.camera, poses, e, obj.solid)
     offsets = 0.5 * (boxes[:, :2] + boxes[:, 2:]) - 0.5 * (pred[:, :2] + pred[:, 2:])
     sigma = box_edge_sigma_px(problem.model, pred)[:, :2] / math.sqrt(2.0)
     cam = problem.camera
@@ -75,7 +76,7 @@ def centre_offsets(problem: Problem, obj: DetectedObject) -> tuple[list[int], ND
     return views, offsets, sigma
 
 
-def view_shifts(problem: Problem, objects: list[DetectedObject]) -> list[dict[str, Any]]:
+def view_shifts(problem: Problem, objects: list[Found]) -> list[dict[str, Any]]:
     """The views whose boxes sit off together (see the module), in view order, each as ``view`` (its index in the
     session), ``shift_px`` ([u, v], pixels: the mean scaled offset of the observed box centres from the predicted ones
     times the centres' median noise), ``n_objects`` (M, the objects it was judged on) and ``chi2`` (``M |mean scaled
@@ -98,3 +99,8 @@ def view_shifts(problem: Problem, objects: list[DetectedObject]) -> list[dict[st
         if chi2 > CHI2_THRESHOLD and float(np.hypot(*shift)) >= MIN_SHIFT_PX:
             out.append({"view": v, "shift_px": [float(x) for x in shift], "n_objects": len(d), "chi2": chi2})
     return out
+
+
+def run(problem: Problem, state: State) -> State:
+    """The pass: the views whose boxes sit off together, in the state's diagnostics."""
+    return replace(state, view_shifts=tuple(view_shifts(problem, list(state.objects))))

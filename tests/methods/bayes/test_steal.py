@@ -1,4 +1,4 @@
-"""The association repairs after the greedy extraction (:mod:`monovisual3d.methods.bayes.associate`)."""
+"""The steal pass (:mod:`monovisual3d.methods.bayes.steal`)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,9 @@ from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.sphere import sphere_bbox
 from monovisual3d.methods.bayes import BayesConfig
-from monovisual3d.methods.bayes.associate import _replacement
 from monovisual3d.methods.bayes.problem import build_problem
+from monovisual3d.methods.bayes.state import Found
+from monovisual3d.methods.bayes.steal import _replacement
 from monovisual3d.session import Detection, Session, View
 
 CAM = Camera.from_hfov(640, 480, 69.0)
@@ -28,7 +29,8 @@ def _two_fruit():
 def test_replacement_is_the_free_box_that_fits_the_holder_within_the_gate():
     session, res = _two_fruit()
     problem = build_problem(CAM, BayesConfig(), session.views)
-    o = min(res.objects, key=lambda o: np.linalg.norm(o.position - TARGET))
+    r = min(res.objects, key=lambda o: np.linalg.norm(o.position - TARGET))
+    o = Found(r.position, r.score, r.radius, r.covariance, r.associations)  # a sphere, as the pass sees it
     for v in range(3):
         own, other = o.associations[v], 1 - o.associations[v]
         free = np.ones(2, dtype=bool)
