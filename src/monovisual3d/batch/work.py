@@ -107,15 +107,16 @@ def _fruit_row(session_id: str, index: int, obj: DetectedObject) -> dict[str, An
     x, y, z = (float(v) for v in obj.position)
     row: dict[str, Any] = {"session_id": session_id, "fruit": index, "x_m": x, "y_m": y, "z_m": z, "score": float(obj.score)}
     row["radius_m"] = float(obj.radius) if obj.radius is not None else math.nan
-    row["radius_std_m"] = float(obj.extra["radius_std"]) if obj.extra.get("radius_std") is not None else math.nan
+    radius_std, n_views = (obj.extra.get(k) for k in _OWN_COLUMNS)
+    row["radius_std_m"] = float(radius_std) if radius_std is not None else math.nan
     cov = np.full((3, 3), np.nan) if obj.covariance is None else np.asarray(obj.covariance, dtype=float)
     for name, (a, b) in zip(("xx", "xy", "xz", "yy", "yz", "zz"), ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
         row[f"cov_{name}_m2"] = float(cov[a, b])
     if obj.associations:
         row["n_views"] = len(obj.associations)
         row["association"] = json.dumps({str(k): int(v) for k, v in sorted(obj.associations.items())})
-    elif obj.extra.get("n_views") is not None:
-        row["n_views"] = int(obj.extra["n_views"])
+    elif n_views is not None:
+        row["n_views"] = int(n_views)
     row["n_cells"] = None if obj.n_cells is None else int(obj.n_cells)
     rest = {k: v for k, v in obj.extra.items() if k not in _OWN_COLUMNS}
     row["extra"] = json.dumps(rest, default=_jsonable) if rest else None
