@@ -348,7 +348,7 @@ def test_help_lists_a_newcomers_commands_first(runner: CliRunner) -> None:
 
 
 def test_method_options_show_their_defaults(runner: CliRunner) -> None:
-    out = " ".join(runner.invoke(app, ["localize", "--help"]).stdout.split())  # unwrapped
+    out = " ".join(runner.invoke(app, ["localize", "--help"], env={"COLUMNS": "250"}).stdout.split())  # unwrapped
     assert "manipulator reach R" in out and "[default: 0.6]" in out
     assert "memory budget of the call [default: 2GiB]" in out
     assert "--shape <str> bayes method: object model" in out  # the Python type is the option's, not in the text

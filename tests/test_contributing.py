@@ -53,9 +53,12 @@ def test_the_toy_method_of_the_guide_runs_through_the_cli(guide_modules: Path, t
     session, _ = simulate(scene, rng=3)
     session.to_json(tmp_path / "session.json")
 
-    help_text = _cli(guide_modules, "localize", "--help")
+    help_text = _cli(guide_modules, "localize", "--help-all")
     assert help_text.returncode == 0, help_text.stderr
-    assert "--first-views" in help_text.stdout and "toy" in help_text.stdout
+    assert "--first-views" in help_text.stdout and "Expert: toy method" in help_text.stdout
+    table = _cli(guide_modules, "options", "toy")
+    assert table.returncode == 0, table.stderr
+    assert "first_views" in table.stdout and "--first-views" in table.stdout
 
     session_path, result_path = str(tmp_path / "session.json"), str(tmp_path / "result.json")
     out = _cli(guide_modules, "localize", session_path, "--method", "toy", "--first-views", "2", "-q", "-o", result_path)

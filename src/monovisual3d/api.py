@@ -36,7 +36,7 @@ def localize(
     workspace : Workspace or {"min": [...], "max": [...]}, overrides the session's
     progress : callable(done, total), called after each view
     **options
-        Fields of the method's config (see ``monovisual3d localize --help``), e.g. ``resolution``,
+        Fields of the method's config (``monovisual3d options METHOD`` lists them), e.g. ``resolution``,
         ``max_memory``, ``backend``, ``threads``; ``kernel``, ``k``, ``centre`` for ``paper``; ``accept``,
         ``pose_sigma_mm`` for ``bayes``.
 

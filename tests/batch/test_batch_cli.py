@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from monovisual3d.cli import app
-from monovisual3d.cli.batch import parse_options
+from monovisual3d.cli.options import parse_options
 from monovisual3d.errors import InputError
 
 FAST = ["--workers", "0", "--method", "paper", "--option", "resolution=0.05"]

@@ -99,6 +99,6 @@ def test_bayes_smaller_budget_lowers_the_peak(tmp_path: Path) -> None:
 
 
 def test_bayes_capped_search_warns_and_still_finishes(tmp_path: Path) -> None:
-    rc, _, err = _run(str(_session(tmp_path, 10.0)), "-q", "--max-hypotheses", "20000", "-o", str(tmp_path / "r.json"))
+    rc, _, err = _run(str(_session(tmp_path, 10.0)), "-q", "--set", "max_hypotheses=20000", "-o", str(tmp_path / "r.json"))
     assert rc == 0, err
     assert "the search kept only the best hypotheses" in err and "max_hypotheses=20,000" in err

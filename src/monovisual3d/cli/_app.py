@@ -31,6 +31,7 @@ COMMAND_ORDER = (
     "import",
     "import-lfd",
     "import-bag",
+    "options",
     "simulate",
     "next-view",
     "batch",

@@ -14,29 +14,7 @@ from ..errors import InputError
 from ..limits import MAX_LOCAL_WORKERS
 from ._app import app, check_output, command_budget, console, handle_errors, plain, print_warning
 from .bench import bench_app
-from .options import BatchTimeLimit, spread_flags
-
-
-def parse_options(items: list[str] | None) -> dict[str, Any]:
-    """``KEY=VALUE`` strings as a dict; a value is read as JSON when it parses (``3``, ``0.01``, ``true``), else kept as text.
-
-    Examples
-    --------
-    >>> parse_options(["resolution=0.01", "kernel=gaussian", "k=3"])
-    {'resolution': 0.01, 'kernel': 'gaussian', 'k': 3}
-    """
-    out: dict[str, Any] = {}
-    for item in items or []:
-        key, sep, value = item.partition("=")
-        key = key.strip()
-        if not sep or not key.isidentifier():
-            raise InputError(f"--option: got {item!r}, expected KEY=VALUE with KEY a method option name")
-        try:
-            out[key] = json.loads(value)
-        except json.JSONDecodeError:
-            out[key] = value
-    return out
-
+from .options import BatchTimeLimit, parse_options, spread_flags
 
 #: ``--max-worker-deaths``: how often a task may kill its worker before its sessions are retried one by one.
 MaxWorkerDeaths = Annotated[

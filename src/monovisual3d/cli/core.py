@@ -13,7 +13,8 @@ from rich.table import Table
 from ..errors import InputError, InputWarning
 from ..methods import DEFAULT_METHOD, METHODS
 from ._app import app, check_output, command_budget, console, handle_errors, json_text, plain, print_warning, write_output
-from .options import MaxMemory, TimeLimit, method_config, translate_error, with_method_options
+from .options import MaxMemory, MethodOptions, TimeLimit, method_config, translate_error, with_method_options
+from .panels import PANEL_FIND, PANEL_LIMITS, PANEL_OUTPUT, PanelCommand
 
 if TYPE_CHECKING:
     from ..metrics import Metrics
@@ -85,32 +86,44 @@ def print_metrics(rows: dict[str, Metrics], title: str = "Evaluation") -> None:
     console.print(f"[dim]{METRIC_NOTE}[/]", highlight=False)
 
 
-@app.command()
+@app.command(cls=PanelCommand)
 @handle_errors
 @with_method_options
 def localize(
     session: Annotated[Path, typer.Argument(help="Session file (JSON or YAML).")],
-    method: Annotated[str, typer.Option(help=f"Method: {', '.join(METHODS)}.")] = DEFAULT_METHOD,
-    output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the result JSON here.")] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table or progress bar.")] = False,
-    view: Annotated[Path | None, typer.Option("--view", help="Also write an interactive 3D view (HTML, offline) here.")] = None,
+    method: Annotated[str, typer.Option(help=f"Method: {', '.join(METHODS)}.", rich_help_panel=PANEL_FIND)] = DEFAULT_METHOD,
+    output: Annotated[
+        Path | None, typer.Option("--output", "-o", help="Write the result JSON here.", rich_help_panel=PANEL_OUTPUT)
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table or progress bar.", rich_help_panel=PANEL_OUTPUT)] = False,
+    view: Annotated[
+        Path | None,
+        typer.Option("--view", help="Also write an interactive 3D view (HTML, offline) here.", rich_help_panel=PANEL_OUTPUT),
+    ] = None,
     strict: Annotated[
         bool,
         typer.Option(
             "--strict",
             help="Exit 1 (after writing the outputs) when two or more views have boxes and the result is empty "
             "or leaves boxes associated to no object.",
+            rich_help_panel=PANEL_OUTPUT,
         ),
     ] = False,
-    time_limit: TimeLimit = None,
+    time_limit: Annotated[
+        float | None,
+        typer.Option(
+            "--time-limit", help="Stop with an error after this many seconds (default: no limit).", rich_help_panel=PANEL_LIMITS
+        ),
+    ] = None,
     *,
-    method_options: dict[str, Any],
+    method_options: MethodOptions,
 ) -> None:
     """Localise the objects of a session and print/write them.
 
     Warnings follow the table, one line each on stderr (also with --quiet), and are kept in the
-    result's "warnings". Every option after --time-limit is a field of a method's config; its help says
-    which method it applies to.
+    result's "warnings". The options shown are those a user decides; every other option of a method
+    stays settable: --help-all lists the expert flags (by method) and the developer knobs, which
+    --set NAME=VALUE reaches; `monovisual3d options METHOD` is the table of them all.
     """
     # validate the options, the files and the outputs before the progress bar, so an error prints alone
     config = method_config(method, method_options)

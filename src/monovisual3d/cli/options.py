@@ -1,10 +1,16 @@
-"""CLI options built from the methods' config dataclasses (no hand-kept flag table).
+"""CLI options built from the methods' config dataclasses (no hand-kept flag list), and who each one is for.
 
-Every field of every registered method's config (:data:`monovisual3d.methods.METHODS`)
-becomes one ``--field-name`` option of ``localize`` (and of the commands that
-localise), with the help text taken from the config docstring's Attributes
-section. An option that does not belong to the chosen method is an error
-naming the option as typed.
+Every field of every registered method's config (:data:`monovisual3d.methods.METHODS`) is an option of
+``localize``, with the help text taken from the config docstring's Attributes section. :data:`USER_OPTIONS` and
+:data:`DEVELOPER_GROUPS` decide, in one place, how a user reaches each one:
+
+- **user**: a flag that ``localize --help`` shows, in a named panel (:data:`USER_OPTIONS`);
+- **expert**: a flag that ``--help`` hides and ``--help-all`` lists in its method's panel (every other field);
+- **developer**: no flag; ``--set NAME=VALUE`` sets it (the fields of an option group named in
+  :data:`DEVELOPER_GROUPS`, e.g. ``BayesConfig.tuning``); ``--help-all`` and ``monovisual3d options`` list them.
+
+``--set NAME=VALUE`` reaches every option of the method by name. An option that does not belong to the chosen method
+is an error naming the option as typed (``--kernel: ...``, ``--set swap: ...``).
 """
 
 from __future__ import annotations
@@ -12,32 +18,110 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import inspect
+import json
 import re
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from ..errors import InputError
 from ..methods import METHODS, get_method
+from .panels import PANEL_FIND, PANEL_LIMITS, PANEL_MORE, PANEL_SCENE, PANEL_SHARED, help_all_parameter, print_table_panels
+
+if TYPE_CHECKING:
+    from ..methods import Method
+
+#: The method options a user decides, each a flag shown by ``localize --help`` in this panel: what to look for, the
+#: scene and how well its poses are known, what the run may spend. The one place the choice is written (``monovisual3d
+#: options`` shows it per option, as ``user``); the command's own options (``--method``, ``--output``, ``--view``,
+#: ``--quiet``, ``--strict``, ``--time-limit``) take the same panels. The other fields' defaults are the method (the
+#: grid, the sensor model, the paper's kernel and clustering): expert flags, changed with a reason (docs/accuracy.md).
+USER_OPTIONS: dict[str, str] = {
+    "shape": PANEL_FIND,
+    "size_range": PANEL_FIND,
+    "accept": PANEL_FIND,
+    "reach": PANEL_SCENE,
+    "pose_sigma_mm": PANEL_SCENE,
+    "pose_sigma_deg": PANEL_SCENE,
+    "max_memory": PANEL_LIMITS,
+    "threads": PANEL_LIMITS,
+}
+#: Option groups of a method's config whose fields are developer knobs (ablation switches, search effort): no flag,
+#: ``--set NAME=VALUE`` only. Every field outside :data:`USER_OPTIONS` and these groups is an expert flag.
+DEVELOPER_GROUPS = ("tuning",)
+#: Titles of the option groups in the help panels and tables (``bayes sensor model``).
+GROUP_TITLES = {"sensor": "sensor model"}
+
+
+def audience(name: str, group: str = "") -> str:
+    """Who the option ``name`` (a field of the option group ``group``, ``""`` for the config's own) is for: ``user``,
+    ``expert`` or ``developer`` (see the module docstring).
+
+    Examples
+    --------
+    >>> audience("accept"), audience("resolution"), audience("alpha", "sensor"), audience("swap", "tuning")
+    ('user', 'expert', 'expert', 'developer')
+    """
+    if name in USER_OPTIONS:
+        return "user"
+    return "developer" if group in DEVELOPER_GROUPS else "expert"
+
+
+def parse_options(items: list[str] | None, flag: str = "--option") -> dict[str, Any]:
+    """``KEY=VALUE`` strings (of the option ``flag``) as a dict; a value is read as JSON when it parses (``3``,
+    ``0.01``, ``true``), else kept as text.
+
+    Examples
+    --------
+    >>> parse_options(["resolution=0.01", "kernel=gaussian", "k=3"])
+    {'resolution': 0.01, 'kernel': 'gaussian', 'k': 3}
+    """
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key.isidentifier():
+            raise InputError(f"{flag}: got {item!r}, expected KEY=VALUE with KEY a method option name")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
 
 
 @dataclass(frozen=True)
-class OptionSpec:
-    """One CLI option: the config field, its Python type on the command line, help, the methods that have it, and
-    each one's default (its config field's, as text)."""
+class MethodField:
+    """One option of one method: its name, the option group it lives in (``""``: the config's own field), its Python
+    type on the command line, its help (plain text) and its default (as text)."""
 
     name: str
+    group: str
     kind: type
     help: str
-    methods: tuple[str, ...]
-    defaults: tuple[str, ...] = ()
+    default: str
 
     @property
-    def flag(self) -> str:
-        return "--" + self.name.replace("_", "-")
+    def audience(self) -> str:
+        return audience(self.name, self.group)
+
+
+def method_fields(method: Method) -> list[MethodField]:
+    """Every option of ``method``: its config's own fields in order, then those of its option groups
+    (``BayesConfig.sensor``, ``BayesConfig.tuning``) by their own names, group by group."""
+    from ..methods.options import _nested_fields
+
+    cls = method.config_class
+    groups = _nested_fields(cls)
+    owners = [("", cls, f) for f in dataclasses.fields(cls) if f.name not in groups]
+    owners += [(g, sub, f) for g, sub in groups.items() for f in dataclasses.fields(sub)]
+    docs = {c: field_docs(c) for c in {cls, *groups.values()}}
+    return [
+        MethodField(f.name, group, _cli_kind(str(f.type)), docs[owner].get(f.name, ""), _default_text(f))
+        for group, owner, f in owners
+    ]
 
 
 def field_docs(cls: type) -> dict[str, str]:
@@ -93,28 +177,6 @@ def _cli_kind(annotation: str) -> type:
     return str
 
 
-def option_specs() -> list[OptionSpec]:
-    """The options of every registered method, each once (in registry and field order); the fields of a method's
-    option groups (``BayesConfig.sensor``, ``BayesConfig.tuning``) by their own names, after the method's own."""
-    from ..methods.options import _nested_fields
-
-    specs: dict[str, OptionSpec] = {}
-    for method in METHODS.values():
-        cls = method.config_class
-        groups = _nested_fields(cls)
-        owners = [(cls, f) for f in dataclasses.fields(cls) if f.name not in groups]
-        owners += [(sub, f) for sub in groups.values() for f in dataclasses.fields(sub)]
-        docs = {c: field_docs(c) for c in {cls, *groups.values()}}
-        for owner, f in owners:
-            default = _default_text(f)
-            if f.name in specs:
-                old = specs[f.name]
-                specs[f.name] = dataclasses.replace(old, methods=old.methods + (method.name,), defaults=old.defaults + (default,))
-                continue
-            specs[f.name] = OptionSpec(f.name, _cli_kind(str(f.type)), docs[owner].get(f.name, ""), (method.name,), (default,))
-    return list(specs.values())
-
-
 def _default_text(f: dataclasses.Field) -> str:  # type: ignore[type-arg]
     """A config field's default as ``--help`` shows it: ``none``, ``on``/``off``, numbers as typed, tuples with commas."""
     v = f.default_factory() if f.default is dataclasses.MISSING and f.default_factory is not dataclasses.MISSING else f.default
@@ -129,6 +191,64 @@ def _default_text(f: dataclasses.Field) -> str:  # type: ignore[type-arg]
     return f"{v:g}" if isinstance(v, float) else str(v)
 
 
+@dataclass(frozen=True)
+class OptionSpec:
+    """One option over every method: the config field, its Python type on the command line, help, the methods that
+    have it, each one's default (as text) and the option group it lives in there (``""``: the config's own)."""
+
+    name: str
+    kind: type
+    help: str
+    methods: tuple[str, ...]
+    defaults: tuple[str, ...] = ()
+    groups: tuple[str, ...] = ()
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
+
+    @property
+    def audience(self) -> str:
+        """``user``, ``expert`` or ``developer`` (:func:`audience`): a developer knob only where every method that has
+        it keeps it in a developer group."""
+        kinds = {audience(self.name, g) for g in self.groups or ("",)}
+        return "developer" if kinds == {"developer"} else "user" if "user" in kinds else "expert"
+
+    @property
+    def typed(self) -> str:
+        """The option as a user types it: its flag, or ``--set NAME`` for a developer knob."""
+        return f"--set {self.name}" if self.audience == "developer" else self.flag
+
+    @property
+    def panel(self) -> str:
+        """The help panel it is listed in: its :data:`USER_OPTIONS` panel; else its method's (``Expert: bayes
+        sensor model``, ``Developer knobs: bayes tuning (--set NAME=VALUE)``), or :data:`PANEL_SHARED` when several
+        methods have it."""
+        if self.audience == "user":
+            return USER_OPTIONS[self.name]
+        group = self.groups[0] if self.groups else ""
+        if self.audience == "developer":
+            return f"Developer knobs: {self.methods[0]} {group} (--set NAME=VALUE)"
+        if len(self.methods) > 1:
+            return PANEL_SHARED
+        return f"Expert: {self.methods[0]} " + (GROUP_TITLES.get(group, group) if group else "method")
+
+
+def option_specs() -> list[OptionSpec]:
+    """The options of every registered method, each once (in registry and :func:`method_fields` order)."""
+    specs: dict[str, OptionSpec] = {}
+    for method in METHODS.values():
+        for f in method_fields(method):
+            if f.name in specs:
+                old = specs[f.name]
+                specs[f.name] = dataclasses.replace(
+                    old, methods=(*old.methods, method.name), defaults=(*old.defaults, f.default), groups=(*old.groups, f.group)
+                )
+                continue
+            specs[f.name] = OptionSpec(f.name, f.kind, f.help, (method.name,), (f.default,), (f.group,))
+    return list(specs.values())
+
+
 def _help(spec: OptionSpec) -> str:
     who = "" if len(spec.methods) == len(METHODS) else f"{'/'.join(spec.methods)} method: "
     if len(set(spec.defaults)) <= 1:
@@ -139,12 +259,89 @@ def _help(spec: OptionSpec) -> str:
 
 
 def _parameter(spec: OptionSpec) -> inspect.Parameter:
-    if spec.kind is bool:
-        option = typer.Option(f"{spec.flag}/--no-{spec.flag[2:]}", help=_help(spec), show_default=False)
-    else:
-        option = typer.Option(spec.flag, help=_help(spec), show_default=False)
+    """The flag of a user or expert option: shown in its panel, or hidden from ``--help`` (``--help-all`` lists it)."""
+    decls = f"{spec.flag}/--no-{spec.flag[2:]}" if spec.kind is bool else spec.flag
+    option = typer.Option(decls, help=_help(spec), show_default=False, hidden=spec.audience != "user", rich_help_panel=spec.panel)
     annotation = Annotated[spec.kind | None, option]  # type: ignore[operator]
     return inspect.Parameter(spec.name, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=annotation)
+
+
+#: ``--set NAME=VALUE`` of the commands with method options: any option of the method by name, developer knobs too.
+_SET = inspect.Parameter(
+    "set_options",
+    inspect.Parameter.KEYWORD_ONLY,
+    default=None,
+    annotation=Annotated[
+        list[str] | None,
+        typer.Option(
+            "--set",
+            metavar="NAME=VALUE",
+            help="Set any option of the method by name, the developer knobs too (VALUE read as JSON when it parses, "
+            "e.g. --set lookahead=5 --set swap=false); repeatable. `monovisual3d options METHOD` lists them.",
+            rich_help_panel=PANEL_MORE,
+        ),
+    ],
+)
+
+
+def _print_developer_knobs() -> None:
+    """The ``--help-all`` panels of the options no flag reaches (``Developer knobs: bayes tuning``): ``--set NAME=``,
+    type and help."""
+    panels: dict[str, list[tuple[str, str, str]]] = {}
+    for spec in option_specs():
+        if spec.audience == "developer":
+            panels.setdefault(spec.panel, []).append((f"--set {spec.name}=", f"<{spec.kind.__name__}>", _help(spec)))
+    print_table_panels(panels)
+
+
+@dataclass(frozen=True)
+class MethodOptions:
+    """The method options a command was given: values by option name, and how the user typed each one
+    (``--accept``, ``--set swap``), for the errors."""
+
+    values: dict[str, Any]
+    typed: dict[str, str]
+
+    @classmethod
+    def given(cls, flags: Mapping[str, Any], settings: list[str] | None = None) -> MethodOptions:
+        """From the flags' values by name (``None``: not given) and the ``--set NAME=VALUE`` strings; an option given
+        both ways is an error."""
+        values = {k: v for k, v in flags.items() if v is not None}
+        typed = {k: "--" + k.replace("_", "-") for k in values}
+        for name, value in parse_options(settings, "--set").items():
+            if name in values:
+                raise InputError(f"{typed[name]}, --set {name}: give one of them")
+            values[name], typed[name] = value, f"--set {name}"
+        return cls(values, typed)
+
+
+def with_method_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Give a command the flags of the methods' user and expert options, ``--set NAME=VALUE`` and ``--help-all``;
+    it receives the given ones as ``method_options`` (a :class:`MethodOptions`, for :func:`method_config`).
+
+    ``fn`` must have a ``method`` parameter and a ``method_options`` keyword parameter; register it with
+    ``cls=PanelCommand`` so that its ``--help`` shows the panels.
+    """
+    order = list(USER_OPTIONS)
+    specs = sorted(
+        (s for s in option_specs() if s.audience != "developer"),
+        key=lambda s: order.index(s.name) if s.name in order else len(order),
+    )
+    sig = inspect.signature(fn, eval_str=True)
+    base = [p for p in sig.parameters.values() if p.name != "method_options"]
+    params = base + [_parameter(s) for s in specs] + [_SET, help_all_parameter(_print_developer_knobs)]
+    names = {s.name for s in specs}
+
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        flags = {k: kwargs.pop(k) for k in list(kwargs) if k in names}
+        settings = kwargs.pop("set_options", None)
+        kwargs.pop("help_all", None)
+        return fn(*args, method_options=MethodOptions.given(flags, settings), **kwargs)
+
+    wrapper.__name__, wrapper.__doc__, wrapper.__module__ = fn.__name__, fn.__doc__, fn.__module__
+    wrapper.__signature__ = sig.replace(parameters=params)  # type: ignore[attr-defined]
+    wrapper.__annotations__ = {p.name: p.annotation for p in params}
+    return wrapper
 
 
 def _convert(spec: OptionSpec, value: Any) -> Any:
@@ -153,51 +350,56 @@ def _convert(spec: OptionSpec, value: Any) -> Any:
     return value
 
 
-def with_method_options(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Give a command one option per method config field; it receives them as ``method_options`` (given ones only).
-
-    ``fn`` must have a ``method`` parameter and a ``method_options: dict`` keyword parameter.
-    """
-    specs = option_specs()
-    sig = inspect.signature(fn, eval_str=True)
-    base = [p for p in sig.parameters.values() if p.name != "method_options"]
-    params = base + [_parameter(s) for s in specs]
-    names = {s.name for s in specs}
-
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        given = {k: kwargs.pop(k) for k in list(kwargs) if k in names}
-        return fn(*args, method_options={k: v for k, v in given.items() if v is not None}, **kwargs)
-
-    wrapper.__name__, wrapper.__doc__, wrapper.__module__ = fn.__name__, fn.__doc__, fn.__module__
-    wrapper.__signature__ = sig.replace(parameters=params)  # type: ignore[attr-defined]
-    wrapper.__annotations__ = {p.name: p.annotation for p in params}
-    return wrapper
-
-
-def method_config(method: str | None, options: dict[str, Any]) -> Any:
-    """The chosen method's config from CLI options; errors name the option as typed (``--accept: ...``)."""
+def method_config(method: str | None, options: MethodOptions | Mapping[str, Any]) -> Any:
+    """The chosen method's config from CLI options (a mapping: flags by name); errors name each option as typed
+    (``--accept: ...``, ``--set swap: ...``)."""
     m = get_method(method) if method is None or method in METHODS else None
     if m is None:
         raise InputError(f"--method: got {method!r}, expected one of {sorted(METHODS)}")
+    given = options if isinstance(options, MethodOptions) else MethodOptions.given(options)
     specs = {s.name: s for s in option_specs()}
-    for name in options:
+    for name, typed in given.typed.items():
+        if name not in specs:
+            import difflib
+
+            ours = [s.name for s in specs.values() if m.name in s.methods]
+            near = difflib.get_close_matches(name, ours, n=1)
+            hint = f"did you mean {near[0]}? " if near else ""
+            raise InputError(f"{typed}: not an option of --method {m.name} ({hint}`monovisual3d options {m.name}` lists them)")
         if m.name not in specs[name].methods:
             raise InputError(
-                f"{specs[name].flag}: not an option of --method {m.name} (it applies to --method {', '.join(specs[name].methods)})"
+                f"{typed}: not an option of --method {m.name} (it applies to --method {', '.join(specs[name].methods)})"
             )
-    values = {k: _convert(specs[k], v) for k, v in options.items()}
+    values = {k: _convert(specs[k], v) for k, v in given.values.items()}
     try:
         return m.make_config(**values)
     except InputError as exc:
-        field, _, rest = str(exc).partition(":")
-        names = [n for n in re.split(r"[/, ]+", field) if n in values]
-        if names:
-            raise InputError(f"{' / '.join(specs[n].flag for n in names)}:{rest}") from None
-        raise
+        raise InputError(_as_typed(str(exc), given.typed)) from None
+
+
+def _as_typed(message: str, typed: dict[str, str]) -> str:
+    """A config error with the given options named as typed: ``radius_min/radius_max: got ...`` becomes
+    ``--radius-min: got ...``; a message that names an option elsewhere gets it in front (``--alpha: alpha must
+    be >= 0 ...``).
+
+    Examples
+    --------
+    >>> _as_typed("swap: got 'x', expected true or false", {"swap": "--set swap"})
+    "--set swap: got 'x', expected true or false"
+    >>> _as_typed("alpha must be >= 0", {"alpha": "--alpha"})
+    '--alpha: alpha must be >= 0'
+    """
+    field, sep, rest = message.partition(":")
+    words = re.split(r"[/, ]+", field.strip())
+    names = [n for n in words if n in typed]
+    if sep and names and all(re.fullmatch(r"[a-z_][a-z0-9_]*", w) for w in words):
+        return f"{' / '.join(typed[n] for n in names)}:{rest}"
+    named = [n for n in typed if re.search(rf"\b{n}\b", message)]
+    return f"{' / '.join(typed[n] for n in named)}: {message}" if named else message
 
 
 def translate_error(exc: InputError, source: object | None = None) -> InputError:
-    """A library error raised while a method ran, in CLI words: option names as flags, the session file first.
+    """A library error raised while a method ran, in CLI words: option names as typed, the session file first.
 
     ``resolution: ... resolution 0.0035 m fits ... max_memory`` becomes
     ``FILE: --resolution: ... --resolution 0.0035 fits ... --max-memory``.
@@ -206,7 +408,7 @@ def translate_error(exc: InputError, source: object | None = None) -> InputError
     specs = {s.name: s for s in option_specs()}
     field, sep, rest = text.partition(":")
     if sep and field in specs:
-        text = specs[field].flag + ":" + rest
+        text = specs[field].typed + ":" + rest
     text = re.sub(r"\bresolution ([0-9.e+-]+) m fits", r"--resolution \1 fits", text)
     text = re.sub(r"\bmax_memory\b", "--max-memory", text)
     if source is not None and not text.startswith(f"{source}:"):
