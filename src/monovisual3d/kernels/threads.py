@@ -20,10 +20,9 @@ time: each call site multiplies its loop count (cells times views, hypotheses
 times boxes) by a measured cost per iteration (``NS_PER_*`` constants next to
 the calls in :mod:`monovisual3d.methods.paper.engine.dense`,
 :mod:`monovisual3d.methods.paper.engine.sparse` and the ``bayes`` kernels). A
-second thread starts paying off at about 20 ms of work (``benchmarks/threads.py``
-measures the crossover, idle and with a busy-loop process on one core): below
-that, waking the pool and waiting for a thread that shares its core with
-another process costs more than the split saves.
+second thread starts paying off at about 20 ms of work: below that, waking
+the pool and waiting for a thread that shares its core with another process
+costs more than the split saves (why: docs/decisions/threads.md#min_work_per_thread).
 
 Examples
 --------
@@ -45,11 +44,11 @@ from ..checks import is_real
 from ..errors import InputError
 
 #: Work items (about nanoseconds of single-thread time) each thread must get: a call uses
-#: ``work_items // MIN_WORK_PER_THREAD`` threads, at least one (``benchmarks/threads.py``).
+#: ``work_items // MIN_WORK_PER_THREAD`` threads, at least one (why: docs/decisions/threads.md#min_work_per_thread).
 MIN_WORK_PER_THREAD = 10_000_000
 
 #: Environment set (unless already set) before numba starts its OpenMP pool: threads that wait
-#: sleep instead of spinning on a core another process needs (``benchmarks/threads.py``).
+#: sleep instead of spinning on a core another process needs (why: docs/decisions/threads.md#pool_environment).
 POOL_ENVIRONMENT = {"OMP_WAIT_POLICY": "PASSIVE"}
 
 _LIMIT: contextvars.ContextVar[int | None] = contextvars.ContextVar("monovisual3d_thread_limit", default=None)

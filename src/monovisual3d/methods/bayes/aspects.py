@@ -39,30 +39,25 @@ MIN_ELONGATED_FRACTION = 0.5
 #: ``auto`` also tries the lying fits (:func:`.shapes.beats` must prefer them to the sphere) for an object with a single
 #: elongated box when that box's |log(aspect / sphere's aspect)| exceeds this: a 35 % difference, 3 sigmas of the log
 #: aspect under 5 % edge noise (sigma = 2 x 0.05), 5 under 3 %; a shape or a cut, not noise. A flat object (a tray) seen
-#: from above in two views and from 20 degrees in a third has two round boxes and one wide one; kept a sphere (the
-#: wide box taken as cut top and bottom), it came out 50-110 mm off (``python benchmarks/container_pairs.py cuboid
-#: 0.005 1960 1964 20:60 --visible --unboxed-hidden --tray --pose-error=1,0.15 -- 'size_range=[0.02,0.15]'
-#: reach=1.0``: the tray missed in 8 -> 3 of 224 three-view subsets). A sphere a leaf cuts stays a sphere (the sensor
-#: model explains the cut: ``bench accuracy`` unchanged).
+#: from above in two views and from 20 degrees in a third has two round boxes and one wide one, which kept a sphere
+#: takes the wide box as cut top and bottom. A sphere a leaf cuts stays a sphere: the sensor model explains the cut
+#: (why: docs/decisions/bayes-shapes.md#strong_elongation).
 STRONG_ELONGATION = 0.3
 #: An edge of an object's box this many sensor sigmas inside its sphere's prediction may be cut by an occluder the
 #: search does not see (a leaf): an object elongated one way with such an edge, and with boxes elongated unlike each
 #: other (:func:`consistently_elongated`: a cut changes the boxes it cuts, a shape all of them), takes a fitted shape
 #: only when that beats the sphere under the sensor model (:func:`possibly_cut`, :func:`.shapes.beats`), as when a nearer object
-#: cuts it. Box noise alone puts an edge there 0.13 % of the time. Without the second condition a cucumber the search
-#: found as a sphere of its height (its boxes far inside that sphere's on both sides, which the sensor model scores as
-#: occlusion at ``inward_floor`` an edge) stayed that sphere, 61 mm off (shapes-noise seed 3). In ``greenhouse-noise`` (tomatoes behind leaves, seeds 0-19) 7 of 167
-#: fruit came out as spheroids or ellipsoids before, 4 with it (``bench accuracy``: greenhouse 2.31 -> 2.14 mm, worst
-#: 27 -> 12 mm; greenhouse-noise 5.61 -> 5.44 mm). Every shapes row is unchanged (their fitted shapes beat the sphere or
-#: leave no edge that deep); 2 sigmas gave the same objects. Requiring it of every fitted object instead cost the
-#: shapes rows (shapes-clean semi-axis error 0.86 -> 0.99 mm): the sensor model's pose noise and 5 % edge noise make
-#: it slower to take a mildly elongated fruit's shape from exact boxes.
+#: cuts it. Box noise alone puts an edge there 0.13 % of the time. The second condition keeps an elongated object's
+#: shape: a cucumber the search found as a sphere of its height has its boxes far inside that sphere's on both sides in
+#: every view alike, which the sensor model scores as occlusion at ``inward_floor`` an edge. Asked of every fitted
+#: object, the test would make a mildly elongated fruit's shape harder to take from exact boxes, under the sensor
+#: model's pose noise and 5 % edge noise (why: docs/decisions/bayes-occlusion.md#hidden_cut_sigmas).
 HIDDEN_CUT_SIGMAS = 3.0
 #: An edge of an object's box this many sensor sigmas outside its sphere's prediction cannot be a cut (occlusion only
 #: shrinks a box); box noise puts an edge there 0.13 % of the time (1.6 % for one of three views' 12 edges): an object
 #: with an elongated box and such an edge (on any of its boxes) is fitted as the objects with two elongated boxes are
 #: (:func:`sticks_out`). A box lying on a table, seen broadside in one of three views and end-on (square) in the two
-#: others, has one elongated box; kept a sphere, it came out 50-60 mm off (``python benchmarks/tabletop_subsets.py``).
+#: others, has one elongated box, and edges of it outside the sphere's box (why: docs/decisions/bayes-shapes.md#outside_sigmas).
 OUTSIDE_SIGMAS = 3.0
 
 

@@ -19,10 +19,9 @@ up to ``lookahead`` distinct candidates whose grid score is within
 When the search leaves its last level to the extraction (``Hypotheses.child_cell``: a dense scene), the rows start
 as the cells of the level above, and a cell is replaced by its 8 children, scored with the boxes left, when it reaches
 the band; a ghost crossing whose boxes are taken first sinks below the band at its own, cheaper rescoring and is never
-split. A cell's score is blurred over its size, and its best child scores at most 2.7 nats above it (1.2 in 99 % of
-splits; rows of 12 fruit, seeds 100-104, and of 96, seeds 100-102): a child could thus miss the look-ahead that the eager order would
-give it. On every benchmark (``bench accuracy``, ``bench real``, rows of 12-96 fruit, the container scenes) the
-objects are the same to the last digit.
+split. A cell's score is blurred over its size, and its best child may score a few nats above it: a child could thus
+miss the look-ahead that the eager order would give it; none has changed an object
+(why: docs/decisions/bayes-search.md#lazy-children).
 """
 
 from __future__ import annotations

@@ -55,8 +55,8 @@ MIN_VIEWS_FOR_LYING = 3
 
 #: Views from which ``solids`` also fits the yawed cuboid (7 parameters, as the ellipsoid; a square box's width changes
 #: with the yaw from view to view, a cylinder's does not). From 3 views it is weakly determined and kept only with
-#: clear evidence (:func:`.solid_choice.solid_evidence`); it brings a 5 x 5 x 12 cm box seen from 15-30 degrees from 3.4-3.7 mm
-#: to 2.4-2.5 mm with exact boxes (benchmarks/solid_shape_bias.py).
+#: clear evidence (:func:`.solid_choice.solid_evidence`), and still brings a box's centre closer than the ellipsoid
+#: models do (why: docs/decisions/bayes-shapes.md#min_views_for_cuboid).
 MIN_VIEWS_FOR_CUBOID = 3
 
 

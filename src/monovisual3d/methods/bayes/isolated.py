@@ -5,7 +5,8 @@ a fruit's box and a false one, meet somewhere along an epipolar line at any dept
 crossing like a fruit seen twice (9-14 nats). Three boxes' rays rarely meet by chance. The objects of one scene lie
 together: the fruit of a plant or a row, the objects on a table. An object that holds boxes in fewer than
 :data:`WELL_SEEN_VIEWS` views and whose depth lies more than ``isolated_margin`` outside the depths of the well-seen
-objects, in every view where it holds a box (along the rays that triangulate it), is dropped; it takes at least
+objects, in every view where it holds a box (along the rays that triangulate it), is dropped
+(why: docs/decisions/bayes-isolated.md#isolated_margin); it takes at least
 :data:`MIN_WELL_SEEN` well-seen objects to say where the scene lies. A real fruit seen only twice that far in front of
 or behind the others (the next row, through a gap) is dropped too; the result's diagnostics count the objects
 dropped (``isolated_dropped``).
@@ -14,12 +15,6 @@ Three rays do meet by chance now and then: two false boxes and a fruit's, the fr
 the matching pairing it with an estimate 0.1-0.45 m away. An object seen in exactly three views is dropped only
 when it lies outside the depths of the other well-seen objects by more than ``isolated_margin`` and more than
 :data:`SPREAD_FACTOR` times their depth range, in its views: farther from the scene than the scene is deep.
-
-Measured (``python benchmarks/option_ab.py accuracy greenhouse-clutter 6000 6200 -- isolated_margin=1e9``, the rule off
-against the default): simulated greenhouse scenes with false-positive boxes, 200 seeds, RMS centre error of the matched
-pairs 14.97 -> 7.14 mm, precision 0.981 -> 0.993, recall 0.983 unchanged (the two-view rule alone, judged in every
-view: 11.05 mm, 0.989); leaves alone (``greenhouse-noise 6000 6100``), the accuracy benchmark's other conditions, plant
-rows, table tops and Aldoma: unchanged. Other seed sets: ``docs/accuracy.md``.
 """
 
 from __future__ import annotations
@@ -38,10 +33,9 @@ MIN_WELL_SEEN = 3
 WELL_SEEN_VIEWS = 3
 #: An object seen in exactly :data:`WELL_SEEN_VIEWS` views is judged against the other well-seen objects with a margin of
 #: at least this many times their depth range in each view: three rays meeting is stronger evidence than two, and the
-#: objects of a table top lie spread over its depth, where those of a plant lie close. Simulated greenhouse scenes with
-#: false boxes (seeds 5000-5299, 7000-7099, 7300-7499): the three-box objects 0.1-0.45 m in front of the plant, two
-#: false boxes and a fruit's, lie 1.3-4.1 times the others' range outside it; true objects on simulated table tops
-#: (``benchmarks/tabletop_subsets.py 810 813``) up to 0.83 times (0.5 here drops 8 of them).
+#: objects of a table top lie spread over its depth, where those of a plant lie close: the chance crossings lie farther
+#: outside the others' range than the scene is deep, true objects of a table top within it
+#: (why: docs/decisions/bayes-isolated.md#spread_factor).
 SPREAD_FACTOR = 1.0
 
 

@@ -1,10 +1,9 @@
 """Objects whose boxes belong to several fruit: regrouped with their neighbours when that explains the boxes better.
 
 Three rays through boxes of three different fruit can meet in front of or behind the plant, and the object there
-explains them like a fruit seen three times: the greedy extraction takes it first when it scores best (seed 7552 of
-the false-positive greenhouse condition: 22.9 nats, 0.14 m in front of the plant). Each fruit that gave it a box is
-then left with two views and either lost or paired with another fruit's box; no steal or swap move undoes that, as
-each leaves a holder with one box.
+explains them like a fruit seen three times: the greedy extraction takes it first when it scores best. Each fruit that
+gave it a box is then left with two views and either lost or paired with another fruit's box; no steal or swap move
+undoes that, as each leaves a holder with one box (why: docs/decisions/bayes-association.md#regroup).
 
 :func:`regroup_pass` takes each object in turn and the best hypotheses of the search that use one of its boxes with
 another association. The object and the holders of the boxes those hypotheses want give up their boxes; the boxes so

@@ -64,10 +64,8 @@ MAX_FIRST_LEVEL_CELLS = 2_000_000
 DEPTH_GATE_SLACK = 2.0
 #: Hypotheses of the last level above which the search leaves that level to the extraction, which scores a cell's
 #: children only when the cell nears the best. Scoring the whole level at once is one parallel kernel call; the
-#: extraction's splits are many small ones and pay off only where most cells are ghost crossings it never splits.
-#: Measured (``bench scale`` rows from 5 views, lazy and eager alternated in one process, seeds 0-2): 12 fruit (25,000
-#: hypotheses) 12-17 % slower lazily, 24 fruit (55,000) 6-22 % slower, 48 and 64 fruit (125,000 and 200,000) from
-#: 15 % faster to 9 % slower, 80 fruit (275,000) 4 % slower to 11 % faster, 96 fruit (365,000) 9-12 % faster.
+#: extraction's splits are many small ones and pay off only where most cells are ghost crossings it never splits: in
+#: dense rows of many fruit (why: docs/decisions/bayes-search.md#lazy_last_level_above).
 LAZY_LAST_LEVEL_ABOVE = 200_000
 #: Cells whose cone counts are computed at once.
 CHUNK_CELLS = 1 << 20

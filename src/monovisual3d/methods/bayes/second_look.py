@@ -28,23 +28,21 @@ are worth :data:`.shape_swap.MIN_GAIN_NATS` more than it (:func:`_released`).
 
 Last, an object wholly behind another in a view has no box there: a detector of visible parts sees nothing of it (two
 containers in line with the camera). The search takes the nearer object's box for both, the farther object's then,
-or for a mix of the two, and leaves the other's boxes free, too few views of them for a new object: from three views
-at the containers' height, 50 of 448 container-subsets missed (34 with this part). :func:`_uncovered` offers a new
+or for a mix of the two, and leaves the other's boxes free, too few views of them for a new object
+(why: docs/decisions/bayes-association.md#hidden-objects). :func:`_uncovered` offers a new
 object the free boxes of :data:`MIN_VIEWS_HIDDEN` views where it is hidden (:func:`_hidden`: its predicted box inside
 a nearer object's box) in every other view where it would be in the image, and a new object free boxes with one box an
 object seen in :data:`MIN_VIEWS` views holds (that object keeping the rest). Each is judged with the object it
 concerns as a pair (the edges one hides of the other left out, :func:`.shape_swap.pair_values`), misses counted where
 not hidden: the new object must be worth ``accept``, and the pair, less ``accept`` (one more object's cost),
 :data:`.shape_swap.MIN_GAIN_NATS` more than that object alone. Misses behind a nearer object's box cost nothing in
-the parts above either. ``python benchmarks/container_pairs.py cuboid 0.005 1100 1104 0 --visible --unboxed-hidden
---tray --no-workspace --pose-error=1,0.15 -- 'size_range=[0.02,0.15]' reach=1.0`` measures it.
+the parts above either.
 
 Its cost is bounded: the combinations are screened for all at once (no more than :data:`MAX_SCREENED` in one pass),
 and at most :data:`MAX_FITS` shape fits are made in all, as many again in :func:`_uncovered` (every box of one or two
-lying objects left free in 3-14 views: 1-2 fits, 0.1-0.45 s). In plant rows of 12-96 fruit no box is free. In every
-``bench accuracy`` condition (false positives, leaf occlusion) the pass changes nothing; in ``greenhouse-clutter`` the
-candidates of :func:`_uncovered` (false positives with a fruit's box) cost 0.04 s a run.
-``python benchmarks/tabletop_subsets.py 810 816`` measures it (lying objects, three views at random azimuths).
+lying objects left free in 3-14 views: 1-2 fits, 0.1-0.45 s). In plant rows no box is free; among false positives the
+candidates of :func:`_uncovered` (false positives with a fruit's box) cost a few hundredths of a second a run
+(why: docs/decisions/bayes-association.md#second_look).
 """
 
 from __future__ import annotations

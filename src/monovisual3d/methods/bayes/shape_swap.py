@@ -19,9 +19,8 @@ the pair: the sensor model's box scores, a hidden edge costing nothing while the
 box, less the Bayesian information criterion's ``ln(edges) / 2`` per parameter (:func:`.shapes.shape_value`). The best
 of these replaces the pair, fitted with every model of the shape stage, when it beats the pair as the shape stage left it by more than
 :data:`MIN_GAIN_NATS`; where none does and the shape stage kept one of the pair as a sphere whose boxes are not round
-(:func:`_cut_sphere`), the pair refitted with every model may. Plant rows, whose fruit are round, never pay for it.
-
-``python benchmarks/container_pairs.py cuboid 0.005 500 503 0 --visible`` measures it (the module docstring there).
+(:func:`_cut_sphere`), the pair refitted with every model may. Plant rows, whose fruit are round, never pay for it
+(why: docs/decisions/bayes-association.md#shape_swap).
 
 Then any two objects may trade one view's boxes where the geometry lets both still triangulate: after the trade, the
 rays through each one's box centres meet at a point that projects near every box's centre (:func:`centres_agree_many`,
@@ -30,8 +29,8 @@ where the object projects; from two (three views, two of them close together) an
 pass, and two lying objects' boxes traded in the odd view make two sphere ghosts that the search and the sphere-level
 swap pass cannot tell from the truth. The trade is judged with every shape model (the solids too: a lying box is an
 upright cuboid) and must beat the pair both as the shape stage left it and refitted as it holds its boxes by
-:data:`MIN_GAIN_NATS`. ``python benchmarks/tabletop_subsets.py 1000 1200 --two-viewpoints`` measures it; in a plant
-row no trade passes the geometry (12-96 fruit: 0 of 3-450 screened pairs).
+:data:`MIN_GAIN_NATS`. In a plant row no trade passes the geometry
+(why: docs/decisions/bayes-association.md#epipolar-trades).
 """
 
 from __future__ import annotations

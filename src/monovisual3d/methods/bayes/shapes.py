@@ -27,7 +27,8 @@ object hides counts one-sided: the object reaches at least that far):
 With ``BayesConfig.solids``, an object elongated one way is also fitted as an upright cylinder (and, with
 :data:`MIN_VIEWS_FOR_CUBOID` views, a cuboid with a yaw): the exact boxes of a can, a bottle or a box
 (:mod:`monovisual3d.geometry.solids`). The ellipsoid models predict a container's boxes wrong where its top rim
-sticks out, seen from above, and that biases its centre down by about 3 mm (``benchmarks/solid_shape_bias.py``).
+sticks out, seen from above, and that biases its centre down by a few millimetres
+(why: docs/decisions/bayes-shapes.md#solids).
 The solid is kept only when the boxes clearly prefer it to the best ellipsoid model, with the edge noise
 estimated from the fits (:func:`.solid_choice.solid_evidence`, :data:`.solid_choice.SOLID_EVIDENCE_NATS`): under noisy boxes the two are
 equally good and fruit stay ellipsoids. A solid reports its centre as the position, its radius or half-sides as
@@ -79,22 +80,15 @@ from .state import Found, State
 #: RMS (the sphere 13-22 px) and lands 2-6 mm off. Fruit (the paper's tomatoes, 20-40 mm) never pay for the fits.
 LARGE_RADIUS_M = 0.06
 
-# Why ``BayesConfig.cut_inward_floor`` is 1.5 nats: the inward floor of the loss of the final sphere refit
-# (:func:`one_sided_refit`), the outward one staying the
-# sensor model's ``outward_floor`` (6): the per-edge likelihood is a mixture of the Gaussian edge noise and a flat tail
-# ``exp(-floor)`` of its peak, an occluder's cut inward. Occlusion only shrinks a box (``benchmarks/occlusion_ratio.py``
-# prints it: in the simulated greenhouse 7 % of the true boxes' edges lie more than 2 sigmas inside the silhouette box,
-# 0.3 % outside; box noise alone is symmetric). Chosen on fresh simulated seeds 2000-2029 (not the benchmark's) of
-# ``greenhouse-noise`` / ``greenhouse-clutter``, RMS error over the cut-edge bound without errors over 20 mm: the
-# symmetric loss (3 nats both sides) 1.21 / 1.16; inward floor 3: 1.18 / 1.16, 2.25: 1.16 / 1.15, 1.5: 1.15 / 1.13,
-# 1.0: 1.17 / 1.11, 0.75: 1.18 / 1.10; outward floor 3 instead of 6 at 1.5: 1.18 / 1.12. Censoring in addition each edge
-# the fit leaves more than 2 sigmas inside gave 1.16 / 1.14 (alone 1.20 / 1.16) and is not done. The measured rate of
-# cuts (12 % of edges, spread over 0.4-5 sigmas) gives a tail of about 2.7 nats; the lower floor also covers the noise
-# the simulator adds to a cut edge. The cost where nothing is occluded: paper-noise 0.942 -> 0.946 of its bound
-# (benchmark seeds), its radius error 0.58 -> 0.75 mm (inward noise edges count less).
+# ``BayesConfig.tuning.cut_inward_floor`` (1.5 nats) is the inward floor of the loss of the final sphere refit
+# (:func:`one_sided_refit`), the outward one staying the sensor model's ``outward_floor`` (6): the per-edge likelihood is
+# a mixture of the Gaussian edge noise and a flat tail ``exp(-floor)`` of its peak, an occluder's cut inward. Occlusion
+# only shrinks a box, so an edge inside the prediction may be a cut and costs less than one outside; a low floor lets a
+# cut edge go, at the price of weighing inward noise edges less where nothing is occluded
+# (why: docs/decisions/bayes-occlusion.md#cut_inward_floor).
 #: Views a sphere needs for :func:`one_sided_refit`: from two, its 8 edges barely determine its 4 parameters, and an
-#: edge cannot be told a cut from noise by the others; letting inward edges go there moves the depth (in simulated
-#: clutter, seeds 3000-3039, two two-view fruit went from 13 and 18 mm to 24 mm off).
+#: edge cannot be told a cut from noise by the others; letting inward edges go there moves the depth
+#: (why: docs/decisions/bayes-occlusion.md#min_views_one_sided).
 MIN_VIEWS_ONE_SIDED = 3
 
 
@@ -105,22 +99,22 @@ def fit_shape(
     censored: NDArray[np.bool_] | None = None,
     hidden_to: NDArray[np.float64] | None = None,
 ) -> Found:
-    """One object through the shape stage (see the module docstring); ``cut``: the session indices of the views where
-    a nearer object cuts its box (:func:`.occlusion.occlusion_flags`). An object elongated both ways (a lying object, or a sphere
-    whose boxes are cut) whose every uncut box has its sphere's aspect stays a sphere without the lying fits; one
-    elongated one way whose boxes are cut, by a nearer object or by something unseen (:func:`possibly_cut`: a leaf),
-    takes the fitted shape only when that beats the sphere under the sensor model (:func:`beats`), which scores a cut
-    box as occluded (in a dense row, neighbours cut a fruit's boxes to tall slivers that a small near spheroid fits),
-    unless its boxes that no nearer object cuts, two or more, are elongated alike (:func:`consistently_elongated`: a cut
-    changes the boxes it cuts, a shape all of them). Those show the object's shape; without this, a reported pose a few
-    tenths of a degree off let a large sphere claim, as cuts, the edges of the uncut views that the right shape misses
-    by a few sigmas (``python benchmarks/container_pairs.py cuboid 0.005 1600 1604 20 --tray --no-workspace
-    --pose-error=3,0.5 -- 'size_range=[0.02,0.15]' reach=1.0``: containers missed 32 -> 27 of 448).
-    An object with only one elongated box is fitted as one elongated both ways when an edge sticks out of its sphere's
-    prediction (:func:`sticks_out`: no cut makes a box larger), even where a nearer object is predicted to cut it, or
-    when that box is elongated far beyond box noise (:func:`strongly_elongated`: a flat tray seen from above and from
-    the side). An object larger than :data:`LARGE_RADIUS_M` is fitted with every model, the solids included, even where
-    its boxes look round (a flat tray seen from high above), and takes a solid its evidence chooses."""
+    """One object through the shape stage (module docstring) under ``BayesConfig.shape``; ``cut``: the session indices
+    of the views where a nearer object cuts its box (:func:`.occlusion.occlusion_flags`). With ``auto``:
+
+    - round boxes (:func:`round_aspects`) keep the sphere, unless one is elongated and an edge sticks out of the
+      sphere's prediction (:func:`sticks_out`: no cut makes a box larger, even where a nearer object is predicted to
+      cut it), or one is elongated far beyond box noise (:func:`strongly_elongated`: a flat tray);
+    - elongated both ways only through the boxes a nearer object cuts, no edge sticking out: a sphere (cuts made it so);
+    - elongated one way and cut (by a nearer object, or :func:`possibly_cut`: a leaf): the fit only where it
+      :func:`beats` the sphere, which scores a cut box as occluded (neighbours in a dense row cut a fruit's boxes to
+      tall slivers that a small near spheroid fits), unless two or more uncut boxes elongated alike show the shape
+      (:func:`consistently_elongated`: a cut changes the boxes it cuts, a shape all of them;
+      why: docs/decisions/bayes-shapes.md#uncut-boxes-elongated-alike);
+    - taller in every view: upright, round in plan, the first fit kept; wider in every view, or elongated both ways:
+      the lying fits too, kept where they :func:`beats` the first answer;
+    - larger than :data:`LARGE_RADIUS_M`: every model, the solids included, even for round boxes (a wrong shape moves
+      a large object's centre by tens of millimetres), and a solid its evidence chooses."""
     cfg = problem.config
     n_views = len(obj.associations)
     if cfg.shape == "sphere" or n_views < 2:
@@ -251,15 +245,15 @@ def shape_stage(problem: Problem, objects: list[Found]) -> list[Found]:
     The shape fits leave out each box edge along which a nearer object's predicted box covers the whole side
     (:func:`.occlusion.covered_sides`; nearer objects whose prediction can be trusted only: found as spheroids, or round): two
     containers side by side seen from their height, the farther box ends where the nearer begins, and taken at face
-    value that edge put the farther container 12-20 mm off in most three-view sets (``python
-    benchmarks/container_pairs.py cylinder 0.005 500 505 0 --visible``: subsets' mean 5.5 -> 1.3 mm, p90 16.4 -> 2.9).
+    value that edge puts the farther container off (why: docs/decisions/bayes-occlusion.md#covered_sides).
     Behind an elongated occluder (straight-sided) such an edge is left out only where it ends at the occluder's box
     edge, as a box of the visible part does (:func:`.occlusion.ends_at_occluder`): an edge well inside is an amodal
-    box's own edge, and without it a sphere of the containers' height took the farther container's place (cuboids, whole
-    boxes, 10 degrees above: 7 of 560 three-view sets, 0 now). The sphere refit keeps the looser test of one extreme point (:func:`.occlusion.occluded_edges`): a tall object's edge stays
-    while any part of its side shows (a farther container's top above the nearer one), and the looser test, there,
-    cost the cuboids seen from 20 degrees above (subsets' p90 3.9 -> 6.5 mm). A left-out edge is hidden no further than
-    the far side of the nearer box that hides it (:func:`.occlusion.occlusion_flags`), in the fits and in
+    box's own edge, and without it a sphere of the containers' height can take the farther container's place
+    (why: docs/decisions/bayes-occlusion.md#ends_at_occluder). The sphere refit keeps the looser test of one extreme
+    point (:func:`.occlusion.occluded_edges`); in the shape fits a tall object's edge stays while any part of its side
+    shows (a farther container's top above the nearer one): the looser test there costs box-shaped containers seen
+    from above. A left-out edge is hidden no further than the far side of the nearer box that hides it
+    (:func:`.occlusion.occlusion_flags`), in the fits and in
     :func:`beats`."""
     predicted = predicted_views(problem, objects)
     flags = occlusion_flags(problem, objects, predicted=predicted)

@@ -26,16 +26,14 @@ if TYPE_CHECKING:
     from ...geometry.fit import EllipsoidFit
 
 #: Evidence (nats, :func:`solid_evidence`) a solid needs over the best ellipsoid model: prior odds of e : 1 for the
-#: ellipsoids, the models of fruit. Chosen on cylinder-against-spheroid fits to simulated upright 5 x 5 x 12 cm
-#: cylinders and spheroids (``python benchmarks/solid_shape_bias.py 9000 9060 --evidence``: 3 and 8 views, 0.3-2 % box
-#: noise): at 0 nats (the plain choice) spheroids with 1-2 % noise come out as cylinders 25-45 % of the time, 1-2 mm
-#: high; at 1 nat 7-13 %, and the summed vertical error of both kinds is the lowest of 0-3 nats, or within 0.07 mm of
-#: it; exact boxes still pick the right model every time.
+#: ellipsoids, the models of fruit. Under box noise of a few per cent a cylinder and a spheroid of the same size fit
+#: about equally well, and without prior odds (0 nats) spheroids are often taken for cylinders, placed a little high;
+#: near-exact boxes speak for the right model by far more than that (why: docs/decisions/bayes-shapes.md#solid_evidence_nats).
 SOLID_EVIDENCE_NATS = 1.0
 #: A solid the BIC under the sensor model's edge noise does not prefer may still win by its evidence when its fit is
 #: this unlikely, or less, under that noise: its chi2 below this quantile of the chi2 distribution of its degrees of
 #: freedom (a detector more precise than the sensor model assumes). Three views' 12 edges and a cuboid's 7 parameters:
-#: chi2 below 1.6, its 12 edges within about 0.37 sensor sigmas RMS.
+#: chi2 below 1.6, its 12 edges within about 0.37 sensor sigmas RMS (why: docs/decisions/bayes-shapes.md#precise_quantile).
 PRECISE_QUANTILE = 0.1
 #: Degrees of freedom (edges less parameters) a solid's fit needs for that: three whole views of a cuboid. Containers
 #: side by side seen from their height with boxes of their visible parts (tests/methods/bayes/test_bayes_shape_swap.py)
@@ -92,14 +90,14 @@ def solid_if_clear(best: EllipsoidFit, fits: dict[str, EllipsoidFit]) -> Ellipso
     the larger of the two.
 
     The sensor model's edge noise (``alpha``, a bound for poor detectors) makes a large box's edge sigma tens of pixels,
-    under which a solid's better fit of near-perfect boxes weighs less than its extra parameters. A flat 200 x 160 x 30
-    mm tray seen from three views 0.6 m away (boxes 250-450 px wide): the cuboid fits exact boxes to under 0.5 px, the
-    spheroid misses them by about 10 px RMS and lands 10-25 mm off, and the BIC took the spheroid (or the cylinder) (``python benchmarks/container_pairs.py cuboid 0.005 1100
-    1104 0 --tray``). With boxes as noisy as the sensor model says, the BIC is the better judge: the evidence, which
-    estimates the noise from 12 edges, took 7 of the 60 peppers and cucumbers of ``shapes-noise`` (5 % box noise) for
-    solids. A flat tray seen from its height with the arm's pose error (1 mm and 0.15 degrees per axis): each view's box
-    moves 2-8 px, on the tray's thin side that is 1-2 edge sigmas, and the edges' evidence left the cuboid out in favour
-    of a spheroid or ellipsoid 10-30 mm off; its sizes keep it (``tests/methods/bayes/test_bayes_solids.py``)."""
+    under which a solid's better fit of near-perfect boxes weighs less than its extra parameters: a flat tray's cuboid
+    fits its exact boxes to under a pixel where a spheroid misses them by about 10 px, and the BIC still takes the
+    spheroid. With boxes as noisy as the sensor model says, the BIC is the better judge: the evidence, which estimates
+    the noise from 12 edges, takes noisy fruit for solids now and then
+    (why: docs/decisions/bayes-shapes.md#precise_quantile). A flat tray seen from its height with the arm's pose error
+    (1 mm and 0.15 degrees per axis): each view's box moves 2-8 px, on the tray's thin side that is 1-2 edge sigmas,
+    and the edges' evidence left the cuboid out in favour of a spheroid or ellipsoid 10-30 mm off; its sizes keep it
+    (``tests/methods/bayes/test_bayes_solids.py``)."""
     others = [f for m, f in fits.items() if m not in SOLIDS]
     if not others:
         return best

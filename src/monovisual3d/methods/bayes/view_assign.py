@@ -3,10 +3,9 @@
 The search, the swap passes and the second look move one box, or trade two objects' boxes, at a time. A chain of
 trades in one view is none of these: two squat containers before a flat tray, seen from the side where the nearer
 container's box lies inside the tray's, came out with container A holding B's box there, B holding the tray's, the
-tray without a box in that view and A's own box free (``python benchmarks/container_pairs.py cuboid 0.005 3000 3004
-20 --tray --pose-error=1,0.15 --size=30,40,70 -- 'size_range=[0.02,0.15]' reach=1.0``: 6 of 448 container-subsets
-missed, with exact boxes and poses too). Each single move loses: A taking its own free box leaves B's free, which the
-tray, seen twice, then takes.
+tray without a box in that view and A's own box free, with exact boxes and poses too. Each single move loses: A taking
+its own free box leaves B's free, which the tray, seen twice, then takes
+(why: docs/decisions/bayes-association.md#view_assign).
 
 :func:`view_assignment` runs after the second look, on each view with a free box. The boxes there that overlap, a free
 one among them, form a group; the objects holding them, and those without a box in the view whose predicted box meets
