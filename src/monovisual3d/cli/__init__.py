@@ -14,6 +14,7 @@ from . import (
     core,  # noqa: F401  (registers commands)
     experiments,  # noqa: F401
     io,  # noqa: F401
+    ros2,  # noqa: F401
     sim,  # noqa: F401
     startup,  # noqa: F401
     view,  # noqa: F401

@@ -33,6 +33,7 @@ COMMAND_ORDER = (
     "import-bag",
     "simulate",
     "next-view",
+    "ros2",
     "batch",
     "reproduce",
     "bench",

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import inspect
 import re
 from collections.abc import Callable, Iterator
@@ -93,10 +94,12 @@ def _cli_kind(annotation: str) -> type:
     return str
 
 
-def option_specs() -> list[OptionSpec]:
-    """The options of every registered method, each once (in registry and field order)."""
+def option_specs(methods: tuple[str, ...] | None = None) -> list[OptionSpec]:
+    """The options of every registered method (or of ``methods``), each once (in registry and field order)."""
     specs: dict[str, OptionSpec] = {}
     for method in METHODS.values():
+        if methods is not None and method.name not in methods:
+            continue
         cls = method.config_class
         docs = field_docs(cls)
         for f in dataclasses.fields(cls):
@@ -147,12 +150,15 @@ def _convert(spec: OptionSpec, value: Any) -> Any:
     return value
 
 
-def with_method_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+def with_method_options(fn: Callable[..., Any] | None = None, *, methods: tuple[str, ...] | None = None) -> Any:
     """Give a command one option per method config field; it receives them as ``method_options`` (given ones only).
 
-    ``fn`` must have a ``method`` parameter and a ``method_options: dict`` keyword parameter.
+    ``fn`` must have a ``method_options: dict`` keyword parameter. ``methods``: only these methods' fields (used as
+    ``@with_method_options(methods=("bayes",))``); by default every registered method's.
     """
-    specs = option_specs()
+    if fn is None:
+        return functools.partial(with_method_options, methods=methods)
+    specs = option_specs(methods)
     sig = inspect.signature(fn, eval_str=True)
     base = [p for p in sig.parameters.values() if p.name != "method_options"]
     params = base + [_parameter(s) for s in specs]
