@@ -47,13 +47,16 @@ class Collector:
         ep = dds.Endpoints(self._dp)
         self._status = ep.reader(t.out_status, msgs.String, dds.tf_static_reader_qos())
         self._detections = ep.reader(t.out_detections, msgs.Detection3DArray, dds.tf_static_reader_qos())
+        self._next_view = ep.reader(t.out_next_view, msgs.PoseStamped, dds.tf_static_reader_qos())
         self.reset_writer = ep.writer(t.reset, msgs.Empty, dds.publisher_qos("default"))
         self.statuses: list[dict[str, Any]] = []
         self.detections: list[Any] = []
+        self.next_views: list[Any] = []
 
     def poll(self) -> None:
         self.statuses += [json.loads(s.data) for s in self._status.take(256)]
         self.detections += list(self._detections.take(256))
+        self.next_views += list(self._next_view.take(256))
 
     def wait_for(self, condition: Callable[[Collector], bool], timeout_s: float = ANSWER_S) -> bool:
         deadline = time.monotonic() + timeout_s

@@ -18,6 +18,7 @@ from dds_helpers import Collector, running_node, topics  # noqa: E402
 
 from monovisual3d.api import localize  # noqa: E402
 from monovisual3d.examples import example_session_path  # noqa: E402
+from monovisual3d.frames import transform_from_position_quaternion  # noqa: E402
 from monovisual3d.methods.bayes import BayesConfig  # noqa: E402
 from monovisual3d.ros2 import msgs  # noqa: E402
 from monovisual3d.ros2.config import NodeConfig  # noqa: E402
@@ -130,3 +131,27 @@ def test_positions_do_not_depend_on_the_reader() -> None:
                 late.close()
         finally:
             first.close()
+
+
+def test_next_view_as_the_tool_goal_pose() -> None:
+    """With candidates and a tool frame, next_view is the tool pose that puts the camera on the chosen candidate
+    (composed through the static TF tool -> camera the player publishes); cap candidates look at the fruit."""
+    session = load_session(example_session_path())
+    t = topics("next_view")
+    play = PlayConfig(topics=t, rate_hz=5.0)
+    out = Collector(t)
+    try:
+        with running_node(NodeConfig(topics=t, candidates="cap:12", tool_frame="tool0", warmup=False)):
+            _play_in_background(session, play).join()
+            assert out.wait_for(lambda c: (c.last("estimate") or {}).get("views") == 3 and bool(c.next_views))
+        msg = out.next_views[-1]
+        assert msg.header.frame_id == "base_link"
+        p, q = msg.pose.position, msg.pose.orientation
+        T_base_camera = transform_from_position_quaternion([p.x, p.y, p.z], [q.x, q.y, q.z, q.w]) @ play.T_tool_camera
+        fruit = out.detections[-1].detections[0].bbox.center.position
+        to_fruit = np.array([fruit.x, fruit.y, fruit.z]) - T_base_camera[:3, 3]
+        cos = T_base_camera[:3, 2] @ to_fruit / np.linalg.norm(to_fruit)
+        assert np.degrees(np.arccos(min(cos, 1.0))) < 1e-4
+        assert "next_view" in out.last("estimate")
+    finally:
+        out.close()
