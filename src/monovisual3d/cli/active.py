@@ -30,6 +30,26 @@ _FLAGS = {
     "tool_frame": "--tool-frame",
 }
 
+CandidatesOption = Annotated[
+    str,
+    typer.Option(
+        help="Candidate poses: a file {'poses': [{position, quaternion_xyzw}, ...]} in the session's pose_frame, "
+        "or cap:N[:distance=LO..HI][:azimuth=LO..HI][:elevation=LO..HI][:reach=R] (metres, degrees)."
+    ),
+]
+TargetOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Cap centre X,Y,Z (metres); default the workspace centre, else the estimates' mean, else 0.5 m along the first view."
+    ),
+]
+BoxNoiseOption = Annotated[
+    str,
+    typer.Option(
+        help="Detector box noise as a fraction of the box size, or auto: estimated from the boxes seen so far "
+        "(at least 0.01; the sensor model's 0.05 until there are enough)."
+    ),
+]
 ToolFrameOption = Annotated[
     str | None,
     typer.Option(
@@ -58,13 +78,7 @@ def _as_flags(message: str) -> str:
 @handle_errors
 def next_view(
     session: Annotated[Path, typer.Argument(help="Session file (JSON/YAML) with the views so far (may have none).")],
-    candidates: Annotated[
-        str,
-        typer.Option(
-            help="Candidate poses: a file {'poses': [{position, quaternion_xyzw}, ...]} in the session's pose_frame, "
-            "or cap:N[:distance=LO..HI][:azimuth=LO..HI][:elevation=LO..HI][:reach=R] (metres, degrees)."
-        ),
-    ],
+    candidates: CandidatesOption,
     count: Annotated[int, typer.Option(help="Views to choose jointly (batch).")] = 1,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the plan JSON here (default: stdout).")] = None,
     target_mm: Annotated[float, typer.Option(help="Stopping rule: largest 95 % semi-axis of every object, mm.")] = 5.0,
@@ -73,19 +87,8 @@ def next_view(
         float | None, typer.Option(help="Arm reach, metres: candidates farther from --base are never picked.")
     ] = None,
     base: Annotated[str, typer.Option(help="Centre of the reach sphere X,Y,Z, metres, base frame.")] = "0,0,0",
-    target: Annotated[
-        str | None,
-        typer.Option(
-            help="Cap centre X,Y,Z (metres); default the workspace centre, else the estimates' mean, else 0.5 m along the first view."
-        ),
-    ] = None,
-    box_noise: Annotated[
-        str,
-        typer.Option(
-            help="Detector box noise as a fraction of the box size, or auto: estimated from the boxes seen so far "
-            "(at least 0.01; the sensor model's 0.05 until there are enough)."
-        ),
-    ] = "auto",
+    target: TargetOption = None,
+    box_noise: BoxNoiseOption = "auto",
     tool_frame: ToolFrameOption = None,
     hand_eye: HandEyeOption = None,
     time_limit: TimeLimit = None,
