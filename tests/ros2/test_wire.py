@@ -126,3 +126,11 @@ def test_the_classes_cover_every_type_they_nest() -> None:
                 else None
             )
             assert nested is None or nested in msgs.MESSAGE_TYPES, f"{ros_type} nests {nested}"
+
+
+def test_type_hashes_are_those_of_jazzy() -> None:
+    """The ``typehash=RIHS01_...;`` the endpoints carry in USER_DATA, as ROS 2 Iron and later compute it."""
+    store = _store("jazzy")
+    assert msgs.TYPE_HASHES == {name: store.hash_rihs01(name) for name in msgs.TYPE_HASHES}
+    assert msgs.user_data(msgs.String) == f"typehash={store.hash_rihs01('std_msgs/msg/String')};".encode()
+    assert msgs.user_data(msgs.Header) == b""

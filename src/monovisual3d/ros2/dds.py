@@ -156,12 +156,19 @@ class Endpoints:
         return topic
 
     def reader(self, ros_topic: str, msg_class: type, qos: Any) -> Any:
-        """A DataReader of ``msg_class`` on the ROS 2 topic ``ros_topic``."""
-        return _sub.DataReader(self.participant, self._topic_for(ros_topic, msg_class), qos=qos)
+        """A DataReader of ``msg_class`` on the ROS 2 topic ``ros_topic`` (its type hash in USER_DATA, as ROS 2 sets it)."""
+        return _sub.DataReader(self.participant, self._topic_for(ros_topic, msg_class), qos=_with_type_hash(qos, msg_class))
 
     def writer(self, ros_topic: str, msg_class: type, qos: Any) -> Any:
-        """A DataWriter of ``msg_class`` on the ROS 2 topic ``ros_topic``."""
-        return _pub.DataWriter(self.participant, self._topic_for(ros_topic, msg_class), qos=qos)
+        """A DataWriter of ``msg_class`` on the ROS 2 topic ``ros_topic`` (its type hash in USER_DATA, as ROS 2 sets it)."""
+        return _pub.DataWriter(self.participant, self._topic_for(ros_topic, msg_class), qos=_with_type_hash(qos, msg_class))
+
+
+def _with_type_hash(qos: Any, msg_class: type) -> Any:
+    from .msgs import user_data
+
+    data = user_data(msg_class)
+    return Qos(*qos, Policy.Userdata(data)) if data else qos
 
 
 __all__ = [

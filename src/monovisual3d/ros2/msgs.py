@@ -314,6 +314,27 @@ def _ros_name(cls: type) -> str:
 #: ROS 2 type name (``pkg/msg/Name``) -> message class.
 MESSAGE_TYPES: dict[str, type] = {_ros_name(c): c for c in _CLASSES}
 
+#: ROS 2 type hashes (REP 2011, ``RIHS01``, Iron and later) of the messages on the node's topics. ROS 2's middlewares
+#: put ``typehash=...;`` in each endpoint's USER_DATA, which ``ros2 topic info -v`` shows; the node does the same.
+#: The tests check each against ``rosbags``' ``hash_rihs01`` of the Jazzy definitions.
+TYPE_HASHES: dict[str, str] = {
+    "std_msgs/msg/String": "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18",
+    "std_msgs/msg/Empty": "RIHS01_20b625256f32d5dbc0d04fee44f43c41e51c70d3502f84b4a08e7a9c26a96312",
+    "sensor_msgs/msg/CameraInfo": "RIHS01_b3dfd68ff46c9d56c80fd3bd4ed22c7a4ddce8c8348f2f59c299e73118e7e275",
+    "tf2_msgs/msg/TFMessage": "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087",
+    "vision_msgs/msg/Detection2DArray": "RIHS01_214274120007f4a683866481336b70310268cfa107aebe9d594a6acf75bda968",
+    "vision_msgs/msg/Detection3DArray": "RIHS01_793f5eab9595ac1c0da07873cc859db42eae51f0ee76056db8562515d830e018",
+    "visualization_msgs/msg/MarkerArray": "RIHS01_86cb8800b6fb05b5eff1abd7a56f62a5641d3ae9a1c29e78e67e704f1d067dcf",
+    "geometry_msgs/msg/PoseStamped": "RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8",
+}
+
+
+def user_data(cls: type) -> bytes:
+    """The USER_DATA a ROS 2 (Iron or later) endpoint of ``cls`` carries: ``typehash=RIHS01_...;`` (empty if unknown)."""
+    h = TYPE_HASHES.get(_ros_name(cls))
+    return f"typehash={h};".encode() if h else b""
+
+
 __all__ = [
     "MARKER_ADD",
     "MARKER_DELETEALL",
