@@ -160,6 +160,7 @@ class LiveSession:
         self.dropped_count = 0
         self.sessions = 0
         self.warnings: deque[str] = deque(maxlen=RECENT)
+        self._warnings_lock = threading.Lock()  # the receiver thread warns while the estimator reports
         self.dropped: deque[dict[str, Any]] = deque(maxlen=RECENT)
         self.reset()
 
@@ -173,8 +174,9 @@ class LiveSession:
         self.sessions += 1
 
     def warn(self, message: str) -> None:
-        """A node warning for the next status message."""
-        self.warnings.append(message)
+        """A node warning for the next status message (from any thread)."""
+        with self._warnings_lock:
+            self.warnings.append(message)
 
     def drop(self, pending: PendingView, reason: str) -> dict[str, Any]:
         """Record a dropped view; the status to publish."""
@@ -255,6 +257,13 @@ class LiveSession:
             T = T @ np.linalg.inv(T_cameralink_optical())
         return pose_stamped(T, self.config.base_frame, self.last_stamp_ns)
 
+    def _take_warnings(self) -> list[str]:
+        """The node warnings since the last status, each reported once."""
+        with self._warnings_lock:
+            out = list(self.warnings)
+            self.warnings.clear()
+        return out
+
     def status(self, event: str, **extra: Any) -> dict[str, Any]:
         """The status as a JSON-ready dict (see docs/ros2.md); node warnings are reported once."""
         loc = self.localizer
@@ -270,10 +279,9 @@ class LiveSession:
             "fruit": len(self.objects),
             "verdict": quality.get("verdict"),
             "causes": list(quality.get("causes", [])),
-            "warnings": list(extra.get("method_warnings", [])) + list(self.warnings),
+            "warnings": list(extra.get("method_warnings", [])) + self._take_warnings(),
             "dropped": list(self.dropped),
         }
-        self.warnings.clear()
         if event == "estimate":
             out["views_in_estimate"] = self.pending_in_estimate
             out["estimate_s"] = extra.get("estimate_s")
