@@ -77,3 +77,15 @@ def test_a_missing_extra_is_one_line(without, tmp_path: Path, monkeypatch, args,
     monkeypatch.chdir(tmp_path)
     without(*modules)
     assert_one_line_error(CliRunner().invoke(app, args), *fragments)
+
+
+@pytest.mark.parametrize(
+    "args", [["ros2", "node", "--no-warmup"], ["ros2", "play", str(example_session_path())]], ids=["ros2-node", "ros2-play"]
+)
+def test_ros2_without_cyclonedds_names_the_extra(without, monkeypatch, args) -> None:
+    import sys
+
+    for name in [m for m in sys.modules if m.startswith("monovisual3d.ros2")]:
+        monkeypatch.delitem(sys.modules, name)  # imported by other tests: import them afresh, as in a new process
+    without("cyclonedds")
+    assert_one_line_error(CliRunner().invoke(app, args), "cyclonedds", "monovisual3d[ros2]")

@@ -71,3 +71,34 @@ def test_parse_point_accepts_text_and_numbers() -> None:
     assert parse_point([1, 2, 3], "p") == (1.0, 2.0, 3.0)
     with pytest.raises(InputError, match=r"^p: got None"):
         parse_point(None, "p")  # type: ignore[arg-type]
+
+
+def test_tool_goal_poses_in_a_camera_link_session(session_path: Path, tmp_path: Path) -> None:
+    """The hand-eye transform is the camera in the tool frame in the session's convention (here camera_link)."""
+    from numpy.testing import assert_allclose
+
+    from monovisual3d.frames import T_cameralink_optical, invert_transform, look_at, transform_from_position_quaternion
+    from monovisual3d.session.load import load_session
+
+    session = load_session(session_path)
+    data = json.loads(session_path.read_text())
+    data["pose_frame"] = "camera_link"
+    for view, v in zip(data["views"], session.views, strict=True):
+        view["pose"] = {"matrix": (v.T_base_optical @ invert_transform(T_cameralink_optical())).tolist()}
+    path = tmp_path / "camera_link.json"
+    path.write_text(json.dumps(data))
+    T_tool_cameralink = look_at([0.05, 0.0, 0.1], [1.0, 0.2, 0.3])
+    out = plan_session(path, "cap:10", tool_frame="tool0", T_tool_camera=T_tool_cameralink)
+    assert out["pose_frame"] == "camera_link" and out["tool_frame"] == "tool0"
+    tool, camera = out["pose"], out["camera_pose"]
+    T_base_tool = transform_from_position_quaternion(tool["position"], tool["quaternion_xyzw"])
+    T_base_cameralink = transform_from_position_quaternion(camera["position"], camera["quaternion_xyzw"])
+    assert_allclose(T_base_tool @ T_tool_cameralink, T_base_cameralink, atol=1e-12)
+    assert camera == out["candidates"][out["index"]]
+
+
+def test_tool_frame_needs_the_hand_eye(session_path: Path) -> None:
+    with pytest.raises(InputError, match=r"^tool_frame: give the tool frame's name together with the hand-eye"):
+        plan_session(session_path, "cap:5", tool_frame="tool0")
+    with pytest.raises(InputError, match=r"T_tool_camera"):
+        plan_session(session_path, "cap:5", tool_frame="tool0", T_tool_camera=np.ones((4, 4)))

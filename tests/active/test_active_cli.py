@@ -17,7 +17,7 @@ from monovisual3d import load_session
 from monovisual3d.active.bench import check_targets, format_markdown, plot
 from monovisual3d.active.candidates import pose_to_dict
 from monovisual3d.cli import app
-from monovisual3d.frames import look_at
+from monovisual3d.frames import look_at, transform_from_position_quaternion
 from monovisual3d.session import Session, Workspace
 from monovisual3d.sim import default_camera, paper_scene
 from monovisual3d.sim.simulate import simulate
@@ -75,6 +75,46 @@ def test_next_view_batch_from_a_file(runner: CliRunner, session_path: Path, tmp_
     assert d["index"] == d["indices"][0]
     assert_allclose(d["poses"][0]["quaternion_xyzw"], poses[d["index"]]["quaternion_xyzw"], atol=1e-12)
     assert_allclose(d["poses"][0]["position"], poses[d["index"]]["position"], atol=1e-12)
+
+
+def test_next_view_as_the_tool_goal_pose(runner: CliRunner, session_path: Path, tmp_path: Path) -> None:
+    """--tool-frame with --hand-eye: "pose" is where to send the tool so that the camera lands on "camera_pose"."""
+    T_tool_camera = look_at([0.02, -0.01, 0.09], [0.3, 0.1, 1.0])  # any rigid transform
+    hand_eye = tmp_path / "hand_eye.json"
+    hand_eye.write_text(json.dumps({"matrix": T_tool_camera.tolist()}))
+    res = runner.invoke(
+        app,
+        [
+            "next-view",
+            str(session_path),
+            "--candidates",
+            "cap:12",
+            "--count",
+            "2",
+            "--tool-frame",
+            "tool0",
+            "--hand-eye",
+            str(hand_eye),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout)
+    assert d["tool_frame"] == "tool0"
+    assert d["camera_pose"] == d["candidates"][d["index"]] and len(d["camera_poses"]) == len(d["poses"]) == 2
+    for tool, camera in zip(d["poses"], d["camera_poses"], strict=True):
+        T_base_tool = transform_from_position_quaternion(tool["position"], tool["quaternion_xyzw"])
+        T_base_camera = transform_from_position_quaternion(camera["position"], camera["quaternion_xyzw"])
+        assert_allclose(T_base_tool @ T_tool_camera, T_base_camera, atol=1e-12)
+    assert_one_line_error(
+        runner.invoke(app, ["next-view", str(session_path), "--candidates", "cap:5", "--tool-frame", "tool0"]),
+        "--tool-frame, --hand-eye: give both",
+    )
+    assert_one_line_error(
+        runner.invoke(
+            app, ["next-view", str(session_path), "--candidates", "cap:5", "--tool-frame", "tool0", "--hand-eye", "no.yaml"]
+        ),
+        "no.yaml",
+    )
 
 
 def test_next_view_on_an_empty_session_covers_the_workspace(runner: CliRunner, tmp_path: Path) -> None:

@@ -12,6 +12,7 @@ from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, transform_from_position_quaternion
 from monovisual3d.io import (
     T_base_camera_from_T_base_ee,
+    T_base_ee_from_T_base_camera,
     interpolate_poses,
     read_hand_eye,
     read_pose_csv,
@@ -115,6 +116,8 @@ def test_eye_in_hand_composition(rng):
     # the camera centre is the hand-eye offset carried by the end effector
     assert_allclose(T_base_camera[:, :3, 3], T_base_ee[:, :3, 3] + T_base_ee[:, :3, :3] @ T_ee_camera[:3, 3])
     assert_allclose(T_base_camera_from_T_base_ee(T_base_camera, invert_transform(T_ee_camera)), T_base_ee, atol=1e-12)
+    # and back: the end-effector pose that puts the camera there
+    assert_allclose(T_base_ee_from_T_base_camera(T_base_camera, T_ee_camera), T_base_ee, atol=1e-12)
 
 
 def test_interpolation_at_samples_and_between(rng):

@@ -47,3 +47,32 @@ def test_lookup_errors(rng):
         tree.add("other", "a", np.eye(4))
     with pytest.raises(InputError, match="a frame cannot be its own parent"):
         tree.add("x", "/x", np.eye(4))
+
+
+def test_wait_for_later_refuses_to_hold_the_last_sample(rng):
+    """Live use: a stamp after the newest sample is not available yet (waited for), where a recording holds the last pose."""
+    T0, T1 = random_T(rng), random_T(rng)
+    tree = TransformTree()
+    tree.add("base", "tool", T0, stamp=10.0)
+    tree.add("base", "tool", T1, stamp=10.1)
+    assert_allclose(tree.lookup("base", "tool", 10.15, max_gap=0.1), T1, atol=1e-12)
+    with pytest.raises(TransformUnavailable, match=r"base -> tool: no sample at or after 10.150 s yet \(latest 10.100 s\)"):
+        tree.lookup("base", "tool", 10.15, max_gap=0.1, wait_for_later=True)
+    tree.add("base", "tool", T0, stamp=10.2)
+    mid = tree.lookup("base", "tool", 10.15, max_gap=0.1, wait_for_later=True)
+    assert_allclose(mid, tree.lookup("base", "tool", 10.15, max_gap=0.1), atol=1e-12)
+    assert not np.allclose(mid, T1)
+
+
+def test_forget_before_keeps_lookups_after_the_cut(rng):
+    tree = TransformTree()
+    poses = [random_T(rng) for _ in range(20)]
+    for k, T in enumerate(poses):
+        tree.add("base", "tool", T, stamp=0.1 * k)
+    tree.add("tool", "cam", random_T(rng))
+    queries = np.linspace(0.55, 1.9, 17)
+    before = [tree.lookup("base", "cam", t, max_gap=0.1) for t in queries]
+    tree.forget_before(0.55)
+    assert_allclose([tree.lookup("base", "cam", t, max_gap=0.1) for t in queries], before, atol=1e-12)
+    with pytest.raises(TransformUnavailable, match="more than max_gap"):
+        tree.lookup("base", "cam", 0.2, max_gap=0.1)

@@ -17,10 +17,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..checks import is_int
 from ..errors import InputError
+from ..frames import T_cameralink_optical, check_transform, transform_from_position_quaternion
+from ..io.poses import T_base_ee_from_T_base_camera
 from ..result import DetectedObject
 from ..session import Session, Workspace
 from .candidates import CapSpec, cap_poses, load_candidates, pose_to_dict
@@ -56,8 +58,13 @@ def plan_session(
     base: Point = (0.0, 0.0, 0.0),
     target: Point | None = None,
     box_noise: float | str | None = "auto",
+    tool_frame: str | None = None,
+    T_tool_camera: ArrayLike | None = None,
 ) -> dict[str, Any]:
     """Choose the next camera pose(s) for the views in a session file; report "done" when good enough.
+
+    One unit of thought: the documented options make most of its length; the body checks them all before the
+    localisation (which takes the time), then plans.
 
     Parameters
     ----------
@@ -73,6 +80,11 @@ def plan_session(
         0.5 m along the first view. Also the workspace (a 0.4 m cube) when the session has none.
     box_noise : float, detector box noise as a fraction of the box size; ``"auto"`` (default): estimated
         from the boxes seen so far; None: the sensor model's 5 %
+    tool_frame : str, optional, name of the arm's tool frame: ``pose`` (and ``poses``) become the tool's goal
+        poses ``T_base_tool = T_base_camera @ inv(T_tool_camera)``, the camera's are kept as ``camera_pose``
+        (``camera_poses``); give it with ``T_tool_camera``
+    T_tool_camera : array_like, shape (4, 4), optional, the hand-eye calibration: the camera (in the session's
+        ``pose_frame`` convention) in the tool frame, metres
 
     Returns
     -------
@@ -82,6 +94,7 @@ def plan_session(
     """
     if not is_int(count) or count < 1:
         raise InputError(f"count: got {count}, expected a positive integer")
+    T_tool_camera = _check_tool(tool_frame, T_tool_camera)
     pose_frame = _pose_frame(session)
     sess = load_planning_session(session)
     base_c = parse_point(base, "base")
@@ -102,7 +115,39 @@ def plan_session(
     out["views"] = len(sess.views)
     if spec is not None:
         out["candidates"] = [pose_to_dict(T, pose_frame) for T in cands]
+    if tool_frame is not None and T_tool_camera is not None:
+        _tool_poses(out, tool_frame, T_tool_camera, pose_frame)
     return out
+
+
+def _check_tool(tool_frame: str | None, T_tool_camera: ArrayLike | None) -> NDArray[np.float64] | None:
+    """The hand-eye transform, checked; InputError ``tool_frame: ...`` when only one of the two is given."""
+    if (tool_frame is None) != (T_tool_camera is None):
+        raise InputError(
+            "tool_frame: give the tool frame's name together with the hand-eye calibration T_tool_camera "
+            "(the camera in the tool frame), or neither"
+        )
+    if T_tool_camera is None:
+        return None
+    if not str(tool_frame).strip():
+        raise InputError(f"tool_frame: got {tool_frame!r}, expected the name of the tool frame")
+    return check_transform(np.asarray(T_tool_camera, dtype=float), where="T_tool_camera")
+
+
+def _tool_poses(out: dict[str, Any], tool_frame: str, T_tool_camera: NDArray[np.float64], pose_frame: str) -> None:
+    """Turn the plan's ``pose``/``poses`` into the tool's goal poses; keep the camera's as ``camera_pose``/``camera_poses``."""
+    T_tool_optical = T_tool_camera @ T_cameralink_optical() if pose_frame == "camera_link" else T_tool_camera
+
+    def tool(pose: dict[str, Any]) -> dict[str, Any]:
+        T_base_optical = transform_from_position_quaternion(pose["position"], pose["quaternion_xyzw"])
+        if pose_frame == "camera_link":
+            T_base_optical = T_base_optical @ T_cameralink_optical()
+        return pose_to_dict(T_base_ee_from_T_base_camera(T_base_optical, T_tool_optical), "optical")
+
+    out["camera_pose"], out["pose"] = out["pose"], tool(out["pose"])
+    if "poses" in out:
+        out["camera_poses"], out["poses"] = out["poses"], [tool(p) for p in out["poses"]]
+    out["tool_frame"] = tool_frame
 
 
 def _parse_candidates(candidates: str, pose_frame: str, count: int) -> tuple[CapSpec | None, NDArray[np.float64] | None]:

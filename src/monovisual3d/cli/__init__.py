@@ -15,6 +15,7 @@ from . import (
     experiments,  # noqa: F401
     io,  # noqa: F401
     reference,  # noqa: F401
+    ros2,  # noqa: F401
     sim,  # noqa: F401
     startup,  # noqa: F401
     view,  # noqa: F401

@@ -34,6 +34,7 @@ COMMAND_ORDER = (
     "options",
     "simulate",
     "next-view",
+    "ros2",
     "batch",
     "reproduce",
     "bench",

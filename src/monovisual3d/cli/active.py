@@ -27,7 +27,43 @@ _FLAGS = {
     "box_noise": "--box-noise",
     "target_mm": "--target-mm",
     "motion_weight": "--motion-weight",
+    "tool_frame": "--tool-frame",
 }
+
+CandidatesOption = Annotated[
+    str,
+    typer.Option(
+        help="Candidate poses: a file {'poses': [{position, quaternion_xyzw}, ...]} in the session's pose_frame, "
+        "or cap:N[:distance=LO..HI][:azimuth=LO..HI][:elevation=LO..HI][:reach=R] (metres, degrees)."
+    ),
+]
+TargetOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Cap centre X,Y,Z (metres); default the workspace centre, else the estimates' mean, else 0.5 m along the first view."
+    ),
+]
+BoxNoiseOption = Annotated[
+    str,
+    typer.Option(
+        help="Detector box noise as a fraction of the box size, or auto: estimated from the boxes seen so far "
+        "(at least 0.01; the sensor model's 0.05 until there are enough)."
+    ),
+]
+ToolFrameOption = Annotated[
+    str | None,
+    typer.Option(
+        "--tool-frame",
+        help="Name of the arm's tool frame: output the tool's goal pose (camera pose @ inverse hand-eye); needs --hand-eye.",
+    ),
+]
+HandEyeOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--hand-eye",
+        help="Hand-eye calibration T_tool_camera, the camera in the tool frame (file, as import --hand-eye), for --tool-frame.",
+    ),
+]
 
 
 def _as_flags(message: str) -> str:
@@ -42,13 +78,7 @@ def _as_flags(message: str) -> str:
 @handle_errors
 def next_view(
     session: Annotated[Path, typer.Argument(help="Session file (JSON/YAML) with the views so far (may have none).")],
-    candidates: Annotated[
-        str,
-        typer.Option(
-            help="Candidate poses: a file {'poses': [{position, quaternion_xyzw}, ...]} in the session's pose_frame, "
-            "or cap:N[:distance=LO..HI][:azimuth=LO..HI][:elevation=LO..HI][:reach=R] (metres, degrees)."
-        ),
-    ],
+    candidates: CandidatesOption,
     count: Annotated[int, typer.Option(help="Views to choose jointly (batch).")] = 1,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the plan JSON here (default: stdout).")] = None,
     target_mm: Annotated[float, typer.Option(help="Stopping rule: largest 95 % semi-axis of every object, mm.")] = 5.0,
@@ -57,19 +87,10 @@ def next_view(
         float | None, typer.Option(help="Arm reach, metres: candidates farther from --base are never picked.")
     ] = None,
     base: Annotated[str, typer.Option(help="Centre of the reach sphere X,Y,Z, metres, base frame.")] = "0,0,0",
-    target: Annotated[
-        str | None,
-        typer.Option(
-            help="Cap centre X,Y,Z (metres); default the workspace centre, else the estimates' mean, else 0.5 m along the first view."
-        ),
-    ] = None,
-    box_noise: Annotated[
-        str,
-        typer.Option(
-            help="Detector box noise as a fraction of the box size, or auto: estimated from the boxes seen so far "
-            "(at least 0.01; the sensor model's 0.05 until there are enough)."
-        ),
-    ] = "auto",
+    target: TargetOption = None,
+    box_noise: BoxNoiseOption = "auto",
+    tool_frame: ToolFrameOption = None,
+    hand_eye: HandEyeOption = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,
 ) -> None:
@@ -77,12 +98,17 @@ def next_view(
 
     Output: {"index", "pose", "gain", "ranking": [{"index", "gain"}], "done", ...}; with --count K also
     "indices", "poses" and "gains". Indices refer to the candidate list (for cap:N, the poses left
-    after the reach filter, listed in "candidates").
+    after the reach filter, listed in "candidates"). With --tool-frame and --hand-eye, "pose" ("poses") is the
+    tool's goal pose and "camera_pose" ("camera_poses") the camera's.
     """
     from ..active.api import plan_session
+    from ..io.poses import read_hand_eye
 
     candidate_file = None if candidates.strip().startswith("cap:") else Path(candidates)
-    check_output(output, session, candidate_file)
+    check_output(output, session, candidate_file, hand_eye)
+    if (tool_frame is None) != (hand_eye is None):
+        raise InputError("--tool-frame, --hand-eye: give both (the tool frame's name and the camera's pose in it) or neither")
+    T_tool_camera = read_hand_eye(hand_eye) if hand_eye is not None else None
     try:
         with command_budget(time_limit, max_memory):
             out = plan_session(
@@ -95,6 +121,8 @@ def next_view(
                 base=base,
                 target=target,
                 box_noise=_box_noise(box_noise),
+                tool_frame=tool_frame,
+                T_tool_camera=T_tool_camera,
             )
     except InputError as exc:
         raise InputError(_as_flags(str(exc))) from None
@@ -117,7 +145,7 @@ def _print_plan(out: dict[str, Any], output: Path) -> None:
     poses = out.get("poses", [out["pose"]])
     gains = out.get("gains", [out["gain"]])
     table = Table(
-        title=f"Next view{'s' if len(indices) > 1 else ''} (camera position, metres, base frame)",
+        title=f"Next view{'s' if len(indices) > 1 else ''} ({plain(out.get('tool_frame', 'camera'))} position, metres, base frame)",
         caption="gain: expected drop of the objects' RMS position error, mm, summed over the objects (less the motion cost)",
     )
     for col in ("pick", "candidate", "x (m)", "y (m)", "z (m)", "gain (mm)"):

@@ -35,7 +35,8 @@ def _crop(text: str | None) -> list[float] | None:
         raise InputError(f"--crop: got {text!r}, expected four numbers X1,Y1,X2,Y2") from None
 
 
-def _workspace(text: str | None) -> dict[str, list[float]] | None:
+def workspace_option(text: str | None) -> dict[str, list[float]] | None:
+    """``--workspace XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX`` (metres) as a session workspace dict; None when not given."""
     if text is None:
         return None
     try:
@@ -150,7 +151,7 @@ def import_cmd(
             min_score=min_score,
             match=match,
             max_gap=max_gap,
-            workspace=_workspace(workspace),
+            workspace=workspace_option(workspace),
         )
     _report(result, output)
 
@@ -203,7 +204,7 @@ def import_bag_cmd(
             class_names=class_names,
             image_size=_size(image_size),
             resize=resize,
-            workspace=_workspace(workspace),
+            workspace=workspace_option(workspace),
         )
     _report(result, output)
 

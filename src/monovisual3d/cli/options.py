@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import inspect
 import json
 import re
@@ -234,10 +235,13 @@ class OptionSpec:
         return f"Expert: {self.methods[0]} " + (GROUP_TITLES.get(group, group) if group else "method")
 
 
-def option_specs() -> list[OptionSpec]:
-    """The options of every registered method, each once (in registry and :func:`method_fields` order)."""
+def option_specs(methods: tuple[str, ...] | None = None) -> list[OptionSpec]:
+    """The options of every registered method (or of ``methods``), each once (in registry and :func:`method_fields`
+    order)."""
     specs: dict[str, OptionSpec] = {}
     for method in METHODS.values():
+        if methods is not None and method.name not in methods:
+            continue
         for f in method_fields(method):
             if f.name in specs:
                 old = specs[f.name]
@@ -315,16 +319,19 @@ class MethodOptions:
         return cls(values, typed)
 
 
-def with_method_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+def with_method_options(fn: Callable[..., Any] | None = None, *, methods: tuple[str, ...] | None = None) -> Any:
     """Give a command the flags of the methods' user and expert options, ``--set NAME=VALUE`` and ``--help-all``;
     it receives the given ones as ``method_options`` (a :class:`MethodOptions`, for :func:`method_config`).
 
-    ``fn`` must have a ``method`` parameter and a ``method_options`` keyword parameter; register it with
-    ``cls=PanelCommand`` so that its ``--help`` shows the panels.
+    ``fn`` must have a ``method_options`` keyword parameter; register it with ``cls=PanelCommand`` so that its
+    ``--help`` shows the panels. ``methods``: only these methods' options (``@with_method_options(methods=("bayes",))``);
+    by default every registered method's.
     """
+    if fn is None:
+        return functools.partial(with_method_options, methods=methods)
     order = list(USER_OPTIONS)
     specs = sorted(
-        (s for s in option_specs() if s.audience != "developer"),
+        (s for s in option_specs(methods) if s.audience != "developer"),
         key=lambda s: order.index(s.name) if s.name in order else len(order),
     )
     sig = inspect.signature(fn, eval_str=True)

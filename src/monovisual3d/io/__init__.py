@@ -7,6 +7,7 @@ Readers by concept:
 - :mod:`~monovisual3d.io.yolo`: run an Ultralytics model (extra ``[yolo]``)
 - :mod:`~monovisual3d.io.poses`: TUM, CSV, JSON poses, hand-eye calibration, interpolation
 - :mod:`~monovisual3d.io.rosbag`: ROS 1/2 bags (extra ``[ros]``)
+- :mod:`~monovisual3d.io.ros_messages`: ROS message fields -> stamps, transforms, detections (bags and the ROS 2 node)
 - :mod:`~monovisual3d.io.build`: :func:`import_session` / :func:`build_session` -> validated session + summary
 - :mod:`~monovisual3d.io.schema`: the session file's JSON Schema
 
@@ -41,6 +42,7 @@ from .poses import (
     POSE_FORMATS,
     PoseTrajectory,
     T_base_camera_from_T_base_ee,
+    T_base_ee_from_T_base_camera,
     interpolate_poses,
     read_hand_eye,
     read_pose_csv,
@@ -66,6 +68,7 @@ __all__ = [
     "PoseTrajectory",
     "Skipped",
     "T_base_camera_from_T_base_ee",
+    "T_base_ee_from_T_base_camera",
     "TransformTree",
     "assemble_session",
     "build_session",

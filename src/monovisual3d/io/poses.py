@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ..checks import as_array, as_float, check_quaternion_xyzw, expect_object
 from ..errors import InputError, excerpt
-from ..frames import check_transform, transform_from_position_quaternion
+from ..frames import check_transform, invert_transform, transform_from_position_quaternion
 from ._parse import check_angles, check_rows, check_stamp, check_translations, load_structured, read_table_text
 from .detections import read_csv_table
 
@@ -352,6 +352,29 @@ def T_base_camera_from_T_base_ee(T_base_ee: ArrayLike, T_ee_camera: ArrayLike) -
     return np.asarray(T_base_ee, dtype=float) @ np.asarray(T_ee_camera, dtype=float)
 
 
+def T_base_ee_from_T_base_camera(T_base_camera: ArrayLike, T_ee_camera: ArrayLike) -> NDArray[np.float64]:
+    """The end-effector pose that puts the camera at ``T_base_camera`` (eye-in-hand): ``T_base_camera @ inv(T_ee_camera)``.
+
+    The inverse of :func:`T_base_camera_from_T_base_ee`: where to send the tool for a camera pose chosen by the planner.
+
+    Parameters
+    ----------
+    T_base_camera : array_like, shape (..., 4, 4), camera poses in the base frame
+    T_ee_camera : array_like, shape (4, 4), the camera in the end-effector frame (hand-eye calibration)
+
+    Returns
+    -------
+    T_base_ee : ndarray, shape (..., 4, 4)
+
+    Examples
+    --------
+    >>> T_ee_camera = np.eye(4); T_ee_camera[2, 3] = 0.1
+    >>> float(T_base_ee_from_T_base_camera(np.eye(4), T_ee_camera)[2, 3])
+    -0.1
+    """
+    return np.asarray(T_base_camera, dtype=float) @ invert_transform(np.asarray(T_ee_camera, dtype=float))
+
+
 # ---------------------------------------------------------------------- interpolation
 def interpolate_poses(
     stamps: ArrayLike, T: ArrayLike, query: ArrayLike, max_gap: float
@@ -452,6 +475,7 @@ __all__ = [
     "POSITION_UNITS",
     "PoseTrajectory",
     "T_base_camera_from_T_base_ee",
+    "T_base_ee_from_T_base_camera",
     "interpolate_poses",
     "read_hand_eye",
     "read_pose_csv",

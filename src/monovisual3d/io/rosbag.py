@@ -8,65 +8,39 @@
 - a ``sensor_msgs/CameraInfo`` topic for the intrinsics (or a calibration given directly);
 - a ``vision_msgs/Detection2DArray`` topic for the boxes.
 
-The vision_msgs layouts differ: ROS 1 (noetic) has ``bbox.center`` as
-``geometry_msgs/Pose2D`` (``x, y, theta``) and hypotheses ``id, score``;
-ROS 2 Humble and later have ``vision_msgs/Pose2D`` (``position.x, position.y, theta``)
-and ``hypothesis.class_id, hypothesis.score``. Both are read (by field names).
-When a bag does not carry the definitions of these messages, the definitions
-below are registered (:data:`VISION_MSGS_ROS1`, :data:`VISION_MSGS_ROS2`).
+The messages are read by :mod:`.ros_messages` (the ROS 1 and ROS 2 vision_msgs layouts); a bag that does not
+carry the definitions of these messages gets those of :mod:`.ros_messages`.
 No ROS installation is needed.
 """
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
 from .._extras import require
 from ..camera import Camera
 from ..errors import InputError, InputWarning, excerpt
-from ..frames import T_base_optical_from_T_base_cameralink, transform_from_position_quaternion
-from ..limits import MAX_ABS_POSITION_M
-from ..session import Detection, Workspace
+from ..frames import T_base_optical_from_T_base_cameralink
+from ..session import Workspace
 from ..session.load import POSE_FRAMES
 from .build import DEFAULT_MAX_GAP, assemble_session
 from .calibration import read_calibration
 from .calibration_ros import camera_from_camera_info
 from .detections import ImageDetections, filter_detections, load_class_names
 from .image_size import camera_for_image_size
+from .ros_messages import (
+    TF2_MSGS,
+    VISION_MSGS_ROS1,
+    VISION_MSGS_ROS2,
+    detections_from_array,
+    stamp_ns,
+    transforms_from_tf_message,
+)
 from .summary import ImportResult, ImportSummary
 from .tf import TransformTree, TransformUnavailable, normalise_frame
-
-#: vision_msgs definitions as in ROS 1 noetic (``.msg`` text per type).
-VISION_MSGS_ROS1: dict[str, str] = {
-    "vision_msgs/msg/Detection2DArray": "std_msgs/Header header\nvision_msgs/Detection2D[] detections\n",
-    "vision_msgs/msg/Detection2D": (
-        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\n"
-        "vision_msgs/BoundingBox2D bbox\nsensor_msgs/Image source_img\n"
-    ),
-    "vision_msgs/msg/ObjectHypothesisWithPose": "int64 id\nfloat64 score\ngeometry_msgs/PoseWithCovariance pose\n",
-    "vision_msgs/msg/BoundingBox2D": "geometry_msgs/Pose2D center\nfloat64 size_x\nfloat64 size_y\n",
-}
-#: vision_msgs definitions as in ROS 2 Humble and later.
-VISION_MSGS_ROS2: dict[str, str] = {
-    "vision_msgs/msg/Detection2DArray": "std_msgs/Header header\nvision_msgs/Detection2D[] detections\n",
-    "vision_msgs/msg/Detection2D": (
-        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\nvision_msgs/BoundingBox2D bbox\nstring id\n"
-    ),
-    "vision_msgs/msg/ObjectHypothesisWithPose": "vision_msgs/ObjectHypothesis hypothesis\ngeometry_msgs/PoseWithCovariance pose\n",
-    "vision_msgs/msg/ObjectHypothesis": "string class_id\nfloat64 score\n",
-    "vision_msgs/msg/BoundingBox2D": "vision_msgs/Pose2D center\nfloat64 size_x\nfloat64 size_y\n",
-    "vision_msgs/msg/Pose2D": "vision_msgs/Point2D position\nfloat64 theta\n",
-    "vision_msgs/msg/Point2D": "float64 x\nfloat64 y\n",
-}
-#: tf2_msgs/TFMessage, which the rosbags ROS 1 type store does not ship.
-TF2_MSGS: dict[str, str] = {"tf2_msgs/msg/TFMessage": "geometry_msgs/TransformStamped[] transforms\n"}
 
 
 def message_types(ros_version: int) -> dict[str, Any]:
@@ -252,11 +226,8 @@ def _read_transforms(reader: Any, bag: Path, tf_topics: tuple[str, ...], t0: int
     for conn, ns, raw in reader.messages(connections=tf_conns):
         msg = _deserialize(reader, raw, conn, ns)
         static = conn.topic.rstrip("/").endswith("tf_static")
-        for k, tr in enumerate(msg.transforms):
-            where = f"{bag}: {conn.topic} at {ns * 1e-9:.9f} s, transform {k}"
-            T = _transform_from_msg(tr, where)
-            stamp = None if static else (_stamp_ns(tr.header.stamp) - t0) * 1e-9
-            tree.add(tr.header.frame_id, tr.child_frame_id, T, stamp=stamp)
+        for parent, child, T, stamp_ns_ in transforms_from_tf_message(msg, f"{bag}: {conn.topic} at {ns * 1e-9:.9f} s"):
+            tree.add(parent, child, T, stamp=None if static else (stamp_ns_ - t0) * 1e-9)
     return tree
 
 
@@ -277,24 +248,20 @@ def _read_detection_frames(
     unstamped = 0
     for conn, ns, raw in reader.messages(connections=det_conns):
         msg = _deserialize(reader, raw, conn, ns)
-        stamp_ns = _stamp_ns(msg.header.stamp)
-        if stamp_ns == 0:
-            stamp_ns = ns
+        msg_ns = stamp_ns(msg.header.stamp)
+        if msg_ns == 0:
+            msg_ns = ns
             unstamped += 1
         if msg.header.frame_id:
             frame_ids.add(normalise_frame(msg.header.frame_id))
-        stamp = stamp_ns * 1e-9
-        dets = []
-        for j, d in enumerate(msg.detections):
-            det, problem = _detection_from_msg(d, names)
-            if det is None:
-                summary.skip("detection", f"stamp {stamp:.6f} #{j}", problem or "unusable")
-            else:
-                dets.append(det)
+        stamp = msg_ns * 1e-9
+        dets, skipped = detections_from_array(msg, names)
+        for j, problem in skipped:
+            summary.skip("detection", f"stamp {stamp:.6f} #{j}", problem)
         frames.append(
             (
                 ImageDetections(image=None, stamp=stamp, detections=tuple(dets), source=f"{bag}:{det_topic}"),
-                (stamp_ns - t0) * 1e-9,
+                (msg_ns - t0) * 1e-9,
             )
         )
     return frames, frame_ids, unstamped
@@ -386,27 +353,6 @@ def _one_line(exc: BaseException, limit: int = 120) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def _stamp_ns(stamp: Any) -> int:
-    sec = int(getattr(stamp, "sec", 0))
-    nsec = int(getattr(stamp, "nanosec", getattr(stamp, "nsec", 0)))
-    return sec * 1_000_000_000 + nsec
-
-
-def _transform_from_msg(tr: Any, where: str) -> NDArray[np.float64]:
-    t, r = tr.transform.translation, tr.transform.rotation
-    p = np.array([t.x, t.y, t.z], dtype=float)
-    q = np.array([r.x, r.y, r.z, r.w], dtype=float)
-    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
-        raise InputError(f"{where}: contains NaN or infinity")
-    if not np.all(np.abs(p) <= MAX_ABS_POSITION_M):
-        raise InputError(f"{where}: translation {np.max(np.abs(p)):.3g} m, beyond {MAX_ABS_POSITION_M:g} m")
-    with np.errstate(over="ignore"):
-        norm = float(np.linalg.norm(q))
-    if not abs(norm - 1.0) <= 1e-3:
-        raise InputError(f"{where}: rotation quaternion norm {norm:.4g}, expected 1")
-    return transform_from_position_quaternion(p, q / norm)
-
-
 def _bag_camera(reader: Any, bag: Path, topics: dict[str, str], summary: ImportSummary, camera: Any, topic: str | None) -> Camera:
     if camera is not None:
         cam = camera if isinstance(camera, Camera) else read_calibration(camera)
@@ -443,37 +389,4 @@ def _bag_camera(reader: Any, bag: Path, topics: dict[str, str], summary: ImportS
     return first
 
 
-def _detection_from_msg(d: Any, names: dict[int, str] | None) -> tuple[Detection | None, str | None]:
-    """A Detection from a vision_msgs/Detection2D (ROS 1 or ROS 2 layout), or None and the reason."""
-    bbox = d.bbox
-    centre = bbox.center
-    if hasattr(centre, "position"):
-        cx, cy = float(centre.position.x), float(centre.position.y)
-    else:
-        cx, cy = float(centre.x), float(centre.y)
-    theta = float(getattr(centre, "theta", 0.0))
-    w, h = float(bbox.size_x), float(bbox.size_y)
-    if not all(math.isfinite(v) for v in (cx, cy, w, h, theta)):
-        return None, "box is not finite"
-    if theta:
-        c, s = abs(math.cos(theta)), abs(math.sin(theta))
-        w, h = w * c + h * s, w * s + h * c
-    if w <= 0 or h <= 0:
-        return None, "box has no area"
-    score = label = None
-    best = -math.inf
-    for r in d.results:
-        hyp = getattr(r, "hypothesis", r)
-        s_ = float(getattr(hyp, "score", math.nan))
-        cid = getattr(hyp, "class_id", getattr(hyp, "id", None))
-        if math.isfinite(s_) and s_ > best:
-            best, score = s_, s_
-            label = None if cid is None or cid == "" else str(cid)
-    if score is not None and not 0.0 <= score <= 1.0:
-        return None, "score outside [0, 1]"
-    if label is not None and names and label.isdigit() and int(label) in names:
-        label = names[int(label)]
-    return Detection(np.array([cx - 0.5 * w, cy - 0.5 * h, cx + 0.5 * w, cy + 0.5 * h]), score=score, label=label), None
-
-
-__all__ = ["TF2_MSGS", "VISION_MSGS_ROS1", "VISION_MSGS_ROS2", "message_types", "read_bag", "typestore_for"]
+__all__ = ["message_types", "read_bag", "typestore_for"]

@@ -106,7 +106,7 @@ class TransformTree:
                 f"frames {excerpt(base)} and {excerpt(frame)} are not connected (roots {self._chain(base)[-1]!r} and {self._chain(frame)[-1]!r})"
             )
 
-    def _to_ancestor(self, frame: str, ancestor: str, stamp: float, max_gap: float) -> NDArray[np.float64]:
+    def _to_ancestor(self, frame: str, ancestor: str, stamp: float, max_gap: float, wait_for_later: bool) -> NDArray[np.float64]:
         """``T_ancestor_frame`` at ``stamp``."""
         T = np.eye(4)
         node = frame
@@ -114,6 +114,10 @@ class TransformTree:
             edge = self._edges[node]
             if edge.stamps:
                 st, Ts = edge.samples()
+                if wait_for_later and st[-1] < stamp:
+                    raise TransformUnavailable(
+                        f"transform {edge.parent} -> {node}: no sample at or after {stamp:.3f} s yet (latest {st[-1]:.3f} s)"
+                    )
                 Tq, ok, why = interpolate_poses(st, Ts, [stamp], max_gap)
                 if not ok[0]:
                     raise TransformUnavailable(f"transform {edge.parent} -> {node}: {why[0]}")
@@ -125,23 +129,43 @@ class TransformTree:
             node = edge.parent
         return T
 
-    def lookup(self, base: str, frame: str, stamp: float, max_gap: float) -> NDArray[np.float64]:
+    def lookup(self, base: str, frame: str, stamp: float, max_gap: float, *, wait_for_later: bool = False) -> NDArray[np.float64]:
         """``T_base_frame`` at ``stamp`` (seconds).
+
+        ``wait_for_later``: a time-stamped edge whose latest sample is before ``stamp`` is not available yet
+        (live use, where later samples are still to come: they are waited for, not extrapolated from the
+        last one; a recording has all its samples and uses the nearest within ``max_gap``).
 
         Raises
         ------
         InputError
             Unknown or unconnected frames.
         TransformUnavailable
-            A time-stamped edge on the way has no sample within ``max_gap`` of ``stamp``.
+            A time-stamped edge on the way has no sample within ``max_gap`` of ``stamp`` (or, with
+            ``wait_for_later``, none at or after it).
         """
         base, frame = normalise_frame(base), normalise_frame(frame)
         self.check_connected(base, frame)
         up_base, up_frame = self._chain(base), self._chain(frame)
         common = next(f for f in up_frame if f in set(up_base))
-        T_common_frame = self._to_ancestor(frame, common, stamp, max_gap)
-        T_common_base = self._to_ancestor(base, common, stamp, max_gap)
+        T_common_frame = self._to_ancestor(frame, common, stamp, max_gap, wait_for_later)
+        T_common_base = self._to_ancestor(base, common, stamp, max_gap, wait_for_later)
         return invert_transform(T_common_base) @ T_common_frame
+
+    def forget_before(self, stamp: float) -> None:
+        """Drop time-stamped samples older than ``stamp`` (seconds), keeping each edge's latest one before it.
+
+        A live buffer calls it to bound its memory (like tf2's cache time); a lookup at ``stamp`` or later
+        gives the same answer after it as before.
+        """
+        for edge in self._edges.values():
+            if not edge.stamps:
+                continue
+            st, Ts = edge.samples()
+            first = max(int(np.searchsorted(st, stamp, side="right")) - 1, 0)
+            if first > 0:
+                edge.stamps, edge.transforms = st[first:].tolist(), list(Ts[first:])
+                edge._sorted = None
 
 
 def normalise_frame(name: str) -> str:
