@@ -3,7 +3,7 @@
 A detector's box is the bounding box of the object's silhouette. An ellipsoid model of a cylinder or a cuboid
 predicts boxes that are systematically off when the camera looks from above (the top rim of a cylinder sticks out
 where an ellipsoid narrows), which biases the fitted centre downwards by about 3 mm for a 5 x 5 x 12 cm container
-seen from 15-30 degrees above at 0.5-0.7 m (``benchmarks/solid_shape_bias.py``). These are the exact boxes.
+seen from 15-30 degrees above at 0.5-0.7 m (``experiments/solid_shape_bias.py``). These are the exact boxes.
 
 **Cylinder** (centre ``c``, radius ``r``, half-height ``h``, axis ``u``: the third column of its rotation). It is
 the convex hull of its two rim circles, so its silhouette is the convex hull of the two projected rims and its box
