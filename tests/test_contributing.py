@@ -100,3 +100,37 @@ def test_the_toy_runs_from_python_after_registration(guide_modules: Path, monkey
         assert np.linalg.norm(result.objects[0].position - scene.centres[0]) < TOY_TOLERANCE_M
     finally:
         METHODS.pop("toy-py", None)
+
+
+@pytest.fixture
+def bench_modules(tmp_path: Path) -> Path:
+    """The guide's toy bench and its registration as modules in ``tmp_path``."""
+    for name in ("toy_bench.py", "register_toy_bench.py"):
+        (tmp_path / name).write_text(guide_file(name))
+    return tmp_path
+
+
+def _bench_cli(modules: Path, *args: str) -> subprocess.CompletedProcess[str]:
+    """``monovisual3d ARGS`` in a fresh process that registered the guide's toy bench first."""
+    path = [str(modules), str(Path(monovisual3d.__file__).parent.parent), os.environ.get("PYTHONPATH", "")]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in path if p)}
+    code = "import register_toy_bench\nfrom monovisual3d.cli import main\nmain()"
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, env=env, timeout=300)
+
+
+def test_the_toy_bench_of_the_guide_runs_through_the_cli(bench_modules: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    assert "toy" in _bench_cli(bench_modules, "bench", "--help").stdout
+    out = _bench_cli(bench_modules, "bench", "toy", "--seeds", "2")
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    assert [line.split(":")[0] for line in lines] == ["seed 0", "seed 1"]
+    monkeypatch.syspath_prepend(str(bench_modules))
+    from toy_bench import run_toy_bench  # the measurement itself, from Python: the same numbers
+
+    result = run_toy_bench(range(2))
+    assert set(result["meta"]) >= {"cpu", "cores"}
+    for line, row in zip(lines, result["rows"]):
+        assert line == f"seed {row['seed']}: mean {row['mean_mm']:.2f} mm, recall {row['recall']:.3f}"
+        assert row["recall"] == 1.0 and 0 < row["mean_mm"] < 20  # the paper scene's fruit are found, a few mm off
+    bad = _bench_cli(bench_modules, "bench", "toy", "--seeds", "0")
+    assert bad.returncode == 2 and "--seeds" in bad.stderr

@@ -1,1 +1,2 @@
-"""Benchmarks shared by the CLI (`monovisual3d bench ...`) and benchmarks/*.py."""
+"""Benchmarks: reusable measurements behind ``monovisual3d bench ...``, also used by the one-off studies of the
+repository's ``experiments/`` folder."""

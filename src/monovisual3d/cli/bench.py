@@ -238,3 +238,57 @@ def _ints(text: str, flag: str) -> list[int]:
         return [int(t) for t in text.split(",") if t.strip()]
     except ValueError:
         raise InputError(f"{flag}: got {text!r}, expected integers separated by commas") from None
+
+
+ab_app = typer.Typer(
+    help="A/B of localize options: the default against KEY=VALUE changes, runtime or accuracy, side by side.",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
+bench_app.add_typer(ab_app, name="ab")
+ABOptions = Annotated[
+    list[str] | None,
+    typer.Argument(
+        help="localize options to compare with the default, KEY=VALUE (values read as JSON where they parse: "
+        "radius_max=0.08, size_range=[0.01,0.15], regroup=false); none: the default alone.",
+        show_default=False,
+    ),
+]
+
+
+@ab_app.command("time")
+@handle_errors
+def ab_time(
+    options: ABOptions = None,
+    rounds: Annotated[int, typer.Option(min=1, help="Timed rounds after one warm-up of each variant.")] = 5,
+) -> None:
+    """Median localize time (ms) of the default and of the changed options, alternated in one process.
+
+    On the paper scene (6 fruit, 3 views, the paper's box noise, one fixed draw) and on six fruit of mixed shapes (five draws).
+    """
+    from ..bench.option_ab import format_time, time_options, variants
+
+    chosen = variants(options or [])
+    result = time_options(chosen, rounds, progress=lambda msg: console.print(f"[dim]{msg}[/]", highlight=False))
+    for line in format_time(result):
+        print(line)
+
+
+@ab_app.command("accuracy")
+@handle_errors
+def ab_accuracy(
+    condition: Annotated[str, typer.Argument(help="A condition of bench accuracy, e.g. greenhouse-noise.")],
+    first: Annotated[int, typer.Argument(min=0, help="First seed.")],
+    last: Annotated[int, typer.Argument(min=1, help="Last seed, excluded.")],
+    options: ABOptions = None,
+) -> None:
+    """Centre error, recall and precision of the default and of the changed options on seeds FIRST..LAST-1."""
+    from ..bench.option_ab import accuracy_options, format_accuracy, variants
+    from ..errors import InputError
+
+    if last <= first:
+        raise InputError(f"LAST: got {last}, expected more than FIRST ({first})")
+    chosen = variants(options or [])
+    seeds = range(first, last)
+    for line in format_accuracy(condition, seeds, accuracy_options(condition, seeds, chosen)):
+        print(line)

@@ -5,7 +5,9 @@
 - :mod:`~monovisual3d.sim.raycast`: the bounding-box camera (exact ray casting, visible boxes);
 - :mod:`~monovisual3d.sim.viewpoints`: the paper's poses, permutations, rings, hemispheres;
 - :mod:`~monovisual3d.sim.noise`: the paper's box noise, missed detections, false positives, pose error;
-- :mod:`~monovisual3d.sim.simulate`: sessions and ground truth from all of the above.
+- :mod:`~monovisual3d.sim.simulate`: sessions and ground truth from all of the above;
+- :mod:`~monovisual3d.sim.containers`, :mod:`~monovisual3d.sim.tabletop`: the scenes of the experiments (containers on
+  a robot arm's bench, a table top of lying boxes and bottles), with the exact boxes of solids.
 
 The photorealistic MuJoCo path lives in :mod:`monovisual3d.sim.mujoco_render`
 (extra ``[sim]``).

@@ -34,7 +34,7 @@ def _nearest_mm(name, **options):
 
 
 def test_a_lying_object_broadside_in_one_view_only_is_built_from_its_free_boxes():
-    # Seed 810 of benchmarks/tabletop_subsets.py, views (0, 1, 6): four lying boxes and two bottles on a table; one
+    # Seed 810 of experiments/tabletop_subsets.py, views (0, 1, 6): four lying boxes and two bottles on a table; one
     # lying object is wide in one view and tall in the other two, so the search has no hypothesis that explains its
     # boxes and leaves them free.
     without = _nearest_mm("one_view_broadside_tabletop", second_look=False)
@@ -45,7 +45,7 @@ def test_a_lying_object_broadside_in_one_view_only_is_built_from_its_free_boxes(
 
 
 def test_a_ghost_of_two_objects_boxes_gives_them_up_to_the_two_objects():
-    # Seed 810 of benchmarks/tabletop_subsets.py, views (1, 4, 5): the search pairs object 3's box in the first view
+    # Seed 810 of experiments/tabletop_subsets.py, views (1, 4, 5): the search pairs object 3's box in the first view
     # with object 0's in the third into one object seen twice, and leaves the two objects' other boxes free; built from
     # those and the ghost's boxes, the two objects are worth far more than the ghost. The regroup pass (before the
     # second look) undoes it too: either one alone finds both objects.
@@ -57,7 +57,7 @@ def test_a_ghost_of_two_objects_boxes_gives_them_up_to_the_two_objects():
 
 
 def test_a_container_wholly_behind_another_in_one_view_is_found_from_its_other_two():
-    # Seed 1100 of benchmarks/container_pairs.py at 0 degrees, views 1, 4 and 7, with boxes of the visible parts and
+    # Seed 1100 of experiments/container_pairs.py at 0 degrees, views 1, 4 and 7, with boxes of the visible parts and
     # none for an object wholly behind another (--visible --unboxed-hidden --tray --pose-error=1,0.15): in the third
     # view the first container stands behind the second and has no box. The search took its boxes of the other two
     # views for nothing and gave the second container a thin ellipsoid 21 mm off; a new object of those two boxes,

@@ -118,7 +118,7 @@ def test_the_pair_refit_keeps_the_farther_container_behind_the_nearer_box():
     assert past[1].max() < 1.0 and error_mm[1] < 25
 
 
-#: A three-view subset of the containers-and-tray scene (``benchmarks/container_pairs.py cuboid 0.005 1303 1304 0 --visible
+#: A three-view subset of the containers-and-tray scene (``experiments/container_pairs.py cuboid 0.005 1303 1304 0 --visible
 #: --tray --no-workspace --pose-error=1,0.15``, views 4, 6, 7): the reported poses T_base_optical (rotations rounded to
 #: 6 decimals, re-orthonormalised below), the two containers' boxes of their visible parts, pixels, and true centres.
 SUBSET_POSES = np.array(
@@ -251,7 +251,7 @@ def test_three_distinct_views_allow_no_trade_between_spheres_apart():
 
 
 def test_two_lying_objects_trading_the_odd_view_are_untangled():
-    """Shipped table-top session (simulated, seed 1010 of ``benchmarks/tabletop_subsets.py --two-viewpoints``): four
+    """Shipped table-top session (simulated, seed 1010 of ``experiments/tabletop_subsets.py --two-viewpoints``): four
     objects lying (240 x 110 x 120 mm ellipsoids) and two bottles, three views of which two stand 3 degrees of azimuth apart.
     The search and the sphere-level swap pass pair two lying objects' boxes crosswise in the odd view, two spheres 178
     and 415 mm off; the trade those boxes' centres allow, judged with the shape models, wins by 7 nats."""

@@ -174,7 +174,7 @@ def test_a_cucumber_found_as_a_large_sphere_takes_its_shape():
 
 
 def test_a_container_cut_in_one_view_takes_its_shape_from_the_others_under_pose_error():
-    """Seed 1600 of ``benchmarks/container_pairs.py ... --pose-error=3,0.5``, views 0, 2, 6 (two containers and a tray,
+    """Seed 1600 of ``experiments/container_pairs.py ... --pose-error=3,0.5``, views 0, 2, 6 (two containers and a tray,
     each reported pose off by 3 mm and 0.5 degrees per axis). One container's box in one view is cut by the other
     container; its other two boxes are elongated alike, as the container is. A sphere 38 mm off explained the
     pose-shifted edges of those views as cuts better than the spheroid did, and was kept: the boxes no nearer object
@@ -328,7 +328,7 @@ def test_a_box_larger_than_its_sphere_sticks_out_and_a_cut_one_does_not():
 
 
 def test_a_lying_object_broadside_in_one_view_only_takes_its_shape():
-    """Shipped table-top session (simulated, seed 800 of ``benchmarks/tabletop_subsets.py``, views 0, 4, 5): one lying
+    """Shipped table-top session (simulated, seed 800 of ``experiments/tabletop_subsets.py``, views 0, 4, 5): one lying
     240 x 110 x 120 mm ellipsoid is wide in one view and near-square in the two others; its wide box sticks out of the
     sphere the search found by 6.7 edge sigmas, which no cut does. Kept as that sphere it was 57 mm off; fitted, under
     4 mm (the others unchanged)."""

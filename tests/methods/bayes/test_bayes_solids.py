@@ -68,7 +68,7 @@ def _pair_error(poses: np.ndarray, boxes: np.ndarray, centres: np.ndarray) -> fl
 
 
 def test_an_upright_cylinder_is_found_at_its_centre():
-    # an upright spheroid fitted to these boxes lands 2.5-3 mm low (benchmarks/solid_shape_bias.py); the cylinder does not
+    # an upright spheroid fitted to these boxes lands 2.5-3 mm low (experiments/solid_shape_bias.py); the cylinder does not
     for seed in range(3):
         rng = np.random.default_rng(seed)
         poses = _poses(rng, 3, 25.0)

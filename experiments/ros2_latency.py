@@ -1,6 +1,6 @@
 """How long after a view's pose is available does the ROS 2 node publish its fruit (target: median <= 0.5 s), and how right?
 
-Run with ``PYTHONPATH=src python benchmarks/ros2_latency.py [--views 10] [--rate 1] [--seeds 0,1,2] [--output latency.json]``
+Run with ``PYTHONPATH=src python experiments/ros2_latency.py [--views 10] [--rate 1] [--seeds 0,1,2] [--output latency.json]``
 (needs the ``[ros2]`` extra). Everything stays on loopback unless ``CYCLONEDDS_URI`` says otherwise: this script
 sets a loopback-only configuration and a random ``ROS_DOMAIN_ID`` when they are not set.
 
@@ -154,6 +154,12 @@ def _summary(values: list[float]) -> dict[str, float]:
     }
 
 
+def _arguments(args: argparse.Namespace) -> list[str]:
+    """The command line that gives ``args`` (for the results' record)."""
+    out = ["--views", str(args.views), "--rate", str(args.rate), "--seeds", args.seeds]
+    return out + (["--", *args.method_options] if args.method_options else [])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
     parser.add_argument("--views", type=int, default=10, help="views per session (a ring around the plant)")
@@ -188,7 +194,7 @@ def main() -> None:
     estimate = [x for r in runs for x in r["estimate_s"]]
     cpu = [x for r in runs for x in r["estimate_cpu_s"]]
     result = {
-        "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+        "command": " ".join(["ros2_latency.py", *_arguments(args)]),
         "latency_s": _summary(latency),
         "latency_s_from_view_2": _summary(later),
         "estimate_s": _summary(estimate),

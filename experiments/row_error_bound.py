@@ -28,7 +28,7 @@ Two oracle estimators with the true association isolate the refinement from the 
 on the true boxes, started at the truth; ``oracle-censored`` the same with the occluded edges censored
 (only outward residuals count, as the method already does at the image border).
 
-Run: ``PYTHONPATH=src python benchmarks/row_error_bound.py [--fruit 12 24 48 96] [--seeds 0 1 2 100 101 102 103 104]``
+Run: ``python experiments/row_error_bound.py [--fruit 12 24 48 96] [--seeds 0 1 2 100 101 102 103 104]``
 (about 10 minutes of CPU with the defaults); ``--no-refit`` runs the method without the shape stage's
 occlusion refit (:func:`monovisual3d.methods.bayes.shapes.occlusion_refit`), as it was before it.
 """

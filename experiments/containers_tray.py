@@ -4,29 +4,31 @@ behind them, all overlapping in every image, three views over 120 degrees at 0.6
 Prints, per seed, how many objects the default method reports and each true object's error (Hungarian pairing),
 then the containers' mean and max error and the seeds where an object has no estimate within 20 mm.
 
-Usage: python benchmarks/containers_tray.py [FIRST_SEED LAST_SEED]   (default 7000 7020)
+Usage: python experiments/containers_tray.py [FIRST_SEED LAST_SEED]   (default 7000 7020)
 """
 
-import sys
+from __future__ import annotations
+
+import argparse
 import warnings
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 import monovisual3d as mv
-from monovisual3d.camera import Camera
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import Ellipsoid
 from monovisual3d.geometry.orientation import rotation_upright
 from monovisual3d.session import Workspace
+from monovisual3d.sim.containers import HALF_HEIGHT_M, HALF_WIDTH_M, TARGET_BASE, TRAY_HALF_SIDES_M, arm_camera
 from monovisual3d.sim.noise import NoiseModel
 from monovisual3d.sim.scene import EllipsoidFruit, Scene
 from monovisual3d.sim.simulate import simulate
 
-CAM = Camera.from_hfov(1280, 720, 69.0)
-TARGET = np.array([0.6, 0.0, 0.3])
-CONTAINER = (0.025, 0.025, 0.06)  # semi-axes, metres
-TRAY = (0.10, 0.08, 0.015)
+CAM = arm_camera()
+TARGET = np.asarray(TARGET_BASE)
+CONTAINER = (HALF_WIDTH_M, HALF_WIDTH_M, HALF_HEIGHT_M)  # semi-axes of the ellipsoids, metres
+TRAY = TRAY_HALF_SIDES_M
 FOUND_M = 0.02
 
 
@@ -78,5 +80,8 @@ def main(first: int, last: int) -> None:
 
 
 if __name__ == "__main__":
-    first, last = (int(sys.argv[1]), int(sys.argv[2])) if len(sys.argv) > 2 else (7000, 7020)
-    main(first, last)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("first", nargs="?", type=int, default=7000, help="first seed (default 7000)")
+    parser.add_argument("last", nargs="?", type=int, default=7020, help="last seed, excluded (default 7020)")
+    args = parser.parse_args()
+    main(args.first, args.last)

@@ -11,7 +11,7 @@ sphere taken for a solid is the wrong model); then the median and p90 runtime (s
 
 Usage::
 
-    python benchmarks/large_objects.py [FIRST LAST] [-- key=value ...]   # seeds FIRST..LAST-1, default 0 200
+    python experiments/large_objects.py [FIRST LAST] [-- key=value ...]   # seeds FIRST..LAST-1, default 0 200
 
 Options after ``--`` go to ``localize`` (values read as JSON where they parse), e.g. ``solids=false``.
 
@@ -24,16 +24,18 @@ solids 1 -> 5); 5 runs with no estimate either way; runtime median 0.143 -> 0.16
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 import warnings
 from collections import Counter
 
 import numpy as np
-from option_ab import split_options
 
 import monovisual3d as mv
+from monovisual3d.bench.option_ab import split_options
 from monovisual3d.camera import Camera
+from monovisual3d.errors import InputError
 from monovisual3d.frames import look_at
 from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
 from monovisual3d.geometry.orientation import rotation_upright
@@ -112,9 +114,15 @@ def main(seeds: range, options: dict) -> None:
 
 
 if __name__ == "__main__":
-    args, options = split_options(sys.argv[1:], "large_objects.py")
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        epilog="Options to localize go after --, as KEY=VALUE (values read as JSON where they parse), e.g. -- solids=false.",
+    )
+    parser.add_argument("first", nargs="?", type=int, default=0, help="first seed (default 0)")
+    parser.add_argument("last", nargs="?", type=int, default=200, help="last seed, excluded (default 200)")
     try:
-        seeds = range(int(args[0]), int(args[1])) if len(args) > 1 else range(0, 200)
-    except ValueError:
-        sys.exit(f"large_objects.py: FIRST LAST must be integers, got {args[:2]}")
-    main(seeds, options)
+        own, localize_options = split_options(sys.argv[1:])
+    except InputError as exc:
+        parser.error(str(exc))
+    args = parser.parse_args(own)
+    main(range(args.first, args.last), localize_options)

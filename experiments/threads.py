@@ -1,6 +1,6 @@
 """Where a second numba thread starts to pay off: per-call time against work, 1 thread vs all, idle and busy.
 
-Run with ``PYTHONPATH=src python benchmarks/threads.py [--repeats 15] [--output threads.json]``.
+Run with ``python experiments/threads.py [--repeats 15] [--output threads.json]``.
 
 Two kernels, each at growing sizes: the ``bayes`` hypothesis scoring (``score_hypotheses`` on the
 paper scene's views, N centres x 16 radii) and the dense update of the paper method
@@ -66,7 +66,7 @@ def _time(fn, n_threads: int) -> float:  # type: ignore[no-untyped-def]
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=15)
     parser.add_argument("--output", default=None)
     args = parser.parse_args()

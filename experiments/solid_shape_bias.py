@@ -36,7 +36,7 @@ What it showed (seeds 9000-9039, 1280 x 720; 640 x 480 gives the same to 0.1 mm)
   cylinder, 15.1 -> 18.3 mm from its ground-truth ellipsoid's centre with all 8 views; ``solids`` is on by
   default all the same (docs/real.md says why).
 
-Usage: python benchmarks/solid_shape_bias.py [FIRST_SEED LAST_SEED] [--quick] [--solids]   (default seeds 9000 9040;
+Usage: python experiments/solid_shape_bias.py [FIRST_SEED LAST_SEED] [--quick] [--solids]   (default seeds 9000 9040;
 --quick: 1280 x 720 only, the 640 x 480 rows are the same to 0.1 mm: the noise is relative to the box;
 --solids: ``localize(session, solids=True)``, the upright cylinder and cuboid models of the shape stage;
 --evidence: the sweep that chose ``SOLID_EVIDENCE_NATS`` (:func:`evidence_sweep`; seeds 9000 9060 for the numbers quoted
@@ -47,29 +47,19 @@ from __future__ import annotations
 
 import argparse
 import warnings
-from collections.abc import Callable
 
 import numpy as np
 
 import monovisual3d as mv
-from monovisual3d.camera import Camera
-from monovisual3d.frames import look_at
-from monovisual3d.geometry.ellipsoid import ellipsoid_bbox
 from monovisual3d.geometry.fit import fit_shape_by_bic
-from monovisual3d.geometry.orientation import rotation_upright
-from monovisual3d.geometry.solids import cuboid_bbox, cylinder_bbox
 from monovisual3d.methods.bayes.sensor import SensorModel
 from monovisual3d.methods.bayes.solid_choice import solid_evidence
 from monovisual3d.session import Detection, Session, View, Workspace
+from monovisual3d.sim.containers import TARGET_BASE, UprightSolid, arc_views, arm_camera, scene_middle
 from monovisual3d.sim.noise import perturb_boxes
 
-TARGET = np.array([0.6, 0.0, 0.3])
-CAMERAS = {"1280x720": Camera.from_hfov(1280, 720, 69.0), "640x480": Camera.from_hfov(640, 480, 69.0)}
-#: Azimuths of the views (degrees) for 3 and 8 views.
-AZIMUTHS_DEG = {3: np.linspace(-60.0, 60.0, 3), 8: np.linspace(-90.0, 90.0, 8)}
+CAMERAS = {"1280x720": arm_camera(1280, 720), "640x480": arm_camera(640, 480)}
 ELEVATIONS_DEG = (0.0, 15.0, 30.0)
-DISTANCE_M = (0.5, 0.7)
-AIM_JITTER_M = 0.02
 BOX_SIGMAS = (0.0, 0.005, 0.02)
 #: Box noise levels and evidence thresholds (nats) of ``--evidence``.
 EVIDENCE_SIGMAS = (0.003, 0.01, 0.02)
@@ -82,30 +72,8 @@ OBJECTS = {
     "ellipsoid 25,25,60": ("ellipsoid", 0.025, 0.06),
     "ellipsoid 30,30,50": ("ellipsoid", 0.030, 0.05),
 }
-
-
-def views(rng: np.random.Generator, n_views: int, elevation_deg: float | np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Poses (K, 4, 4) on the -x side of the object, ``DISTANCE_M`` away, aimed within ``AIM_JITTER_M`` of it, at one
-    elevation (degrees) or one per view."""
-    elevations = np.radians(np.broadcast_to(elevation_deg, (n_views,)))
-    poses = []
-    for az, e in zip(np.radians(AZIMUTHS_DEG[n_views]), elevations):
-        d = rng.uniform(*DISTANCE_M)
-        p = centre + d * np.array([-np.cos(e) * np.cos(az), np.cos(e) * np.sin(az), np.sin(e)])
-        poses.append(look_at(p, centre + rng.uniform(-AIM_JITTER_M, AIM_JITTER_M, 3)))
-    return np.array(poses)
-
-
-def object_boxes(
-    kind: str, r: float, h: float, rng: np.random.Generator
-) -> Callable[[Camera, np.ndarray, np.ndarray], np.ndarray]:
-    """The exact box function (camera, poses, centre) -> (K, 4) of one object (a cuboid draws its yaw from rng)."""
-    if kind == "cylinder":
-        return lambda cam, poses, c: cylinder_bbox(cam, poses, c, r, h, rotation_upright(0.0))
-    if kind == "cuboid":
-        yaw = rng.uniform(0.0, np.pi / 2)
-        return lambda cam, poses, c: cuboid_bbox(cam, poses, c, [r, r, h], rotation_upright(yaw))
-    return lambda cam, poses, c: ellipsoid_bbox(cam, poses, c, [r, r, h], rotation_upright(0.0), clip=False)
+#: Half-side of the workspace cube around the scene's target, metres.
+WORKSPACE_HALF_M = 0.2
 
 
 def run_case(
@@ -114,18 +82,19 @@ def run_case(
     """Error vectors (S, 3), metres (NaN: no object found), over ``seeds``."""
     kind, r, h = OBJECTS[obj]
     cam = CAMERAS[cam_name]
+    target = np.asarray(TARGET_BASE)
     out = np.full((len(seeds), 3), np.nan)
     for i, seed in enumerate(seeds):
         rng = np.random.default_rng(seed)
-        centre = TARGET + rng.uniform(-0.01, 0.01, 3)
-        poses = views(rng, n_views, elevation, centre)
-        boxes = object_boxes(kind, r, h, rng)(cam, poses, centre)
+        centre = scene_middle(rng)
+        poses = arc_views(n_views, elevation, centre, rng)
+        boxes = UprightSolid.draw(kind, r, h, rng).boxes(cam, poses, centre)
         if sigma > 0:
             boxes = perturb_boxes(boxes, sigma, rng)
         session = Session(
             cam,
             tuple(View(T, (Detection(b),)) for T, b in zip(poses, boxes)),
-            Workspace(TARGET - 0.2, TARGET + 0.2),
+            Workspace(target - WORKSPACE_HALF_M, target + WORKSPACE_HALF_M),
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -160,9 +129,9 @@ def evidence_sweep(seeds: range) -> None:
                 evidence, dz = [], []
                 for seed in seeds:
                     rng = np.random.default_rng(seed)
-                    centre = TARGET + rng.uniform(-0.01, 0.01, 3)
-                    poses = views(rng, n_views, rng.uniform(0.0, 30.0), centre)
-                    boxes = perturb_boxes(object_boxes(kind, 0.025, 0.06, rng)(cam, poses, centre), sigma, rng)
+                    centre = scene_middle(rng)
+                    poses = arc_views(n_views, rng.uniform(0.0, 30.0), centre, rng)
+                    boxes = perturb_boxes(UprightSolid.draw(kind, 0.025, 0.06, rng).boxes(cam, poses, centre), sigma, rng)
                     _, fits = fit_shape_by_bic(
                         cam,
                         poses,
@@ -197,13 +166,13 @@ def main(first: int, last: int, quick: bool, solids: bool) -> None:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description="Centre bias of bayes on upright cylinders and cuboids.")
-    parser.add_argument("first", type=int, nargs="?", default=9000)
-    parser.add_argument("last", type=int, nargs="?", default=9040)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("first", type=int, nargs="?", default=9000, help="first seed (default 9000)")
+    parser.add_argument("last", type=int, nargs="?", default=9040, help="last seed, excluded (default 9040)")
     parser.add_argument("--quick", action="store_true", help="1280 x 720 only")
     parser.add_argument("--solids", action="store_true", help="localize with solids=True (BayesConfig.solids)")
     parser.add_argument("--evidence", action="store_true", help="the evidence threshold sweep (evidence_sweep) instead")
-    args = parser.parse_args()
+    args = parser.parse_intermixed_args()
     if args.evidence:
         evidence_sweep(range(args.first, args.last))
     else:

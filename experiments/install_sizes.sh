@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installed size of monovisual3d per extra (docs/install.md): a fresh venv per extra, `pip install`
 # of this checkout (not editable), then `du` of the venv's site-packages minus an empty venv's.
-# Usage: bash benchmarks/install_sizes.sh core viz docs vision ros sim dev   (slow: minutes per extra)
+# Usage: bash experiments/install_sizes.sh core viz docs vision ros sim dev   (slow: minutes per extra)
 set -u
 SRC="$(cd "$(dirname "$0")/.." && pwd)"
 OUT="${OUT:-/tmp/mv3d-install-sizes}"

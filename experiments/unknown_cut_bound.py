@@ -17,46 +17,24 @@ as the mixture is (each edge cut with the pooled probability, its information th
 which edges are cut is the mixture bound against that one. An estimator that is not told cannot beat one that is,
 so a mixture bound below the benchmark's known-cut bound cannot show the target out of reach.
 
-Usage: python benchmarks/unknown_cut_bound.py [CONDITION FIRST LAST]   (default greenhouse-noise 0 20)
+Usage: python experiments/unknown_cut_bound.py [CONDITION FIRST LAST]   (default greenhouse-noise 0 20)
 """
 
 from __future__ import annotations
 
-import sys
-from collections.abc import Iterator
-from dataclasses import dataclass
-from typing import Any
+import argparse
 
 import numpy as np
 from scipy.signal import fftconvolve
 
-from monovisual3d.bench.accuracy import conditions, simulated_session
-from monovisual3d.geometry.bounds import BORDER_PX, cut_edges, ellipsoid_box_jacobian, ellipsoid_crlb
-from monovisual3d.sim.scenes import default_camera
+from monovisual3d.bench.accuracy import conditions
+from monovisual3d.bench.leaf_cuts import PAIR_COVARIANCE, edge_noise_density, fruit_boxes, pair_noise_density
 
 #: Grid step of the numerical integration and its half-width beyond the cuts, in units of the edge noise scale.
 STEP, PAD = 0.04, 8.0
 #: Cut depths beyond this (noise-scale units; slivers of a fruit behind a leaf) are spread evenly over
 #: [TAIL_FROM, CAP]: such an edge is clearly cut either way, and the grid stays small.
 TAIL_FROM, CAP = 50.0, 60.0
-#: The simulator's edge-noise covariance of an axis's two edges, in units of (box_sigma * size)^2 (bounds module).
-PAIR_COVARIANCE = np.array([[1.25, 0.75], [0.75, 1.25]])
-
-
-def pair_noise_density(step: float, pad: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The grid ``ax`` (n,), offsets ``u`` (n, n, 2) and density (n, n) of an axis's two edge offsets under the box noise
-    alone (noise-scale units, :data:`PAIR_COVARIANCE`), on ``[-pad, pad]`` squared in steps of ``step``."""
-    ax = np.arange(-pad, pad + step / 2, step)
-    u = np.stack(np.meshgrid(ax, ax, indexing="ij"), axis=-1)
-    inv = np.linalg.inv(PAIR_COVARIANCE)
-    density = np.exp(-0.5 * np.einsum("...i,ij,...j->...", u, inv, u)) / (2 * np.pi * np.sqrt(np.linalg.det(PAIR_COVARIANCE)))
-    return ax, u, density
-
-
-def edge_noise_density(x: np.ndarray) -> np.ndarray:
-    """Density of one edge's offset ``x`` (noise-scale units) under the box noise alone."""
-    var = PAIR_COVARIANCE[0, 0]
-    return np.exp(-0.5 * x**2 / var) / np.sqrt(2 * np.pi * var)
 
 
 def mixture_information(depths: np.ndarray) -> tuple[np.ndarray, float]:
@@ -110,58 +88,6 @@ def fruit_bound_sq(J: np.ndarray, seen: np.ndarray, usable: np.ndarray, sigma: f
     return float(np.trace(np.linalg.inv(F)[:3, :3]))
 
 
-@dataclass(frozen=True)
-class FruitBoxes:
-    """One simulated fruit and the boxes it truly has (the simulator's association; views without its box left out).
-
-    ``T_base_optical`` (V, 4, 4) true poses; ``seen`` (V, 4) its visible boxes before noise, ``boxes`` (V, 4) the
-    detector's, ``full`` (V, 4) its unoccluded silhouette boxes (unclipped), pixels; ``J`` (V, 4, P) their derivatives;
-    ``usable`` (V, 4) edges inside the image; ``cut`` (V, 4) edges an occluder cuts; ``known_sq`` the benchmark's
-    known-cut bound (m^2); ``depths`` the usable edges' cut depths in noise-scale units (0: uncut); ``seed`` and
-    ``index`` (in ``scene.fruits``) say which fruit it is."""
-
-    seed: int
-    index: int
-    ellipsoid: Any
-    radius: float
-    T_base_optical: np.ndarray
-    seen: np.ndarray
-    boxes: np.ndarray
-    full: np.ndarray
-    J: np.ndarray
-    usable: np.ndarray
-    cut: np.ndarray
-    known_sq: float
-    depths: np.ndarray
-
-
-def fruit_boxes(name: str, seeds: range) -> Iterator[FruitBoxes]:
-    """Every fruit seen in some view of the condition ``name``'s sessions for ``seeds``."""
-    cond = next(c for c in conditions(False) if c.name == name)
-    sigma, camera = cond.noise.box_sigma, default_camera()
-    size = np.array([camera.width, camera.height], dtype=float)
-    for seed in seeds:
-        scene = cond.scene(seed)
-        _, svs = simulated_session(scene, cond.noise, seed, masks=False)
-        for f, obj in enumerate(scene.fruits):
-            views = [sv for sv in svs if f in set(sv.source.tolist())]
-            if not views:
-                continue
-            e = obj.ellipsoid
-            T = np.array([sv.T_base_optical_true for sv in views])
-            seen = np.array([sv.rendering.boxes_xyxy[f] for sv in views], dtype=float)
-            boxes = np.array([np.asarray(sv.boxes_xyxy, dtype=float)[list(sv.source).index(f)] for sv in views])
-            full, J = ellipsoid_box_jacobian(camera, T, e, e.shape)
-            inside = np.concatenate([full[:, :2] > BORDER_PX, full[:, 2:] < size - BORDER_PX], axis=1)
-            usable = np.isfinite(full) & inside & np.all(np.isfinite(J), axis=2)
-            cut = cut_edges(full, seen)
-            known = ellipsoid_crlb(camera, T, e, sigma, e.shape, censored=cut, noise_boxes_xyxy=seen).centre_rms_sq
-            inward = np.concatenate([seen[:, :2] - full[:, :2], full[:, 2:] - seen[:, 2:]], axis=1)
-            scale = sigma * np.concatenate([seen[:, 2:] - seen[:, :2]] * 2, axis=1)
-            depths = np.where(cut, inward / scale, 0.0)[usable]
-            yield FruitBoxes(seed, f, e, float(scene.radii[f]), T, seen, boxes, full, J, usable, cut, float(known), depths)
-
-
 def main(name: str, seeds: range) -> None:
     sigma = next(c for c in conditions(False) if c.name == name).noise.box_sigma
     records = list(fruit_boxes(name, seeds))
@@ -192,5 +118,11 @@ def main(name: str, seeds: range) -> None:
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    main(args[0] if args else "greenhouse-noise", range(int(args[1]), int(args[2])) if len(args) > 2 else range(0, 20))
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("condition", nargs="?", default="greenhouse-noise", help="a bench accuracy condition (greenhouse-noise)")
+    parser.add_argument("first", nargs="?", type=int, default=0, help="first seed (default 0)")
+    parser.add_argument("last", nargs="?", type=int, default=20, help="last seed, excluded (default 20)")
+    args = parser.parse_args()
+    if args.condition not in [c.name for c in conditions(False)]:
+        parser.error(f"condition: got {args.condition!r}, expected one of {[c.name for c in conditions(False)]}")
+    main(args.condition, range(args.first, args.last))

@@ -6,16 +6,18 @@ the others exact. Per angle, over the seeds: the share of sessions in which the 
 which another one is (with three views, a turned view also pulls the objects, so the others can look shifted the
 other way; at 0 degrees every report is a false alarm).
 
-``alarms``: the accuracy benchmark's noisy conditions without pose error (:func:`monovisual3d.bench.accuracy.conditions`,
+``--alarms``: the accuracy benchmark's noisy conditions without pose error (:func:`monovisual3d.bench.accuracy.conditions`,
 its scenes, noise and options), every report a false alarm: views reported of views run, per condition.
 
 Usage::
 
-    python benchmarks/view_shift.py [FIRST LAST]          # seeds FIRST..LAST-1, default 0 40
-    python benchmarks/view_shift.py alarms [FIRST LAST]   # default 0 20
+    python experiments/view_shift.py [FIRST LAST]            # seeds FIRST..LAST-1, default 0 40
+    python experiments/view_shift.py --alarms [FIRST LAST]   # default 0 20
 """
 
-import sys
+from __future__ import annotations
+
+import argparse
 import warnings
 
 import numpy as np
@@ -82,12 +84,12 @@ def false_alarms(seeds: range) -> None:
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    alarms = bool(args) and args[0] == "alarms"
-    args = args[1:] if alarms else args
-    if len(args) not in (0, 2) or not all(a.isdigit() for a in args) or (args and int(args[0]) >= int(args[1])):
-        sys.exit(f"view_shift.py: expected [alarms] [FIRST LAST], seeds with FIRST < LAST, got {sys.argv[1:]}")
-    if alarms:
-        false_alarms(range(int(args[0]), int(args[1])) if args else range(0, 20))
-    else:
-        main(range(int(args[0]), int(args[1])) if args else range(0, 40))
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("first", nargs="?", type=int, default=0, help="first seed (default 0)")
+    parser.add_argument("last", nargs="?", type=int, default=None, help="last seed, excluded (default 40; 20 with --alarms)")
+    parser.add_argument("--alarms", action="store_true", help="false alarms on the accuracy benchmark's conditions instead")
+    args = parser.parse_intermixed_args()
+    last = args.last if args.last is not None else (20 if args.alarms else 40)
+    if not 0 <= args.first < last:
+        parser.error(f"expected seeds with 0 <= FIRST < LAST, got {args.first} {last}")
+    (false_alarms if args.alarms else main)(range(args.first, last))

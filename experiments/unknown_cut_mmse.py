@@ -1,7 +1,7 @@
 """Leaf occlusion: how close to the known-cut bound an estimator can come when it is told everything but the cuts.
 
 The ``greenhouse-noise`` row's bound (:func:`monovisual3d.bench.accuracy.cut_crlb_rms_sq`) is told which box edges
-leaves cut. ``unknown_cut_bound.py`` shows that not being told costs only about 3 % of Fisher information; but the
+leaves cut. ``experiments/unknown_cut_bound.py`` shows that not being told costs only about 3 % of Fisher information; but the
 Fisher information is local, and the fruit that keep the default method above the bound are fruit whose boxes, cut
 a few noise scales deep on several edges, are explained better by a sphere 10-40 mm away than by the true one (the
 threshold effect, which no local bound sees; the script prints such fruit). It measures what the best estimator does
@@ -9,7 +9,7 @@ on those very boxes.
 
 Per fruit it is told the true association (the boxes the simulator gave that fruit) and the statistics of the
 simulator, not which edges are cut. Its likelihood is the simulator's box noise (an axis's two edges with the
-centre-and-size covariance of ``unknown_cut_bound.PAIR_COVARIANCE``, scaled by the observed box) convolved with an
+centre-and-size covariance of :data:`monovisual3d.bench.leaf_cuts.PAIR_COVARIANCE`, scaled by the observed box) convolved with an
 independent inward cut of each edge: with probability ``p_cut`` a depth with density ``s / (s + d)^2`` (noise-scale
 units, one noise scale being ``box_sigma`` times the box's size; Lomax: median ``s``), both fitted to the cut depths
 of calibration seeds. Its prior is flat in the centre and uniform over the simulator's fruit radii. It reports
@@ -31,14 +31,14 @@ nearby views; fruit that other detected fruit hide are cuts to it), so the poste
 every estimator; it is the best this much knowledge of the simulator buys, association included. Results, on four
 seed sets: ``docs/accuracy.md``.
 
-Usage: python benchmarks/unknown_cut_mmse.py [CONDITION CAL_FIRST CAL_LAST FIRST:LAST [FIRST:LAST ...]] [--flat-radius]
+Usage: python experiments/unknown_cut_mmse.py [CONDITION CAL_FIRST CAL_LAST FIRST:LAST [FIRST:LAST ...]] [--flat-radius]
 (default greenhouse-noise 2000 2040 0:20: the cut statistics from seeds 2000-2039, the fruit of seeds 0-19;
 ``--flat-radius``: no radius prior, as the default method knows none)
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,14 +46,14 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.signal import fftconvolve
 from scipy.stats import multivariate_t
-from unknown_cut_bound import FruitBoxes, edge_noise_density, fruit_boxes, pair_noise_density
 
 from monovisual3d.bench.accuracy import conditions
+from monovisual3d.bench.leaf_cuts import FruitBoxes, edge_noise_density, fruit_boxes, pair_noise_density
 from monovisual3d.camera import Camera
 from monovisual3d.frames import invert_transform
 from monovisual3d.geometry.bounds import BORDER_PX
 from monovisual3d.geometry.sphere import pinhole_sphere_boxes
-from monovisual3d.methods.bayes.config import BayesConfig
+from monovisual3d.methods.bayes.config import BayesTuning
 from monovisual3d.methods.bayes.refine import Observation, one_sided_residuals, refine_sphere, residuals
 from monovisual3d.methods.bayes.sensor import SensorModel, censored_edges
 from monovisual3d.sim.scenes import GREENHOUSE_RADIUS_RANGE, default_camera
@@ -242,7 +242,7 @@ def default_fit(camera: Camera, fruit: FruitBoxes, truth: np.ndarray) -> tuple[n
     loss) on the fruit's boxes, from ``truth``, and that loss (nats) at the fit and at the truth."""
     obs = [Observation(invert_transform(T_bo), box) for T_bo, box in zip(fruit.T_base_optical, fruit.boxes)]
     sensor = SensorModel()
-    floors = (BayesConfig.cut_inward_floor, sensor.outward_floor)
+    floors = (BayesTuning.cut_inward_floor, sensor.outward_floor)
     fit = refine_sphere(camera, obs, truth[:3], float(truth[3]), sensor, use_masks=False, floors=floors)
     at_truth = one_sided_residuals(residuals(np.append(truth[:3], np.log(truth[3])), camera, obs, sensor, False), *floors)
     return np.append(fit.centre, fit.radius), fit.cost, 0.5 * float(np.sum(at_truth**2))
@@ -318,14 +318,22 @@ def main(name: str, calibration: range, seed_sets: list[range], radius_prior: bo
 
 
 def _seed_range(text: str) -> range:
-    first, last = (int(v) for v in text.split(":"))
+    """``FIRST:LAST`` as a range (LAST excluded)."""
+    try:
+        first, last = (int(v) for v in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected FIRST:LAST") from None
     return range(first, last)
 
 
 if __name__ == "__main__":
-    a = [v for v in sys.argv[1:] if v != "--flat-radius"]
-    prior = "--flat-radius" not in sys.argv[1:]
-    if a:
-        main(a[0], range(int(a[1]), int(a[2])), [_seed_range(t) for t in a[3:]], prior)
-    else:
-        main("greenhouse-noise", range(2000, 2040), [range(0, 20)], prior)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("condition", nargs="?", default="greenhouse-noise", help="a bench accuracy condition (greenhouse-noise)")
+    parser.add_argument("cal_first", nargs="?", type=int, default=2000, help="first calibration seed (default 2000)")
+    parser.add_argument("cal_last", nargs="?", type=int, default=2040, help="last calibration seed, excluded (default 2040)")
+    parser.add_argument("seed_sets", nargs="*", type=_seed_range, help="FIRST:LAST seed sets (default 0:20)")
+    parser.add_argument("--flat-radius", action="store_true", help="no radius prior, as the default method knows none")
+    args = parser.parse_intermixed_args()
+    if args.condition not in [c.name for c in conditions(False)]:
+        parser.error(f"condition: got {args.condition!r}, expected one of {[c.name for c in conditions(False)]}")
+    main(args.condition, range(args.cal_first, args.cal_last), args.seed_sets or [range(0, 20)], not args.flat_radius)

@@ -5,8 +5,8 @@ default method's worst case (every triple of boxes whose cones meet in space is 
 one ``localize`` call, the objects found and the result's stage timings. Above ``limits.MAX_BAYES_BOXES_PER_VIEW``
 boxes a view is refused with one line before any work.
 
-    python benchmarks/random_boxes.py 300          # N = 300, seed 0
-    python benchmarks/random_boxes.py 100 --seed 3
+    python experiments/random_boxes.py 300          # N = 300, seed 0
+    python experiments/random_boxes.py 100 --seed 3
 """
 
 from __future__ import annotations

@@ -5,24 +5,29 @@ method may choose (spheroid, yawed ellipsoid, upright cylinder and cuboid; each 
 orientation free), and an oracle keeps, per object, the fit whose centre lies nearest the ground truth. No method that
 fits one of these models to the boxes does better on average, whatever it knows; where the oracle misses a target, the
 target asks for information that the boxes do not carry (on Aldoma: the two bottles' ground-truth ellipsoids sit 13-15
-mm below the centre of every centrally symmetric model of their boxes, ``benchmarks/real_box_offsets.py``).
+mm below the centre of every centrally symmetric model of their boxes, ``experiments/real_box_offsets.py``).
 
 Printed: per object the error of each model (all views) and the oracle's; the oracle's mean / max over all views and
 its mean / median / p90 / max over every subset of 3 views; each model alone over the subsets.
 
-Usage: python benchmarks/real_floor.py [FOLDER]   (default ../shared/data/aldoma; about a minute on Aldoma)
+Usage: python experiments/real_floor.py [--data FOLDER]   (default: the shared Aldoma set, as ``bench real``; about a
+minute on Aldoma)
 """
 
+from __future__ import annotations
+
+import argparse
 import itertools
-import sys
 import warnings
 
 import numpy as np
 
+from monovisual3d.bench.real import ALDOMA_RELATIVE, default_folder
 from monovisual3d.errors import InputError
 from monovisual3d.geometry.fit import fit_shape_by_bic
 from monovisual3d.io.lfd import read_lfd
 from monovisual3d.methods.bayes.sensor import SensorModel
+from monovisual3d.session import Session
 
 MODELS = ("spheroid", "ellipsoid", "cylinder", "cuboid")
 SUBSET_VIEWS = 3
@@ -56,10 +61,14 @@ def model_errors_mm(camera, T_base_optical, boxes_xyxy, centre_base) -> dict[str
     return out
 
 
-def main(folder: str) -> None:
+def load(folder: str) -> tuple[Session, dict]:
+    """The LfD folder's session and ground truth, with the detections' track ids (the true association)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the clipped box's warning
-        session, truth = read_lfd(folder, keep_association=True)
+        return read_lfd(folder, keep_association=True)
+
+
+def main(session: Session, truth: dict) -> None:
     centres = np.array([o["position"] for o in truth["objects"]])
     poses = np.array([v.T_base_optical for v in session.views])
     # boxes[k, f]: object k's box in view f (NaN where it has none)
@@ -101,4 +110,15 @@ def main(folder: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "../shared/data/aldoma")
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--data", default=default_folder(), help=f"folder of LfD arrays (default: the shared Aldoma set, {ALDOMA_RELATIVE})"
+    )
+    args = parser.parse_args()
+    if args.data is None:
+        parser.error(f"--data: not given, and the shared Aldoma set is not at {ALDOMA_RELATIVE}; give the folder of LfD arrays")
+    try:
+        data = load(str(args.data))
+    except InputError as exc:
+        parser.error(str(exc))
+    main(*data)

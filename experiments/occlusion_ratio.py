@@ -7,7 +7,7 @@ so that a change to the estimator is judged on scenes it was not tuned on.
 
 Usage::
 
-    PYTHONPATH=src python benchmarks/occlusion_ratio.py [FIRST LAST]   # seeds FIRST..LAST-1, default 1000 1040
+    python experiments/occlusion_ratio.py [FIRST LAST]   # seeds FIRST..LAST-1, default 1000 1040
 
 Prints first how far the true boxes' edges lie from the full silhouette box, inside and outside (occlusion only
 shrinks a box), then, per condition, the RMS error (mm), the RMS bound (mm), their ratio, a 90 % bootstrap interval
@@ -48,7 +48,7 @@ missed fruit 0.1-0.6 m away, see docs/accuracy.md).
 
 from __future__ import annotations
 
-import sys
+import argparse
 
 import numpy as np
 
@@ -128,8 +128,7 @@ def edge_sides(
     return {s: (float(np.mean(z > s)), float(np.mean(z < -s))) for s in sigmas}
 
 
-def main(argv: list[str]) -> None:
-    first, last = (int(argv[0]), int(argv[1])) if len(argv) >= 2 else (1000, 1040)
+def main(first: int, last: int) -> None:
     sides = edge_sides(range(first, last))
     print("greenhouse-noise edges against the true full silhouette box (sensor sigmas): inside / outside")
     for k, (inside, outside) in sides.items():
@@ -146,4 +145,8 @@ def main(argv: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("first", nargs="?", type=int, default=1000, help="first seed (default 1000)")
+    parser.add_argument("last", nargs="?", type=int, default=1040, help="last seed, excluded (default 1040)")
+    args = parser.parse_args()
+    main(args.first, args.last)

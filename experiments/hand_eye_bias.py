@@ -1,9 +1,9 @@
 """Is a hand-eye calibration's error determined by the boxes? A least-squares check on the objects' centres.
 
 A hand-eye error is one rigid motion ``E`` of the camera in its own frame, the same in every view
-(``T_base_optical_reported = T_base_optical @ E``; ``container_pairs.py --hand-eye-error``). This script takes the
-containers-and-tray scene's three centres (two containers 57 mm apart and the tray, ``container_pairs.py``), its 8
-views at one elevation (``solid_shape_bias.views``), projects the centres with the true poses (plus Gaussian pixel
+(``T_base_optical_reported = T_base_optical @ E``; ``experiments/container_pairs.py --hand-eye-error``). This script
+takes the containers-and-tray scene's three centres (two containers 57 mm apart and the tray,
+:mod:`monovisual3d.sim.containers`), its 8 views at one elevation (:func:`~monovisual3d.sim.containers.arc_views`), projects the centres with the true poses (plus Gaussian pixel
 noise), and estimates the centres from the reported poses by least squares on the projections:
 
 - ``plain``: the centres alone (as every method does: poses taken as given);
@@ -15,29 +15,31 @@ the bias ``E`` leaves. Centres only: box sizes, which also carry depth, are left
 
 Usage::
 
-    python benchmarks/hand_eye_bias.py [ELEVATION_DEG MM DEG VIEWS NOISE_PX SEEDS]   # default 10 1 0.3 8 1 200
+    python experiments/hand_eye_bias.py [ELEVATION_DEG MM DEG VIEWS NOISE_PX SEEDS]   # default 10 1 0.3 8 1 200
 """
 
-import sys
+from __future__ import annotations
+
+import argparse
 
 import numpy as np
-from container_pairs import SPACING_M, TRAY_OFFSET_M
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
-from solid_shape_bias import CAMERAS, TARGET, views
 
 from monovisual3d.frames import invert_transform, transform_points
+from monovisual3d.sim.containers import SPACING_M, TRAY_OFFSET_M, arc_views, arm_camera, scene_middle
 from monovisual3d.sim.noise import hand_eye_offset
 
 #: The scene's centres relative to the middle of the pair, metres: the two containers and the tray.
 OFFSETS_M = np.array([[0.0, -SPACING_M / 2, 0.0], [0.0, SPACING_M / 2, 0.0], TRAY_OFFSET_M])
-#: Views of the scene (``container_pairs.N_VIEWS``); a run uses VIEWS of them, chosen at random.
+#: Views of the scene (as ``experiments/container_pairs.py``); a run uses VIEWS of them, chosen at random.
 ALL_VIEWS = 8
+CAMERA = arm_camera()
 
 
 def project(T_base_optical: np.ndarray, p_base: np.ndarray) -> np.ndarray:
     """Pixels (N, 2) of base-frame points (N, 3) in the scene's 1280 x 720, 69-degree camera."""
-    return CAMERAS["1280x720"].project(transform_points(invert_transform(T_base_optical), p_base))
+    return CAMERA.project(transform_points(invert_transform(T_base_optical), p_base))
 
 
 def correction(x: np.ndarray) -> np.ndarray:
@@ -57,8 +59,8 @@ def main(elevation: float, mm: float, deg: float, n_views: int, noise_px: float,
     errors: dict[str, list[np.ndarray]] = {"plain": [], "joint": []}
     for seed in range(n_seeds):
         rng = np.random.default_rng(seed)
-        centres = TARGET + rng.uniform(-0.01, 0.01, 3) + OFFSETS_M
-        poses = views(rng, ALL_VIEWS, elevation, centres[:2].mean(axis=0))
+        centres = scene_middle(rng) + OFFSETS_M
+        poses = arc_views(ALL_VIEWS, elevation, centres[:2].mean(axis=0), rng)
         poses = poses[np.sort(rng.choice(ALL_VIEWS, n_views, replace=False))]
         reported = poses @ hand_eye_offset(1e-3 * mm, np.radians(deg), rng)
         seen = np.stack([project(T, centres) for T in poses]) + rng.normal(0.0, noise_px, (n_views, 3, 2))
@@ -72,17 +74,21 @@ def main(elevation: float, mm: float, deg: float, n_views: int, noise_px: float,
         print(f"{name}: mean {a.mean():.2f} median {np.median(a):.2f} p90 {np.percentile(a, 90):.2f} mm")
 
 
-def _arguments(argv: list[str]) -> tuple[float, float, float, int, float, int]:
-    """``ELEVATION_DEG MM DEG VIEWS NOISE_PX SEEDS`` (defaults for those left out); exits with one line on bad ones."""
-    usage = "hand_eye_bias.py: expected [ELEVATION_DEG MM DEG VIEWS NOISE_PX SEEDS], numbers >= 0, VIEWS 2-8, SEEDS >= 1"
-    try:
-        a = [float(x) for x in argv] + [10.0, 1.0, 0.3, 8.0, 1.0, 200.0][len(argv) :]
-    except ValueError:
-        sys.exit(f"{usage}; got {argv}")
-    if len(a) != 6 or not all(np.isfinite(a)) or min(a[1:]) < 0 or not 2 <= a[3] <= ALL_VIEWS or a[5] < 1:
-        sys.exit(f"{usage}; got {argv}")
-    return a[0], a[1], a[2], int(a[3]), a[4], int(a[5])
+def _arguments() -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("elevation", nargs="?", type=float, default=10.0, help="degrees (default 10)")
+    parser.add_argument("mm", nargs="?", type=float, default=1.0, help="hand-eye position error, mm per axis (default 1)")
+    parser.add_argument("deg", nargs="?", type=float, default=0.3, help="hand-eye rotation error, degrees per axis (0.3)")
+    parser.add_argument("views", nargs="?", type=int, default=8, help=f"views per run, 2-{ALL_VIEWS} (default 8)")
+    parser.add_argument("noise_px", nargs="?", type=float, default=1.0, help="pixel noise of the projections (default 1)")
+    parser.add_argument("seeds", nargs="?", type=int, default=200, help="seeds 0..SEEDS-1 (default 200)")
+    a = parser.parse_args()
+    values = (a.elevation, a.mm, a.deg, a.noise_px)
+    if not all(np.isfinite(values)) or min(values[1:]) < 0 or not 2 <= a.views <= ALL_VIEWS or a.seeds < 1:
+        parser.error(f"expected numbers >= 0, VIEWS 2-{ALL_VIEWS}, SEEDS >= 1; got {vars(a)}")
+    return a
 
 
 if __name__ == "__main__":
-    main(*_arguments(sys.argv[1:]))
+    args = _arguments()
+    main(args.elevation, args.mm, args.deg, args.views, args.noise_px, args.seeds)
