@@ -154,7 +154,16 @@ def test_a_small_run_gives_every_table(small, tmp_path):
 
 def test_the_summary_pools_hand_made_records():
     def rec(family, sigma, alarm, nees, mistakes):
-        clean = {"alarm": alarm, "nees": nees, "not_pd": 0, "error_mm": 3.0, "runtime_s": 1.0, "messages": ["w"] if alarm else []}
+        clean = {
+            "alarm": alarm,
+            "timed_out": False,
+            "nees": nees,
+            "not_pd": 0,
+            "error_mm": 3.0,
+            "runtime_s": 1.0,
+            "cpu_s": 1.0,
+            "messages": ["w"] if alarm else [],
+        }
         case = {"family": family, "box_sigma": sigma, "n_views": 5, "n_fruit": 6}
         return {"case": case, "clean": clean, "mistakes": mistakes}
 
@@ -172,6 +181,7 @@ def test_the_summary_pools_hand_made_records():
         "clean_error_mm": 3.0,
         "self_calibrated": None,
         "runtime_s": 0.1,
+        "cpu_s": 0.1,
     }
     records = [
         rec("paper", 0.02, False, [1.0, 9.0], {"boxes-xywh": m}),

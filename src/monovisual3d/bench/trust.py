@@ -221,6 +221,7 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
         "crashed": sum(r["crashed"] for r in every),
         "timed_out": sum(r["timed_out"] for r in every),
         "not_pd": sum(r["not_pd"] for r in every) + sum(rec["clean"]["not_pd"] for rec in records),
+        "cpu_s": sum(r["cpu_s"] for r in every) + sum(rec["clean"]["cpu_s"] for rec in records),
     }
     return {"mistakes": mistakes, "overall": overall, "clean": _clean_summary(records), "nees": _nees_summary(records)}
 
@@ -259,21 +260,27 @@ def _mistake_summary(name: str, rs: list[dict[str, Any]]) -> dict[str, Any]:
             ]
         ),
         "max_runtime_s": max(r["runtime_s"] for r in rs),
+        "max_cpu_s": max(r["cpu_s"] for r in rs),
     }
 
 
 def _clean_summary(records: list[dict[str, Any]]) -> dict[str, Any]:
-    by_family: dict[str, list[bool]] = {}
+    by_family: dict[str, list[dict[str, Any]]] = {}
     for rec in records:
-        by_family.setdefault(rec["case"]["family"], []).append(rec["clean"]["alarm"])
+        by_family.setdefault(rec["case"]["family"], []).append(rec["clean"])
     messages = Counter(m[:200] for rec in records for m in rec["clean"]["messages"])
     alarms = [rec["clean"]["alarm"] for rec in records]
     return {
         "sessions": len(alarms),
         "false_alarm": _share(alarms),
-        "by_family": {f: {"sessions": len(v), "false_alarm": _share(v)} for f, v in by_family.items()},
+        "by_family": {
+            f: {"sessions": len(v), "false_alarm": _share([c["alarm"] for c in v]), "timed_out": sum(c["timed_out"] for c in v)}
+            for f, v in by_family.items()
+        },
         "error_mm": _mean([rec["clean"]["error_mm"] for rec in records]),
+        "timed_out": sum(rec["clean"]["timed_out"] for rec in records),
         "max_runtime_s": max(rec["clean"]["runtime_s"] for rec in records) if records else None,
+        "max_cpu_s": max(rec["clean"]["cpu_s"] for rec in records) if records else None,
         "top_messages": [{"message": m, "count": c} for m, c in messages.most_common(TOP_MESSAGES)],
     }
 
@@ -339,14 +346,14 @@ def format_markdown(results: dict[str, Any]) -> str:
         + (" (quick mode)" if results["quick"] else ""),
         "",
         "| mistake | cause | sessions | caught | refused | flagged | harmless | named | cause ID | error mm | clean mm "
-        "| self-calibrated mm | slowest s | timed out |",
+        "| self-calibrated mm | slowest CPU s | timed out |",
         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, r in results["mistakes"].items():
         lines.append(
             f"| {name} | {r['cause']} | {r['sessions']} | {_pct(r['caught'])} | {_pct(r['refused'])} | {_pct(r['flagged'])} | "
             f"{_pct(r['harmless'])} | {_pct(r['named'])} | {_pct(r['cause_id'])} | {_num(r['error_mm'])} | "
-            f"{_num(r['clean_error_mm'])} | {_num(r['self_calibrated_error_mm'])} | {_num(r['max_runtime_s'])} | {r['timed_out']} |"
+            f"{_num(r['clean_error_mm'])} | {_num(r['self_calibrated_error_mm'])} | {_num(r['max_cpu_s'])} | {r['timed_out']} |"
         )
     o = results["overall"]
     lines.append(f"| **all** | | {o['sessions']} | {_pct(o['caught'])} | | | | {_pct(o['named'])} | | | | | | {o['timed_out']} |")
@@ -360,9 +367,10 @@ def format_markdown(results: dict[str, Any]) -> str:
         f"{o['timed_out']}."
     )
     c = results["clean"]
-    lines += ["", "| clean sessions | sessions | with an alarm |", "|---|---:|---:|"]
-    lines += [f"| {f} | {v['sessions']} | {_pct(v['false_alarm'])} |" for f, v in c["by_family"].items()]
-    lines.append(f"| **all** | {c['sessions']} | {_pct(c['false_alarm'])} |")
+    lines += ["", "| clean sessions | sessions | with an alarm | timed out |", "|---|---:|---:|---:|"]
+    lines += [f"| {f} | {v['sessions']} | {_pct(v['false_alarm'])} | {v['timed_out']} |" for f, v in c["by_family"].items()]
+    lines.append(f"| **all** | {c['sessions']} | {_pct(c['false_alarm'])} | {c['timed_out']} |")
+    lines.append(f"\nCPU time of all the sessions: {o['cpu_s']:.0f} s; slowest clean session {_num(c['max_cpu_s'])} CPU s.")
     lines += ["", "| box noise | fruit | mean NEES | beyond 95 % | no covariance | not PD |", "|---:|---:|---:|---:|---:|---:|"]
     for sigma, n in results["nees"].items():
         lines.append(

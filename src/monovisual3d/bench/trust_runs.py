@@ -61,7 +61,8 @@ class Outcome:
     causes : list of str, the quality cause IDs
     positions : ndarray, shape (K, 3), metres
     covariances : list of (3, 3) ndarray or None, per object
-    runtime_s : float
+    runtime_s : float, wall-clock seconds
+    cpu_s : float, CPU seconds of the process (all its threads) during the run
     """
 
     exit_code: int
@@ -74,6 +75,7 @@ class Outcome:
     positions: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
     covariances: list[Any] = field(default_factory=list)
     runtime_s: float = 0.0
+    cpu_s: float = 0.0
 
     @property
     def refused(self) -> bool:
@@ -86,8 +88,9 @@ class Outcome:
 
     @property
     def alarm(self) -> bool:
-        """Any warning, or a verdict that is not ``ok`` (a false alarm on a clean session)."""
-        return bool(self.messages) or self.verdict != NO_QUALITY_VERDICT or self.exit_code != 0
+        """Any warning, a refusal, or a verdict that is not ``ok`` (a false alarm on a clean session); a run stopped
+        by the run limit is counted apart (``timed_out``)."""
+        return bool(self.messages) or self.verdict != NO_QUALITY_VERDICT or (self.exit_code != 0 and not self.timed_out)
 
 
 def run_session(
@@ -101,7 +104,7 @@ def run_session(
     options : keyword options of :func:`monovisual3d.localize` (e.g. ``calibrate="hand-eye"``)
     limit_s : float or None, CPU seconds after which the run is stopped and recorded as timed out
     """
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     messages: list[str] = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -111,11 +114,11 @@ def run_session(
                 result = localize(loaded, **(options or {}))
                 reasons = incomplete_reasons(loaded, result)
         except TimeLimitExceeded:
-            return Outcome(1, f"stopped after {limit_s:g} CPU seconds", timed_out=True, runtime_s=time.perf_counter() - start)
+            return _timed(Outcome(1, f"stopped after {limit_s:g} CPU seconds", timed_out=True), start, cpu_start)
         except InputError as exc:
-            return Outcome(2, str(exc), messages=_user_warnings(caught), runtime_s=time.perf_counter() - start)
+            return _timed(Outcome(2, str(exc), messages=_user_warnings(caught)), start, cpu_start)
         except Exception as exc:  # a bug of the method: recorded, counted as neither caught nor named
-            return Outcome(1, f"{type(exc).__name__}: {exc}", crashed=True, runtime_s=time.perf_counter() - start)
+            return _timed(Outcome(1, f"{type(exc).__name__}: {exc}", crashed=True), start, cpu_start)
     for line in _user_warnings(caught) + list(result.warnings) + reasons:
         if line not in messages:
             messages.append(line)
@@ -123,15 +126,22 @@ def run_session(
     verdict = str(quality.get("verdict", NO_QUALITY_VERDICT))
     causes = [str(c.get("cause")) for c in quality.get("causes", []) if isinstance(c, dict)]
     strict = 1 if reasons or verdict != NO_QUALITY_VERDICT else 0
-    return Outcome(
+    outcome = Outcome(
         strict,
         messages=messages,
         verdict=verdict,
         causes=causes,
         positions=np.asarray(result.positions, dtype=float).reshape(-1, 3),
         covariances=[None if o.covariance is None else np.asarray(o.covariance, dtype=float) for o in result.objects],
-        runtime_s=time.perf_counter() - start,
     )
+    return _timed(outcome, start, cpu_start)
+
+
+def _timed(outcome: Outcome, start: float, cpu_start: float) -> Outcome:
+    """``outcome`` with the wall-clock and CPU seconds since ``start`` and ``cpu_start``."""
+    outcome.runtime_s = time.perf_counter() - start
+    outcome.cpu_s = time.process_time() - cpu_start
+    return outcome
 
 
 @contextlib.contextmanager
@@ -266,6 +276,7 @@ def score_session(
         "nees": nees,
         **covariance_counts(outcome),
         "runtime_s": outcome.runtime_s,
+        "cpu_s": outcome.cpu_s,
         "messages": outcome.messages,
         "error": outcome.error,
     }
@@ -285,6 +296,7 @@ def clean_record(outcome: Outcome, centres: NDArray[np.float64], radii: NDArray[
         "nees": fruit_nees(outcome, centres, radii),
         **covariance_counts(outcome),
         "runtime_s": outcome.runtime_s,
+        "cpu_s": outcome.cpu_s,
         "messages": outcome.messages,
         "error": outcome.error,
     }
