@@ -65,6 +65,7 @@ CHANGES = {
     "poses-frame-early": {"poses"},
     "poses-half-frame-late": {"poses"},
     "boxes-of-other-view": {"boxes"},
+    "swapped-boxes": {"boxes"},
     "pose-of-other-view": {"poses"},
     "swapped-poses": {"poses"},
     "views-twice": {"n_views", "poses", "boxes"},
@@ -170,6 +171,9 @@ def test_view_mistakes_touch_the_named_views_only(inputs):
     bad = mk.boxes_from_other_view(s, 1, 3)
     assert bad["views"][1]["detections"] == s["views"][3]["detections"]
     assert [bad["views"][i] for i in (0, 2, 3)] == [s["views"][i] for i in (0, 2, 3)]
+    bad = mk.swapped_boxes(s, 0, 2)
+    assert bad["views"][0]["detections"] == s["views"][2]["detections"]
+    assert bad["views"][2]["detections"] == s["views"][0]["detections"] and bad["views"][1] == s["views"][1]
     bad = mk.pose_of_other_view(s, 0, 2)
     assert bad["views"][0]["pose"] == s["views"][2]["pose"] and bad["views"][1:] == s["views"][1:]
     bad = mk.swapped_poses(s, 0, 3)

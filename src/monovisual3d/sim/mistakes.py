@@ -257,6 +257,15 @@ def boxes_from_other_view(session: SessionDict, view: int, other: int) -> Sessio
     return out
 
 
+def swapped_boxes(session: SessionDict, view: int, other: int) -> SessionDict:
+    """Views ``view`` and ``other`` hold each other's boxes (two detection files saved under each other's names)."""
+    view, other = _check_view(session, view, "view"), _check_view(session, other, "other")
+    out = copy.deepcopy(session)
+    out["views"][view]["detections"] = copy.deepcopy(session["views"][other]["detections"])
+    out["views"][other]["detections"] = copy.deepcopy(session["views"][view]["detections"])
+    return out
+
+
 def pose_of_other_view(session: SessionDict, view: int, other: int) -> SessionDict:
     """View ``view`` holds the pose of view ``other`` (a wrong pose: a copy-paste, an index off by one)."""
     view, other = _check_view(session, view, "view"), _check_view(session, other, "other")
@@ -473,6 +482,12 @@ _ENTRIES = (
         frozenset({"path"}),
     ),
     Mistake("boxes-of-other-view", "view_disagrees", "one view holds another image's boxes", _one_view(boxes_from_other_view)),
+    Mistake(
+        "swapped-boxes",
+        "view_disagrees",
+        "two views hold each other's boxes",
+        _one_view(swapped_boxes, both=True),
+    ),
     Mistake("pose-of-other-view", "view_disagrees", "one view holds another view's pose", _one_view(pose_of_other_view)),
     Mistake("swapped-poses", "view_disagrees", "two views hold each other's pose", _one_view(swapped_poses, both=True)),
     Mistake("views-twice", "duplicate_views", "every view given twice", _fixed("duplicate_views", views_twice)),
