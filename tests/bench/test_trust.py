@@ -10,7 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
-from monovisual3d.bench.trust import check_targets, format_markdown, measure_case, run_trust, save, summarise
+from monovisual3d.bench.trust import check_targets, format_markdown, measure_case, mistake_rng, run_trust, save, summarise
 from monovisual3d.bench.trust_cases import FAMILIES, distortion_folds, make_case
 from monovisual3d.bench.trust_runs import (
     NEES_95,
@@ -202,6 +202,13 @@ def test_the_summary_pools_hand_made_records():
 def test_measure_case_skips_mistakes_a_case_cannot_have():
     out = measure_case("paper", 0, 0.05, ("poses-frame-late", "distortion-signs"))
     assert out["mistakes"] == {}  # the paper family has no path and no lens distortion
+
+
+def test_a_mistakes_draws_do_not_depend_on_the_others_run():
+    a = mistake_rng("arc", 3, "hand-eye-2deg").normal(size=3)
+    assert_allclose(a, mistake_rng("arc", 3, "hand-eye-2deg").normal(size=3))
+    assert not np.allclose(a, mistake_rng("arc", 3, "hand-eye-1cm").normal(size=3))
+    assert not np.allclose(a, mistake_rng("row", 3, "hand-eye-2deg").normal(size=3))
 
 
 def test_bad_choices_are_refused_by_name():

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import zlib
 from collections import Counter
 from collections.abc import Callable
 from typing import Any
@@ -144,11 +145,11 @@ def measure_case(
     clean = run_session(case.session, limit_s=run_limit_s)
     out: dict[str, Any] = {"case": case.describe(), "clean": clean_record(clean, case.centres, case.radii), "mistakes": {}}
     inputs = case.inputs()
-    for k, name in enumerate(mistakes):
+    for name in mistakes:
         mistake = MISTAKES[name]
         if not applies(mistake, inputs):
             continue
-        made = make_mistake(name, inputs, np.random.default_rng((seed, FAMILIES.index(family), k, 53)))
+        made = make_mistake(name, inputs, mistake_rng(family, seed, name))
         record = score_session(run_session(made.session, limit_s=run_limit_s), clean, case.centres, case.radii, made.words)
         record["details"] = made.details
         record["cause_named_by_id"] = mistake.cause in record["causes"]
@@ -156,6 +157,11 @@ def measure_case(
         record["self_calibrated"] = _self_calibrated(case, mistake.cause, made, run_limit_s)
         out["mistakes"][name] = record
     return out
+
+
+def mistake_rng(family: str, seed: int, name: str) -> np.random.Generator:
+    """The generator a mistake draws from: one stream per (seed, family, mistake name), whatever else runs."""
+    return np.random.default_rng((int(seed), FAMILIES.index(family), zlib.crc32(name.encode())))
 
 
 def _self_calibrated(case: TrustCase, cause: str, made: Mistaken, limit_s: float | None) -> dict[str, Any] | None:
