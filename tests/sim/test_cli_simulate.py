@@ -134,3 +134,38 @@ def test_simulate_with_a_hand_eye_error_writes_it_and_shares_it_between_views(tm
     assert_allclose(E[1], E[0], atol=1e-9)
     assert np.linalg.norm(E[0][:3, 3]) > 1e-5
     assert_allclose(truth["hand_eye_error"], E[0], atol=1e-9)  # the drawn error is in the truth
+
+
+def test_simulate_time_offset_writes_the_pose_stream_that_import_reads(tmp_path):
+    """--time-offset on an arc: poses one frame late in the session, and poses.csv/detections.csv import back to it."""
+    out = tmp_path / "late"
+    args = ["simulate", "--scene", "random", "--n-fruit", "3", "--views", "arc:5:60", "--no-images", "-o", str(out)]
+    result = runner.invoke(app, [*args, "--time-offset", "0.25", "--frame-rate", "4", "--noise", "0.03"])
+    assert result.exit_code == 0, result.output
+    assert "poses.csv" in result.output and "detections.csv" in result.output
+    session = load_session(out / "session.json")
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["frames"]["time_offset_s"] == 0.25 and truth["frames"]["frame_rate_hz"] == 4.0
+    T_true = np.array([v["T_base_optical_true"] for v in truth["views"]])
+    assert_allclose(session.views[0].T_base_optical, T_true[1], atol=1e-9)  # one frame late: the next view's pose
+    imported = tmp_path / "imported.json"
+    res = runner.invoke(
+        app,
+        ["import", "--camera", str(out / "session.json"), "--poses", str(out / "poses.csv")]
+        + ["--detections", str(out / "detections.csv"), "-o", str(imported)],
+    )
+    assert res.exit_code == 0, res.output
+    again = load_session(imported)
+    for a, b in zip(session.views, again.views):
+        assert_allclose(b.T_base_optical, a.T_base_optical, atol=1e-6)
+        assert_allclose(b.boxes_xyxy, a.boxes_xyxy, atol=1e-9)
+
+
+def test_simulate_time_offset_needs_views_along_a_path(tmp_path):
+    res = runner.invoke(app, ["simulate", "--views", "ring:4", "--time-offset", "0.1", "-o", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "--time-offset: needs views along a path" in res.stderr
+    res = runner.invoke(
+        app, ["simulate", "--views", "row:4", "--time-offset", "0.1", "--frame-rate", "0", "-o", str(tmp_path / "y")]
+    )
+    assert res.exit_code == 2 and "--frame-rate" in res.stderr
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()

@@ -14,6 +14,7 @@ from monovisual3d.errors import InputError
 from monovisual3d.frames import invert_transform, transform_points
 from monovisual3d.sim.viewpoints import (
     DEFAULT_TARGET,
+    arc_poses,
     check_poses,
     hemisphere_poses,
     load_poses,
@@ -22,6 +23,7 @@ from monovisual3d.sim.viewpoints import (
     poses_by_name,
     poses_from_positions,
     ring_poses,
+    row_poses,
 )
 
 TARGET = np.array(DEFAULT_TARGET)
@@ -164,3 +166,40 @@ def test_bad_geometry_is_rejected():
         paper_poses(view_direction=(0, 0, 0))
     with pytest.raises(InputError, match="target"):
         ring_poses([0.0, 1.0], 3)
+
+
+def test_arc_poses_sweep_left_to_right_at_the_targets_height():
+    P = arc_poses(TARGET, 5, span=math.radians(60.0), distance=0.5)
+    assert_looks_at(P, TARGET)
+    assert_allclose(np.linalg.norm(P[:, :3, 3] - TARGET, axis=1), 0.5)
+    assert_allclose(P[:, 2, 3], TARGET[2], atol=1e-12)  # a horizontal arc
+    d = P[:, :3, 3] - TARGET
+    azimuth = np.degrees(np.arctan2(d[:, 1], -d[:, 0]))  # 0 = the axial view, base +y = the image's left
+    assert_allclose(azimuth, [30.0, 15.0, 0.0, -15.0, -30.0], atol=1e-9)
+    assert_allclose(arc_poses(TARGET, 1)[0], arc_poses(TARGET, 3, span=0.0)[1], atol=1e-12)
+
+
+def test_paths_give_the_camera_between_and_beyond_their_views():
+    """``at``: continuous view positions along the constant-speed path (integers: the views themselves)."""
+    arc = arc_poses(TARGET, 4, span=math.radians(45.0))
+    assert_allclose(arc_poses(TARGET, 4, span=math.radians(45.0), at=[0, 1, 2, 3]), arc, atol=1e-12)
+    beyond = arc_poses(TARGET, 4, span=math.radians(45.0), at=[4.0])[0]
+    step = np.linalg.inv(arc[2]) @ arc[3]  # the same motion from view to view
+    assert_allclose(beyond, arc[3] @ step, atol=1e-12)
+    row = row_poses(3, TARGET, length=0.4)
+    assert_allclose(row_poses(3, TARGET, length=0.4, at=[0.5, -1.0])[:, 1, 3], [0.1, 0.4], atol=1e-12)
+    assert_allclose(row_poses(3, TARGET, length=0.4, at=[2])[0], row[2], atol=1e-12)
+    with pytest.raises(InputError, match="at: .*finite view positions"):
+        arc_poses(TARGET, 4, at=[np.nan])
+
+
+def test_poses_by_name_arc_and_paths_only_for_at():
+    assert_allclose(poses_by_name("arc:5:40"), arc_poses(TARGET, 5, span=math.radians(40.0)), atol=1e-12)
+    assert_allclose(poses_by_name("arc:6"), arc_poses(TARGET, 6), atol=1e-12)  # 60 degrees
+    assert poses_by_name("row:4", at=[0.5, 1.5]).shape == (2, 4, 4)
+    with pytest.raises(InputError, match="views along a path"):
+        poses_by_name("ring:4", at=[0.5])
+    with pytest.raises(InputError, match=r"angle swept ANGLE_DEG in \[0, 360\]"):
+        poses_by_name("arc:4:400")
+    with pytest.raises(InputError, match="arc:N or arc:N:ANGLE_DEG with N an integer"):
+        poses_by_name("arc:x")

@@ -12,7 +12,8 @@ from ._app import app, console, handle_errors, plain
 from .options import LfdImageSize, ResultsOutput, SpreadScheduler, SpreadWorkers, spread_flags
 
 bench_app = typer.Typer(
-    help="Benchmarks: accuracy on simulated scenes, real data (LfD layout), dense rows (scale), speed, start-up, next-best-view and batch.",
+    help="Benchmarks: accuracy on simulated scenes, real data (LfD layout), dense rows (scale), integration mistakes (trust), "
+    "speed, start-up, next-best-view and batch.",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -292,3 +293,51 @@ def ab_accuracy(
     seeds = range(first, last)
     for line in format_accuracy(condition, seeds, accuracy_options(condition, seeds, chosen)):
         print(line)
+
+
+@bench_app.command("trust")
+@handle_errors
+def trust(
+    quick: Annotated[bool, typer.Option("--quick", help="One seed, the paper and arc families, 5 % box noise.")] = False,
+    seeds: Annotated[str | None, typer.Option(help="Seeds, comma separated (default 0,1; fresh ones: any others).")] = None,
+    families: Annotated[
+        str | None, typer.Option(help="Scene families, comma separated: paper, greenhouse, arc, row (default all).")
+    ] = None,
+    mistakes: Annotated[
+        str | None, typer.Option(help="Mistake classes, comma separated (default all; see docs/trust.md).")
+    ] = None,
+    run_limit: Annotated[
+        float, typer.Option(min=0.1, help="CPU seconds one session may use; a run past it counts as not caught.")
+    ] = 10.0,
+    output: ResultsOutput = None,
+    workers: SpreadWorkers = None,
+    scheduler: SpreadScheduler = None,
+) -> None:
+    """Integration mistakes on simulated sessions: share caught and named, false alarms, NEES of the covariance."""
+    from rich.progress import Progress
+
+    from ..bench.trust import format_markdown, run_trust, save
+    from ._app import check_output
+
+    check_output(output)
+    with spread_flags(workers, scheduler), Progress(console=console, transient=True) as bar:
+        task = bar.add_task("trust benchmark", total=None)
+        results = run_trust(
+            seeds=tuple(_ints(seeds, "--seeds")) if seeds else None,
+            families=_names(families),
+            mistakes=_names(mistakes),
+            quick=quick,
+            run_limit_s=run_limit,
+            progress=lambda msg: bar.update(task, description=plain(msg)),
+            workers=workers,
+            scheduler=scheduler,
+        )
+    print(format_markdown(results))  # plain Markdown, so the table can be pasted as it is
+    if output is not None:
+        save(results, str(output))
+        console.print(f"wrote {plain(str(output))}", highlight=False)
+
+
+def _names(text: str | None) -> tuple[str, ...] | None:
+    """Comma-separated names of a flag (None when not given)."""
+    return tuple(t.strip() for t in text.split(",") if t.strip()) if text else None

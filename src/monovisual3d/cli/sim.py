@@ -26,8 +26,23 @@ NFruitOption = Annotated[
 
 #: ``--views``: named poses or a pose file.
 ViewsOption = Annotated[
-    str, typer.Option(help="paper, ring:N[:DEG], hemisphere:N[:DEG], row:N (along the row), or a pose file (.json/.yaml).")
+    str,
+    typer.Option(
+        help="paper, ring:N[:DEG], hemisphere:N[:DEG], arc:N[:DEG] (around the scene), row:N (along the row), or a pose file."
+    ),
 ]
+
+#: ``--time-offset``: the pose stream runs this far ahead of the images (views along an arc or a row).
+TimeOffsetOption = Annotated[
+    float | None,
+    typer.Option(
+        help="Views are frames along --views arc:N or row:N, the reported poses those at image time + SECONDS "
+        "(1/frame-rate: one frame late); also writes poses.csv and detections.csv for `import`."
+    ),
+]
+
+#: ``--frame-rate``: the rate of the frames along the path.
+FrameRateOption = Annotated[float, typer.Option(help="Frames per second of the views along the path (with --time-offset).")]
 
 #: ``--distance``: camera distance to the scene, metres.
 DistanceOption = Annotated[
@@ -73,20 +88,19 @@ def simulate(
     supersample: Annotated[int, typer.Option(help="Sub-pixel rays per pixel and axis (box accuracy 1/N px).")] = 1,
     images: Annotated[bool, typer.Option("--images/--no-images", help="Write a PNG of each view.")] = True,
     seed: Annotated[int, typer.Option(help="Random seed (scene generation and noise).")] = 0,
+    time_offset: TimeOffsetOption = None,
+    frame_rate: FrameRateOption = 5.0,
     active: ActiveOption = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,
 ) -> None:
     """Simulate the bounding-box camera on a scene and write session + ground truth.
 
-    The paper's noiseless experiment is the default; add '--noise 0.05 --drop 0.02'
-    for its noisy one.
+    The paper's noiseless experiment is the default; add '--noise 0.05 --drop 0.02' for its noisy one.
     """
     import numpy as np
 
     from ..sim.noise import NoiseModel
-    from ..sim.scenes import scene_target
-    from ..sim.viewpoints import poses_by_name
 
     noise_model = NoiseModel.from_mm_deg(
         box_sigma=noise,
@@ -98,6 +112,7 @@ def simulate(
         hand_eye_error_deg=hand_eye_error_deg,
     )
     _check_counts(n_fruit, seed, active)
+    _check_time_offset(views, time_offset, frame_rate, active)
     _check_out_dir(output, Path(scene), Path(views))
     rng = np.random.default_rng(seed)
     is_row = scene == "row"
@@ -108,12 +123,29 @@ def simulate(
         if active is not None:
             _write_active(output, sc, camera, active, noise_model, rng)
             return
-        poses = poses_by_name(views, scene_target(sc), distance=distance, row_length=length)
-        _write_views(output, sc, camera, poses, noise_model, rng, supersample, images)
+        poses, frames = _poses(views, sc, distance, length, time_offset, frame_rate)
+        _write_views(output, sc, camera, poses, noise_model, rng, supersample, images, frames)
+
+
+def _poses(views: str, sc: Any, distance: float, length: float, time_offset: float | None, rate: float) -> tuple[Any, Any]:
+    """The poses of ``--views`` around the scene, and with ``--time-offset`` the frames along their path (else None)."""
+    from ..sim.motion import frame_times
+    from ..sim.scenes import scene_target
+    from ..sim.viewpoints import poses_by_name
+
+    target = scene_target(sc)
+    poses = poses_by_name(views, target, distance=distance, row_length=length)
+    if time_offset is None:
+        return poses, None
+
+    def path(at: Any) -> Any:
+        return poses_by_name(views, target, distance=distance, row_length=length, at=at)
+
+    return poses, frame_times(path, len(poses), rate, time_offset)
 
 
 def _write_views(
-    output: Path, sc: Any, camera: Any, poses: Any, noise_model: Any, rng: Any, supersample: int, images: bool
+    output: Path, sc: Any, camera: Any, poses: Any, noise_model: Any, rng: Any, supersample: int, images: bool, frames: Any = None
 ) -> None:
     """Simulate the views at ``poses`` and write the session, truth, scene and pictures; one line on the terminal."""
     from ..figures.views import write_view_picture
@@ -130,6 +162,7 @@ def _write_views(
         images=images,
         workspace=_workspace(sc),
         picture=write_view_picture,
+        frames=frames,
     )
     console.print(
         f"simulated {len(sc.fruits)} fruit (scene {plain(sc.name)}) from {len(poses)} views; "
@@ -156,6 +189,20 @@ def _check_counts(n_fruit: int | None, seed: int, active: int | None) -> None:
         raise InputError(f"--seed: got {seed}, expected an integer in [0, {limits.MAX_SEED}]")
     if active is not None and not 1 <= active <= limits.MAX_ACTIVE_VIEWS:
         raise InputError(f"--active: got {active}, expected a positive number of views of at most {limits.MAX_ACTIVE_VIEWS}")
+
+
+def _check_time_offset(views: str, time_offset: float | None, frame_rate: float, active: int | None) -> None:
+    """Refuse ``--time-offset`` without views along a path, or with ``--active``, and a bad offset or rate, before any work."""
+    from ..sim.motion import check_timing
+    from ..sim.viewpoints import PATH_VIEWS
+
+    if time_offset is None:
+        return
+    if active is not None:
+        raise InputError("--time-offset: not with --active (the next-best-view loop follows no path)")
+    if views.strip().partition(":")[0] not in PATH_VIEWS:
+        raise InputError(f"--time-offset: needs views along a path, --views arc:N[:DEG] or row:N; got {views!r}")
+    check_timing(time_offset, frame_rate)
 
 
 #: Files ``simulate`` writes into its output folder (besides the view pictures).

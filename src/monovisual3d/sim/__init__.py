@@ -3,11 +3,13 @@
 - :mod:`~monovisual3d.sim.scene`: the Scene/Sphere/EllipsoidFruit/Leaf/Stem dataclasses and their JSON;
 - :mod:`~monovisual3d.sim.scenes`: built-in scenes (paper, greenhouse, random, peppers, cucumbers, apples, mixed);
 - :mod:`~monovisual3d.sim.raycast`: the bounding-box camera (exact ray casting, visible boxes);
-- :mod:`~monovisual3d.sim.viewpoints`: the paper's poses, permutations, rings, hemispheres;
+- :mod:`~monovisual3d.sim.viewpoints`: the paper's poses, permutations, rings, hemispheres, arcs, rows;
+- :mod:`~monovisual3d.sim.motion`: views as frames along a path, a time offset, the pose stream;
 - :mod:`~monovisual3d.sim.noise`: the paper's box noise, missed detections, false positives, pose error;
 - :mod:`~monovisual3d.sim.simulate`: sessions and ground truth from all of the above;
 - :mod:`~monovisual3d.sim.containers`, :mod:`~monovisual3d.sim.tabletop`: the scenes of the experiments (containers on
   a robot arm's bench, a table top of lying boxes and bottles), with the exact boxes of solids.
+- :mod:`~monovisual3d.sim.mistakes`: the integration mistakes a robot integrator makes, made on a session.
 
 The photorealistic MuJoCo path lives in :mod:`monovisual3d.sim.mujoco_render`
 (extra ``[sim]``).
@@ -29,7 +31,7 @@ from .scenes import (
     shapes_scene,
 )
 from .simulate import simulate, write_simulation
-from .viewpoints import hemisphere_poses, paper_poses, pose_permutations, poses_by_name, ring_poses
+from .viewpoints import arc_poses, hemisphere_poses, paper_poses, pose_permutations, poses_by_name, ring_poses
 
 __all__ = [
     "EllipsoidFruit",
@@ -39,6 +41,7 @@ __all__ = [
     "Scene",
     "Sphere",
     "Stem",
+    "arc_poses",
     "default_camera",
     "fruit_of_kind",
     "greenhouse_scene",

@@ -10,7 +10,9 @@ and, optionally, one PNG per view of what the camera saw.
 Order of the random draws (fixed, so a seed reproduces a run exactly): for
 each view in order, the reported pose, then the missed detections, the box
 noise and the false positives of that view; last, the session's hand-eye
-error, where the noise model has one.
+error, where the noise model has one. Views taken as frames along a path
+(:class:`~.motion.FrameTimes`, a pose stream with a time offset) draw nothing
+more: their reported poses start from the stream's pose instead of the true one.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from ..checks import is_int
 from ..errors import InputError
 from ..session import Detection, Session, View, Workspace
 from ..session.load import load_session
+from .motion import FrameTimes, write_import_files
 from .noise import NoiseModel
 from .raycast import BACKGROUND, OCCLUDER, Rendering, render
 from .scene import Scene
@@ -96,6 +99,7 @@ def simulate_views(
     supersample: int = 1,
     min_pixels: float = 1.0,
     E_hand_eye: NDArray[np.float64] | None = None,
+    frames: FrameTimes | None = None,
 ) -> list[SimulatedView]:
     """Render every pose and apply the noise model; the building block of :func:`simulate`.
 
@@ -115,11 +119,12 @@ def simulate_views(
     if not isinstance(noise, NoiseModel):
         raise InputError(f"noise: expected a NoiseModel, got {type(noise).__name__}")
     check_sim_work(len(P), camera, supersample)
+    streamed = _streamed_poses(frames, len(P))
     rng = np.random.default_rng(rng)
     out = []
-    for T_true in P:
+    for T_true, T_stream in zip(P, streamed if streamed is not None else P):
         rendering = render(scene, camera, T_true, supersample=supersample, min_pixels=min_pixels)
-        T_reported = noise.apply_to_pose(T_true, rng)
+        T_reported = noise.apply_to_pose(T_stream, rng)
         visible = np.flatnonzero(rendering.visible)
         boxes, source = noise.apply_to_boxes(rendering.boxes_xyxy[visible], camera.size, rng)
         fruit = np.full(len(source), -1, dtype=np.int64)
@@ -139,6 +144,7 @@ def simulate(
     supersample: int = 1,
     min_pixels: float = 1.0,
     workspace: Workspace | None = None,
+    frames: FrameTimes | None = None,
 ) -> tuple[Session, dict[str, Any]]:
     """Simulate a session: the bounding-box camera at each pose, with optional noise.
 
@@ -153,6 +159,8 @@ def simulate(
     supersample : int, sub-pixel rays per pixel and axis (box accuracy 1 / supersample px)
     min_pixels : float, visible area a fruit needs to be detected, pixels
     workspace : Workspace, optional, written to the session
+    frames : FrameTimes, optional: the views are frames along a path (:mod:`~monovisual3d.sim.motion`); each view
+        gets its image stamp, and its reported pose starts from the pose stream's (late or early by a time offset)
 
     Returns
     -------
@@ -164,7 +172,8 @@ def simulate(
         ``visible_bbox_xyxy`` exact boxes per fruit with None for hidden fruit,
         ``visible_px`` per fruit, ``detection_fruit`` the fruit index of each
         detection with -1 for false positives), ``hand_eye_error`` (the session's hand-eye error ``E`` as a 4x4
-        list, in every view's reported pose, or None), ``noise`` and ``scene``.
+        list, in every view's reported pose, or None), ``noise`` and ``scene``; with ``frames``, ``frames``
+        (:meth:`FrameTimes.to_dict`: the time offset, frame rate and image stamps).
 
     Examples
     --------
@@ -173,9 +182,11 @@ def simulate(
     >>> len(session.views), [len(v.detections) for v in session.views], len(truth["objects"])
     (3, [6, 6, 6], 6)
     """
-    views = simulate_views(scene, camera, poses, noise=noise, rng=rng, supersample=supersample, min_pixels=min_pixels)
+    views = simulate_views(
+        scene, camera, poses, noise=noise, rng=rng, supersample=supersample, min_pixels=min_pixels, frames=frames
+    )
     camera = camera or default_camera()
-    return _session_and_truth(scene, camera, views, noise or NoiseModel(), workspace, images=None)
+    return _session_and_truth(scene, camera, views, noise or NoiseModel(), workspace, images=None, frames=frames)
 
 
 def write_simulation(
@@ -191,6 +202,7 @@ def write_simulation(
     workspace: Workspace | None = None,
     images: bool = True,
     picture: Callable[[Path, SimulatedView, str], None] | None = None,
+    frames: FrameTimes | None = None,
 ) -> dict[str, Path]:
     """:func:`simulate` and write the results to ``directory`` (created if needed).
 
@@ -201,6 +213,8 @@ def write_simulation(
     with the reported boxes (:func:`view_image`), or what ``picture(path, view, name)`` draws
     (e.g. :func:`monovisual3d.figures.views.write_view_picture`: boxes numbered by their index
     in the view's detections, titled, with a legend; the simulator does not draw figures itself).
+    With ``frames`` (views along a path, :mod:`~monovisual3d.sim.motion`), also ``poses.csv`` (the pose
+    stream) and ``detections.csv`` (the boxes with their image stamps), which ``monovisual3d import`` reads.
 
     Returns
     -------
@@ -216,24 +230,37 @@ def write_simulation(
             f"--views: {n_poses} views with --images, more than the {limits.MAX_SIM_PICTURES} pictures drawn in one run; "
             "give --no-images or fewer views"
         )
-    views = simulate_views(scene, camera, poses, noise=noise, rng=rng, supersample=supersample, min_pixels=min_pixels)
+    views = simulate_views(
+        scene, camera, poses, noise=noise, rng=rng, supersample=supersample, min_pixels=min_pixels, frames=frames
+    )
     camera = camera or default_camera()
     names = [f"view_{i:02d}.png" for i in range(len(views))] if images else None
-    session, truth = _session_and_truth(scene, camera, views, noise or NoiseModel(), workspace, images=names)
+    session, truth = _session_and_truth(scene, camera, views, noise or NoiseModel(), workspace, images=names, frames=frames)
     _check_loads(session, out_dir / "session.json")
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = {"session": out_dir / "session.json", "truth": out_dir / "truth.json", "scene": out_dir / "scene.json"}
     session.to_json(paths["session"])
     paths["truth"].write_text(json.dumps(truth, indent=2) + "\n")
     scene.save(paths["scene"])
-    if names is not None:
-        for i, (name, v) in enumerate(zip(names, views)):
-            path = out_dir / name
-            if picture is None:
-                write_png(path, view_image(v))
-            else:
-                picture(path, v, f"view {i}")
-            paths[name.removesuffix(".png")] = path
+    if frames is not None:
+        E = None if truth["hand_eye_error"] is None else np.asarray(truth["hand_eye_error"])
+        paths.update(write_import_files(out_dir, session, frames, E))
+    paths.update(_write_pictures(out_dir, names or [], views, picture))
+    return paths
+
+
+def _write_pictures(
+    out_dir: Path, names: list[str], views: list[SimulatedView], picture: Callable[[Path, SimulatedView, str], None] | None
+) -> dict[str, Path]:
+    """Write one picture per view (``names``; none when empty): :func:`view_image`, or what ``picture`` draws."""
+    paths = {}
+    for i, (name, v) in enumerate(zip(names, views)):
+        path = out_dir / name
+        if picture is None:
+            write_png(path, view_image(v))
+        else:
+            picture(path, v, f"view {i}")
+        paths[name.removesuffix(".png")] = path
     return paths
 
 
@@ -356,12 +383,14 @@ def _session_and_truth(
     noise: NoiseModel,
     workspace: Workspace | None,
     images: list[str] | None,
+    frames: FrameTimes | None = None,
 ) -> tuple[Session, dict[str, Any]]:
     session_views = []
     truth_views = []
     for i, v in enumerate(views):
         dets = tuple(Detection(np.asarray(b, dtype=float), None, DETECTION_LABEL) for b in v.boxes_xyxy)
-        session_views.append(View(v.T_base_optical_reported, dets, images[i] if images else None))
+        stamp = None if frames is None else float(frames.stamps[i])
+        session_views.append(View(v.T_base_optical_reported, dets, images[i] if images else None, stamp))
         truth_views.append(
             {
                 "T_base_optical_true": v.T_base_optical_true.tolist(),
@@ -379,4 +408,18 @@ def _session_and_truth(
         "noise": noise.to_dict(),
         "scene": scene.to_dict(),
     }
+    if frames is not None:
+        truth["frames"] = frames.to_dict()
     return session, truth
+
+
+def _streamed_poses(frames: FrameTimes | None, n_views: int) -> NDArray[np.float64] | None:
+    """The pose stream's poses of the views (``frames``), checked against the number of views; None without."""
+    if frames is None:
+        return None
+    if not isinstance(frames, FrameTimes):
+        raise InputError(f"frames: expected a FrameTimes, got {type(frames).__name__}")
+    T = np.asarray(frames.T_base_optical_reported, dtype=float)
+    if T.shape != (n_views, 4, 4) or np.shape(frames.stamps) != (n_views,):
+        raise InputError(f"frames: stamps and poses for {len(frames.stamps)} views, expected {n_views} (one per pose)")
+    return T

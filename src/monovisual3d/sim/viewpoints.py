@@ -1,4 +1,4 @@
-"""Camera viewpoints for simulation: the paper's three poses, permutations, rings, hemispheres.
+"""Camera viewpoints for simulation: the paper's three poses, permutations, rings, hemispheres, arcs and rows.
 
 Every pose is a ``T_base_optical`` (4, 4) built with :func:`monovisual3d.frames.look_at`
 (the camera looks at a target with the image's "up" along base +z). The base
@@ -47,6 +47,8 @@ PAPER_OFFSET_M = 0.2
 #: Default cone half-angle of :func:`ring_poses` and largest polar angle of :func:`hemisphere_poses`.
 DEFAULT_RING_ANGLE = math.radians(20.0)
 DEFAULT_HEMISPHERE_ANGLE = math.radians(60.0)
+#: Default angle swept by :func:`arc_poses`, radians.
+DEFAULT_ARC_SPAN = math.radians(60.0)
 #: Length of the plant row of :func:`row_poses` (and of the row scene), metres.
 ROW_LENGTH_M = 1.2
 #: Distance from the cameras of :func:`row_poses` to the row's centre plane, metres.
@@ -269,20 +271,26 @@ def row_poses(
     length: float = ROW_LENGTH_M,
     distance: float = ROW_DISTANCE_M,
     view_direction: ArrayLike = DEFAULT_VIEW_DIRECTION,
+    at: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
     """``n`` cameras along the row, ``distance`` in front of it, spread evenly over ``length``, looking straight at it.
 
-    The row runs along base y (the image's horizontal when ``view_direction`` is base +x).
+    The row runs along base y (the image's horizontal when ``view_direction`` is base +x). The cameras are
+    the frames of one camera driven along the row at constant speed: ``at`` (continuous view positions,
+    default ``0 .. n-1``) gives the camera where it is between two views or beyond the last (a pose a
+    fraction of a frame late, :mod:`monovisual3d.sim.motion`).
 
     Returns
     -------
-    T_base_optical : ndarray, shape (n, 4, 4)
+    T_base_optical : ndarray, shape (n, 4, 4), or (len(at), 4, 4)
 
     Examples
     --------
     >>> P = row_poses(3)
     >>> P[:, 1, 3].round(3).tolist(), P[0, :3, 2].round(6).tolist()
     ([0.6, 0.0, -0.6], [1.0, 0.0, 0.0])
+    >>> row_poses(3, at=[0.5])[:, 1, 3].round(3).tolist()
+    [0.3]
     """
     if not is_int(n) or n < 1:
         raise InputError(f"--views: got row:{n!r}, expected row:N with N >= 1 views")
@@ -296,8 +304,72 @@ def row_poses(
         raise InputError("view_direction: must not be vertical for a row")
     along /= np.linalg.norm(along)
     t = np.asarray(target, dtype=float)
-    offsets = np.linspace(length / 2, -length / 2, n) if n > 1 else np.zeros(1)
+    step = length / (n - 1) if n > 1 else 0.0
+    offsets = length / 2 - step * _view_positions(n, at) if n > 1 else np.zeros(len(_view_positions(n, at)))
     return np.stack([look_at(t - distance * d + s * along, t + s * along) for s in offsets])
+
+
+def arc_poses(
+    target: ArrayLike = DEFAULT_TARGET,
+    n: int = 6,
+    *,
+    span: float = DEFAULT_ARC_SPAN,
+    distance: float = PAPER_DISTANCE_M,
+    view_direction: ArrayLike = DEFAULT_VIEW_DIRECTION,
+    at: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """``n`` cameras on a horizontal arc around the target, all looking at it: a camera swept around a plant.
+
+    The arc lies at the target's height, ``distance`` from it, and spans ``span`` radians of azimuth about
+    the vertical through the target, centred on the axial view (``target - distance * view_direction``); the
+    cameras go from the image's left to its right, evenly spaced. They are the frames of one camera swept at
+    constant angular speed: ``at`` (continuous view positions, default ``0 .. n-1``) gives the camera where it
+    is between two views or beyond the ends (a pose a fraction of a frame late, :mod:`monovisual3d.sim.motion`).
+
+    Returns
+    -------
+    T_base_optical : ndarray, shape (n, 4, 4), or (len(at), 4, 4)
+
+    Examples
+    --------
+    >>> P = arc_poses(n=3, span=np.radians(60.0))
+    >>> np.linalg.norm(P[:, :3, 3] - np.array(DEFAULT_TARGET), axis=1).round(6).tolist()
+    [0.5, 0.5, 0.5]
+    >>> P[:, 1, 3].round(3).tolist()
+    [0.25, 0.0, -0.25]
+    """
+    n = _check_count(n, "n")
+    _check_angle(span, "span", 2 * math.pi)
+    t = vector(target, 3, "target")
+    _check_positive(distance, "distance")
+    axis = _unit(view_direction, "view_direction")
+    horizontal = axis - axis[2] * np.array([0.0, 0.0, 1.0])
+    if not np.linalg.norm(horizontal) > 1e-9:
+        raise InputError("view_direction: must not be vertical for an arc")
+    horizontal /= np.linalg.norm(horizontal)
+    step = span / (n - 1) if n > 1 else 0.0
+    azimuth = -span / 2 + step * _view_positions(n, at) if n > 1 else np.zeros(len(_view_positions(n, at)))
+    out = []
+    for phi in azimuth:
+        c, s = math.cos(phi), math.sin(phi)
+        back = -distance * horizontal  # from the target to the axial camera
+        position = t + np.array([c * back[0] - s * back[1], s * back[0] + c * back[1], 0.0])
+        out.append(look_at(position, t))
+    return np.stack(out)
+
+
+def _view_positions(n: int, at: ArrayLike | None) -> NDArray[np.float64]:
+    """Continuous view positions along a path: ``at`` (finite numbers), default ``0 .. n-1``."""
+    if at is None:
+        return np.arange(n, dtype=float)
+    a = np.atleast_1d(np.asarray(at, dtype=float))
+    if a.ndim != 1 or len(a) == 0 or not np.all(np.isfinite(a)):
+        raise InputError(f"at: got {np.asarray(at).tolist()!r}, expected a non-empty list of finite view positions")
+    return a
+
+
+#: The ``--views`` forms that are paths a camera moves along at constant speed (they take ``at``).
+PATH_VIEWS = ("arc", "row")
 
 
 def poses_by_name(
@@ -307,43 +379,41 @@ def poses_by_name(
     distance: float = PAPER_DISTANCE_M,
     view_direction: ArrayLike = DEFAULT_VIEW_DIRECTION,
     row_length: float = ROW_LENGTH_M,
+    at: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
     """Poses from a short description, as the CLI's ``--views`` takes it.
 
     ``paper`` (the three poses), ``ring:N[:ANGLE_DEG]`` (:func:`ring_poses`,
     default 20 degrees), ``hemisphere:N[:ANGLE_DEG]`` (:func:`hemisphere_poses`,
-    default 60 degrees), ``row:N`` (:func:`row_poses`: N cameras along a row of
-    ``row_length`` at ``distance``), or the path of a pose file (:func:`load_poses`).
+    default 60 degrees), ``arc:N[:SPAN_DEG]`` (:func:`arc_poses`, default 60 degrees),
+    ``row:N`` (:func:`row_poses`: N cameras along a row of ``row_length`` at ``distance``),
+    or the path of a pose file (:func:`load_poses`). ``at`` (continuous view positions along
+    the path) is only for the paths, ``arc`` and ``row``.
 
     Examples
     --------
     >>> poses_by_name("ring:6").shape
     (6, 4, 4)
+    >>> poses_by_name("arc:4:90", at=[0.0, 1.5]).shape
+    (2, 4, 4)
     """
     spec = spec.strip()
     name, _, rest = spec.partition(":")
     _check_positive(distance, "--distance (distance)")
+    if at is not None and not (name in PATH_VIEWS and rest):
+        raise InputError(
+            f"--views: got {spec!r}, expected views along a path (arc:N[:SPAN_DEG] or row:N) for poses between views"
+        )
     if name == "paper" and not rest:
         return paper_poses(target, distance=distance, view_direction=view_direction)
-    if name in ("ring", "hemisphere") and rest:
-        parts = rest.split(":")
-        try:
-            n = int(parts[0])
-            angle_deg = float(parts[1]) if len(parts) > 1 else None
-        except ValueError:
-            raise InputError(f"--views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG with N an integer") from None
-        if len(parts) > 2:
-            raise InputError(f"--views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG")
-        if n < 1:
-            raise InputError(f"--views: got {spec!r}, expected {name}:N with N >= 1 views")
-        if n > MAX_SIM_VIEWS:
-            raise InputError(f"--views: got {spec!r}, more than the {MAX_SIM_VIEWS} views a simulation may have")
-        if angle_deg is not None and not 0.0 <= angle_deg <= 90.0:
-            what = "cone half-angle" if name == "ring" else "largest angle from the axis"
-            raise InputError(f"--views: got {spec!r}, expected the {what} ANGLE_DEG in [0, 90] degrees")
+    if name in ("ring", "hemisphere", "arc") and rest:
+        n, angle_deg = _count_and_angle(spec, name, rest)
         if name == "ring":
             angle = math.radians(angle_deg) if angle_deg is not None else DEFAULT_RING_ANGLE
             return ring_poses(target, n, distance=distance, cone_angle=angle, view_direction=view_direction)
+        if name == "arc":
+            span = math.radians(angle_deg) if angle_deg is not None else DEFAULT_ARC_SPAN
+            return arc_poses(target, n, span=span, distance=distance, view_direction=view_direction, at=at)
         angle = math.radians(angle_deg) if angle_deg is not None else DEFAULT_HEMISPHERE_ANGLE
         return hemisphere_poses(target, n, distance=distance, max_angle=angle, view_direction=view_direction)
     if name == "row" and rest:
@@ -351,12 +421,41 @@ def poses_by_name(
             n = int(rest)
         except ValueError:
             raise InputError(f"--views: got {spec!r}, expected row:N with N an integer") from None
-        return row_poses(n, target, length=row_length, distance=distance, view_direction=view_direction)
+        return row_poses(n, target, length=row_length, distance=distance, view_direction=view_direction, at=at)
     if Path(spec).suffix.lower() in (".json", ".yaml", ".yml"):
         return load_poses(spec, target)
     raise InputError(
-        f"--views: got {spec!r}, expected paper, ring:N[:ANGLE_DEG], hemisphere:N[:ANGLE_DEG], row:N or a pose file (.json/.yaml)"
+        f"--views: got {spec!r}, expected paper, ring:N[:ANGLE_DEG], hemisphere:N[:ANGLE_DEG], arc:N[:SPAN_DEG], row:N "
+        "or a pose file (.json/.yaml)"
     )
+
+
+#: Largest angle of each ``NAME:N:ANGLE_DEG`` form, degrees, and what the angle is.
+_SPEC_ANGLES = {
+    "ring": (90.0, "cone half-angle"),
+    "hemisphere": (90.0, "largest angle from the axis"),
+    "arc": (360.0, "angle swept"),
+}
+
+
+def _count_and_angle(spec: str, name: str, rest: str) -> tuple[int, float | None]:
+    """``N`` and the optional ``ANGLE_DEG`` of ``NAME:N[:ANGLE_DEG]``, checked (one-line :class:`InputError`)."""
+    parts = rest.split(":")
+    try:
+        n = int(parts[0])
+        angle_deg = float(parts[1]) if len(parts) > 1 else None
+    except ValueError:
+        raise InputError(f"--views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG with N an integer") from None
+    if len(parts) > 2:
+        raise InputError(f"--views: got {spec!r}, expected {name}:N or {name}:N:ANGLE_DEG")
+    if n < 1:
+        raise InputError(f"--views: got {spec!r}, expected {name}:N with N >= 1 views")
+    if n > MAX_SIM_VIEWS:
+        raise InputError(f"--views: got {spec!r}, more than the {MAX_SIM_VIEWS} views a simulation may have")
+    most, what = _SPEC_ANGLES[name]
+    if angle_deg is not None and not 0.0 <= angle_deg <= most:
+        raise InputError(f"--views: got {spec!r}, expected the {what} ANGLE_DEG in [0, {most:g}] degrees")
+    return n, angle_deg
 
 
 # ---------------------------------------------------------------------- helpers
