@@ -44,6 +44,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "result",
             "session",
             "truth",
+            "verdict",
         ),
     ),
     ("geometry", ("geometry",)),
