@@ -155,6 +155,9 @@ class Result:
         engine's active set)
     pose_corrections : list of dict, per view: the estimated correction of its reported pose (``bayes`` with a
         stated pose uncertainty; empty otherwise), see :func:`monovisual3d.methods.bayes.poses.bundle`
+    quality : dict, what the result says of its own trustworthiness (empty: the method has no quality model):
+        ``verdict`` (``ok``, ``suspect``, ``unreliable``), ``causes`` (list of :meth:`monovisual3d.verdict.Cause.to_dict`),
+        and the method's consistency figures (e.g. per object ``residual_chi2`` and ``dof``, per view ``consistency``)
     """
 
     objects: list[DetectedObject]
@@ -165,6 +168,7 @@ class Result:
     warnings: list[str] = field(default_factory=list)
     diagnostics: dict[str, Any] = field(default_factory=dict)
     pose_corrections: list[dict[str, Any]] = field(default_factory=list)
+    quality: dict[str, Any] = field(default_factory=dict)
 
     @property
     def positions(self) -> NDArray[np.float64]:
@@ -183,6 +187,7 @@ class Result:
             "warnings": list(self.warnings),
             "diagnostics": dict(self.diagnostics),
             "pose_corrections": list(self.pose_corrections),
+            "quality": dict(self.quality),
         }
 
     def to_json(self, path: str | Path | None = None, indent: int = 2) -> str:

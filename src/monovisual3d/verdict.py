@@ -85,3 +85,21 @@ def verdict_of(causes: Iterable[Cause]) -> str:
     for c in causes:
         worst = max(worst, VERDICTS.index(c.severity))
     return VERDICTS[worst]
+
+
+def with_causes(quality: dict[str, Any], causes: Iterable[Cause]) -> dict[str, Any]:
+    """A copy of a result's ``quality`` block with ``causes`` added (a cause ID and message given once) and the
+    verdict recomputed from them all.
+
+    >>> with_causes({}, [Cause("duplicate_views", "view 3 repeats view 1")])["verdict"]
+    'suspect'
+    """
+    listed = [dict(c) for c in quality.get("causes", [])]
+    seen = {(c.get("cause"), c.get("message")) for c in listed}
+    for c in causes:
+        if (c.cause, c.message) not in seen:
+            listed.append(c.to_dict())
+            seen.add((c.cause, c.message))
+    worst = max((VERDICTS.index(str(c.get("severity", "suspect"))) for c in listed), default=0)
+    worst = max(worst, VERDICTS.index(str(quality.get("verdict", "ok"))))
+    return {**quality, "verdict": VERDICTS[worst], "causes": listed}

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...result import DetectedObject, normalised_shape
+from ...verdict import Cause
 
 #: Boxes explained by accepted objects: ``(v, j)`` pairs, ``v`` indexing ``Problem.views``, ``j`` a detection there.
 Taken = frozenset[tuple[int, int]]
@@ -179,6 +180,7 @@ class State:
         stated pose uncertainty; :func:`.poses.pose_corrections`)
     isolated_dropped : int, objects the isolated pass dropped
     view_shifts : tuple of dict, views whose boxes all sit off the same way (:func:`.view_shift.view_shifts`)
+    causes : tuple of Cause, what the passes found wrong with the input (:class:`~monovisual3d.verdict.Cause`)
     """
 
     objects: tuple[Found, ...] = ()
@@ -186,6 +188,7 @@ class State:
     pose_corrections: tuple[dict[str, Any], ...] = ()
     isolated_dropped: int = 0
     view_shifts: tuple[dict[str, Any], ...] = ()
+    causes: tuple[Cause, ...] = ()
 
     def with_objects(self, objects: Iterable[Found]) -> State:
         """This state with ``objects`` in place of its own."""
