@@ -57,7 +57,8 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
           warning as the reason when it gave one, else what to try);
         - some boxes are associated to no object (only for methods that report associations:
           an object's ``associations`` maps view index -> box index), unless the result's ``quality`` names causes
-          (their messages say what to check).
+          (their messages say what to check); where ``quality`` lists its ``unexplained_boxes`` (a box no object holds
+          but that lies at an object's predicted box within the session's noise is explained), only those.
     """
     with_boxes = [i for i, v in enumerate(session.views) if v.detections]
     if len(with_boxes) < MIN_VIEWS_WITH_BOXES:
@@ -71,6 +72,9 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
     if result.quality.get("causes"):
         return []  # the quality model named what is wrong (its messages are among the warnings): no generic line
     used = {(int(v), int(d)) for o in result.objects for v, d in o.associations.items()}
+    if "unexplained_boxes" in result.quality:  # the quality model's: a free box beside its object, off by noise, is its
+        unexplained = {(int(v), int(d)) for v, d in result.quality["unexplained_boxes"]}
+        used = {(i, d) for i in with_boxes for d in range(len(session.views[i].detections))} - unexplained
     dropped = {i: [d for d in range(len(session.views[i].detections)) if (i, d) not in used] for i in with_boxes}
     dropped = {i: ds for i, ds in dropped.items() if ds}
     if not dropped:

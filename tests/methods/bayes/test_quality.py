@@ -121,7 +121,7 @@ def test_scatter_fires_only_on_evidence() -> None:
     assert [c.cause for c in causes_of(Quality(variance_factor=40.0, dof=60))] == ["scatter"]
     assert causes_of(Quality(variance_factor=40.0, dof=4)) == ()  # too few degrees of freedom
     assert causes_of(Quality(variance_factor=5.0, dof=600)) == ()  # 10 % box noise is no alarm
-    unexplained = causes_of(Quality(unexplained=8, n_boxes=20))
+    unexplained = causes_of(Quality(unexplained_boxes=tuple((v, 0) for v in range(8)), n_boxes=20))
     assert [c.cause for c in unexplained] == ["unexplained_boxes"] and "8 of 20" in unexplained[0].message
 
 
@@ -178,3 +178,23 @@ def test_batch_tables_carry_the_quality_and_the_shape() -> None:
         np.testing.assert_allclose(json.loads(row["quaternion_xyzw"]), obj.quaternion_xyzw)
         assert row["residual_chi2"] >= 0 and row["dof"] > 0
     assert set(rows[0]) <= set(FRUIT_COLUMNS) and set(session) <= set(SESSION_COLUMNS)
+
+
+def test_a_free_box_at_an_objects_prediction_is_explained_a_stray_one_is_not() -> None:
+    """A second box on a found fruit (a detector's duplicate) is explained by it; a box away from every fruit is not,
+    and only that one is reported as associated to no object."""
+    from monovisual3d.completeness import incomplete_reasons
+    from monovisual3d.session.load import load_session
+
+    data = make_case("paper", 2, 0.02).session.to_dict()
+    first = data["views"][0]["detections"]
+    duplicate = {"bbox_xyxy": [c + 1.0 for c in first[0]["bbox_xyxy"]]}
+    first += [duplicate, {"bbox_xyxy": [2.0, 2.0, 22.0, 22.0]}]
+    session = load_session(data)
+    result = _quiet_localize(session)
+    n = len(first)
+    assert result.quality["unexplained_boxes"] == [[0, n - 1]]
+    reasons = incomplete_reasons(session, result)
+    assert len(reasons) == 1 and reasons[0].startswith(
+        f"1 of {result.quality['n_boxes']} boxes are associated to no object (view 0: box {n - 1})"
+    )

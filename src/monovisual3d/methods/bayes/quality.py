@@ -295,13 +295,11 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
     fits = _object_fits(problem, objects)
     live = [f for f in fits if f is not None]
     n_boxes = sum(len(vd.boxes) for vd in problem.views)
-    held = {(v, j) for o in objects for v, j in o.associations.items()}
-    unexplained = n_boxes - len(held)
     if not live:
         return Quality(
             objects=tuple(ObjectQuality(0.0, 0, 1.0, "no box edge to fit") for _ in objects),
             n_boxes=n_boxes,
-            unexplained=unexplained,
+            unexplained_boxes=tuple(unexplained_boxes(problem, objects, 1.0)),
         ), objects
     moments = {id(f): _moments(f) for f in live}
     all_z = np.concatenate([f.z for f in live])
@@ -346,8 +344,44 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
         consistency = c / e if e > 0 else 1.0
         p = float(gammaincc(d / 2, consistency * d / 2)) if d > 0 else 1.0
         views.append(ViewQuality(v, c, d, consistency, p))
-    quality = Quality(tuple(obj_quality), tuple(views), single, fc, fs, int(dof), unexplained, n_boxes)
+    free = tuple(unexplained_boxes(problem, objects, single))
+    quality = Quality(tuple(obj_quality), tuple(views), single, fc, fs, int(dof), free, n_boxes)
     return quality, tuple(out)
+
+
+def unexplained_boxes(problem: Problem, objects: tuple[Found, ...], variance_factor: float) -> list[tuple[int, int]]:
+    """The boxes ``(view, box)`` (session view index, detection index) that no object holds and that no object explains
+    as its own box seen with the session's noise: every edge not on the image border within ``gate_sigmas`` of the
+    object's predicted box, the sensor model's edge noise scaled by ``sqrt(variance_factor)`` (at least 1).
+
+    Under noise beyond the sensor model's, a fruit's box may fall outside the search's gate and stay free beside its
+    object; a box of a fruit no object stands for (or of a mistake) lies away from every prediction."""
+    held = {(v, j) for o in objects for v, j in o.associations.items()}
+    free = [(vd, j) for vd in problem.views for j in range(len(vd.boxes)) if (vd.index, j) not in held]
+    if not free or not objects:
+        return [(vd.index, j) for vd, j in free]
+    cam, model = problem.camera, problem.model
+    centres = np.array([o.position for o in objects])
+    semis = np.array([o.semi_axes if o.semi_axes is not None else [o.radius] * 3 for o in objects], dtype=float)
+    rots = np.array(
+        [rotation_from_quaternion_xyzw(o.quaternion_xyzw) if o.quaternion_xyzw is not None else np.eye(3) for o in objects]
+    )
+    scale = math.sqrt(max(variance_factor, 1.0))
+    out, predicted = [], {}
+    for vd, j in free:
+        if vd.index not in predicted:
+            T_base_optical = np.linalg.inv(vd.T_optical_base)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                predicted[vd.index] = ellipsoid_bbox(cam, T_base_optical[None], centres, semis, rots, clip=False)
+        pred = predicted[vd.index]
+        box = vd.boxes[j]
+        z = (box[None] - pred) / (scale * box_edge_sigma_px(model, pred))
+        seen = ~censored_edges(box, cam.width, cam.height, model.border_px)
+        with np.errstate(invalid="ignore"):
+            near = np.all(np.isfinite(pred), axis=1) & np.all(np.abs(z[:, seen]) <= model.gate_sigmas, axis=1)
+        if not near.any():
+            out.append((vd.index, j))
+    return out
 
 
 def _covariance(fit: _Fit, S: NDArray[np.float64], scale: float) -> tuple[NDArray[np.float64] | None, str | None]:
@@ -392,8 +426,8 @@ def causes_of(quality: Quality) -> tuple[Cause, ...]:
         out.append(
             Cause(
                 "unexplained_boxes",
-                f"unexplained boxes: {quality.unexplained} of {quality.n_boxes} boxes are held by no object; check that the "
-                "views look at the same fruit, the poses and the box format (pixels x1, y1, x2, y2)",
+                f"unexplained boxes: {quality.unexplained} of {quality.n_boxes} boxes are held and explained by no object; "
+                "check that the views look at the same fruit, the poses and the box format (pixels x1, y1, x2, y2)",
                 "suspect",
                 details={"unexplained": quality.unexplained, "n_boxes": quality.n_boxes},
             )

@@ -230,7 +230,8 @@ class Quality:
     variance_factor : float, the session's: robust chi-square over its degrees of freedom (1: the sensor model)
     centre_factor, size_factor : float, the variance factors of the boxes' centre and size parts
     dof : int, the session's degrees of freedom
-    unexplained : int, boxes held by no object
+    unexplained_boxes : tuple of (view, box), session view index and detection index of each box that no object holds
+        and none explains as its own box under the session's noise (:func:`.quality.unexplained_boxes`)
     n_boxes : int, boxes in all
     """
 
@@ -240,8 +241,13 @@ class Quality:
     centre_factor: float = 1.0
     size_factor: float = 1.0
     dof: int = 0
-    unexplained: int = 0
+    unexplained_boxes: tuple[tuple[int, int], ...] = ()
     n_boxes: int = 0
+
+    @property
+    def unexplained(self) -> int:
+        """How many boxes are unexplained."""
+        return len(self.unexplained_boxes)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON values: what ``Result.quality`` holds besides the verdict and the causes."""
@@ -252,6 +258,8 @@ class Quality:
             "dof": self.dof,
             "objects": [o.to_dict() for o in self.objects],
             "views": [v.to_dict() for v in self.views],
+            "n_boxes": self.n_boxes,
+            "unexplained_boxes": [[v, j] for v, j in self.unexplained_boxes],
         }
 
 
