@@ -56,7 +56,9 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
         - the result is empty although at least two views have boxes (with the method's own
           warning as the reason when it gave one, else what to try);
         - some boxes are associated to no object (only for methods that report associations:
-          an object's ``associations`` maps view index -> box index).
+          an object's ``associations`` maps view index -> box index), unless the result's ``quality`` names causes
+          (their messages say what to check); where ``quality`` lists its ``unexplained_boxes`` (a box no object holds
+          but that lies at an object's predicted box within the session's noise is explained), only those.
     """
     with_boxes = [i for i, v in enumerate(session.views) if v.detections]
     if len(with_boxes) < MIN_VIEWS_WITH_BOXES:
@@ -67,7 +69,12 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
         return [f"{EMPTY_PREFIX} although {len(with_boxes)} views have boxes: they agree on no object; {EMPTY_ADVICE}"]
     if not any(o.associations for o in result.objects):
         return []  # the method does not associate boxes: nothing to count
+    if result.quality.get("causes"):
+        return []  # the quality model named what is wrong (its messages are among the warnings): no generic line
     used = {(int(v), int(d)) for o in result.objects for v, d in o.associations.items()}
+    if "unexplained_boxes" in result.quality:  # the quality model's: a free box beside its object, off by noise, is its
+        unexplained = {(int(v), int(d)) for v, d in result.quality["unexplained_boxes"]}
+        used = {(i, d) for i in with_boxes for d in range(len(session.views[i].detections))} - unexplained
     dropped = {i: [d for d in range(len(session.views[i].detections)) if (i, d) not in used] for i in with_boxes}
     dropped = {i: ds for i, ds in dropped.items() if ds}
     if not dropped:
@@ -84,6 +91,16 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
         f"or objects seen in too few views or scoring below the acceptance threshold; "
         f"{UNASSOCIATED_ADVICE.get(result.method, UNASSOCIATED_ADVICE_OTHER)}"
     ]
+
+
+def strict_failure(reasons: list[str], result: Result) -> bool:
+    """Whether ``--strict`` exits 1: a reason of :func:`incomplete_reasons`, or a quality verdict that is not ``ok``
+    (:mod:`monovisual3d.verdict`).
+
+    >>> strict_failure([], Result(objects=[], method="bayes", quality={"verdict": "suspect"}))
+    True
+    """
+    return bool(reasons) or str(result.quality.get("verdict", "ok")) != "ok"
 
 
 def merge_reasons(warnings: list[str], reasons: list[str]) -> list[str]:

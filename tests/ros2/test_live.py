@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
-from types import SimpleNamespace
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -112,16 +112,16 @@ def test_a_changed_camera_is_refused_until_a_reset() -> None:
 
 
 def test_the_status_carries_verdict_and_warnings_when_the_method_gives_them(monkeypatch: pytest.MonkeyPatch) -> None:
-    """``localizer.last.quality`` and ``.warnings`` (being added to the method) are read when present."""
+    """``localizer.last.quality`` and ``.warnings`` are read, each warning once."""
     real = BayesLocalizer.estimate
 
     def estimate(self):  # noqa: ANN001, ANN202
         objects = real(self)
-        self.last = SimpleNamespace(**vars(self.last), quality={"verdict": "suspect", "causes": ["few views"]}, warnings=["w1"])
+        self.last = replace(self.last, quality={"verdict": "suspect", "causes": ["few views"]}, warnings=["w1"])
         return objects
 
     live = _fed_session()
-    assert live.estimate().status["verdict"] is None  # before: no quality on the estimate
+    assert live.estimate().status["verdict"] == "ok"  # a clean session: the quality model found nothing
     monkeypatch.setattr(BayesLocalizer, "estimate", estimate)
     s = live.estimate().status
-    assert (s["verdict"], s["causes"]) == ("suspect", ["few views"]) and "w1" in s["warnings"]
+    assert (s["verdict"], s["causes"]) == ("suspect", ["few views"]) and s["warnings"].count("w1") == 1

@@ -23,7 +23,7 @@ from ..checks import is_int
 from ..errors import InputError
 from ..frames import T_cameralink_optical, check_transform, transform_from_position_quaternion
 from ..io.poses import T_base_ee_from_T_base_camera
-from ..result import DetectedObject
+from ..result import Result
 from ..session import Session, Workspace
 from .candidates import CapSpec, cap_poses, load_candidates, pose_to_dict
 from .config import PlannerConfig
@@ -89,8 +89,9 @@ def plan_session(
     Returns
     -------
     dict
-        :meth:`~monovisual3d.active.planner.Plan.to_dict` plus ``n_objects``, ``views`` and, for
-        ``cap:``, ``candidates`` (the poses the indices refer to, after the reach filter).
+        :meth:`~monovisual3d.active.planner.Plan.to_dict` plus ``n_objects``, ``views``, ``warnings`` and ``quality``
+        (the localisation's, as ``localize`` gives them) and, for ``cap:``, ``candidates`` (the poses the indices
+        refer to, after the reach filter).
     """
     if not is_int(count) or count < 1:
         raise InputError(f"count: got {count}, expected a positive integer")
@@ -102,7 +103,8 @@ def plan_session(
     spec, cands = _parse_candidates(candidates, pose_frame, count)
     # every planner option is checked here too, before the localisation
     cfg = PlannerConfig(target_mm=target_mm, motion_weight=motion_weight, base_centre=base_c, box_noise=box_noise)
-    objects = _localise(sess)
+    result = _localise(sess)
+    objects = [] if result is None else list(result.objects)
     state = PlannerState(sess.camera, sess.views, tuple(objects), sess.workspace)
     if spec is not None:
         cands = _cap_candidates(spec, state, session, target, base_c)
@@ -113,6 +115,8 @@ def plan_session(
     out = plan_from_state(state, cands, count=count, config=cfg).to_dict(pose_frame)
     out["n_objects"] = len(objects)
     out["views"] = len(sess.views)
+    out["warnings"] = [] if result is None else list(result.warnings)  # as localize says them
+    out["quality"] = {} if result is None else dict(result.quality)
     if spec is not None:
         out["candidates"] = [pose_to_dict(T, pose_frame) for T in cands]
     if tool_frame is not None and T_tool_camera is not None:
@@ -201,15 +205,15 @@ def _pose_frame(session: str | Path) -> str:
     return raw.get("pose_frame", "optical") if isinstance(raw, dict) else "optical"
 
 
-def _localise(sess: Session) -> list[DetectedObject]:
-    """The session's objects, or none before two views with detections."""
+def _localise(sess: Session) -> Result | None:
+    """The session's result (its warnings kept in it, not raised), or None before two views with detections."""
     from ..api import localize
 
     if sum(1 for v in sess.views if v.detections) < 2:
-        return []
+        return None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return list(localize(sess).objects)
+        return localize(sess)
 
 
 def _cap_candidates(

@@ -96,17 +96,39 @@ def session_row(job: Job, **values: Any) -> dict[str, Any]:
 
 
 def fruit_rows(session_id: str, result: Result) -> list[dict[str, Any]]:
-    """One ``fruit`` row per object of ``result`` (positions in metres, base frame)."""
+    """One ``fruit`` row per object of ``result`` (positions in metres, base frame): its shape (``shape``, ``semi_axes_m``
+    and ``quaternion_xyzw`` as JSON lists) and its residuals under the sensor model (``residual_chi2``, ``dof``,
+    ``variance_factor`` of ``result.quality["objects"]``) included."""
+    per_object = result.quality.get("objects", [])
     rows = []
     for i, obj in enumerate(result.objects):
-        rows.append(_fruit_row(session_id, i, obj))
+        row = _fruit_row(session_id, i, obj)
+        q = per_object[i] if i < len(per_object) else {}
+        row.update({k: q.get(k) for k in ("residual_chi2", "dof", "variance_factor")})
+        rows.append(row)
     return rows
+
+
+def quality_columns(result: Result) -> dict[str, Any]:
+    """The ``sessions`` row's ``verdict``, ``causes`` (cause IDs, comma separated) and ``variance_factor`` of
+    ``result.quality`` (NA where the method has no quality model)."""
+    q = result.quality
+    if not q:
+        return {}
+    return {
+        "verdict": q.get("verdict"),
+        "causes": ",".join(str(c.get("cause")) for c in q.get("causes", [])),
+        "variance_factor": q.get("variance_factor"),
+    }
 
 
 def _fruit_row(session_id: str, index: int, obj: DetectedObject) -> dict[str, Any]:
     x, y, z = (float(v) for v in obj.position)
     row: dict[str, Any] = {"session_id": session_id, "fruit": index, "x_m": x, "y_m": y, "z_m": z, "score": float(obj.score)}
     row["radius_m"] = float(obj.radius) if obj.radius is not None else math.nan
+    row["shape"] = obj.shape
+    for name, value in (("semi_axes_m", obj.semi_axes), ("quaternion_xyzw", obj.quaternion_xyzw)):
+        row[name] = None if value is None else json.dumps([float(v) for v in value])
     radius_std, n_views = (obj.extra.get(k) for k in _OWN_COLUMNS)
     row["radius_std_m"] = float(radius_std) if radius_std is not None else math.nan
     cov = np.full((3, 3), np.nan) if obj.covariance is None else np.asarray(obj.covariance, dtype=float)
@@ -214,7 +236,14 @@ def run_job(job: Job, localizer: Callable[..., Result] | None = None) -> tuple[d
         row.update(runtime_s=time.perf_counter() - t0, worker=_worker_name())
         return row, []
     row = session_row(
-        job, status="ok", n_fruit=len(fruit), warnings=json.dumps(warnings), worker=_worker_name(), **counts, **evaluation
+        job,
+        status="ok",
+        n_fruit=len(fruit),
+        warnings=json.dumps(warnings),
+        worker=_worker_name(),
+        **quality_columns(result),
+        **counts,
+        **evaluation,
     )
     row["runtime_s"] = time.perf_counter() - t0
     return row, fruit

@@ -13,7 +13,7 @@ from rich.table import Table
 
 from .._structured import read_text
 from ..errors import InputError
-from ._app import app, check_output, command_budget, console, handle_errors, plain, write_output
+from ._app import app, check_output, command_budget, console, handle_errors, plain, print_warning, write_output
 from .bench import bench_app
 from .options import MaxMemory, SpreadScheduler, SpreadWorkers, TimeLimit, spread_flags
 
@@ -96,7 +96,8 @@ def next_view(
 ) -> None:
     """Choose the next camera pose from candidates by expected gain; report "done" when the estimate is good enough.
 
-    Output: {"index", "pose", "gain", "ranking": [{"index", "gain"}], "done", ...}; with --count K also
+    Output: {"index", "pose", "gain", "ranking": [{"index", "gain"}], "done", "warnings", "quality", ...} (the
+    warnings and quality of the views so far, as localize gives them); with --count K also
     "indices", "poses" and "gains". Indices refer to the candidate list (for cap:N, the poses left
     after the reach filter, listed in "candidates"). With --tool-frame and --hand-eye, "pose" ("poses") is the
     tool's goal pose and "camera_pose" ("camera_poses") the camera's.
@@ -130,13 +131,16 @@ def next_view(
 
 
 def _write_plan(out: dict[str, Any], output: Path | None) -> None:
-    """The plan as JSON on stdout, or written to ``output`` with a short summary on the terminal."""
+    """The plan as JSON on stdout, or written to ``output`` with a short summary on the terminal; the localisation's
+    warnings one line each on stderr, as ``localize`` prints them."""
     text = json.dumps(out, indent=2)
     if output is None:
         sys.stdout.write(text + "\n")
     else:
         write_output(output, text + "\n")
         _print_plan(out, output)
+    for line in out.get("warnings", []):
+        print_warning(line)
 
 
 def _print_plan(out: dict[str, Any], output: Path) -> None:

@@ -63,8 +63,8 @@ def batch(
         bool,
         typer.Option(
             "--strict",
-            help="Exit 1 also when a session's result is incomplete: empty although two or more views have boxes, "
-            "or boxes associated to no object (as localize --strict; listed in sessions.csv, column warnings).",
+            help="Exit 1 also when a session's verdict is not ok or its result is incomplete: empty although two or more "
+            "views have boxes, or boxes no object holds (as localize --strict; sessions.csv, columns verdict, warnings).",
         ),
     ] = False,
     time_limit: BatchTimeLimit = None,
@@ -202,8 +202,25 @@ def _report(tables: Any, output: Path, strict: bool = False) -> None:
             f"{len(incomplete)} session(s) with an incomplete result (sessions.csv, column warnings), "
             f"the first: {session_id}: {reason}"
         )
-    if s["n_error"] or (strict and incomplete):
+    flagged = _flagged(tables.sessions)
+    if flagged:
+        session_id, verdict, causes = flagged[0]
+        print_warning(
+            f"{len(flagged)} session(s) with a verdict that is not ok (sessions.csv, columns verdict, causes, warnings), "
+            f"the first: {session_id}: {verdict} ({causes})"
+        )
+    if s["n_error"] or (strict and (incomplete or flagged)):
         raise typer.Exit(1)
+
+
+def _flagged(sessions: Any) -> list[tuple[str, str, str]]:
+    """(session id, verdict, causes) of each ok session whose quality verdict is not ``ok`` (:mod:`monovisual3d.verdict`)."""
+    out = []
+    for _, row in sessions[sessions["status"] == "ok"].iterrows():
+        verdict = row["verdict"]
+        if isinstance(verdict, str) and verdict != "ok":
+            out.append((str(row["session_id"]), verdict, str(row["causes"])))
+    return out
 
 
 def _incomplete(sessions: Any) -> list[tuple[str, str]]:

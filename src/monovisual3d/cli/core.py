@@ -104,8 +104,8 @@ def localize(
         bool,
         typer.Option(
             "--strict",
-            help="Exit 1 (after writing the outputs) when two or more views have boxes and the result is empty "
-            "or leaves boxes associated to no object.",
+            help="Exit 1 (after writing the outputs) when the result's verdict is not ok (a named cause: see its "
+            "warning), or two or more views have boxes and the result is empty or leaves boxes associated to no object.",
             rich_help_panel=PANEL_OUTPUT,
         ),
     ] = False,
@@ -136,7 +136,7 @@ def localize(
 
 def _localize_and_write(session: Path, config: Any, output: Path | None, quiet: bool, view: Path | None, strict: bool) -> None:
     """The body of ``localize`` after its checks: load, localise, write and print; ``strict``: exit 1 if incomplete."""
-    from ..completeness import incomplete_reasons, merge_reasons
+    from ..completeness import incomplete_reasons, merge_reasons, strict_failure
     from ..session.baseline import geometry_warnings
     from ..session.load import load_session
 
@@ -167,7 +167,7 @@ def _localize_and_write(session: Path, config: Any, output: Path | None, quiet: 
         print(text)
     for line in shown:
         print_warning(line)
-    if strict and reasons:
+    if strict and strict_failure(reasons, result):
         raise typer.Exit(1)
 
 

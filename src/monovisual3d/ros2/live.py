@@ -215,7 +215,8 @@ class LiveSession:
                 self.warn(f"estimate failed: {type(exc).__name__}: {exc}")
         estimate_s, estimate_cpu_s = time.perf_counter() - t0, time.process_time() - c0
         self.objects = objects
-        method_warnings = [str(w.message) for w in caught] + list(getattr(loc.last, "warnings", None) or [])
+        raised = [str(w.message) for w in caught] + list(getattr(loc.last, "warnings", None) or [])
+        method_warnings = list(dict.fromkeys(raised))  # the localizer raises what it keeps in last.warnings: once each
         ids = self.tracks.update(np.array([o.position for o in objects]).reshape(-1, 3))
         labels = object_labels(objects, loc.views)
         frame = self.config.base_frame

@@ -5,12 +5,14 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
 
 from ...camera import Camera
 from ...errors import InputWarning
 from ...grid import VoxelGrid
 from ...result import DetectedObject, Result
 from ...session import Session, View, Workspace
+from ...verdict import with_causes
 from .config import BayesConfig
 from .pipeline import Estimate, estimate
 from .problem import build_problem
@@ -50,7 +52,10 @@ class BayesLocalizer:
     ----------
     views : list of View, the views so far
     grid : VoxelGrid or None, the region searched (set at the first view with a detection)
-    last : Estimate or None, the last :meth:`estimate`'s full output (pose corrections, timings, diagnostics)
+    last : Estimate or None, the last :meth:`estimate`'s full output (pose corrections, timings, diagnostics), with
+        ``warnings`` (list of str, each also raised as an :class:`~monovisual3d.errors.InputWarning`) and ``quality``
+        (the verdict, its causes, the residuals per object and per view: ``Result.quality``), as
+        :func:`monovisual3d.localize` reports them
 
     Examples
     --------
@@ -79,8 +84,15 @@ class BayesLocalizer:
             self.grid = region_grid(self.config, self.workspace, view)
 
     def estimate(self) -> list[DetectedObject]:
-        """Objects found in the views so far (see :mod:`.pipeline`)."""
-        self.last = estimate(build_problem(self.camera, self.config, self.views, self.grid))
+        """Objects found in the views so far (see :mod:`.pipeline`); what is wrong with them is raised as
+        :class:`~monovisual3d.errors.InputWarning` and kept in ``last.warnings`` and ``last.quality``."""
+        found = estimate(build_problem(self.camera, self.config, self.views, self.grid))
+        quality = with_causes({"verdict": "ok", "causes": [], **found.quality}, found.causes)
+        messages = session_messages(self.camera, self.config, self.views, found)
+        messages += [c["message"] for c in quality["causes"] if c["message"] not in messages]
+        self.last = replace(found, quality=quality, warnings=messages)
+        for msg in messages:
+            warnings.warn(InputWarning(msg), stacklevel=2)
         return list(self.last.objects)
 
     @property
@@ -89,9 +101,23 @@ class BayesLocalizer:
         return list(self.last.pose_corrections) if self.last is not None else []
 
 
-def _check_views(session: Session, config: BayesConfig, objects: list[DetectedObject]) -> list[str]:
+def session_messages(camera: Camera, config: BayesConfig, views: list[View], found: Estimate) -> list[str]:
+    """The warnings of an estimate before its causes: too few views or no object, the views whose boxes sit off
+    together, a capped search."""
+    messages = _check_views(views, config, found.objects)
+    focal = max(camera.fx, camera.fy)
+    messages += [shift_message(shift, focal) for shift in found.diagnostics.get("view_shifts", [])]
+    if found.diagnostics.get("capped"):
+        messages.append(
+            f"the search kept only the best hypotheses at some level to stay within max_memory={config.max_memory:,} bytes "
+            f"and max_hypotheses={config.tuning.max_hypotheses:,}; a smaller workspace or a coarser resolution searches exhaustively"
+        )
+    return messages
+
+
+def _check_views(views: list[View], config: BayesConfig, objects: list[DetectedObject]) -> list[str]:
     """Warnings for sessions that cannot give objects."""
-    n_with = sum(1 for v in session.views if v.detections)
+    n_with = sum(1 for v in views if v.detections)
     messages = []
     if n_with < config.min_views:
         messages.append(f"only {n_with} view(s) have detections; at least {config.min_views} are needed to localise anything")
@@ -118,18 +144,8 @@ def run(session: Session, config: BayesConfig, *, progress: Callable[[int, int],
         loc.update(view)
         if progress is not None:
             progress(i + 1, len(session.views))
-    objects = loc.estimate()
+    objects = loc.estimate()  # raises the warnings
     assert loc.last is not None
-    messages = _check_views(session, config, objects)
-    focal = max(session.camera.fx, session.camera.fy)
-    messages += [shift_message(shift, focal) for shift in loc.last.diagnostics.get("view_shifts", [])]
-    if loc.last.diagnostics.get("capped"):
-        messages.append(
-            f"the search kept only the best hypotheses at some level to stay within max_memory={config.max_memory:,} bytes "
-            f"and max_hypotheses={config.tuning.max_hypotheses:,}; a smaller workspace or a coarser resolution searches exhaustively"
-        )
-    for msg in messages:
-        warnings.warn(InputWarning(msg), stacklevel=3)
     grid = loc.grid.to_dict() if loc.grid is not None else {}
     return Result(
         objects=objects,
@@ -137,7 +153,8 @@ def run(session: Session, config: BayesConfig, *, progress: Callable[[int, int],
         grid=grid,
         timing_s={**loc.last.timing_s, "total": time.perf_counter() - t0},
         config=config.to_dict(),
-        warnings=messages,
+        warnings=list(loc.last.warnings),
         diagnostics=dict(loc.last.diagnostics),
         pose_corrections=list(loc.last.pose_corrections),
+        quality=dict(loc.last.quality),
     )

@@ -21,6 +21,7 @@
 11. ``isolated``: drop weakly seen objects that lie apart in depth from the well-seen ones; best first
 12. ``view_shifts``: name the views whose boxes all sit off the same way (a pose off) (only where no pose uncertainty
    is stated)
+13. ``quality``: every object's boxes against its fitted solid under the sensor model: chi-square, variance factors, an honest covariance, named causes
 
 The problem (:class:`~.problem.Problem`: camera, options, the views with boxes, the region searched) stays fixed;
 each pass reads the state the one before left and returns a new one. The passes share the helpers below them
@@ -37,7 +38,22 @@ from typing import Any
 from ...errors import InputError
 from ...limits import MAX_BAYES_BOXES_PER_VIEW, MAX_BAYES_VIEWS
 from ...result import DetectedObject
-from . import extract, isolated, poses, regroup, search, second_look, shape_swap, shapes, steal, swap, view_assign, view_shift
+from ...verdict import Cause
+from . import (
+    extract,
+    isolated,
+    poses,
+    quality,
+    regroup,
+    search,
+    second_look,
+    shape_swap,
+    shapes,
+    steal,
+    swap,
+    view_assign,
+    view_shift,
+)
 from .problem import Problem
 from .state import State
 
@@ -132,6 +148,12 @@ PASSES: tuple[Pass, ...] = (
     ),
     Pass("isolated", "drop weakly seen objects that lie apart in depth from the well-seen ones; best first", isolated.run),
     Pass("view_shifts", "name the views whose boxes all sit off the same way (a pose off)", view_shift.run, None, POSES_EXACT),
+    Pass(
+        "quality",
+        "every object's boxes against its fitted solid under the sensor model: chi-square, variance factors, an honest "
+        "covariance, named causes",
+        quality.run,
+    ),
 )
 
 
@@ -156,12 +178,20 @@ class Estimate:
     diagnostics : dict, search statistics (see :meth:`.state.Hypotheses.stats`), ``isolated_dropped`` (objects
         :mod:`.isolated` dropped) and ``view_shifts`` (views whose boxes sit off together, :func:`.view_shift.view_shifts`;
         empty where a pose error is stated)
+    quality : dict, the session's consistency (:meth:`.quality.Quality.to_dict`: variance factors, per object and per
+        view), empty without an object
+    causes : tuple of Cause, what the passes found wrong (:class:`~monovisual3d.verdict.Cause`)
+    warnings : list of str, set by the front end (:class:`.localizer.BayesLocalizer`): the session's warnings, the
+        causes' messages among them
     """
 
     objects: list[DetectedObject]
     pose_corrections: list[dict[str, Any]] = field(default_factory=list)
     timing_s: dict[str, float] = field(default_factory=dict)
     diagnostics: dict[str, Any] = field(default_factory=dict)
+    quality: dict[str, Any] = field(default_factory=dict)
+    causes: tuple[Cause, ...] = ()
+    warnings: list[str] = field(default_factory=list)
 
 
 def estimate(problem: Problem) -> Estimate:
@@ -178,7 +208,9 @@ def estimate(problem: Problem) -> Estimate:
             timing[p.name] = time.perf_counter() - t0
     assert state.hypotheses is not None
     diagnostics = {**state.hypotheses.stats(), "isolated_dropped": state.isolated_dropped, "view_shifts": list(state.view_shifts)}
-    return Estimate([o.as_result() for o in state.objects], list(state.pose_corrections), timing, diagnostics)
+    quality_block = state.quality.to_dict() if state.quality is not None else {}
+    objects = [o.as_result() for o in state.objects]
+    return Estimate(objects, list(state.pose_corrections), timing, diagnostics, quality_block, state.causes)
 
 
 def check_work(problem: Problem) -> None:

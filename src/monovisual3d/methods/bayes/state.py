@@ -169,6 +169,101 @@ class Hypotheses:
 
 
 @dataclass(frozen=True)
+class ObjectQuality:
+    """One object's residuals under the sensor model.
+
+    Attributes
+    ----------
+    residual_chi2 : float, sum of squared normalised edge residuals (sensor model)
+    dof : int, edges used less the parameters fitted (may be <= 0: no redundancy)
+    variance_factor : float, its variance factor after shrinkage toward the session's (1: the sensor model)
+    covariance_reason : str or None, why its covariance is None (None: it has one)
+    """
+
+    residual_chi2: float
+    dof: int
+    variance_factor: float
+    covariance_reason: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "residual_chi2": self.residual_chi2,
+            "dof": self.dof,
+            "variance_factor": self.variance_factor,
+        }
+        if self.covariance_reason is not None:
+            out["covariance_reason"] = self.covariance_reason
+        return out
+
+
+@dataclass(frozen=True)
+class ViewQuality:
+    """One view's residuals over the objects seen there.
+
+    Attributes
+    ----------
+    view : int, the view's index in the session
+    chi2 : float, sum of squared normalised edge residuals (sensor model)
+    dof : float, the edges' share of the degrees of freedom (``1 - leverage`` each)
+    consistency : float, ``chi2`` over what the session's noise predicts for it: 1 as the other views, above: worse
+    p : float, probability of a ``chi2`` this large from the session's noise
+    """
+
+    view: int
+    chi2: float
+    dof: float
+    consistency: float
+    p: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"view": self.view, "chi2": self.chi2, "dof": self.dof, "consistency": self.consistency, "p": self.p}
+
+
+@dataclass(frozen=True)
+class Quality:
+    """The session's consistency under the sensor model (:mod:`.quality`).
+
+    Attributes
+    ----------
+    objects : tuple of ObjectQuality, in the order of ``State.objects``
+    views : tuple of ViewQuality, the views with an object's box
+    variance_factor : float, the session's: robust chi-square over its degrees of freedom (1: the sensor model)
+    centre_factor, size_factor : float, the variance factors of the boxes' centre and size parts
+    dof : int, the session's degrees of freedom
+    unexplained_boxes : tuple of (view, box), session view index and detection index of each box that no object holds
+        and none explains as its own box under the session's noise (:func:`.quality.unexplained_boxes`)
+    n_boxes : int, boxes in all
+    """
+
+    objects: tuple[ObjectQuality, ...] = ()
+    views: tuple[ViewQuality, ...] = ()
+    variance_factor: float = 1.0
+    centre_factor: float = 1.0
+    size_factor: float = 1.0
+    dof: int = 0
+    unexplained_boxes: tuple[tuple[int, int], ...] = ()
+    n_boxes: int = 0
+
+    @property
+    def unexplained(self) -> int:
+        """How many boxes are unexplained."""
+        return len(self.unexplained_boxes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON values: what ``Result.quality`` holds besides the verdict and the causes."""
+        return {
+            "variance_factor": self.variance_factor,
+            "centre_factor": self.centre_factor,
+            "size_factor": self.size_factor,
+            "dof": self.dof,
+            "objects": [o.to_dict() for o in self.objects],
+            "views": [v.to_dict() for v in self.views],
+            "n_boxes": self.n_boxes,
+            "unexplained_boxes": [[v, j] for v, j in self.unexplained_boxes],
+        }
+
+
+@dataclass(frozen=True)
 class State:
     """What one pass hands the next (:data:`.pipeline.PASSES`): a pass returns a new state, the old one unchanged.
 
@@ -181,6 +276,7 @@ class State:
     isolated_dropped : int, objects the isolated pass dropped
     view_shifts : tuple of dict, views whose boxes all sit off the same way (:func:`.view_shift.view_shifts`)
     causes : tuple of Cause, what the passes found wrong with the input (:class:`~monovisual3d.verdict.Cause`)
+    quality : Quality or None, the objects' residuals under the sensor model (:mod:`.quality`, the last pass)
     """
 
     objects: tuple[Found, ...] = ()
@@ -189,6 +285,7 @@ class State:
     isolated_dropped: int = 0
     view_shifts: tuple[dict[str, Any], ...] = ()
     causes: tuple[Cause, ...] = ()
+    quality: Quality | None = None
 
     def with_objects(self, objects: Iterable[Found]) -> State:
         """This state with ``objects`` in place of its own."""

@@ -1,0 +1,200 @@
+"""The consistency model and the honest covariance (:mod:`monovisual3d.methods.bayes.quality`), and the verdict as
+every front end carries it (issue 53)."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from monovisual3d.api import localize
+from monovisual3d.bench.trust_cases import make_case
+from monovisual3d.bench.trust_runs import is_positive_definite
+from monovisual3d.errors import InputWarning
+from monovisual3d.methods.bayes import BayesConfig, BayesLocalizer
+from monovisual3d.methods.bayes.quality import Quality, causes_of, object_factor
+from monovisual3d.metrics import match
+from monovisual3d.sim.noise import NoiseModel
+from monovisual3d.sim.scenes import default_camera, paper_scene, scene_target
+from monovisual3d.sim.simulate import simulate
+from monovisual3d.sim.viewpoints import paper_poses
+
+#: chi-square(3)'s 95 % quantile: a calibrated covariance's NEES lies beyond it for 5 % of fruit.
+NEES_95 = 7.815
+
+
+def _quiet_localize(session):  # noqa: ANN001, ANN202 - a Session
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return localize(session)
+
+
+def _nees(result, centres: np.ndarray) -> list[float]:  # noqa: ANN001 - a Result
+    ei, ti = match(result.positions, centres)
+    out = []
+    for e, t in zip(ei, ti):
+        err = result.positions[e] - centres[t]
+        C = result.objects[e].covariance
+        if np.linalg.norm(err) < 0.02 and C is not None:
+            out.append(float(err @ np.linalg.solve(C, err)))
+    return out
+
+
+def test_every_covariance_is_positive_definite_with_its_residuals_reported() -> None:
+    case = make_case("paper", 0, 0.05)
+    result = _quiet_localize(case.session)
+    q = result.quality
+    assert q["verdict"] == "ok" and q["causes"] == []
+    assert len(q["objects"]) == len(result.objects) > 0
+    for obj, oq in zip(result.objects, q["objects"]):
+        assert obj.covariance is not None and is_positive_definite(obj.covariance)
+        assert oq["dof"] > 0 and oq["residual_chi2"] >= 0 and oq["variance_factor"] > 0
+    assert {v["view"] for v in q["views"]} == set(range(len(case.session.views)))
+    assert all(0 <= v["p"] <= 1 and v["consistency"] > 0 for v in q["views"])
+
+
+def test_all_views_at_one_pose_give_no_covariance_with_the_reason() -> None:
+    scene, camera = paper_scene(), default_camera()
+    pose = paper_poses(scene_target(scene))[0]
+    session, _ = simulate(scene, camera, np.stack([pose] * 3), noise=NoiseModel(box_sigma=0.03), rng=0)
+    result = _quiet_localize(session)
+    for obj, oq in zip(result.objects, result.quality["objects"]):
+        if obj.covariance is None:
+            assert "do not determine the position" in oq["covariance_reason"]
+        else:  # never a covariance that is not positive definite
+            assert is_positive_definite(obj.covariance)
+    assert any(o.covariance is None for o in result.objects)
+
+
+def test_nees_of_clean_sessions_is_about_three() -> None:
+    nees = []
+    for seed in (0, 1, 2):
+        for noise in (0.02, 0.10):
+            case = make_case("paper", seed, noise)
+            nees += _nees(_quiet_localize(case.session), case.centres)
+    nees = np.array(nees)
+    assert len(nees) >= 30
+    assert 1.5 < nees.mean() < 5.0, nees.mean()  # 3 when calibrated; coarse bounds for 36 fruit
+    assert np.mean(nees > NEES_95) < 0.2
+
+
+def test_variance_factor_grows_with_box_noise() -> None:
+    factors = [_quiet_localize(make_case("paper", 3, noise).session).quality["variance_factor"] for noise in (0.02, 0.10)]
+    assert factors[1] > 3 * factors[0], factors  # 25 times the variance, less the sensor model's pixel floor
+
+
+def test_positions_are_the_fits_only_the_covariance_changes() -> None:
+    """The quality pass scales covariances: no position is moved (the pass before it gives them)."""
+    from monovisual3d.methods.bayes import pipeline
+    from monovisual3d.methods.bayes.problem import build_problem
+    from monovisual3d.methods.bayes.state import State
+
+    case = make_case("paper", 1, 0.05)
+    config = BayesConfig()
+    loc = BayesLocalizer(case.session.camera, config)
+    for v in case.session.views:
+        loc.update(v)
+    problem = build_problem(case.session.camera, config, loc.views, loc.grid)
+    state = State()
+    for p in pipeline.PASSES[:-1]:
+        if p.runs(problem, state):
+            state = p.run(problem, state)
+    after = pipeline.PASSES[-1].run(problem, state)
+    assert pipeline.PASSES[-1].name == "quality"
+    assert len(after.objects) == len(state.objects)
+    for a, b in zip(after.objects, state.objects):
+        np.testing.assert_array_equal(a.position, b.position)
+        assert a.associations == b.associations
+
+
+def test_object_factor_shrinks_toward_the_session() -> None:
+    assert object_factor(8.0, 8) == pytest.approx(1.0)
+    assert 1.0 < object_factor(40.0, 8) < 5.0  # its own chi-square says 5, the prior of 10 dof says 1
+    assert object_factor(400.0, 200) == pytest.approx(410 / 210)
+
+
+def test_scatter_fires_only_on_evidence() -> None:
+    assert [c.cause for c in causes_of(Quality(variance_factor=40.0, dof=60))] == ["scatter"]
+    assert causes_of(Quality(variance_factor=40.0, dof=4)) == ()  # too few degrees of freedom
+    assert causes_of(Quality(variance_factor=5.0, dof=600)) == ()  # 10 % box noise is no alarm
+    unexplained = causes_of(Quality(unexplained_boxes=tuple((v, 0) for v in range(8)), n_boxes=20))
+    assert [c.cause for c in unexplained] == ["unexplained_boxes"] and "8 of 20" in unexplained[0].message
+
+
+def _scattered_session(tmp_path: Path) -> Path:
+    """The paper scene from five views with 40 % box noise: the boxes sit far beyond the sensor model's noise."""
+    scene = paper_scene()
+    session, _ = simulate(scene, default_camera(), paper_poses(scene_target(scene)), noise=NoiseModel(box_sigma=0.4), rng=5)
+    path = tmp_path / "scattered.json"
+    path.write_text(json.dumps(session.to_dict()))
+    return path
+
+
+def test_the_live_localizer_says_what_localize_says(tmp_path: Path) -> None:
+    from monovisual3d import load_session
+
+    session = load_session(_scattered_session(tmp_path))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = localize(session)
+    loc = BayesLocalizer(session.camera, BayesConfig())
+    for view in session.views:
+        loc.update(view)
+    with pytest.warns(InputWarning) as live:
+        loc.estimate()
+    assert loc.last is not None
+    assert loc.last.warnings == result.warnings and result.warnings
+    assert loc.last.quality == result.quality
+    assert [str(w.message) for w in live if w.category is InputWarning] == result.warnings
+    assert set(result.warnings) <= {str(w.message) for w in caught}
+
+
+def test_strict_exits_1_on_a_suspect_verdict_and_names_the_cause(tmp_path: Path) -> None:
+    from monovisual3d.cli import app
+
+    path, out = _scattered_session(tmp_path), tmp_path / "r.json"
+    run = CliRunner().invoke(app, ["localize", str(path), "--strict", "-q", "-o", str(out)])
+    quality = json.loads(out.read_text())["quality"]
+    assert quality["verdict"] == "suspect" and "scatter" in [c["cause"] for c in quality["causes"]]
+    assert run.exit_code == 1
+    assert "warning: scatter:" in run.stderr
+
+
+def test_batch_tables_carry_the_quality_and_the_shape() -> None:
+    from monovisual3d.batch.tables import FRUIT_COLUMNS, SESSION_COLUMNS
+    from monovisual3d.batch.work import fruit_rows, quality_columns
+
+    result = _quiet_localize(make_case("paper", 0, 0.05).session)
+    session = quality_columns(result)
+    assert session["verdict"] == "ok" and session["causes"] == "" and session["variance_factor"] > 0
+    rows = fruit_rows("s", result)
+    for row, obj in zip(rows, result.objects):
+        assert row["shape"] == obj.shape
+        np.testing.assert_allclose(json.loads(row["semi_axes_m"]), obj.semi_axes)
+        np.testing.assert_allclose(json.loads(row["quaternion_xyzw"]), obj.quaternion_xyzw)
+        assert row["residual_chi2"] >= 0 and row["dof"] > 0
+    assert set(rows[0]) <= set(FRUIT_COLUMNS) and set(session) <= set(SESSION_COLUMNS)
+
+
+def test_a_free_box_at_an_objects_prediction_is_explained_a_stray_one_is_not() -> None:
+    """A second box on a found fruit (a detector's duplicate) is explained by it; a box away from every fruit is not,
+    and only that one is reported as associated to no object."""
+    from monovisual3d.completeness import incomplete_reasons
+    from monovisual3d.session.load import load_session
+
+    data = make_case("paper", 2, 0.02).session.to_dict()
+    first = data["views"][0]["detections"]
+    duplicate = {"bbox_xyxy": [c + 1.0 for c in first[0]["bbox_xyxy"]]}
+    first += [duplicate, {"bbox_xyxy": [2.0, 2.0, 22.0, 22.0]}]
+    session = load_session(data)
+    result = _quiet_localize(session)
+    n = len(first)
+    assert result.quality["unexplained_boxes"] == [[0, n - 1]]
+    reasons = incomplete_reasons(session, result)
+    assert len(reasons) == 1 and reasons[0].startswith(
+        f"1 of {result.quality['n_boxes']} boxes are associated to no object (view 0: box {n - 1})"
+    )
