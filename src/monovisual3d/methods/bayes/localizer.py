@@ -11,6 +11,7 @@ from ...errors import InputWarning
 from ...grid import VoxelGrid
 from ...result import DetectedObject, Result
 from ...session import Session, View, Workspace
+from ...verdict import with_causes
 from .config import BayesConfig
 from .pipeline import Estimate, estimate
 from .problem import build_problem
@@ -80,7 +81,12 @@ class BayesLocalizer:
 
     def estimate(self) -> list[DetectedObject]:
         """Objects found in the views so far (see :mod:`.pipeline`)."""
-        self.last = estimate(build_problem(self.camera, self.config, self.views, self.grid))
+        problem = build_problem(self.camera, self.config, self.views, self.grid)
+        self.last = estimate(problem)
+        if self.config.calibrate == "hand-eye":
+            from .calibration import calibrate_hand_eye
+
+            self.last = calibrate_hand_eye(problem, self.last, estimate)
         return list(self.last.objects)
 
     @property
@@ -128,6 +134,10 @@ def run(session: Session, config: BayesConfig, *, progress: Callable[[int, int],
             f"the search kept only the best hypotheses at some level to stay within max_memory={config.max_memory:,} bytes "
             f"and max_hypotheses={config.tuning.max_hypotheses:,}; a smaller workspace or a coarser resolution searches exhaustively"
         )
+    messages += [c.message for c in loc.last.causes if c.message not in messages]
+    calibration = loc.last.diagnostics.get("calibration")
+    if calibration is not None and not calibration["applied"]:
+        messages.append(calibration["reason"])
     for msg in messages:
         warnings.warn(InputWarning(msg), stacklevel=3)
     grid = loc.grid.to_dict() if loc.grid is not None else {}
@@ -140,4 +150,5 @@ def run(session: Session, config: BayesConfig, *, progress: Callable[[int, int],
         warnings=messages,
         diagnostics=dict(loc.last.diagnostics),
         pose_corrections=list(loc.last.pose_corrections),
+        quality=with_causes({} if calibration is None else {"calibration": calibration}, loc.last.causes),
     )

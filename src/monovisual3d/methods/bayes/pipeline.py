@@ -21,6 +21,8 @@
 11. ``isolated``: drop weakly seen objects that lie apart in depth from the well-seen ones; best first
 12. ``view_shifts``: name the views whose boxes all sit off the same way (a pose off) (only where no pose uncertainty
    is stated)
+13. ``diagnose``: name a mistake every view shares (hand-eye, time offset, image size, distortion) from the pattern of
+   the boxes' residuals (only where no pose uncertainty is stated)
 
 The problem (:class:`~.problem.Problem`: camera, options, the views with boxes, the region searched) stays fixed;
 each pass reads the state the one before left and returns a new one. The passes share the helpers below them
@@ -37,7 +39,22 @@ from typing import Any
 from ...errors import InputError
 from ...limits import MAX_BAYES_BOXES_PER_VIEW, MAX_BAYES_VIEWS
 from ...result import DetectedObject
-from . import extract, isolated, poses, regroup, search, second_look, shape_swap, shapes, steal, swap, view_assign, view_shift
+from ...verdict import Cause
+from . import (
+    diagnose,
+    extract,
+    isolated,
+    poses,
+    regroup,
+    search,
+    second_look,
+    shape_swap,
+    shapes,
+    steal,
+    swap,
+    view_assign,
+    view_shift,
+)
 from .problem import Problem
 from .state import State
 
@@ -132,6 +149,14 @@ PASSES: tuple[Pass, ...] = (
     ),
     Pass("isolated", "drop weakly seen objects that lie apart in depth from the well-seen ones; best first", isolated.run),
     Pass("view_shifts", "name the views whose boxes all sit off the same way (a pose off)", view_shift.run, None, POSES_EXACT),
+    Pass(
+        "diagnose",
+        "name a mistake every view shares (hand-eye, time offset, image size, distortion) from the pattern of the boxes' "
+        "residuals",
+        diagnose.run,
+        None,
+        POSES_EXACT,
+    ),
 )
 
 
@@ -156,12 +181,14 @@ class Estimate:
     diagnostics : dict, search statistics (see :meth:`.state.Hypotheses.stats`), ``isolated_dropped`` (objects
         :mod:`.isolated` dropped) and ``view_shifts`` (views whose boxes sit off together, :func:`.view_shift.view_shifts`;
         empty where a pose error is stated)
+    causes : list of Cause, what the passes found wrong with the input (:attr:`.state.State.causes`)
     """
 
     objects: list[DetectedObject]
     pose_corrections: list[dict[str, Any]] = field(default_factory=list)
     timing_s: dict[str, float] = field(default_factory=dict)
     diagnostics: dict[str, Any] = field(default_factory=dict)
+    causes: list[Cause] = field(default_factory=list)
 
 
 def estimate(problem: Problem) -> Estimate:
@@ -178,7 +205,7 @@ def estimate(problem: Problem) -> Estimate:
             timing[p.name] = time.perf_counter() - t0
     assert state.hypotheses is not None
     diagnostics = {**state.hypotheses.stats(), "isolated_dropped": state.isolated_dropped, "view_shifts": list(state.view_shifts)}
-    return Estimate([o.as_result() for o in state.objects], list(state.pose_corrections), timing, diagnostics)
+    return Estimate([o.as_result() for o in state.objects], list(state.pose_corrections), timing, diagnostics, list(state.causes))
 
 
 def check_work(problem: Problem) -> None:
