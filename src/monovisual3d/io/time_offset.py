@@ -64,17 +64,19 @@ class TimeOffset:
 
 
 def _rays(camera: Camera, frames: Sequence[ImageDetections]) -> list[NDArray[np.float64]]:
-    """Each image's box centres as unit rays in its optical frame, shape (B_i, 3)."""
+    """Each image's boxes as unit rays in its optical frame, shape (B_i, 3): per image axis the bisector of the angles
+    of the box's two edges (a sphere's centre lies exactly on it; the box's centre does not, off the image centre)."""
     out = []
     for f in frames:
         if not f.detections:
             out.append(np.zeros((0, 3)))
             continue
         boxes = np.array([d.bbox_xyxy for d in f.detections], dtype=float)
-        uv = 0.5 * (boxes[:, :2] + boxes[:, 2:])
-        xy = camera.normalised_from_pixels(uv)
+        corners = camera.normalised_from_pixels(np.concatenate([boxes[:, :2], boxes[:, 2:]]))
         if camera.distortion_model != "none":
-            xy = camera.undistort(xy)
+            corners = camera.undistort(corners)
+        lo, hi = corners[: len(boxes)], corners[len(boxes) :]
+        xy = np.tan(0.5 * (np.arctan(lo) + np.arctan(hi)))
         r = np.column_stack([xy, np.ones(len(xy))])
         out.append(r / np.linalg.norm(r, axis=1, keepdims=True))
     return out

@@ -73,6 +73,22 @@ def rotation_matrices(rotvec: NDArray[np.floating]) -> NDArray[np.float64]:
     return np.eye(3) + a * K + b * (K @ K)
 
 
+def se3_v_matrices(rotvec: NDArray[np.floating]) -> NDArray[np.float64]:
+    """The matrices ``V`` (..., 3, 3) of the SE(3) exponential of rotation vectors (..., 3): ``exp`` of the twist
+    ``(w, rho)`` is the rotation ``exp([w]x)`` with the translation ``V(w) rho`` (a screw motion, exact for any angle)."""
+    w = np.asarray(rotvec, dtype=float)
+    theta = np.linalg.norm(w, axis=-1)[..., None, None]
+    K = np.zeros(w.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        small = theta < 1e-6
+        t = np.where(small, 1.0, theta)
+        b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(t)) / t**2)
+        c = np.where(small, 1.0 / 6.0 - theta**2 / 120.0, (t - np.sin(t)) / t**3)
+    return np.eye(3) + b * K + c * (K @ K)
+
+
 def rotvec_from_matrix(R: NDArray[np.floating]) -> NDArray[np.float64]:
     """Rotation vector (3,), radians, of a rotation matrix (3, 3)."""
     from scipy.spatial.transform import Rotation
@@ -120,23 +136,30 @@ def _hand_eye_points(b: Boxes, p: NDArray[np.float64], theta: NDArray[np.float64
 def view_velocities(T_optical_base: NDArray[np.float64], stamps: NDArray[np.float64]) -> NDArray[np.float64]:
     """Each view's velocity along the camera's path, its own optical frame: shape (V, 6), ``(w, v)`` per second.
 
-    ``(w, v)`` is the rate of the correction ``p_optical(t + dt) = exp([w dt]x) p_optical(t) + v dt`` of a point fixed
-    in the base frame, from the neighbouring views' poses and stamps (the mean of the steps to the previous and the
-    next view; one-sided at the ends). Zero for a single view.
+    ``(w, rho)`` is the twist per second of the screw motion ``p_optical(t + dt) = exp([w dt]x) p_optical(t) +
+    V(w dt) rho dt`` (:func:`se3_v_matrices`) of a point fixed in the base frame, from the neighbouring views' poses and stamps: each step between two views gives the rate at its
+    middle time, and the rate at a view is interpolated linearly between the steps around it (extrapolated at the two
+    end views, so that a path that speeds up is followed there too). Zero for a single view.
     """
     V = len(T_optical_base)
     out = np.zeros((V, 6))
     if V < 2:
         return out
-    steps = []
+    steps, mids = [], []
     for k in range(V - 1):
         # T_{k+1} T_k^-1 maps view k's optical frame into view k+1's: the motion of a fixed point as seen from the camera
         D = T_optical_base[k + 1] @ np.linalg.inv(T_optical_base[k])
         dt = float(stamps[k + 1] - stamps[k])
-        steps.append(np.concatenate([rotvec_from_matrix(D[:3, :3]), D[:3, 3]]) / dt)
+        w = rotvec_from_matrix(D[:3, :3])
+        steps.append(np.concatenate([w, np.linalg.solve(se3_v_matrices(w), D[:3, 3])]) / dt)
+        mids.append(0.5 * float(stamps[k + 1] + stamps[k]))
+    if V == 2:
+        return np.repeat(np.array(steps), 2, axis=0)
+    s, m = np.array(steps), np.array(mids)
     for k in range(V):
-        near = [steps[j] for j in (k - 1, k) if 0 <= j < V - 1]
-        out[k] = np.mean(near, axis=0)
+        j = int(np.clip(np.searchsorted(m, stamps[k]) - 1, 0, len(m) - 2))  # the two steps around (or nearest) view k
+        a = (float(stamps[k]) - m[j]) / (m[j + 1] - m[j])
+        out[k] = (1 - a) * s[j] + a * s[j + 1]
     return out
 
 
@@ -146,9 +169,10 @@ def _time_offset_points(b: Boxes, p: NDArray[np.float64], theta: NDArray[np.floa
 
 
 def _moved(p: NDArray[np.float64], vel: NDArray[np.float64], dt: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Points (B, P, 3) as seen ``dt`` (B, 1) seconds later from views moving at ``vel`` (P, 6)."""
-    R = rotation_matrices(dt[:, :, None] * vel[None, :, :3])
-    return np.einsum("bpij,bpj->bpi", R, p) + dt[:, :, None] * vel[None, :, 3:]
+    """Points (B, P, 3) as seen ``dt`` (B, 1) seconds later from views moving at the twists ``vel`` (P, 6)."""
+    phi = dt[:, :, None] * vel[None, :, :3]
+    t = np.einsum("bpij,bpj->bpi", se3_v_matrices(phi), dt[:, :, None] * vel[None, :, 3:])
+    return np.einsum("bpij,bpj->bpi", rotation_matrices(phi), p) + t
 
 
 def _image_geometry_boxes(b: Boxes, pred: NDArray[np.float64], theta: NDArray[np.float64]) -> NDArray[np.float64]:

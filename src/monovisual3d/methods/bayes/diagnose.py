@@ -186,7 +186,7 @@ def diagnose(problem: Problem, objects: list[Found]) -> tuple[list[Cause], dict[
     best = max(fired, key=lambda t: t.chi2_drop - 2 * t.dof)
     rivals = [t for t in fired if t is not best and t.chi2_drop >= RIVAL_SHARE * best.chi2_drop]
     msg = (
-        f"the boxes of all {b.n_views} views sit off in one pattern that {_what(best, b)} explains (chi-square drop "
+        f"the boxes of all {b.n_views} views are off in one pattern that {_what(best, b)} explains (chi-square drop "
         f"{best.chi2_drop:.0f} on {best.dof} degrees of freedom): {ADVICE[best.model]}"
     )
     if rivals:
