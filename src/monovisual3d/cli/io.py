@@ -121,11 +121,22 @@ def import_cmd(
     min_score: MinScoreOption = None,
     match: Annotated[str, typer.Option("--match", help="Pair poses and images by: auto, name, stamp, order.")] = "auto",
     max_gap: MaxGapOption = 0.1,
+    time_offset: Annotated[
+        str,
+        typer.Option(
+            "--time-offset",
+            help="Seconds the pose stream runs ahead of the images (poses looked up at each image stamp minus it), "
+            "or auto: estimated from the boxes (needs stamps; not applied where the views cannot tell it).",
+        ),
+    ] = "0",
     workspace: WorkspaceOption = None,
     time_limit: TimeLimit = None,
     max_memory: MaxMemory = None,
 ) -> None:
-    """Build a session file from a calibration, poses and detections, and print what was skipped."""
+    """Build a session file from a calibration, poses and detections, and print what was skipped.
+
+    One unit of thought: the importer's options, one per input format, passed through as they are.
+    """
     from ..io.build import import_session
 
     check_output(output, camera, poses, detections, hand_eye, class_names, coco_images)
@@ -152,8 +163,17 @@ def import_cmd(
             match=match,
             max_gap=max_gap,
             workspace=workspace_option(workspace),
+            time_offset=time_offset if time_offset == "auto" else float(_seconds(time_offset)),
         )
     _report(result, output)
+
+
+def _seconds(text: str) -> float:
+    """``--time-offset``'s value as seconds (InputError naming the flag otherwise)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(f"--time-offset: got {text!r}, expected seconds or auto") from None
 
 
 @app.command(name="import-bag")

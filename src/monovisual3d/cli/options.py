@@ -47,6 +47,7 @@ USER_OPTIONS: dict[str, str] = {
     "reach": PANEL_SCENE,
     "pose_sigma_mm": PANEL_SCENE,
     "pose_sigma_deg": PANEL_SCENE,
+    "calibrate": PANEL_SCENE,
     "max_memory": PANEL_LIMITS,
     "threads": PANEL_LIMITS,
 }

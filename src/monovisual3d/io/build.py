@@ -468,6 +468,7 @@ def import_session(
     match: str = "auto",
     max_gap: float = DEFAULT_MAX_GAP,
     workspace: Workspace | dict[str, Any] | None = None,
+    time_offset: float | str = 0.0,
 ) -> ImportResult:
     """Read a calibration, poses and detections from files and build a validated session.
 
@@ -485,6 +486,10 @@ def import_session(
     pose_frame, match, max_gap, min_score, labels, workspace : see :func:`build_session`
     detections_format, class_names : see :func:`~monovisual3d.io.read_detections`
     coco_images : the COCO file with the ``images`` list, when ``detections`` is a bare COCO results list
+    time_offset : float, seconds, or ``"auto"``: how far the pose stream's clock runs ahead of the images' (each
+        image's pose is looked up at its stamp minus it); ``"auto"`` estimates it from the boxes
+        (:func:`~monovisual3d.io.time_offset.estimate_time_offset`; not applied where the views cannot tell it) and
+        says it in the summary's notes. Needs stamps on the poses and the images.
 
     Notes
     -----
@@ -519,6 +524,7 @@ def import_session(
             )
         T_ee_camera = read_hand_eye(hand_eye, units=hand_eye_units)
     summary = _import_summary(camera, traj, det_source, size_note)
+    traj = _offset_poses(cam, traj, frames, time_offset, T_ee_camera, pose_frame, summary)
     return build_session(
         cam,
         traj,
@@ -532,6 +538,38 @@ def import_session(
         workspace=workspace,
         summary=summary,
     )
+
+
+def _offset_poses(
+    camera: Camera,
+    traj: PoseTrajectory,
+    frames: Sequence[ImageDetections],
+    time_offset: float | str,
+    T_ee_camera: NDArray[np.float64] | None,
+    pose_frame: str,
+    summary: ImportSummary,
+) -> PoseTrajectory:
+    """The pose stream with the time offset (seconds, or ``"auto"``: estimated) undone, said in the summary."""
+    from .time_offset import estimate_time_offset, shifted
+
+    if isinstance(time_offset, str):
+        if time_offset != "auto":
+            raise InputError(f"--time-offset (time_offset): got {excerpt(time_offset)}, expected seconds or 'auto'")
+
+        def to_optical(T: NDArray[np.float64]) -> NDArray[np.float64]:
+            if T_ee_camera is not None:
+                T = T_base_camera_from_T_base_ee(T, T_ee_camera)
+            return T_base_optical_from_T_base_cameralink(T) if pose_frame == "camera_link" else T
+
+        est = estimate_time_offset(camera, traj, frames, to_optical)
+        summary.note(est.note)
+        summary.time_offset = {"offset_s": est.offset_s, "determined": est.determined, "frame_s": est.frame_s}
+        offset = est.offset_s
+    else:
+        offset = as_float(time_offset, "--time-offset (time_offset)")
+        if offset:
+            summary.note(f"poses looked up at the image stamps minus the time offset {offset:+.4f} s")
+    return shifted(traj, offset) if offset else traj
 
 
 __all__ = [

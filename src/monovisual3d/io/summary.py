@@ -49,6 +49,7 @@ class ImportSummary:
     n_empty_views : int, views kept without detections
     skipped : list of Skipped
     notes : list of str, choices the importer made (e.g. "matched by file name")
+    time_offset : dict or None, ``import --time-offset auto``'s estimate: ``offset_s``, ``determined``, ``frame_s``
     """
 
     source: str = ""
@@ -57,6 +58,7 @@ class ImportSummary:
     n_empty_views: int = 0
     skipped: list[Skipped] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    time_offset: dict[str, Any] | None = None
 
     def skip(self, kind: str, item: str, reason: str, detail: str = "", *, warn: bool = True) -> None:
         """Record a skipped item; ``warn`` also issues an InputWarning (for data problems, not filters)."""

@@ -33,6 +33,8 @@ FIT_SEMI_AXIS_RANGE_M = (0.005, 0.16)
 #: fit diverged: the object keeps the estimate it had (:attr:`BayesConfig.fit_radius_range`). A chosen margin, not a
 #: fitted one: the search's radii already lie in ``[radius_min, radius_max]``; twice beyond that range is divergence.
 DIVERGED_RADIUS_FACTOR = 2.0
+#: Self-calibrations of ``BayesConfig.calibrate``: none, or one camera-frame (hand-eye) correction shared by all views.
+CALIBRATIONS = ("none", "hand-eye")
 #: Compute backends of the ``bayes`` method: the fused numba kernels (default) and the numpy reference.
 BACKENDS = ("numba", "numpy")
 
@@ -201,6 +203,9 @@ class BayesConfig:
     use_masks : bool, use instance masks in the refinement when detections carry them
     pose_sigma_mm : float, millimetres, stated 1-sigma error of each view's camera position per axis (0: exact)
     pose_sigma_deg : float, degrees, stated 1-sigma error of each view's camera rotation per axis (0: exact)
+    calibrate : str, none or hand-eye: estimate one camera-frame correction (a hand-eye error) shared by all views
+        jointly with the fruit, apply it and report it (``quality.calibration``); needs 5 or more views and 6 or more
+        fruit seen in two or more
     shape : str, object model: sphere, spheroid (two equal semi-axes), ellipsoid (three) or auto (per object by BIC;
         round fruit stay spheres)
     size_range : tuple or str or None, metres, (min, max) object size as a semi-axis length, e.g. "0.01,0.12": it sets
@@ -232,6 +237,7 @@ class BayesConfig:
     use_masks: bool = True
     pose_sigma_mm: float = 0.0
     pose_sigma_deg: float = 0.0
+    calibrate: str = "none"
     shape: str = "auto"
     size_range: tuple[float, float] | str | None = None
     up: tuple[float, float, float] | str = (0.0, 0.0, 1.0)
@@ -270,6 +276,8 @@ class BayesConfig:
             v = getattr(self, name)
             if not (is_real(v) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
+        if self.calibrate not in CALIBRATIONS:
+            raise InputError(f"calibrate: got {self.calibrate!r}, expected one of {list(CALIBRATIONS)}")
         if not (is_real(self.isolated_margin) and self.isolated_margin >= 0):
             raise InputError(f"isolated_margin: got {self.isolated_margin!r}, expected a number of metres >= 0 (inf: never)")
         if not (is_real(self.accept) and math.isfinite(self.accept)):

@@ -86,10 +86,21 @@ class BayesLocalizer:
     def estimate(self) -> list[DetectedObject]:
         """Objects found in the views so far (see :mod:`.pipeline`); what is wrong with them is raised as
         :class:`~monovisual3d.errors.InputWarning` and kept in ``last.warnings`` and ``last.quality``."""
-        found = estimate(build_problem(self.camera, self.config, self.views, self.grid))
-        quality = with_causes({"verdict": "ok", "causes": [], **found.quality}, found.causes)
+        problem = build_problem(self.camera, self.config, self.views, self.grid)
+        found = estimate(problem)
+        if self.config.calibrate == "hand-eye":
+            from .calibration import calibrate_hand_eye
+
+            found = calibrate_hand_eye(problem, found, estimate)
+        calibration = found.diagnostics.get("calibration")
+        head = {"verdict": "ok", "causes": [], **found.quality}
+        if calibration is not None:
+            head["calibration"] = calibration
+        quality = with_causes(head, found.causes)
         messages = session_messages(self.camera, self.config, self.views, found)
         messages += [c["message"] for c in quality["causes"] if c["message"] not in messages]
+        if calibration is not None and not calibration["applied"] and calibration["reason"] not in messages:
+            messages.append(calibration["reason"])
         self.last = replace(found, quality=quality, warnings=messages)
         for msg in messages:
             warnings.warn(InputWarning(msg), stacklevel=2)

@@ -21,7 +21,9 @@
 11. ``isolated``: drop weakly seen objects that lie apart in depth from the well-seen ones; best first
 12. ``view_shifts``: name the views whose boxes all sit off the same way (a pose off) (only where no pose uncertainty
    is stated)
-13. ``quality``: every object's boxes against its fitted solid under the sensor model: chi-square, variance factors, an honest covariance, named causes
+13. ``diagnose``: name a mistake every view shares (hand-eye, time offset, image size, distortion) from the pattern of
+   the boxes' residuals (only where no pose uncertainty is stated)
+14. ``quality``: every object's boxes against its fitted solid under the sensor model: chi-square, variance factors, an honest covariance, named causes
 
 The problem (:class:`~.problem.Problem`: camera, options, the views with boxes, the region searched) stays fixed;
 each pass reads the state the one before left and returns a new one. The passes share the helpers below them
@@ -40,6 +42,7 @@ from ...limits import MAX_BAYES_BOXES_PER_VIEW, MAX_BAYES_VIEWS
 from ...result import DetectedObject
 from ...verdict import Cause
 from . import (
+    diagnose,
     extract,
     isolated,
     poses,
@@ -148,6 +151,14 @@ PASSES: tuple[Pass, ...] = (
     ),
     Pass("isolated", "drop weakly seen objects that lie apart in depth from the well-seen ones; best first", isolated.run),
     Pass("view_shifts", "name the views whose boxes all sit off the same way (a pose off)", view_shift.run, None, POSES_EXACT),
+    Pass(
+        "diagnose",
+        "name a mistake every view shares (hand-eye, time offset, image size, distortion) from the pattern of the boxes' "
+        "residuals",
+        diagnose.run,
+        None,
+        POSES_EXACT,
+    ),
     Pass(
         "quality",
         "every object's boxes against its fitted solid under the sensor model: chi-square, variance factors, an honest "

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...geometry.ellipsoid import Ellipsoid
+from ...verdict import Cause
 from .aspects import object_boxes, solid_boxes
 from .problem import Problem
 from .sensor import box_edge_sigma_px, censored_edges
@@ -101,6 +102,14 @@ def view_shifts(problem: Problem, objects: list[Found]) -> list[dict[str, Any]]:
     return out
 
 
+def shift_cause(shift: dict[str, Any], focal_px: float) -> Cause:
+    """The :class:`~monovisual3d.verdict.Cause` (``view_disagrees``) of a view of :func:`view_shifts`, naming the view."""
+    return Cause("view_disagrees", shift_message(shift, focal_px), "suspect", (int(shift["view"]),), dict(shift))
+
+
 def run(problem: Problem, state: State) -> State:
-    """The pass: the views whose boxes sit off together, in the state's diagnostics."""
-    return replace(state, view_shifts=tuple(view_shifts(problem, list(state.objects))))
+    """The pass: the views whose boxes sit off together, in the state's diagnostics, each a ``view_disagrees`` cause."""
+    shifts = view_shifts(problem, list(state.objects))
+    focal = max(problem.camera.fx, problem.camera.fy)
+    causes = tuple(shift_cause(s, focal) for s in shifts)
+    return replace(state, view_shifts=tuple(shifts), causes=state.causes + causes)

@@ -1,0 +1,112 @@
+"""``calibrate="hand-eye"``: one camera-frame correction shared by every view, estimated with the fruit and applied.
+
+A hand-eye calibration off by a degree or a centimetre puts the same error ``E`` (4, 4, optical frame) in every view:
+the reported pose is ``T_base_optical_true @ E``. After the method's estimate, the objects are refitted as spheres,
+all at once, jointly with ``E`` (:func:`.corrections.fit_correction`, model ``hand_eye``); the views' poses are then
+corrected (``T_base_optical_reported @ E^-1``) and the method runs again on them, so that every object is estimated
+anew (association, shape and covariance) from corrected poses. A second round estimates what is left of ``E`` from the
+new objects, and applies it too where it is not negligible (:data:`NEGLIGIBLE_DEG`, :data:`NEGLIGIBLE_M`).
+
+It needs :data:`MIN_VIEWS` views and :data:`MIN_FRUIT` fruit seen in two views or more; with fewer, the method runs as
+usual and says why. What the views cannot tell apart from a motion of the whole scene (on an arc of views about one
+axis: a rotation about that axis with a sideways shift) stays at zero, held by the fit's weak prior; the reported
+uncertainty (from the covariance of the joint fit) says how well each part is known.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ...frames import invert_transform
+from .correction_boxes import boxes_of
+from .corrections import fit_correction, hand_eye_summary
+from .problem import Problem, build_problem
+
+#: The method's output (:class:`.pipeline.Estimate`; not imported: the pipeline sits above this helper).
+Estimate = Any
+
+#: Views and fruit (seen in two views or more) a hand-eye correction needs.
+MIN_VIEWS, MIN_FRUIT = 5, 6
+#: Objects refitted at most (those seen in the most views first).
+MAX_OBJECTS = 40
+#: A second round's correction below both of these is not applied (it moves a fruit by well under a millimetre).
+NEGLIGIBLE_DEG, NEGLIGIBLE_M = 0.02, 0.0003
+#: A part of the correction whose 1-sigma exceeds these is reported as not determined by the views.
+UNDETERMINED_DEG, UNDETERMINED_M = 0.5, 0.005
+
+
+def corrected_problem(problem: Problem, T_corrected_reported: np.ndarray) -> Problem:
+    """``problem`` with every view's pose corrected: ``T_optical_base = T_corrected_reported @ T_optical_base``."""
+    views = [replace(vd.view, T_base_optical=invert_transform(T_corrected_reported @ vd.T_optical_base)) for vd in problem.views]
+    # views without detections are not in the problem; the corrected views keep their session indices
+    out = build_problem(problem.camera, problem.config, views, problem.region)
+    return replace(out, views=tuple(replace(vd, index=old.index) for vd, old in zip(out.views, problem.views)))
+
+
+def calibrate_hand_eye(problem: Problem, first: Estimate, estimate: Callable[[Problem], Estimate]) -> Estimate:
+    """The estimate with a hand-eye correction estimated and applied (see the module docstring); the report is in
+    its ``diagnostics["calibration"]``: ``applied`` (bool), ``reason`` (where not applied), and the correction
+    (:func:`.corrections.hand_eye_summary`: ``rotation_deg``, ``axis_optical``, ``translation_mm``, ... with their
+    1-sigma) with ``undetermined`` (the parts the views leave free). ``estimate`` is the method
+    (:func:`.pipeline.estimate`), run again on the corrected poses."""
+    b = boxes_of(problem, first.objects, MAX_OBJECTS)  # type: ignore[arg-type]
+    n_views = 0 if b is None else b.n_views
+    n_fruit = 0 if b is None else b.n_objects
+    if n_views < MIN_VIEWS or n_fruit < MIN_FRUIT:
+        reason = (
+            f"calibrate='hand-eye': {n_views} views and {n_fruit} fruit seen in two views or more, fewer than the "
+            f"{MIN_VIEWS} views and {MIN_FRUIT} fruit a hand-eye correction needs; localised without it"
+        )
+        return _with_report(first, {"method": "hand-eye", "applied": False, "reason": reason})
+    assert b is not None
+    T = np.eye(4)
+    current, fit = first, None
+    for round_ in range(2):
+        bb = boxes_of(corrected_problem(problem, T) if round_ else problem, current.objects, MAX_OBJECTS)  # type: ignore[arg-type]
+        if bb is None:
+            break
+        fit = fit_correction(bb, "hand_eye")
+        s = hand_eye_summary(fit)
+        if round_ and s["rotation_deg"] < NEGLIGIBLE_DEG and s["translation_mm"] < 1e3 * NEGLIGIBLE_M:
+            break
+        T = np.asarray(s["T_corrected_reported"]) @ T
+        current = estimate(corrected_problem(problem, T))
+    assert fit is not None
+    report = _report(T, fit)
+    return _with_report(current, report)
+
+
+def _report(T: np.ndarray, last: Any) -> dict[str, Any]:
+    """The applied correction ``T`` (4, 4) in words, with the uncertainty of the last round's fit."""
+    from .corrections import rotvec_from_matrix
+
+    w, t = rotvec_from_matrix(T[:3, :3]), T[:3, 3]
+    total = replace(last, theta=np.concatenate([w, t]))
+    s = hand_eye_summary(total)
+    sd_w = np.degrees(np.sqrt(np.maximum(np.diag(last.theta_cov)[:3], 0.0)))
+    sd_t = np.sqrt(np.maximum(np.diag(last.theta_cov)[3:6], 0.0))
+    undetermined = [f"r{a}" for a, sd in zip("xyz", sd_w) if sd > UNDETERMINED_DEG] + [
+        f"t{a}" for a, sd in zip("xyz", sd_t) if sd > UNDETERMINED_M
+    ]
+    return {
+        "method": "hand-eye",
+        "applied": True,
+        **s,
+        "undetermined": undetermined,
+        "note": (
+            f"hand-eye correction applied: {s['rotation_deg']:.2f} +- {s['rotation_std_deg']:.2f} degrees about "
+            f"[{', '.join(f'{x:+.2f}' for x in s['axis_optical'])}] (optical frame) and {s['translation_mm']:.1f} +- "
+            f"{s['translation_std_mm']:.1f} mm"
+            + (f"; {', '.join(undetermined)} not determined by these views" if undetermined else "")
+        ),
+        "rotation_std_xyz_deg": [float(x) for x in sd_w],
+        "translation_std_xyz_mm": [1e3 * float(x) for x in sd_t],
+    }
+
+
+def _with_report(est: Estimate, report: dict[str, Any]) -> Estimate:
+    return replace(est, diagnostics={**est.diagnostics, "calibration": report})
