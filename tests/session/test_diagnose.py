@@ -162,3 +162,25 @@ def test_distortion_patterns_no_lens_has(coefficients: tuple[float, ...], words:
 def test_a_real_lens_passes_the_distortion_test() -> None:
     assert distortion_causes(Camera(960, 540, 625.0, 625.0, 480.0, 270.0, "plumb_bob", (-0.25, 0.08, 0.001, -0.0015, 0.02))) == []
     assert distortion_causes(Camera.from_hfov(640, 480, 69.0)) == []
+
+
+def test_import_warns_of_boxes_from_a_smaller_image() -> None:
+    from monovisual3d.io.build import assemble_session
+    from monovisual3d.io.detections import ImageDetections
+    from monovisual3d.session import Detection
+
+    s = _case("row", 0, 0.05).session
+    scale = np.array([2 / 3, 2 / 3, 2 / 3, 2 / 3])  # boxes of 640x360 images under the 960x540 calibration
+    pairs = [
+        (v.T_base_optical, ImageDetections(f"{i}.png", detections=tuple(Detection(d.bbox_xyxy * scale) for d in v.detections)))
+        for i, v in enumerate(s.views)
+    ]
+    with pytest.warns(UserWarning, match="smaller image"):
+        assemble_session(s.camera, pairs)
+
+
+def test_a_centre_crop_of_a_4_3_sensor_is_named() -> None:
+    s = _case("paper", 0, 0.05).session.to_dict()
+    found = _causes(mistakes.boxes_from_centre_crop(s, (640, 360)))
+    assert [c.cause for c in found] == ["image_size"]
+    assert "crop" in found[0].message

@@ -60,6 +60,15 @@ SMALL_EXTENT = 0.7
 #: ... and the median box centre at least this share of the image above and left of the principal point.
 SMALL_OFFSET = 0.07
 
+#: Boxes of a larger image: reaching this share of both sides, their median centre :data:`SMALL_OFFSET` of the image
+#: or more below and right of the principal point.
+LARGE_EXTENT = 0.9
+#: Images narrower than this aspect (width / height) are the 4:3 (or squarer) sensors a 16:9 crop is taken of.
+WIDE_ASPECT = 1.5
+#: Boxes of a centre crop: their median centre above the principal point by at least this share of the crop's shift
+#: (the rest of the shift is room for fruit that lie off-centre).
+CROP_OFFSET_SHARE = 0.6
+
 #: Two views closer than this (metres) give no baseline for the ray test.
 MIN_PAIR_BASELINE_M = 0.01
 #: Rays closer to parallel than this (radians) are skipped: their meeting point is not determined.
@@ -526,9 +535,18 @@ def _rays_meet(
 
 # ---------------------------------------------------------------------- image spread
 def image_spread_causes(session: Session) -> list[Cause]:
-    """Boxes of a smaller image: every box within the top-left :data:`SMALL_EXTENT` of the image, their median
-    centre above and left of the principal point by :data:`SMALL_OFFSET` of the image or more (a smaller image's
-    boxes lie around the principal point scaled towards the origin)."""
+    """Boxes of a smaller image, or of a crop of the calibration's image, told by where the boxes lie.
+
+    Cameras aimed at the fruit see them around the principal point. Boxes of an image ``s`` times smaller lie around
+    the principal point scaled by ``s`` towards the origin, within the top-left ``s`` of the image: every box within
+    :data:`SMALL_EXTENT` of both sides, the median box centre :data:`SMALL_OFFSET` of the image or more above and
+    left of the principal point. Boxes of a larger image lie around a point as far below and right of it, and reach
+    the right and bottom edges (:data:`LARGE_EXTENT`); those past the edges are told by :func:`raw_box_causes`. Boxes of a 16:9 centre crop of a 4:3 (or squarer) sensor lie shifted up by the
+    rows cut above the crop, within the crop's height: every box within it, the median centre above the principal
+    point by :data:`CROP_OFFSET_SHARE` of the shift or more. A crop of a wider sensor's width (4:3 of 16:9) shifts
+    the boxes sideways, where fruit off to one side of an arc of views lie too: that is left to the fit's offset
+    pattern (docs/trust.md).
+    """
     cam = session.camera
     allb = _stack([v.boxes_xyxy for v in session.views])
     if len(allb) < MIN_BOXES:
@@ -537,6 +555,7 @@ def image_spread_causes(session: Session) -> list[Cause]:
     ex, ey = allb[:, 2].max() / W, allb[:, 3].max() / H
     ox = (np.median(0.5 * (allb[:, 0] + allb[:, 2])) - cam.cx) / W
     oy = (np.median(0.5 * (allb[:, 1] + allb[:, 3])) - cam.cy) / H
+    details = {"extent": [float(ex), float(ey)], "median_offset": [float(ox), float(oy)]}
     if max(ex, ey) < SMALL_EXTENT and ox < -SMALL_OFFSET and oy < -SMALL_OFFSET:
         return [
             Cause(
@@ -546,9 +565,36 @@ def image_spread_causes(session: Session) -> list[Cause]:
                 "principal point: boxes from a smaller image (another resolution) than the calibration's? check the "
                 "image size the detector ran on, or scale the boxes",
                 "suspect",
-                details={"extent": [float(ex), float(ey)], "median_offset": [float(ox), float(oy)]},
+                details=details,
             )
         ]
+    if min(ex, ey) > LARGE_EXTENT and ox > SMALL_OFFSET and oy > SMALL_OFFSET:
+        return [
+            Cause(
+                "image_size",
+                f"views[*].detections: the boxes lie around a point {100 * ox:.0f} % / {100 * oy:.0f} % of the image "
+                f"below and right of the principal point and reach the right and bottom edges of the {W}x{H} image: "
+                "boxes from a larger image (another resolution) than the calibration's? check the image size the "
+                "detector ran on, or scale the boxes",
+                "suspect",
+                details=details,
+            )
+        ]
+    if W / H < WIDE_ASPECT:
+        h = round(W * 9 / 16)
+        shift = (H - h) / 2 / H
+        if h < H and ey <= h / H + PAST_EDGE_SHARE and oy < -CROP_OFFSET_SHARE * shift:
+            return [
+                Cause(
+                    "image_size",
+                    f"views[*].detections: every box lies within the top {h} rows of the {W}x{H} image, around a point "
+                    f"{100 * -oy:.0f} % of the image above the principal point: boxes from a {W}x{h} (16:9) centre crop "
+                    f"of the {W}x{H} sensor under its full calibration? check the image size and crop the camera "
+                    f"streams; move the principal point up by {(H - h) / 2:.0f} px for the crop",
+                    "suspect",
+                    details=details,
+                )
+            ]
     return []
 
 
