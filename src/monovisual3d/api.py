@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .errors import InputError
+from .errors import InputError, InputWarning, prefixed
 from .methods import DEFAULT_METHOD, METHODS, get_method, run_method
 from .result import Result
 from .session import Session, Workspace
+from .session.diagnose import check_session, views_as_given
 from .session.load import load_session
+from .verdict import Cause, with_causes
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "localize"]
 
@@ -44,6 +48,13 @@ def localize(
     -------
     Result
 
+    Notes
+    -----
+    Before the method runs, :func:`~monovisual3d.session.diagnose.check_session` tests the input itself (box
+    coordinates against the image, pose conventions, duplicated views, one pose, distortion coefficients). Each cause
+    found is raised as an :class:`~monovisual3d.errors.InputWarning`, listed in ``result.warnings`` and merged into
+    ``result.quality``; views given twice are counted once (``associations`` still index the views as given).
+
     Examples
     --------
     >>> from monovisual3d.examples import example_session_path
@@ -57,7 +68,7 @@ def localize(
 
         workspace = workspace_from_dict(workspace, "workspace")
     if workspace is not None:
-        session = Session(session.camera, session.views, workspace, session.source)
+        session = dataclasses.replace(session, workspace=workspace)
     if config is not None and method is None:
         matches = [m.name for m in METHODS.values() if isinstance(config, m.config_class)]
         if not matches:
@@ -65,6 +76,28 @@ def localize(
         method = matches[0]
     get_method(method)  # a bad name fails before anything runs
     start = time.perf_counter()
-    result = run_method(session, method, config, progress, **options)
+    checked, causes, messages = _checked(session)
+    result = run_method(checked, method, config, progress, **options)
     result.timing_s.setdefault("total", time.perf_counter() - start)  # a method that does not time itself
+    return _with_input_causes(result, causes, messages)
+
+
+def _checked(session: Session) -> tuple[Session, list[Cause], list[str]]:
+    """The input checks on ``session``: the session to run (duplicates dropped), the causes, and their messages (each
+    also raised as an InputWarning)."""
+    checked, causes = check_session(session)
+    messages = [prefixed(session.source, c.message) for c in causes]
+    for message in messages:
+        warnings.warn(InputWarning(message), stacklevel=3)
+    return checked, causes, messages
+
+
+def _with_input_causes(result: Result, causes: list[Cause], messages: list[str]) -> Result:
+    """``result`` with the input checks' causes: their messages first in its warnings, merged into its quality, and
+    its objects' associations indexing the views as given (duplicates included)."""
+    if causes:
+        for obj in result.objects:
+            obj.associations = views_as_given(obj.associations, causes)
+        result.warnings[:0] = [m for m in messages if m not in result.warnings]
+        result.quality = with_causes(result.quality, causes)
     return result

@@ -9,6 +9,7 @@ same loader as session files, and a summary of what was skipped and why.
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -18,9 +19,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..camera import Camera
 from ..checks import as_float
-from ..errors import InputError, excerpt
+from ..errors import InputError, InputWarning, excerpt
 from ..frames import T_base_optical_from_T_base_cameralink
 from ..session import Workspace
+from ..session.diagnose import check_session
 from ..session.load import POSE_FRAMES, session_from_dict, workspace_from_dict
 from ._parse import image_key
 from .calibration import read_calibration
@@ -128,7 +130,9 @@ def assemble_session(
     workspace: Workspace | dict[str, Any] | None = None,
     summary: ImportSummary | None = None,
 ) -> ImportResult:
-    """Validate ``(T_base_optical, detections)`` pairs as a session (the loader's checks and warnings apply).
+    """Validate ``(T_base_optical, detections)`` pairs as a session (the loader's checks and warnings apply, and the
+    input checks of :func:`~monovisual3d.session.diagnose.check_session` warn: boxes of another image size, poses in
+    another convention, duplicated views).
 
     Parameters
     ----------
@@ -161,6 +165,8 @@ def assemble_session(
         session = session_from_dict(data, None)
     except InputError as exc:
         raise InputError(_input_where(str(exc), [f for _, f in pairs])) from None
+    for cause in check_session(session)[1]:  # said now, not only when the session is localised
+        warnings.warn(InputWarning(cause.message), stacklevel=2)
     summary.count_session(session)
     return ImportResult(session, summary)
 

@@ -33,6 +33,7 @@ from ..file_kinds import wrong_kind
 from ..frames import T_base_optical_from_T_base_cameralink, check_transform, transform_from_position_quaternion
 from ..masks import rle_counts
 from .baseline import geometry_warnings
+from .diagnose import raw_box_causes, refusal_hint
 from .model import Detection, Session, View, Workspace
 
 POSE_FRAMES = ("optical", "camera_link")
@@ -40,6 +41,8 @@ POSE_FRAMES = ("optical", "camera_link")
 MAX_PLAUSIBLE_DISTANCE_M = 20.0
 #: Largest ``track`` id of a detection (a bound that keeps ids plain JSON integers).
 MAX_TRACK_ID = 2**31 - 1
+#: Box coordinates beyond this (pixels) are left out of the session-level box tests (finite and far past any image).
+MAX_BOX_COORDINATE = 1e9
 #: Largest |class number| given as a detection's ``label`` (a bound that keeps the text of the number short).
 MAX_CLASS_NUMBER = 10**18
 
@@ -107,15 +110,37 @@ def _session_from_dict(data: Any, source: str | None) -> Session:
         raise InputError("views: empty, expected at least one view")
     if len(views_data) > limits.MAX_VIEWS:
         raise InputError(f"views: {len(views_data)} views, more than the {limits.MAX_VIEWS:,} accepted (limits.MAX_VIEWS)")
-    views = tuple(_view_from_dict(v, f"views[{i}]", camera, pose_frame, source) for i, v in enumerate(views_data))
+    try:
+        views = tuple(_view_from_dict(v, f"views[{i}]", camera, pose_frame, source) for i, v in enumerate(views_data))
+    except InputError as exc:  # a refused box: say which convention the boxes as written are probably in
+        hint = refusal_hint(camera, _boxes_as_written(views_data)) if "bbox_xyxy" in str(exc) else None
+        if hint is None:
+            raise
+        raise InputError(f"{exc}; {hint}") from None
     workspace = None
     if data.get("workspace") is not None:
         workspace = workspace_from_dict(data["workspace"], "workspace")
-    session = Session(camera=camera, views=views, workspace=workspace, source=source)
+    poses = np.stack([v.T_base_optical for v in views])
+    causes = raw_box_causes(camera, poses, _boxes_as_written(views_data))
+    session = Session(camera=camera, views=views, workspace=workspace, source=source, causes=tuple(causes))
     prefix = f"{source}: " if source else ""
     for message in geometry_warnings(session):
         warnings.warn(InputWarning(prefix + message), stacklevel=4)
     return session
+
+
+def _boxes_as_written(views_data: list[Any]) -> list[NDArray[np.float64]]:
+    """Per view, its boxes as written (before clipping), shape (M_i, 4): those that are four finite numbers."""
+    out = []
+    for view in views_data:
+        dets = view.get("detections") if isinstance(view, dict) else None
+        rows = []
+        for det in dets if isinstance(dets, list) else []:
+            box = det.get("bbox_xyxy") if isinstance(det, dict) else None
+            if isinstance(box, list) and len(box) == 4 and all(is_real(x) and abs(x) < MAX_BOX_COORDINATE for x in box):
+                rows.append([float(x) for x in box])
+        out.append(np.array(rows, dtype=float).reshape(-1, 4))
+    return out
 
 
 def pose_from_dict(data: Any, where: str) -> NDArray[np.float64]:

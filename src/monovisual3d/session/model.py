@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from ..camera import Camera
 from ..errors import InputError
 from ..frames import position_quaternion_from_transform
+from ..verdict import Cause
 
 
 def _fields_equal(self: Any, other: object) -> bool:
@@ -134,12 +135,17 @@ class Workspace:
 
 @dataclass(frozen=True)
 class Session:
-    """A validated session: camera, views and optional workspace."""
+    """A validated session: camera, views and optional workspace.
+
+    ``causes`` holds what the loader found wrong with the input as written (boxes past the image, stretched, or
+    with x and y swapped: :func:`.diagnose.raw_box_causes`), for :func:`.diagnose.check_session` to report.
+    """
 
     camera: Camera
     views: tuple[View, ...]
     workspace: Workspace | None = None
     source: str | None = field(default=None, compare=False)
+    causes: tuple[Cause, ...] = field(default=(), compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {
