@@ -198,3 +198,23 @@ def test_a_free_box_at_an_objects_prediction_is_explained_a_stray_one_is_not() -
     assert len(reasons) == 1 and reasons[0].startswith(
         f"1 of {result.quality['n_boxes']} boxes are associated to no object (view 0: box {n - 1})"
     )
+
+
+def test_the_live_localizer_names_input_mistakes_as_localize_does() -> None:
+    from monovisual3d.session import Session
+
+    clean, _ = simulate(paper_scene(), default_camera(), paper_poses(), noise=NoiseModel(box_sigma=0.02), rng=3)
+    twice = Session(clean.camera, clean.views + clean.views)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = localize(twice)
+    loc = BayesLocalizer(twice.camera, BayesConfig())
+    for view in twice.views:
+        loc.update(view)
+    with pytest.warns(InputWarning, match="duplicate"):
+        loc.estimate()
+    assert loc.last is not None
+    assert loc.last.warnings == result.warnings
+    assert [c["cause"] for c in loc.last.quality["causes"]] == [c["cause"] for c in result.quality["causes"]]
+    assert "duplicate_views" in [c["cause"] for c in result.quality["causes"]]
+    assert loc.last.quality["verdict"] == result.quality["verdict"] != "ok"

@@ -12,6 +12,7 @@ from ...errors import InputWarning
 from ...grid import VoxelGrid
 from ...result import DetectedObject, Result
 from ...session import Session, View, Workspace
+from ...session.diagnose import check_session
 from ...verdict import with_causes
 from .config import BayesConfig
 from .pipeline import Estimate, estimate
@@ -47,6 +48,9 @@ class BayesLocalizer:
     camera : Camera
     config : BayesConfig
     workspace : Workspace, optional; else the paper's cube in front of the first view with a detection
+    check_input : bool, run :func:`~monovisual3d.session.diagnose.check_session` on the views at each
+        :meth:`estimate` (views given twice counted once; the causes among ``last.warnings`` and ``last.quality``), as
+        :func:`monovisual3d.localize` does; False where the caller has checked them already
 
     Attributes
     ----------
@@ -69,8 +73,11 @@ class BayesLocalizer:
     1
     """
 
-    def __init__(self, camera: Camera, config: BayesConfig | None = None, *, workspace: Workspace | None = None) -> None:
+    def __init__(
+        self, camera: Camera, config: BayesConfig | None = None, *, workspace: Workspace | None = None, check_input: bool = True
+    ) -> None:
         self.camera = camera
+        self.check_input = check_input
         self.config = config or BayesConfig()
         self.workspace = workspace
         self.views: list[View] = []
@@ -86,7 +93,11 @@ class BayesLocalizer:
     def estimate(self) -> list[DetectedObject]:
         """Objects found in the views so far (see :mod:`.pipeline`); what is wrong with them is raised as
         :class:`~monovisual3d.errors.InputWarning` and kept in ``last.warnings`` and ``last.quality``."""
-        problem = build_problem(self.camera, self.config, self.views, self.grid)
+        views, input_causes = list(self.views), []
+        if self.check_input and self.views:
+            checked, input_causes = check_session(Session(self.camera, tuple(self.views), self.workspace))
+            views = list(checked.views)
+        problem = build_problem(self.camera, self.config, views, self.grid)
         found = estimate(problem)
         if self.config.calibrate == "hand-eye":
             from .calibration import calibrate_hand_eye
@@ -96,8 +107,9 @@ class BayesLocalizer:
         head = {"verdict": "ok", "causes": [], **found.quality}
         if calibration is not None:
             head["calibration"] = calibration
-        quality = with_causes(head, found.causes)
-        messages = session_messages(self.camera, self.config, self.views, found)
+        quality = with_causes(head, [*input_causes, *found.causes])
+        messages = [c.message for c in input_causes]
+        messages += [m for m in session_messages(self.camera, self.config, views, found) if m not in messages]
         messages += [c["message"] for c in quality["causes"] if c["message"] not in messages]
         if calibration is not None and not calibration["applied"] and calibration["reason"] not in messages:
             messages.append(calibration["reason"])
@@ -150,7 +162,7 @@ def _check_views(views: list[View], config: BayesConfig, objects: list[DetectedO
 def run(session: Session, config: BayesConfig, *, progress: Callable[[int, int], None] | None = None) -> Result:
     """The ``bayes`` method on one session (see :mod:`monovisual3d.methods.bayes`)."""
     t0 = time.perf_counter()
-    loc = BayesLocalizer(session.camera, config, workspace=session.workspace)
+    loc = BayesLocalizer(session.camera, config, workspace=session.workspace, check_input=False)  # localize() checked
     for i, view in enumerate(session.views):
         loc.update(view)
         if progress is not None:
