@@ -59,7 +59,8 @@ from .sensor import box_edge_sigma_px, censored_edges
 from .state import Found, ObjectQuality, Quality, State, ViewQuality
 
 #: Degrees of freedom of the prior an object's variance factor is shrunk with toward the session's: an object's own
-#: residuals (8 degrees of freedom from 3 views) say little alone; the session's say what the detector's noise is.
+#: residuals (8 degrees of freedom from 3 views) say little alone; the session's say what the detector's noise is
+#: (why: docs/decisions/bayes-quality.md#prior_dof).
 PRIOR_DOF = 10.0
 #: The covariance is scaled by ``1 + TAIL / dof`` (dof: those its variance factor rests on): the mean of an F(3, dof)
 #: is ``dof / (dof - 2)``, so a variance estimated from few degrees of freedom still covers the error on average.
@@ -69,7 +70,8 @@ TAIL = 2.0
 CLIP_SIGMAS = 4.0
 #: The normal's median absolute value: a robust sigma is ``median(|z|) / MAD_NORMAL``.
 MAD_NORMAL = 0.6745
-#: Degrees of freedom of the session before the centre and size factors are told apart (fewer: one factor for both).
+#: Degrees of freedom of the session before the centre and size factors are told apart (fewer: one factor for both;
+#: why: docs/decisions/bayes-quality.md#centre-and-size-factors).
 MIN_DOF_COMPONENTS = 24
 #: Relative step of the numeric Jacobian (of the semi-axes' logarithms, of the position in units of the size, of the
 #: yaw in radians).
@@ -81,7 +83,8 @@ NULL_COLUMN = 1e-7
 #: is no estimate: the boxes do not determine the depth (every view from one place).
 UNDETERMINED_SHARE = 0.5
 #: ``scatter`` fires when the session's variance factor (1 under the sensor model) exceeds this: edge noise four times
-#: the model's (box noise of about 20 % of the box size where the model says 5 %).
+#: the model's (box noise of about 20 % of the box size where the model says 5 %;
+#: why: docs/decisions/bayes-quality.md#scatter_factor).
 SCATTER_FACTOR = 16.0
 #: Degrees of freedom the session's variance factor must rest on before ``scatter`` fires (few boxes: no evidence).
 SCATTER_MIN_DOF = 12
