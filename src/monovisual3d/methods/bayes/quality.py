@@ -26,8 +26,11 @@ Covariance
     is the sandwich ``A^-1 B A^-1`` with ``A = J^T J`` and ``B = J^T S J`` (``J``: the numeric Jacobian of the
     normalised residuals w.r.t. the solid's parameters, ``S``: the session's edge covariance), whose centre block is the
     position's (marginal over the size and yaw). Each object scales it by its own variance factor, shrunk toward the
-    session's with :data:`PRIOR_DOF` degrees of freedom of prior (:func:`object_factor`), and by ``1 + TAIL / dof``: a
-    variance estimated from few degrees of freedom makes the error's distribution heavier-tailed (a Student-t's).
+    session's with :data:`PRIOR_DOF` degrees of freedom of prior (:func:`object_factor`) and never below it (an
+    object's residuals smaller than the session's, on a few degrees of freedom, are chance: its boxes come from the same
+    detector; larger ones may be its own trouble, a wrong or cut box), and by ``1 + TAIL / dof`` (dof: those the factor
+    rests on, the object's and the prior's, or the session's where it is the session's): a variance estimated from few
+    degrees of freedom makes the error's distribution heavier-tailed (a Student-t's).
     A covariance that is not positive definite, or whose spread exceeds the object's distance to the cameras (every view
     from one place: depth along the line of sight is not determined), is reported as None with the reason.
 
@@ -56,7 +59,8 @@ from .sensor import box_edge_sigma_px, censored_edges
 from .state import Found, ObjectQuality, Quality, State, ViewQuality
 
 #: Degrees of freedom of the prior an object's variance factor is shrunk with toward the session's: an object's own
-#: residuals (8 degrees of freedom from 3 views) say little alone; the session's say what the detector's noise is.
+#: residuals (8 degrees of freedom from 3 views) say little alone; the session's say what the detector's noise is
+#: (why: docs/decisions/bayes-quality.md#prior_dof).
 PRIOR_DOF = 10.0
 #: The covariance is scaled by ``1 + TAIL / dof`` (dof: those its variance factor rests on): the mean of an F(3, dof)
 #: is ``dof / (dof - 2)``, so a variance estimated from few degrees of freedom still covers the error on average.
@@ -66,7 +70,8 @@ TAIL = 2.0
 CLIP_SIGMAS = 4.0
 #: The normal's median absolute value: a robust sigma is ``median(|z|) / MAD_NORMAL``.
 MAD_NORMAL = 0.6745
-#: Degrees of freedom of the session before the centre and size factors are told apart (fewer: one factor for both).
+#: Degrees of freedom of the session before the centre and size factors are told apart (fewer: one factor for both;
+#: why: docs/decisions/bayes-quality.md#centre-and-size-factors).
 MIN_DOF_COMPONENTS = 24
 #: Relative step of the numeric Jacobian (of the semi-axes' logarithms, of the position in units of the size, of the
 #: yaw in radians).
@@ -78,7 +83,8 @@ NULL_COLUMN = 1e-7
 #: is no estimate: the boxes do not determine the depth (every view from one place).
 UNDETERMINED_SHARE = 0.5
 #: ``scatter`` fires when the session's variance factor (1 under the sensor model) exceeds this: edge noise four times
-#: the model's (box noise of about 20 % of the box size where the model says 5 %).
+#: the model's (box noise of about 20 % of the box size where the model says 5 %;
+#: why: docs/decisions/bayes-quality.md#scatter_factor).
 SCATTER_FACTOR = 16.0
 #: Degrees of freedom the session's variance factor must rest on before ``scatter`` fires (few boxes: no evidence).
 SCATTER_MIN_DOF = 12
@@ -323,7 +329,10 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
         chi2_rel = float(z @ z) * obj_dof / expected if expected > 0 and obj_dof > 0 else 0.0
         prior = min(PRIOR_DOF, max(dof - obj_dof, 0))
         k = object_factor(chi2_rel, obj_dof, prior) if prior + obj_dof > 0 else 1.0
-        tail = 1.0 + TAIL / max(prior + obj_dof, 1.0)
+        # never below the session's (smaller residuals on few dof are chance; the detector's noise is the session's);
+        # the tail follows what the factor rests on: its own residuals and the prior, or the whole session
+        k, ground = (k, prior + obj_dof) if k > 1.0 else (1.0, dof)
+        tail = 1.0 + TAIL / max(ground, 1.0)
         cov, reason = _covariance(f, S, k * tail)
         factor = k * (fc * m.traces[3] + fs * m.traces[4]) / max(m.traces[3] + m.traces[4], 1e-300)
         obj_quality.append(ObjectQuality(float(f.z @ f.z), int(len(f.z) - m.rank), float(factor), reason))
