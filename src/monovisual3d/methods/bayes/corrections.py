@@ -214,8 +214,10 @@ def _distortion_boxes(b: Boxes, pred: NDArray[np.float64], theta: NDArray[np.flo
     return out
 
 
-#: Weak priors: what the views leave undetermined stays at 0 (std far beyond any mistake the tests look for).
-HAND_EYE_PRIOR = np.array([math.radians(10.0)] * 3 + [0.05] * 3)
+#: The hand-eye model's prior std: 5 degrees and 20 mm per axis, beyond the hand-eye errors of a calibrated robot (a
+#: degree or two, a centimetre) yet tight enough that the rotation-translation trade the views cannot see (a turn of
+#: the camera and a sideways shift that keep the scene's centre in place) stays near zero.
+HAND_EYE_PRIOR = np.array([math.radians(5.0)] * 3 + [0.02] * 3)
 #: The models, by name.
 MODELS: dict[str, CorrectionModel] = {
     "hand_eye": CorrectionModel(
