@@ -40,7 +40,7 @@ NEGLIGIBLE_DEG, NEGLIGIBLE_M = 0.02, 0.0003
 UNDETERMINED_DEG, UNDETERMINED_M = 0.5, 0.005
 #: A correction with a part whose 1-sigma exceeds these is not applied: so poorly determined, it may move the fruit
 #: further from the truth than the error it corrects (views from directions too alike: a turn of the camera and a
-#: sideways shift then look the same).
+#: sideways shift then look the same; why: docs/decisions/bayes-corrections.md#unreliable_deg).
 UNRELIABLE_DEG, UNRELIABLE_M = 0.75, 0.0075
 
 

@@ -46,14 +46,16 @@ MIN_VIEWS = 4
 #: Objects seen in three views or more the tests need.
 MIN_OBJECTS = 3
 #: The chance that a correct session's chi-square drop passes a model's test (per model), under the noise model
-#: (``docs/decisions/`` has the drops measured on clean sessions).
+#: (why: docs/decisions/bayes-corrections.md#false_alarm_p).
 FALSE_ALARM_P = 1e-3
 #: The smallest camera rotation and translation named (a hand-eye error, a time offset's pose change): less moves a
-#: fruit half a metre away by less than about 4 mm, within the noise of a few views.
+#: fruit half a metre away by less than about 4 mm, within the noise of a few views
+#: (why: docs/decisions/bayes-corrections.md#min_rotation_deg).
 MIN_ROTATION_DEG, MIN_TRANSLATION_M = 0.5, 0.005
 #: The smallest image scale error (relative) and pixel offset or lens pattern (pixels, at the image corners) named.
 MIN_SCALE, MIN_SHIFT_PX = 0.01, 3.0
-#: A model that removes this share of the best model's drop explains the same pattern: named as its rival.
+#: A model that removes this share of the best model's drop explains the same pattern: named as its rival
+#: (why: docs/decisions/bayes-corrections.md#rival_share).
 RIVAL_SHARE = 0.8
 
 
