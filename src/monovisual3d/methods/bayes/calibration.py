@@ -74,7 +74,10 @@ def calibrate_hand_eye(problem: Problem, first: Estimate, estimate: Callable[[Pr
         bb = boxes_of(corrected_problem(problem, T) if round_ else problem, current.objects, MAX_OBJECTS)  # type: ignore[arg-type]
         if bb is None:
             break
-        fit = fit_correction(bb, "hand_eye")
+        from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
+
+        with threadpool_limits(limits=1):  # small matrices: a BLAS pool only slows them (see .diagnose)
+            fit = fit_correction(bb, "hand_eye")
         s = hand_eye_summary(fit)
         if not round_ and not _reliable(fit):
             report = _report(np.asarray(s["T_corrected_reported"]), fit)

@@ -168,7 +168,11 @@ def diagnose(problem: Problem, objects: list[Found]) -> tuple[list[Cause], dict[
     if not can_tell(b):
         return [], {}
     assert b is not None
-    base, tests = compare_corrections(b, models_for(b))
+    from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
+
+    # one BLAS thread: the fits' matrices are a few dozen wide, and a BLAS pool on a busy machine made them 5x slower
+    with threadpool_limits(limits=1):
+        base, tests = compare_corrections(b, models_for(b))
     numbers: dict[str, Any] = {"noise_scale": base.noise_scale, "chi2": base.chi2, "n_residuals": base.n_residuals}
     fired = []
     for t in tests:
