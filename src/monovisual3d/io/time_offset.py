@@ -35,7 +35,7 @@ RAY_CAP_M = 0.03
 #: The offsets searched: this many frames either side of zero, at this many steps per frame.
 SEARCH_FRAMES, STEPS_PER_FRAME = 2.0, 8
 #: Misfit that changes by less than this share of its lowest value over a frame either side of the minimum is
-#: flat: the offset is not determined by the views.
+#: flat: the offset is not determined by the views (why: docs/decisions/bayes-corrections.md#time-offsets-on-a-path-of-constant-speed).
 FLAT_SHARE = 0.05
 #: Largest time between an image's shifted stamp and the stream samples used for it, seconds.
 SEARCH_MAX_GAP_S = 1.0

@@ -55,7 +55,7 @@ def test_hand_eye_recovers_a_known_error_from_views_of_diverse_rotation() -> Non
     scene, target = _scene()
     E = hand_eye_offset(2.0, 10.0, rng=5)
     b = synthetic_boxes(
-        default_camera(), hemisphere_poses(target, 12, max_angle=math.radians(75)), scene.centres, scene.radii, E=E
+        default_camera(), hemisphere_poses(target, 16, max_angle=math.radians(90)), scene.centres, scene.radii, E=E
     )
     fit = fit_correction(b, "hand_eye")
     s = hand_eye_summary(fit)

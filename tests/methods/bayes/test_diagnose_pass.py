@@ -104,3 +104,25 @@ def test_calibrate_hand_eye_with_too_few_views_says_why_and_runs_as_usual():
 def test_calibrate_is_checked_by_name():
     with pytest.raises(mv.InputError, match="calibrate: got 'eye'"):
         BayesConfig(calibrate="eye")
+
+
+def test_a_view_whose_boxes_fit_no_object_is_named_alone():
+    from monovisual3d.methods.bayes.diagnose import disagreeing_views
+
+    counts = {0: (0, 6), 1: (1, 6), 2: (5, 6), 3: (0, 6), 4: (1, 6)}
+    (cause,) = disagreeing_views(counts)
+    assert cause.cause == "view_disagrees" and cause.views == (2,) and cause.message.startswith("views[2]: 5 of its 6")
+    # two views standing out together (a swap) are both named; a spread of a few free boxes names none
+    assert [c.views for c in disagreeing_views({**counts, 0: (4, 6)})] == [(2,), (0,)]
+    assert disagreeing_views({0: (2, 6), 1: (2, 6), 2: (3, 6), 3: (1, 6)}) == []
+
+
+def test_a_view_holding_another_views_boxes_is_named_by_the_pipeline():
+    from monovisual3d.bench.trust_cases import make_case
+    from monovisual3d.sim.mistakes import boxes_from_other_view
+
+    case = make_case("paper", 0, 0.02)
+    bad = load_session(boxes_from_other_view(case.session.to_dict(), 2, 4))
+    result, said = _localize(bad)
+    assert any(c["cause"] == "view_disagrees" and c["views"] == [2] for c in result.quality["causes"])
+    assert any(w.startswith("views[2]: ") for w in said)

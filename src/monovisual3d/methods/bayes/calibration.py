@@ -7,7 +7,8 @@ corrected (``T_base_optical_reported @ E^-1``) and the method runs again on them
 anew (association, shape and covariance) from corrected poses. A second round estimates what is left of ``E`` from the
 new objects, and applies it too where it is not negligible (:data:`NEGLIGIBLE_DEG`, :data:`NEGLIGIBLE_M`).
 
-It needs :data:`MIN_VIEWS` views and :data:`MIN_FRUIT` fruit seen in two views or more; with fewer, the method runs as
+It needs :data:`MIN_VIEWS` views and :data:`MIN_FRUIT` fruit seen in two views or more, and a correction the views
+determine (its angle and length known within :data:`UNRELIABLE_DEG`, :data:`UNRELIABLE_M`); otherwise the method runs as
 usual and says why. What the views cannot tell apart from a motion of the whole scene (on an arc of views about one
 axis: a rotation about that axis with a sideways shift) stays at zero, held by the fit's weak prior; the reported
 uncertainty (from the covariance of the joint fit) says how well each part is known.
@@ -37,6 +38,10 @@ MAX_OBJECTS = 40
 NEGLIGIBLE_DEG, NEGLIGIBLE_M = 0.02, 0.0003
 #: A part of the correction whose 1-sigma exceeds these is reported as not determined by the views.
 UNDETERMINED_DEG, UNDETERMINED_M = 0.5, 0.005
+#: A correction with a part whose 1-sigma exceeds these is not applied: so poorly determined, it may move the fruit
+#: further from the truth than the error it corrects (views from directions too alike: a turn of the camera and a
+#: sideways shift then look the same; why: docs/decisions/bayes-corrections.md#unreliable_deg).
+UNRELIABLE_DEG, UNRELIABLE_M = 0.75, 0.0075
 
 
 def corrected_problem(problem: Problem, T_corrected_reported: np.ndarray) -> Problem:
@@ -69,8 +74,18 @@ def calibrate_hand_eye(problem: Problem, first: Estimate, estimate: Callable[[Pr
         bb = boxes_of(corrected_problem(problem, T) if round_ else problem, current.objects, MAX_OBJECTS)  # type: ignore[arg-type]
         if bb is None:
             break
-        fit = fit_correction(bb, "hand_eye")
+        from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
+
+        with threadpool_limits(limits=1):  # small matrices: a BLAS pool only slows them (see .diagnose)
+            fit = fit_correction(bb, "hand_eye")
         s = hand_eye_summary(fit)
+        if not round_ and not _reliable(fit):
+            report = _report(np.asarray(s["T_corrected_reported"]), fit)
+            reason = (
+                f"calibrate='hand-eye': the views determine the hand-eye correction too poorly to apply it "
+                f"({report['note'].split(': ', 1)[1]}); localised without it: add views from more different directions"
+            )
+            return _with_report(first, {**report, "applied": False, "reason": reason})
         if round_ and s["rotation_deg"] < NEGLIGIBLE_DEG and s["translation_mm"] < 1e3 * NEGLIGIBLE_M:
             break
         T = np.asarray(s["T_corrected_reported"]) @ T
@@ -78,6 +93,14 @@ def calibrate_hand_eye(problem: Problem, first: Estimate, estimate: Callable[[Pr
     assert fit is not None
     report = _report(T, fit)
     return _with_report(current, report)
+
+
+def _reliable(fit: Any) -> bool:
+    """Whether a hand-eye fit's rotation angle and translation length are known within :data:`UNRELIABLE_DEG` and
+    :data:`UNRELIABLE_M` (1-sigma along the estimate: a part the views leave free entirely, such as a shift along the
+    common viewing direction, stays at zero under the prior and moves no fruit)."""
+    s = hand_eye_summary(fit)
+    return s["rotation_std_deg"] <= UNRELIABLE_DEG and s["translation_std_mm"] <= 1e3 * UNRELIABLE_M
 
 
 def _report(T: np.ndarray, last: Any) -> dict[str, Any]:

@@ -35,6 +35,7 @@ from .corrections import (
     Fit,
     compare_corrections,
     distortion_shift,
+    fit_correction,
     hand_eye_summary,
     view_velocities,
 )
@@ -46,14 +47,22 @@ MIN_VIEWS = 4
 #: Objects seen in three views or more the tests need.
 MIN_OBJECTS = 3
 #: The chance that a correct session's chi-square drop passes a model's test (per model), under the noise model
-#: (``docs/decisions/`` has the drops measured on clean sessions).
+#: (why: docs/decisions/bayes-corrections.md#false_alarm_p).
 FALSE_ALARM_P = 1e-3
 #: The smallest camera rotation and translation named (a hand-eye error, a time offset's pose change): less moves a
-#: fruit half a metre away by less than about 4 mm, within the noise of a few views.
+#: fruit half a metre away by less than about 4 mm, within the noise of a few views
+#: (why: docs/decisions/bayes-corrections.md#min_rotation_deg).
 MIN_ROTATION_DEG, MIN_TRANSLATION_M = 0.5, 0.005
 #: The smallest image scale error (relative) and pixel offset or lens pattern (pixels, at the image corners) named.
 MIN_SCALE, MIN_SHIFT_PX = 0.01, 3.0
-#: A model that removes this share of the best model's drop explains the same pattern: named as its rival.
+#: A view is named as disagreeing when at least this share of its boxes, and :data:`MIN_BAD_BOXES` or more, fit no
+#: object the other views agree on (held by none, or off on two edges or more by :data:`OUTLIER_SIGMAS`), and no other
+#: view comes within half of its share (why: docs/decisions/bayes-corrections.md#bad_view_share).
+BAD_VIEW_SHARE, MIN_BAD_BOXES = 0.5, 3
+#: An edge this many noise sigmas (the noise the spheres leave) off its prediction is an outlier.
+OUTLIER_SIGMAS = 3.0
+#: A model that removes this share of the best model's drop explains the same pattern: named as its rival
+#: (why: docs/decisions/bayes-corrections.md#rival_share).
 RIVAL_SHARE = 0.8
 
 
@@ -158,15 +167,69 @@ CAUSE_OF = {
 }
 
 
+def bad_boxes(problem: Problem, objects: list[Found], b: Boxes | None, base: Fit | None) -> dict[int, tuple[int, int]]:
+    """Per view (session index): how many of its boxes fit no object the other views agree on (held by none, or, in
+    the spheres' fit ``base`` of ``b``, off by :data:`OUTLIER_SIGMAS` on two edges or more), and its number of boxes."""
+    held = {(v, j) for o in objects for v, j in o.associations.items()}
+    off: dict[int, int] = {}
+    if b is not None and base is not None:
+        from .corrections import _Residuals, _x0, scaled_sigma
+
+        e = _Residuals(b, None, scaled_sigma(b, base))(_x0(b, base)[None])[0].reshape(-1, 4)
+        outlier = np.sum(np.abs(e) > OUTLIER_SIGMAS, axis=1) >= 2
+        for row in np.flatnonzero(outlier):
+            v = b.session_views[int(b.view[row])]
+            off[v] = off.get(v, 0) + 1
+    out = {}
+    for vd in problem.views:
+        free = sum((vd.index, j) not in held for j in range(len(vd.boxes)))
+        out[vd.index] = (free + off.get(vd.index, 0), len(vd.boxes))
+    return out
+
+
+def disagreeing_views(counts: dict[int, tuple[int, int]]) -> list[Cause]:
+    """The ``view_disagrees`` causes of :func:`bad_boxes`' counts (see :data:`BAD_VIEW_SHARE`): one view, or two (a
+    swap) where both stand out."""
+    share = {v: bad / n for v, (bad, n) in counts.items() if n}
+    if len(share) < 3:
+        return []
+    ranked = sorted(share, key=lambda v: -share[v])
+    named = [v for v in ranked[:2] if share[v] >= BAD_VIEW_SHARE and counts[v][0] >= MIN_BAD_BOXES]
+    rest = [share[v] for v in ranked if v not in named]
+    if not named or (rest and max(rest) > 0.5 * min(share[v] for v in named)):
+        return []
+    return [
+        Cause(
+            "view_disagrees",
+            f"views[{v}]: {counts[v][0]} of its {counts[v][1]} boxes fit no object the other views agree on: this view's "
+            "boxes may be another image's, or its pose another view's or wrong (check its image, detections and pose)",
+            "suspect",
+            (v,),
+            {"bad_boxes": counts[v][0], "boxes": counts[v][1]},
+        )
+        for v in named
+    ]
+
+
 def diagnose(problem: Problem, objects: list[Found]) -> tuple[list[Cause], dict[str, Any]]:
     """The causes the correction tests name (at most one, its rivals in its message) and the tests' numbers
     (``corrections``: per model its ``chi2_drop``, ``dof``, ``effect_px``, ``significant``; empty where the data
     cannot tell)."""
     b = boxes_of(problem, objects)
     if not can_tell(b):
-        return [], {}
+        if b is None or len(problem.views) < 3:
+            return [], {}
+        from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
+
+        with threadpool_limits(limits=1):
+            base = fit_correction(b, None)
+        return disagreeing_views(bad_boxes(problem, objects, b, base)), {}
     assert b is not None
-    base, tests = compare_corrections(b, models_for(b))
+    from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
+
+    # one BLAS thread: the fits' matrices are a few dozen wide, and a BLAS pool on a busy machine made them 5x slower
+    with threadpool_limits(limits=1):
+        base, tests = compare_corrections(b, models_for(b))
     numbers: dict[str, Any] = {"noise_scale": base.noise_scale, "chi2": base.chi2, "n_residuals": base.n_residuals}
     fired = []
     for t in tests:
@@ -181,8 +244,9 @@ def diagnose(problem: Problem, objects: list[Found]) -> tuple[list[Cause], dict[
         }
         if sig and matters(size):
             fired.append(t)
+    views = disagreeing_views(bad_boxes(problem, objects, b, base))
     if not fired:
-        return [], {"corrections": numbers}
+        return views, {"corrections": numbers}
     best = max(fired, key=lambda t: t.chi2_drop - 2 * t.dof)
     rivals = [t for t in fired if t is not best and t.chi2_drop >= RIVAL_SHARE * best.chi2_drop]
     msg = (
@@ -200,7 +264,7 @@ def diagnose(problem: Problem, objects: list[Found]) -> tuple[list[Cause], dict[
     }
     if best.model == "hand_eye":
         details["hand_eye"] = {k: v for k, v in hand_eye_summary(best.fit).items() if k != "T_corrected_reported"}
-    return [Cause(CAUSE_OF[best.model], msg, "suspect", (), details)], {"corrections": numbers}
+    return [Cause(CAUSE_OF[best.model], msg, "suspect", (), details), *views], {"corrections": numbers}
 
 
 def run(problem: Problem, state: State) -> State:
