@@ -17,10 +17,10 @@ from monovisual3d.session.diagnose import (
     distortion_causes,
     duplicate_views,
     pose_hypothesis,
-    ray_agreement,
     views_as_given,
 )
 from monovisual3d.session.load import session_from_dict
+from monovisual3d.session.rays import ray_agreement
 from monovisual3d.sim import mistakes
 from monovisual3d.verdict import Cause
 
