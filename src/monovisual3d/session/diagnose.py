@@ -90,7 +90,11 @@ POSE_HYPOTHESES = {
     "camera_link_as_optical": "camera_link poses (x forward, y left, z up) given as the optical frame's; "
     "look up the optical frame, or set pose_frame: camera_link",
     "optical_as_camera_link": "optical-frame poses declared pose_frame: camera_link; set pose_frame: optical",
+    "facing_away": "cameras facing away from the fruit (the optical axis reversed: a frame turned half a turn about "
+    "its y axis); check the camera frame's axes (z forward, x right, y down)",
 }
+#: Half a turn about the optical y axis: the camera facing the other way.
+T_FACING_AWAY = np.diag([-1.0, 1.0, -1.0, 1.0])
 
 
 # ---------------------------------------------------------------------- the one entry point
@@ -422,6 +426,8 @@ def pose_hypothesis(T_base_optical: NDArray[np.float64], name: str) -> NDArray[n
         return T @ T_cameralink_optical()
     if name == "optical_as_camera_link":  # the loader turned an optical pose as if it were camera_link's
         return T @ invert_transform(T_cameralink_optical())
+    if name == "facing_away":
+        return T @ T_FACING_AWAY
     raise ValueError(f"name: got {name!r}, expected 'given' or one of {sorted(POSE_HYPOTHESES)}")
 
 
