@@ -36,7 +36,8 @@ SHAPES = ("sphere", "spheroid", "ellipsoid")
 #: Rim points of a drawn outline (:func:`ellipsoid_contour_uv`).
 CONTOUR_POINTS = 720
 #: Rim points sampled for the box under lens distortion, each extreme refined by a parabola
-#: (:func:`.curve_box.sampled_curve_box`: within 0.001 px of the rim's box for the lenses of real cameras).
+#: (:func:`.curve_box.sampled_curve_box`: within 0.001 px of the rim's box for the lenses of real cameras; why:
+#: docs/decisions/input-checks.md#box_contour_points).
 BOX_CONTOUR_POINTS = 48
 
 

@@ -52,11 +52,13 @@ PAST_EDGE_MIN_BOXES = 2
 PAST_EDGE_MIN_SHARE = 0.05
 #: A median box aspect (height / width) within this factor of the image's own (height/width stretched to a square)
 #: and at least :data:`STRETCH_MIN` away from 1: round fruit stretched by a square detector input.
+#: (why: docs/decisions/input-checks.md#stretch_tolerance)
 STRETCH_TOLERANCE = 1.12
 STRETCH_MIN = 1.2
 #: Fewest boxes for a statistic over boxes (aspect, spread) to speak.
 MIN_BOXES = 6
-#: Boxes of a smaller image: every box within this share of the image (both sides) ...
+#: (why: docs/decisions/input-checks.md#small_extent) Boxes of a smaller image: every box within this share of the
+#: image (both sides) ...
 SMALL_EXTENT = 0.7
 #: ... and the median box centre at least this share of the image above and left of the principal point.
 SMALL_OFFSET = 0.07
@@ -71,7 +73,7 @@ WIDE_ASPECT = 1.5
 CROP_OFFSET_SHARE = 0.6
 
 #: A convention whose rays agree on at least this share of boxes, and on this much more than the poses as given,
-#: is the one the poses are in.
+#: is the one the poses are in. (why: docs/decisions/input-checks.md#meet_gap_radii)
 AGREE_MIN = 0.5
 AGREE_MARGIN = 0.3
 
@@ -79,6 +81,7 @@ AGREE_MARGIN = 0.3
 SWAP_MARGIN = 0.2
 
 #: Tangential coefficients (p1, p2 of plumb_bob) beyond this are an order of magnitude above a real lens's.
+#: (why: docs/decisions/input-checks.md#max_tangential)
 MAX_TANGENTIAL = 0.01
 #: A pincushion ``k1`` above this with a negative ``k2``: the sign pattern of a barrel lens's undistortion model.
 FLIPPED_K1 = 0.05

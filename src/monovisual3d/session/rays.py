@@ -22,6 +22,7 @@ MIN_PAIR_BASELINE_M = 0.01
 #: Rays closer to parallel than this (radians) are skipped: their meeting point is not determined.
 MIN_RAY_ANGLE_RAD = np.radians(1.0)
 #: Two box-centre rays meet when their gap is under this share of the fruit radius the boxes give at that depth ...
+#: (why: docs/decisions/input-checks.md#meet_gap_radii)
 MEET_GAP_RADII = 0.6
 #: ... and the two radii (box angular size times depth) agree within this factor.
 MEET_SIZE_RATIO = 1.6
