@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import warnings
 
@@ -17,10 +18,10 @@ from monovisual3d.session.diagnose import (
     distortion_causes,
     duplicate_views,
     pose_hypothesis,
-    ray_agreement,
     views_as_given,
 )
 from monovisual3d.session.load import session_from_dict
+from monovisual3d.session.rays import ray_agreement
 from monovisual3d.sim import mistakes
 from monovisual3d.verdict import Cause
 
@@ -95,6 +96,7 @@ def test_pose_hypotheses_undo_the_mistakes() -> None:
     declared = session_from_dict(mistakes.optical_as_camera_link(s.to_dict()))
     T_bad = np.stack([v.T_base_optical for v in declared.views])
     np.testing.assert_allclose(pose_hypothesis(T_bad, "optical_as_camera_link"), T, atol=1e-9)
+    np.testing.assert_allclose(pose_hypothesis(pose_hypothesis(T, "facing_away"), "facing_away"), T, atol=1e-12)
     with pytest.raises(ValueError, match="expected 'given' or one of"):
         pose_hypothesis(T, "upside_down")
 
@@ -184,3 +186,13 @@ def test_a_centre_crop_of_a_4_3_sensor_is_named() -> None:
     found = _causes(mistakes.boxes_from_centre_crop(s, (640, 360)))
     assert [c.cause for c in found] == ["image_size"]
     assert "crop" in found[0].message
+
+
+def test_cameras_facing_away_are_named(case) -> None:  # type: ignore[no-untyped-def]
+    s = case.session
+    away = Session(
+        s.camera,
+        tuple(dataclasses.replace(v, T_base_optical=pose_hypothesis(v.T_base_optical[None], "facing_away")[0]) for v in s.views),
+    )
+    (cause,) = check_session(away)[1]
+    assert cause.cause == "pose_convention" and "facing away" in cause.message

@@ -26,14 +26,19 @@ from numpy.typing import ArrayLike, NDArray
 from ..camera import Camera
 from ..checks import check_quaternion_xyzw, is_int, vector
 from ..errors import InputError
+from .curve_box import sampled_curve_box
 from .orientation import DEFAULT_UP, quaternion_xyzw_from_rotation, rotation_from_quaternion_xyzw, rotation_upright
 from .quadric import bbox_from_dual_conic, centre_and_shape_matrix, dual_quadric, projected_dual_conic, to_optical
 from .sphere import clip_boxes
 
 #: Shape names, from most to least constrained.
 SHAPES = ("sphere", "spheroid", "ellipsoid")
-#: Rim points sampled for the box under lens distortion (as :func:`monovisual3d.geometry.sphere.sphere_bbox_optical`).
+#: Rim points of a drawn outline (:func:`ellipsoid_contour_uv`).
 CONTOUR_POINTS = 720
+#: Rim points sampled for the box under lens distortion, each extreme refined by a parabola
+#: (:func:`.curve_box.sampled_curve_box`: within 0.001 px of the rim's box for the lenses of real cameras; why:
+#: docs/decisions/input-checks.md#box_contour_points).
+BOX_CONTOUR_POINTS = 48
 
 
 # ---------------------------------------------------------------------- size
@@ -72,12 +77,13 @@ def ellipsoid_bbox_optical(
     R_optical_ellipsoid: ArrayLike,
     *,
     clip: bool = True,
-    n_contour: int = CONTOUR_POINTS,
+    n_contour: int = BOX_CONTOUR_POINTS,
 ) -> NDArray[np.float64]:
     """Bounding box of the silhouette of ellipsoids given in the optical frame.
 
     Without lens distortion the box is exact (closed form from the projected
-    dual conic). With distortion the rim is sampled (``n_contour`` points) and projected.
+    dual conic). With distortion the rim is sampled (``n_contour`` points) and projected, and each extreme refined
+    by a parabola (:func:`.curve_box.sampled_curve_box`).
 
     Parameters
     ----------
@@ -116,7 +122,7 @@ def ellipsoid_bbox_optical(
         )
     else:
         uv = camera.project(ellipsoid_contour_optical(centre_optical, semi_axes, R_optical_ellipsoid, n_contour))
-        out = np.concatenate([uv.min(axis=-2), uv.max(axis=-2)], axis=-1)
+        out = sampled_curve_box(uv, closed=True)
     out = np.where(ok[..., None], out, np.nan)
     if clip:
         out = clip_boxes(out, camera.width, camera.height)
@@ -131,7 +137,7 @@ def ellipsoid_bbox(
     R_base_ellipsoid: ArrayLike,
     *,
     clip: bool = True,
-    n_contour: int = CONTOUR_POINTS,
+    n_contour: int = BOX_CONTOUR_POINTS,
 ) -> NDArray[np.float64]:
     """:func:`ellipsoid_bbox_optical` for ellipsoids given in the base frame.
 

@@ -8,7 +8,10 @@ path and what was expected, for example ``session.json: views[3].pose.quaternion
   (core: every layer may use them);
 - :mod:`.load`: the loader, ``dict`` or file -> :class:`Session` (:func:`~.load.load_session`);
 - :mod:`.baseline`: the loader's warnings about view geometry that cannot triangulate depth (one view, one
-  pose, too small a baseline).
+  pose, too small a baseline);
+- :mod:`.diagnose`: the input checks that name an integration mistake (boxes not in pixels or of another image,
+  pose conventions, duplicated views, one pose, distortion coefficients), :func:`~.diagnose.check_session`;
+  :mod:`.rays`: their test of whether box-centre rays of two views meet as one fruit would.
 
 The whole package is core: it imports nothing above it.
 

@@ -36,6 +36,7 @@ from ..frames import T_cameralink_optical, invert_transform
 from ..verdict import Cause
 from .baseline import SAME_POSE_DEG, SAME_POSE_M
 from .model import Session
+from .rays import ray_agreement
 
 # ---------------------------------------------------------------------- constants
 #: Every box coordinate at most this while the image is far larger: boxes normalised to 0..1 (with some margin for
@@ -51,11 +52,13 @@ PAST_EDGE_MIN_BOXES = 2
 PAST_EDGE_MIN_SHARE = 0.05
 #: A median box aspect (height / width) within this factor of the image's own (height/width stretched to a square)
 #: and at least :data:`STRETCH_MIN` away from 1: round fruit stretched by a square detector input.
+#: (why: docs/decisions/input-checks.md#stretch_tolerance)
 STRETCH_TOLERANCE = 1.12
 STRETCH_MIN = 1.2
 #: Fewest boxes for a statistic over boxes (aspect, spread) to speak.
 MIN_BOXES = 6
-#: Boxes of a smaller image: every box within this share of the image (both sides) ...
+#: (why: docs/decisions/input-checks.md#small_extent) Boxes of a smaller image: every box within this share of the
+#: image (both sides) ...
 SMALL_EXTENT = 0.7
 #: ... and the median box centre at least this share of the image above and left of the principal point.
 SMALL_OFFSET = 0.07
@@ -69,19 +72,8 @@ WIDE_ASPECT = 1.5
 #: (the rest of the shift is room for fruit that lie off-centre).
 CROP_OFFSET_SHARE = 0.6
 
-#: Two views closer than this (metres) give no baseline for the ray test.
-MIN_PAIR_BASELINE_M = 0.01
-#: Rays closer to parallel than this (radians) are skipped: their meeting point is not determined.
-MIN_RAY_ANGLE_RAD = np.radians(1.0)
-#: Two box-centre rays meet when their gap is under this share of the fruit radius the boxes give at that depth ...
-MEET_GAP_RADII = 0.6
-#: ... and the two radii (box angular size times depth) agree within this factor.
-MEET_SIZE_RATIO = 1.6
-#: Most view pairs the ray test uses (neighbours in session order first), and most boxes per view.
-MAX_PAIRS = 60
-MAX_BOXES_PER_VIEW = 40
 #: A convention whose rays agree on at least this share of boxes, and on this much more than the poses as given,
-#: is the one the poses are in.
+#: is the one the poses are in. (why: docs/decisions/input-checks.md#meet_gap_radii)
 AGREE_MIN = 0.5
 AGREE_MARGIN = 0.3
 
@@ -89,6 +81,7 @@ AGREE_MARGIN = 0.3
 SWAP_MARGIN = 0.2
 
 #: Tangential coefficients (p1, p2 of plumb_bob) beyond this are an order of magnitude above a real lens's.
+#: (why: docs/decisions/input-checks.md#max_tangential)
 MAX_TANGENTIAL = 0.01
 #: A pincushion ``k1`` above this with a negative ``k2``: the sign pattern of a barrel lens's undistortion model.
 FLIPPED_K1 = 0.05
@@ -100,7 +93,11 @@ POSE_HYPOTHESES = {
     "camera_link_as_optical": "camera_link poses (x forward, y left, z up) given as the optical frame's; "
     "look up the optical frame, or set pose_frame: camera_link",
     "optical_as_camera_link": "optical-frame poses declared pose_frame: camera_link; set pose_frame: optical",
+    "facing_away": "cameras facing away from the fruit (the optical axis reversed: a frame turned half a turn about "
+    "its y axis); check the camera frame's axes (z forward, x right, y down)",
 }
+#: Half a turn about the optical y axis: the camera facing the other way.
+T_FACING_AWAY = np.diag([-1.0, 1.0, -1.0, 1.0])
 
 
 # ---------------------------------------------------------------------- the one entry point
@@ -432,6 +429,8 @@ def pose_hypothesis(T_base_optical: NDArray[np.float64], name: str) -> NDArray[n
         return T @ T_cameralink_optical()
     if name == "optical_as_camera_link":  # the loader turned an optical pose as if it were camera_link's
         return T @ invert_transform(T_cameralink_optical())
+    if name == "facing_away":
+        return T @ T_FACING_AWAY
     raise ValueError(f"name: got {name!r}, expected 'given' or one of {sorted(POSE_HYPOTHESES)}")
 
 
@@ -461,76 +460,6 @@ def pose_convention_causes(session: Session) -> list[Cause]:
             details={"agreement_given": given, **{f"agreement_{k}": v for k, v in scores.items()}},
         )
     ]
-
-
-def ray_agreement(camera: Camera, T_base_optical: NDArray[np.float64], boxes: Sequence[NDArray[np.float64]]) -> float | None:
-    """Share of boxes whose centre ray meets a box-centre ray of another view as the same fruit would.
-
-    For each pair of views at least :data:`MIN_PAIR_BASELINE_M` apart (neighbours in session order first, at most
-    :data:`MAX_PAIRS`), a box of one view agrees when a box of the other has a centre ray that passes within
-    :data:`MEET_GAP_RADII` fruit radii of it, in front of both cameras, where the two boxes' angular sizes give
-    fruit radii within :data:`MEET_SIZE_RATIO` of each other. Correct poses make most boxes agree (a fruit hidden in
-    the other view does not); inverted poses or a rotated camera frame make rays meet behind the cameras or nowhere.
-
-    Parameters
-    ----------
-    camera : Camera
-    T_base_optical : ndarray, shape (N, 4, 4)
-    boxes : sequence of N arrays, shape (M_i, 4), pixels
-
-    Returns
-    -------
-    float in [0, 1], or None where no pair of views with boxes has a baseline
-    """
-    T = np.asarray(T_base_optical, dtype=float)
-    n = len(T)
-    rays, sizes = [], []
-    for i in range(n):
-        b = np.asarray(boxes[i], dtype=float).reshape(-1, 4)[:MAX_BOXES_PER_VIEW]
-        b = b[(b[:, 2] > b[:, 0]) & (b[:, 3] > b[:, 1])]
-        centre = 0.5 * (b[:, :2] + b[:, 2:])
-        rays.append(camera.rays(centre) @ T[i, :3, :3].T)
-        sizes.append(0.25 * ((b[:, 2] - b[:, 0]) / camera.fx + (b[:, 3] - b[:, 1]) / camera.fy))  # half-size, radians
-    pairs = [
-        (i, i + k)
-        for k in range(1, n)
-        for i in range(n - k)
-        if len(rays[i]) and len(rays[i + k]) and np.linalg.norm(T[i, :3, 3] - T[i + k, :3, 3]) >= MIN_PAIR_BASELINE_M
-    ][:MAX_PAIRS]
-    if not pairs:
-        return None
-    agree = total = 0
-    for i, j in pairs:
-        ok = _rays_meet(T[i, :3, 3], rays[i], sizes[i], T[j, :3, 3], rays[j], sizes[j])
-        agree += int(ok.any(axis=1).sum()) + int(ok.any(axis=0).sum())
-        total += ok.shape[0] + ok.shape[1]
-    return agree / total if total else None
-
-
-def _rays_meet(
-    P: NDArray[np.float64],
-    u: NDArray[np.float64],
-    ru: NDArray[np.float64],
-    Q: NDArray[np.float64],
-    v: NDArray[np.float64],
-    rv: NDArray[np.float64],
-) -> NDArray[np.bool_]:
-    """(A, B) whether ray ``P + s u[a]`` and ray ``Q + t v[b]`` meet as one fruit (see :func:`ray_agreement`)."""
-    w0 = P - Q
-    b = u @ v.T  # (A, B) cosines
-    d = (u @ w0)[:, None]
-    e = (v @ w0)[None, :]
-    denom = 1.0 - b**2
-    ok = denom > np.sin(MIN_RAY_ANGLE_RAD) ** 2
-    denom = np.where(ok, denom, 1.0)
-    s = (b * e - d) / denom
-    t = (e - b * d) / denom
-    gap = np.linalg.norm(w0[None, None, :] + s[..., None] * u[:, None, :] - t[..., None] * v[None, :, :], axis=-1)
-    r_a, r_b = s * ru[:, None], t * rv[None, :]
-    front = (s > 0) & (t > 0)
-    ratio = np.where(front, r_a / np.where(r_b > 0, r_b, 1.0), 0.0)
-    sized = (ratio < MEET_SIZE_RATIO) & (ratio > 1.0 / MEET_SIZE_RATIO)
-    return ok & front & sized & (gap < MEET_GAP_RADII * 0.5 * (r_a + r_b))
 
 
 # ---------------------------------------------------------------------- image spread
@@ -580,6 +509,13 @@ def image_spread_causes(session: Session) -> list[Cause]:
                 details=details,
             )
         ]
+    return _crop_causes(cam, float(ey), float(oy), details)
+
+
+def _crop_causes(cam: Camera, ey: float, oy: float, details: dict[str, list[float]]) -> list[Cause]:
+    """A 16:9 centre crop of a 4:3 (or squarer) sensor: every box within the crop's height (``ey``: the boxes'
+    bottom, a share of the height), their median centre ``oy`` (a share of the height) above the principal point."""
+    W, H = cam.width, cam.height
     if W / H < WIDE_ASPECT:
         h = round(W * 9 / 16)
         shift = (H - h) / 2 / H
