@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +13,10 @@ from .result import Result
 from .session import Session, Workspace
 from .session.load import load_session
 
-__all__ = ["DEFAULT_METHOD", "METHODS", "localize"]
+__all__ = ["DEFAULT_METHOD", "METHODS", "localize", "warmup"]
+
+#: The methods with compiled kernels, those :func:`warmup` prepares by default.
+COMPILED_METHODS = ("bayes", "paper")
 
 
 def localize(
@@ -68,3 +71,41 @@ def localize(
     result = run_method(session, method, config, progress, **options)
     result.timing_s.setdefault("total", time.perf_counter() - start)  # a method that does not time itself
     return result
+
+
+def warmup(methods: Sequence[str] | None = None) -> dict[str, float]:
+    """Compile every compiled kernel of ``methods`` ahead of time (or load it, when already compiled): one
+    localisation of the built-in example session per method.
+
+    A fresh installation compiles its kernels on their first call (seconds to tens of seconds) and caches them on
+    disk; call this where that first call must not wait: a robot before its first view, a Docker image build
+    (``monovisual3d warmup`` on the command line).
+
+    Parameters
+    ----------
+    methods : names of :data:`METHODS`, default :data:`COMPILED_METHODS`
+
+    Returns
+    -------
+    dict, method -> seconds taken
+
+    Examples
+    --------
+    >>> seconds = warmup(["bayes"])
+    >>> sorted(seconds)
+    ['bayes']
+    """
+    import warnings
+
+    from .examples import example_session_path
+
+    out = {}
+    session = load_session(example_session_path())
+    for method in COMPILED_METHODS if methods is None else methods:
+        get_method(method)
+        start = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            localize(session, method=method)
+        out[method] = time.perf_counter() - start
+    return out

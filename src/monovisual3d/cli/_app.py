@@ -37,6 +37,7 @@ COMMAND_ORDER = (
     "ros2",
     "batch",
     "reproduce",
+    "warmup",
     "bench",
 )
 
@@ -215,8 +216,11 @@ def _show_warning(message: Any, category: type[Warning], filename: str, lineno: 
 
 def main() -> None:
     """Console-script entry point."""
+    from ..kernels.jit import compile_notices
+
     warnings.showwarning = _show_warning
     try:
-        app()
+        with compile_notices(sys.stderr):  # a first run says that it compiles the kernels
+            app()
     except KeyboardInterrupt:  # pragma: no cover
         sys.exit(130)

@@ -45,6 +45,8 @@ class BayesLocalizer:
     camera : Camera
     config : BayesConfig
     workspace : Workspace, optional; else the paper's cube in front of the first view with a detection
+    warmup : bool, compile (first run) or load the compiled kernels now, with one estimate of the built-in example
+        (:func:`warm_up`), so that the first :meth:`estimate` does not pay for it: a robot before its first view
 
     Attributes
     ----------
@@ -64,7 +66,11 @@ class BayesLocalizer:
     1
     """
 
-    def __init__(self, camera: Camera, config: BayesConfig | None = None, *, workspace: Workspace | None = None) -> None:
+    def __init__(
+        self, camera: Camera, config: BayesConfig | None = None, *, workspace: Workspace | None = None, warmup: bool = False
+    ) -> None:
+        if warmup:
+            warm_up(config or BayesConfig())
         self.camera = camera
         self.config = config or BayesConfig()
         self.workspace = workspace
@@ -87,6 +93,29 @@ class BayesLocalizer:
     def pose_corrections(self) -> list[dict]:
         """The pose corrections of the last :meth:`estimate` (empty unless a pose uncertainty is configured)."""
         return list(self.last.pose_corrections) if self.last is not None else []
+
+
+def warm_up(config: BayesConfig | None = None) -> float:
+    """One estimate of the built-in example session with ``config``, so that the compiled kernels are ready (compiled
+    on a first run, loaded from the on-disk cache later); seconds taken.
+
+    Examples
+    --------
+    >>> warm_up() < 600
+    True
+    """
+    from ...examples import example_session_path
+    from ...session.load import load_session
+
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        session = load_session(example_session_path())
+        loc = BayesLocalizer(session.camera, config)
+        for view in session.views:
+            loc.update(view)
+        loc.estimate()
+    return time.perf_counter() - t0
 
 
 def _check_views(session: Session, config: BayesConfig, objects: list[DetectedObject]) -> list[str]:
