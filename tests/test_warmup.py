@@ -3,6 +3,11 @@
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 from typer.testing import CliRunner
 
@@ -36,3 +41,25 @@ def test_warmup_command() -> None:
     res = CliRunner().invoke(app, ["warmup", "--methods", "bayes"])
     assert res.exit_code == 0, res.output
     assert "bayes: kernels ready in" in res.stdout
+
+
+def test_one_command_builds_alone() -> None:
+    """``main`` builds only the command it runs (typer would build every command's options first)."""
+    import typer.main
+
+    from monovisual3d.cli._app import only_command
+
+    group = typer.main.get_command(only_command(["localize", "session.json", "-q"]))
+    assert list(group.commands) == ["localize"]
+    assert only_command(["bench", "startup"]) is app  # a group of commands: the whole application
+    assert only_command([]) is app and only_command(["--help"]) is app and only_command(["nope"]) is app
+
+
+def test_main_runs_one_command_in_a_fresh_process(tmp_path: Path) -> None:
+    from monovisual3d.examples import example_session_path
+
+    out = tmp_path / "result.json"
+    cmd = [sys.executable, "-m", "monovisual3d.cli", "localize", str(example_session_path()), "-q", "-o", str(out)]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert len(json.loads(out.read_text())["objects"]) == 1
