@@ -17,6 +17,8 @@ from monovisual3d.frames import (
     invert_transform,
     look_at,
     position_quaternion_from_transform,
+    quaternion_from_rotation,
+    rotation_from_quaternion,
     transform_from_position_quaternion,
     transform_points,
 )
@@ -51,6 +53,19 @@ def test_position_quaternion_round_trip(rng: np.random.Generator) -> None:
         assert q2[3] >= 0
         assert_allclose(p2, p, atol=1e-12)
         assert_allclose(q2, q if q[3] >= 0 else -q, atol=1e-12)
+
+
+def test_quaternion_conversions_match_scipy(rng: np.random.Generator) -> None:
+    """The numpy conversions (no scipy.spatial import on a session's path) equal scipy's, unnormalised input too."""
+    quats = rng.normal(size=(200, 4)) * rng.uniform(0.1, 3.0, (200, 1))
+    for q in quats:
+        R = rotation_from_quaternion(q)
+        assert_allclose(R, Rotation.from_quat(q).as_matrix(), atol=1e-14)
+        q_scipy = Rotation.from_matrix(R).as_quat()
+        q_ours = quaternion_from_rotation(R)
+        assert_allclose(q_ours, q_scipy if np.dot(q_ours, q_scipy) > 0 else -q_scipy, atol=1e-14)
+    for R in (np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0])):
+        assert_allclose(rotation_from_quaternion(quaternion_from_rotation(R)), R, atol=1e-14)
 
 
 def test_quaternion_order_is_xyzw() -> None:

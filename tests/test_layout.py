@@ -447,6 +447,17 @@ def test_cli_help_does_not_load_the_heavy_libraries() -> None:
     assert not {"numpy", "scipy", "numba", "sklearn", "matplotlib", "torch", "mujoco", "cv2"} & {m.split(".")[0] for m in loaded}
 
 
+def test_localize_path_loads_no_unused_scipy() -> None:
+    """The default method's modules and the session loader import neither scipy.optimize (0.45 s), scipy.spatial nor
+    scipy.special: the few calls that need them (pose corrections, bounded shape fits) import them on first use
+    (issue 56)."""
+    loaded = _modules_after(
+        "import monovisual3d.api, monovisual3d.session.load, monovisual3d.methods.bayes.pipeline, monovisual3d.cli"
+    )
+    assert "monovisual3d.methods.bayes.pipeline" in loaded
+    assert not {"scipy.optimize", "scipy.spatial", "scipy.special"} & loaded
+
+
 def test_version_option() -> None:
     out = subprocess.run([sys.executable, "-m", "monovisual3d.cli", "--version"], capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.strip() == f"monovisual3d {monovisual3d.__version__}"

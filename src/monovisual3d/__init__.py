@@ -39,12 +39,13 @@ _LAZY = {
     "evaluate": "metrics",
     "load_session": "session.load",
     "localize": "api",
+    "warmup": "api",
 }
 
 __all__ = sorted(_LAZY)
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from .api import localize
+    from .api import localize, warmup
     from .camera import Camera
     from .errors import InputError, InputWarning
     from .grid import VoxelGrid

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +17,10 @@ from .session.diagnose import check_session, views_as_given
 from .session.load import load_session
 from .verdict import Cause, with_causes
 
-__all__ = ["DEFAULT_METHOD", "METHODS", "localize"]
+__all__ = ["DEFAULT_METHOD", "METHODS", "localize", "warmup"]
+
+#: The methods with compiled kernels, those :func:`warmup` prepares by default.
+COMPILED_METHODS = ("bayes", "paper")
 
 
 def localize(
@@ -101,3 +104,39 @@ def _with_input_causes(result: Result, causes: list[Cause], messages: list[str])
         result.warnings[:0] = [m for m in messages if m not in result.warnings]
         result.quality = with_causes(result.quality, causes)
     return result
+
+
+def warmup(methods: Sequence[str] | None = None) -> dict[str, float]:
+    """Compile every compiled kernel of ``methods`` ahead of time (or load it, when already compiled): one
+    localisation of the built-in example session per method.
+
+    A fresh installation compiles its kernels on their first call (seconds to tens of seconds) and caches them on
+    disk; call this where that first call must not wait: a robot before its first view, a Docker image build
+    (``monovisual3d warmup`` on the command line).
+
+    Parameters
+    ----------
+    methods : names of :data:`METHODS`, default :data:`COMPILED_METHODS`
+
+    Returns
+    -------
+    dict, method -> seconds taken
+
+    Examples
+    --------
+    >>> seconds = warmup(["bayes"])
+    >>> sorted(seconds)
+    ['bayes']
+    """
+    from .examples import example_session_path
+
+    out = {}
+    session = load_session(example_session_path())
+    for method in COMPILED_METHODS if methods is None else methods:
+        get_method(method)
+        start = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            localize(session, method=method)
+        out[method] = time.perf_counter() - start
+    return out

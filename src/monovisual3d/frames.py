@@ -83,19 +83,82 @@ def transform_from_position_quaternion(position: ArrayLike, quaternion_xyzw: Arr
     array([1., 2., 3.])
     """
     T = np.eye(4)
-    from scipy.spatial.transform import Rotation  # imported on first use: keeps `import monovisual3d` fast
-
-    T[:3, :3] = Rotation.from_quat(np.asarray(quaternion_xyzw, dtype=float)).as_matrix()
+    T[:3, :3] = rotation_from_quaternion(quaternion_xyzw)
     T[:3, 3] = np.asarray(position, dtype=float)
     return T
+
+
+def rotation_from_quaternion(quaternion_xyzw: ArrayLike) -> NDArray[np.float64]:
+    """Rotation matrix of a quaternion, normalised first (as :meth:`scipy.spatial.transform.Rotation.from_quat`).
+
+    Plain numpy, so that reading a session does not import ``scipy.spatial`` (0.2-0.4 s, issue 56); equal to
+    scipy's to rounding (tested).
+
+    Parameters
+    ----------
+    quaternion_xyzw : array_like, shape (4,), (x, y, z, w), not zero
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3), float64
+
+    Examples
+    --------
+    >>> rotation_from_quaternion([0, 0, 0, 2])
+    array([[1., 0., 0.],
+           [0., 1., 0.],
+           [0., 0., 1.]])
+    """
+    q = np.asarray(quaternion_xyzw, dtype=float)
+    x, y, z, w = (q / np.linalg.norm(q)).tolist()
+    xx, yy, zz, ww = x * x, y * y, z * z, w * w
+    xy, xz, xw, yz, yw, zw = x * y, x * z, x * w, y * z, y * w, z * w
+    return np.array(
+        [
+            [xx - yy - zz + ww, 2 * (xy - zw), 2 * (xz + yw)],
+            [2 * (xy + zw), -xx + yy - zz + ww, 2 * (yz - xw)],
+            [2 * (xz - yw), 2 * (yz + xw), -xx - yy + zz + ww],
+        ]
+    )
+
+
+def quaternion_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternion ``(x, y, z, w)`` of a rotation matrix, as :meth:`scipy.spatial.transform.Rotation.from_matrix`
+    (Markley's method: the largest of the four candidate components first; either sign).
+
+    Parameters
+    ----------
+    R : array_like, shape (3, 3), a rotation
+
+    Returns
+    -------
+    quaternion_xyzw : ndarray, shape (4,), float64, unit norm
+
+    Examples
+    --------
+    >>> quaternion_from_rotation(np.eye(3))
+    array([0., 0., 0., 1.])
+    """
+    R = np.asarray(R, dtype=float)
+    trace = R[0, 0] + R[1, 1] + R[2, 2]
+    choice = int(np.argmax([R[0, 0], R[1, 1], R[2, 2], trace]))
+    q = np.empty(4)
+    if choice == 3:
+        q[0], q[1], q[2], q[3] = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1], 1 + trace
+    else:
+        i = choice
+        j, k = (i + 1) % 3, (i + 2) % 3
+        q[i] = 1 - trace + 2 * R[i, i]
+        q[j] = R[j, i] + R[i, j]
+        q[k] = R[k, i] + R[i, k]
+        q[3] = R[k, j] - R[j, k]
+    return q / np.linalg.norm(q)
 
 
 def position_quaternion_from_transform(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Split ``T`` into position (3,) and quaternion_xyzw (4,) with w >= 0."""
     T = np.asarray(T, dtype=float)
-    from scipy.spatial.transform import Rotation
-
-    q = Rotation.from_matrix(T[:3, :3]).as_quat()
+    q = quaternion_from_rotation(T[:3, :3])
     if q[3] < 0:
         q = -q
     return T[:3, 3].copy(), q

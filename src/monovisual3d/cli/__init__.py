@@ -19,6 +19,7 @@ from . import (
     sim,  # noqa: F401
     startup,  # noqa: F401
     view,  # noqa: F401
+    warmup,  # noqa: F401
 )
 from ._app import app, main
 

@@ -38,7 +38,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from ..camera import Camera
 from ..errors import InputError
@@ -145,6 +144,8 @@ def perturbed(
             rotvec[:, "xyz".index(name[1])] += col
         else:  # tilt_a, tilt_b: about the first / second axis
             rotvec += col[:, None] * R0[:, 0 if name == "tilt_a" else 1]
+    from scipy.spatial.transform import Rotation  # on first use: scipy.spatial takes 0.2-0.4 s to import
+
     R = Rotation.from_rotvec(rotvec).as_matrix() @ R0
     return centres, s, R
 

@@ -33,7 +33,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 
 from ..camera import Camera
 from ..errors import InputError
@@ -435,6 +434,8 @@ def _least_squares_from(
                     "x_scale": "jac",
                     "max_nfev": MAX_NFEV_PER_PARAMETER * len(theta0),
                 }
+                from scipy.optimize import least_squares  # on first use: 0.45 s to import, rarely needed
+
                 b = least_squares(lambda th: batch(th[None])[0], theta0, bounds=(lower, upper), **options)
                 res = Solution(b.x, b.fun, float(b.cost), b.jac, bool(b.success), int(b.nfev))
             theta0 = np.clip(res.x, lower + 1e-12, upper - 1e-12)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
 
@@ -85,6 +84,8 @@ def rotation_from_quaternion_xyzw(quaternion_xyzw: ArrayLike) -> NDArray[np.floa
 
 def quaternion_xyzw_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
     """Unit quaternions (..., 4), (x, y, z, w) with w >= 0, of rotation matrices (..., 3, 3)."""
+    from scipy.spatial.transform import Rotation  # on first use: scipy.spatial takes 0.2-0.4 s to import
+
     R = np.asarray(R, dtype=float)
     q = Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat().reshape(R.shape[:-2] + (4,))
     return np.where(q[..., 3:] < 0, -q, q)

@@ -14,6 +14,9 @@ import numpy as np
 from numba import njit
 
 from .flags import NJIT_OPTIONS
+from .jit import listen
+
+listen()  # every method's kernels project through here: their first compilation shows itself (:mod:`.jit`)
 
 #: Pixel coordinate given to cells behind the camera: no box reaches it.
 FAR_PX = 1e30

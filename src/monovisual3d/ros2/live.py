@@ -27,6 +27,7 @@ from ..frames import T_base_optical_from_T_base_cameralink, T_cameralink_optical
 from ..io.ros_messages import NS_PER_S
 from ..io.tf import TransformUnavailable
 from ..methods.bayes import BayesConfig, BayesLocalizer
+from ..methods.bayes.localizer import warm_up as bayes_warm_up
 from ..session import Detection, View
 from . import msgs
 from .config import NodeConfig
@@ -119,18 +120,7 @@ def resolve_view(
 
 def warm_up(method: BayesConfig) -> float:
     """One estimate of the built-in example session with ``method``, so the compiled kernels are ready; seconds taken."""
-    from ..examples import example_session_path
-    from ..session.load import load_session
-
-    t0 = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        session = load_session(example_session_path())
-        loc = BayesLocalizer(session.camera, method)
-        for view in session.views:
-            loc.update(view)
-        loc.estimate()
-    return time.perf_counter() - t0
+    return bayes_warm_up(method)
 
 
 @dataclass

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
+from ...kernels.jit import kernel
 from ...kernels.threads import kernel_threads
 from ._predict import _distort_xy, _in_front, _spheroid_box_px, camera_arrays
 from .boxindex import SCAN_BELOW_BOXES, TileIndex, build_index
@@ -144,6 +145,117 @@ def _best_box(v, boxes, available, cand, m, px1, py1, px2, py2, sx, sy, wx, wy, 
     return best, found
 
 
+def _score_one(
+    n,
+    centres,
+    radii,
+    semi_up,
+    axis_opt,
+    mask,
+    T_ob,
+    boxes,
+    index,
+    available,
+    cam,
+    code,
+    coeffs,
+    params,
+    cell_half_diagonal,
+    distortion_gain,
+    position_sigma,
+    extra_const_px,
+    total,
+    n_assoc,
+    assoc,
+):  # pragma: no cover - jitted
+    """The scores of hypothesis row ``n`` of :func:`_score_kernel`: one body, compiled once outside the parallel loop
+    (numba's parallel passes over this body inlined took three quarters of the search's compile time, issue 56)."""
+    K = radii.shape[0]
+    V = T_ob.shape[0]
+    fx, fy, cx, cy, W, H = cam[0], cam[1], cam[2], cam[3], cam[4], cam[5]
+    alpha, sigma0, gate = params[0], params[1], params[7]
+    fmax = fx if fx > fy else fy
+    count = index[0]
+    pred = np.empty((K, 8))  # per shape bin in the current view: predicted box, sx, sy, gate widening x, y
+    seen = np.zeros(K, dtype=np.bool_)
+    cand = np.empty(max(boxes.shape[1], 1), dtype=np.int64)
+    for kk in range(K):
+        total[n, kk] = 0.0
+        n_assoc[n, kk] = 0
+        for v in range(V):
+            assoc[v, n, kk] = -1
+        if not mask[n, kk]:
+            total[n, kk] = -math.inf
+    for v in range(V):
+        X = T_ob[v, 0, 0] * centres[n, 0] + T_ob[v, 0, 1] * centres[n, 1] + T_ob[v, 0, 2] * centres[n, 2] + T_ob[v, 0, 3]
+        Y = T_ob[v, 1, 0] * centres[n, 0] + T_ob[v, 1, 1] * centres[n, 1] + T_ob[v, 1, 2] * centres[n, 2] + T_ob[v, 1, 3]
+        Z = T_ob[v, 2, 0] * centres[n, 0] + T_ob[v, 2, 1] * centres[n, 1] + T_ob[v, 2, 2] * centres[n, 2] + T_ob[v, 2, 3]
+        zc = Z if Z > 1e-6 else 1e-6
+        eb = fmax * cell_half_diagonal / zc
+        ep = fmax * position_sigma / zc
+        gate2 = ep * ep + extra_const_px * extra_const_px  # noise of the gate: without the cell
+        extra2 = eb * eb + gate2  # noise of the score: the cell blurs it too
+        shift = _cell_shift_px(fmax * distortion_gain, cell_half_diagonal, Z)
+        qx1, qy1, qx2, qy2 = HUGE, HUGE, -HUGE, -HUGE  # the union of the bins' gates: one look-up for all bins
+        for kk in range(K):
+            seen[kk] = False
+            if not mask[n, kk] or not _in_front(Z, radii[kk], semi_up[kk], axis_opt[v, kk, 2]):
+                continue
+            ux, uy, uz = axis_opt[v, kk, 0], axis_opt[v, kk, 1], axis_opt[v, kk, 2]
+            px1, py1, px2, py2 = _spheroid_box_px(X, Y, Z, radii[kk], semi_up[kk], ux, uy, uz, fx, fy, cx, cy, code, coeffs)
+            if not (px2 > 0 and px1 < W and py2 > 0 and py1 < H):
+                continue
+            sx0 = alpha * (px2 - px1) + sigma0
+            sy0 = alpha * (py2 - py1) + sigma0
+            sx, sy, gsx, gsy = sx0, sy0, sx0, sy0
+            if extra2 > 0:
+                sx = math.sqrt(sx0 * sx0 + extra2)
+                sy = math.sqrt(sy0 * sy0 + extra2)
+            if gate2 > 0:
+                gsx = math.sqrt(sx0 * sx0 + gate2)
+                gsy = math.sqrt(sy0 * sy0 + gate2)
+            ex = max(abs(px1 - cx), abs(px2 - cx)) / fx
+            ey = max(abs(py1 - cy), abs(py2 - cy)) / fy
+            wx = gate * gsx + shift * math.sqrt(1.0 + ex * ex)
+            wy = gate * gsy + shift * math.sqrt(1.0 + ey * ey)
+            seen[kk] = True
+            pred[kk, 0], pred[kk, 1], pred[kk, 2], pred[kk, 3] = px1, py1, px2, py2
+            pred[kk, 4], pred[kk, 5], pred[kk, 6], pred[kk, 7] = sx, sy, wx, wy
+            qx1 = min(qx1, px1 - wx)
+            qy1 = min(qy1, py1 - wy)
+            qx2 = max(qx2, px2 + wx)
+            qy2 = max(qy2, py2 + wy)
+        if qx2 < qx1:  # no bin in the image
+            continue
+        m = -1
+        if count[v] > SCAN_BELOW_BOXES:
+            m = _query(index, v, qx1, qy1, qx2, qy2, cand)
+        for kk in range(K):
+            if not seen[kk]:
+                continue
+            best, found = _best_box(
+                v,
+                boxes,
+                available,
+                cand,
+                m,
+                pred[kk, 0],
+                pred[kk, 1],
+                pred[kk, 2],
+                pred[kk, 3],
+                pred[kk, 4],
+                pred[kk, 5],
+                pred[kk, 6],
+                pred[kk, 7],
+                cam,
+                params,
+            )
+            total[n, kk] += best
+            if found >= 0:
+                n_assoc[n, kk] += 1
+                assoc[v, n, kk] = found
+
+
 def _score_kernel(
     centres,
     radii,
@@ -166,92 +278,30 @@ def _score_kernel(
     n_assoc,
     assoc,
 ):  # pragma: no cover - jitted
-    N = centres.shape[0]
-    K = radii.shape[0]
-    V = T_ob.shape[0]
-    fx, fy, cx, cy, W, H = cam[0], cam[1], cam[2], cam[3], cam[4], cam[5]
-    alpha, sigma0, gate = params[0], params[1], params[7]
-    fmax = fx if fx > fy else fy
-    count = index[0]
-    for n in numba.prange(N):
-        pred = np.empty((K, 8))  # per shape bin in the current view: predicted box, sx, sy, gate widening x, y
-        seen = np.zeros(K, dtype=np.bool_)
-        cand = np.empty(max(boxes.shape[1], 1), dtype=np.int64)
-        for kk in range(K):
-            total[n, kk] = 0.0
-            n_assoc[n, kk] = 0
-            for v in range(V):
-                assoc[v, n, kk] = -1
-            if not mask[n, kk]:
-                total[n, kk] = -math.inf
-        for v in range(V):
-            X = T_ob[v, 0, 0] * centres[n, 0] + T_ob[v, 0, 1] * centres[n, 1] + T_ob[v, 0, 2] * centres[n, 2] + T_ob[v, 0, 3]
-            Y = T_ob[v, 1, 0] * centres[n, 0] + T_ob[v, 1, 1] * centres[n, 1] + T_ob[v, 1, 2] * centres[n, 2] + T_ob[v, 1, 3]
-            Z = T_ob[v, 2, 0] * centres[n, 0] + T_ob[v, 2, 1] * centres[n, 1] + T_ob[v, 2, 2] * centres[n, 2] + T_ob[v, 2, 3]
-            zc = Z if Z > 1e-6 else 1e-6
-            eb = fmax * cell_half_diagonal / zc
-            ep = fmax * position_sigma / zc
-            gate2 = ep * ep + extra_const_px * extra_const_px  # noise of the gate: without the cell
-            extra2 = eb * eb + gate2  # noise of the score: the cell blurs it too
-            shift = _cell_shift_px(fmax * distortion_gain, cell_half_diagonal, Z)
-            qx1, qy1, qx2, qy2 = HUGE, HUGE, -HUGE, -HUGE  # the union of the bins' gates: one look-up for all bins
-            for kk in range(K):
-                seen[kk] = False
-                if not mask[n, kk] or not _in_front(Z, radii[kk], semi_up[kk], axis_opt[v, kk, 2]):
-                    continue
-                ux, uy, uz = axis_opt[v, kk, 0], axis_opt[v, kk, 1], axis_opt[v, kk, 2]
-                px1, py1, px2, py2 = _spheroid_box_px(X, Y, Z, radii[kk], semi_up[kk], ux, uy, uz, fx, fy, cx, cy, code, coeffs)
-                if not (px2 > 0 and px1 < W and py2 > 0 and py1 < H):
-                    continue
-                sx0 = alpha * (px2 - px1) + sigma0
-                sy0 = alpha * (py2 - py1) + sigma0
-                sx, sy, gsx, gsy = sx0, sy0, sx0, sy0
-                if extra2 > 0:
-                    sx = math.sqrt(sx0 * sx0 + extra2)
-                    sy = math.sqrt(sy0 * sy0 + extra2)
-                if gate2 > 0:
-                    gsx = math.sqrt(sx0 * sx0 + gate2)
-                    gsy = math.sqrt(sy0 * sy0 + gate2)
-                ex = max(abs(px1 - cx), abs(px2 - cx)) / fx
-                ey = max(abs(py1 - cy), abs(py2 - cy)) / fy
-                wx = gate * gsx + shift * math.sqrt(1.0 + ex * ex)
-                wy = gate * gsy + shift * math.sqrt(1.0 + ey * ey)
-                seen[kk] = True
-                pred[kk, 0], pred[kk, 1], pred[kk, 2], pred[kk, 3] = px1, py1, px2, py2
-                pred[kk, 4], pred[kk, 5], pred[kk, 6], pred[kk, 7] = sx, sy, wx, wy
-                qx1 = min(qx1, px1 - wx)
-                qy1 = min(qy1, py1 - wy)
-                qx2 = max(qx2, px2 + wx)
-                qy2 = max(qy2, py2 + wy)
-            if qx2 < qx1:  # no bin in the image
-                continue
-            m = -1
-            if count[v] > SCAN_BELOW_BOXES:
-                m = _query(index, v, qx1, qy1, qx2, qy2, cand)
-            for kk in range(K):
-                if not seen[kk]:
-                    continue
-                best, found = _best_box(
-                    v,
-                    boxes,
-                    available,
-                    cand,
-                    m,
-                    pred[kk, 0],
-                    pred[kk, 1],
-                    pred[kk, 2],
-                    pred[kk, 3],
-                    pred[kk, 4],
-                    pred[kk, 5],
-                    pred[kk, 6],
-                    pred[kk, 7],
-                    cam,
-                    params,
-                )
-                total[n, kk] += best
-                if found >= 0:
-                    n_assoc[n, kk] += 1
-                    assoc[v, n, kk] = found
+    for n in numba.prange(centres.shape[0]):
+        _score_one(
+            np.int64(n),  # the parallel loop's index is unsigned: one signed type, one compiled body
+            centres,
+            radii,
+            semi_up,
+            axis_opt,
+            mask,
+            T_ob,
+            boxes,
+            index,
+            available,
+            cam,
+            code,
+            coeffs,
+            params,
+            cell_half_diagonal,
+            distortion_gain,
+            position_sigma,
+            extra_const_px,
+            total,
+            n_assoc,
+            assoc,
+        )
 
 
 def _cone_kernel(centres, T_ob, boxes, nboxes, cam, code, coeffs, half_diagonal, widen, counts):  # pragma: no cover - jitted
@@ -360,9 +410,10 @@ _cell_shift_px = numba.njit(cache=True, inline="always")(_cell_shift_px)
 _beats = numba.njit(cache=True, inline="always")(_beats)
 _box_score = numba.njit(cache=True, inline="always", fastmath=True)(_box_score)
 _best_box = numba.njit(cache=True, inline="always", fastmath=True)(_best_box)
-_score_kernel = numba.njit(cache=True, parallel=True, fastmath=True)(_score_kernel)
-_cone_kernel = numba.njit(cache=True, parallel=True)(_cone_kernel)
-_dominated_kernel = numba.njit(cache=True)(_dominated_kernel)
+_score_one = numba.njit(cache=True, fastmath=True)(_score_one)
+_score_kernel = kernel("bayes", parallel=True, fastmath=True)(_score_kernel)
+_cone_kernel = kernel("bayes", parallel=True)(_cone_kernel)
+_dominated_kernel = kernel("bayes")(_dominated_kernel)
 
 
 def pack_views(

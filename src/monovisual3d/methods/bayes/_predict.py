@@ -1,7 +1,7 @@
 """Compiled box predictions shared by the fused kernels: the pixel box of a sphere or a spheroid seen by the camera.
 
 Device functions (jitted and inlined into their callers): :func:`_spheroid_box_px` is the twin of
-:func:`monovisual3d.geometry.spheroid.predict_spheroid_boxes`, :func:`_sphere_box_px` of
+:func:`monovisual3d.geometry.spheroid.predict_spheroid_boxes` and, for a sphere, of
 :func:`monovisual3d.geometry.sphere.predict_sphere_boxes`. :mod:`._kernels` (the search's scores) and
 :mod:`._residuals` (the refinement's edge residuals) both use them.
 """
@@ -23,11 +23,11 @@ def _distort_xy(x: float, y: float, code: int, k: NDArray[np.float64]) -> tuple[
     return distort_xy(x, y, code, k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7], 1.0)
 
 
-def _sphere_box_px(X, Y, Z, r, fx, fy, cx, cy, code, coeffs):  # pragma: no cover - jitted
-    """Pixel box (x1, y1, x2, y2) of a sphere at optical (X, Y, Z), radius r, for Z > r: as ``predict_sphere_boxes``.
+def _sphere_box_normalised(X, Y, Z, r):  # pragma: no cover - jitted
+    """Normalised box (x1, y1, x2, y2), undistorted, of a sphere at optical (X, Y, Z), radius r, for Z > r.
 
     ``tan(phi -/+ h) = (t -/+ s) / (1 +/- t s)`` with ``t = X / Z`` and ``s = tan(h) = r / sqrt(X^2 + Z^2 - r^2)``
-    (no trigonometry); with distortion, each edge is distorted at the centre's other coordinate.
+    (no trigonometry).
     """
     tx = X / Z
     ty = Y / Z
@@ -38,44 +38,53 @@ def _sphere_box_px(X, Y, Z, r, fx, fy, cx, cy, code, coeffs):  # pragma: no cove
     nx2 = (tx + sx_) / (1.0 - tx * sx_)
     ny1 = (ty - sy_) / (1.0 + ty * sy_)
     ny2 = (ty + sy_) / (1.0 - ty * sy_)
-    if code != 0:
-        nx1, _ = _distort_xy(nx1, ty, code, coeffs)
-        nx2, _ = _distort_xy(nx2, ty, code, coeffs)
-        _, ny1 = _distort_xy(tx, ny1, code, coeffs)
-        _, ny2 = _distort_xy(tx, ny2, code, coeffs)
-    return fx * nx1 + cx, fy * ny1 + cy, fx * nx2 + cx, fy * ny2 + cy
+    return nx1, ny1, nx2, ny2
 
 
 def _spheroid_box_px(X, Y, Z, a, b, ux, uy, uz, fx, fy, cx, cy, code, coeffs):  # pragma: no cover - jitted
     """Pixel box of an upright spheroid (semi-axis ``a`` across the unit axis ``u``, ``b`` along it) at optical
-    (X, Y, Z), for ``Z > 0`` and ``Z^2 > a^2 + (b^2 - a^2) uz^2``: as ``geometry.spheroid.predict_spheroid_boxes``.
+    (X, Y, Z), for ``Z > 0`` and ``Z^2 > a^2 + (b^2 - a^2) uz^2``: as ``geometry.spheroid.predict_spheroid_boxes``;
+    for ``a == b``, a sphere's box as ``geometry.sphere.predict_sphere_boxes`` (:func:`_sphere_box_normalised`).
 
-    The tangent lines of the projected dual conic ``C* = c c^T - A``; ``a == b`` uses :func:`_sphere_box_px`.
+    The tangent lines of the projected dual conic ``C* = c c^T - A``. With distortion, each edge is distorted at
+    the centre's other coordinate. One distortion for both shapes: every inlined copy of :func:`_distort_xy`
+    costs compile time (issue 56).
     """
     a2 = a * a
     d = b * b - a2
     if d == 0.0:
-        return _sphere_box_px(X, Y, Z, a, fx, fy, cx, cy, code, coeffs)
-    c11 = X * X - (a2 + d * ux * ux)
-    c22 = Y * Y - (a2 + d * uy * uy)
-    c33 = Z * Z - (a2 + d * uz * uz)
-    c13 = X * Z - d * ux * uz
-    c23 = Y * Z - d * uy * uz
-    qx = c13 * c13 - c11 * c33
-    qy = c23 * c23 - c22 * c33
-    sx_ = math.sqrt(qx) if qx > 0.0 else 0.0
-    sy_ = math.sqrt(qy) if qy > 0.0 else 0.0
-    nx1 = (c13 - sx_) / c33
-    nx2 = (c13 + sx_) / c33
-    ny1 = (c23 - sy_) / c33
-    ny2 = (c23 + sy_) / c33
+        nx1, ny1, nx2, ny2 = _sphere_box_normalised(X, Y, Z, a)
+    else:
+        c11 = X * X - (a2 + d * ux * ux)
+        c22 = Y * Y - (a2 + d * uy * uy)
+        c33 = Z * Z - (a2 + d * uz * uz)
+        c13 = X * Z - d * ux * uz
+        c23 = Y * Z - d * uy * uz
+        qx = c13 * c13 - c11 * c33
+        qy = c23 * c23 - c22 * c33
+        sx_ = math.sqrt(qx) if qx > 0.0 else 0.0
+        sy_ = math.sqrt(qy) if qy > 0.0 else 0.0
+        nx1 = (c13 - sx_) / c33
+        nx2 = (c13 + sx_) / c33
+        ny1 = (c23 - sy_) / c33
+        ny2 = (c23 + sy_) / c33
     if code != 0:
         tx = X / Z
         ty = Y / Z
-        nx1, _ = _distort_xy(nx1, ty, code, coeffs)
-        nx2, _ = _distort_xy(nx2, ty, code, coeffs)
-        _, ny1 = _distort_xy(tx, ny1, code, coeffs)
-        _, ny2 = _distort_xy(tx, ny2, code, coeffs)
+        dx1, dx2, dy1, dy2 = nx1, nx2, ny1, ny2
+        for edge in range(4):  # one inlined distortion for the four edges, not four copies (compile time, issue 56)
+            x = nx1 if edge == 0 else (nx2 if edge == 1 else tx)
+            y = ty if edge < 2 else (ny1 if edge == 2 else ny2)
+            xd, yd = _distort_xy(x, y, code, coeffs)
+            if edge == 0:
+                dx1 = xd
+            elif edge == 1:
+                dx2 = xd
+            elif edge == 2:
+                dy1 = yd
+            else:
+                dy2 = yd
+        nx1, nx2, ny1, ny2 = dx1, dx2, dy1, dy2
     return fx * nx1 + cx, fy * ny1 + cy, fx * nx2 + cx, fy * ny2 + cy
 
 
@@ -94,6 +103,6 @@ def camera_arrays(camera: Camera) -> tuple[NDArray[np.float64], int, NDArray[np.
 
 
 _distort_xy = numba.njit(cache=True, inline="always")(_distort_xy)
-_sphere_box_px = numba.njit(cache=True, inline="always")(_sphere_box_px)
+_sphere_box_normalised = numba.njit(cache=True, inline="always")(_sphere_box_normalised)
 _spheroid_box_px = numba.njit(cache=True, inline="always")(_spheroid_box_px)
 _in_front = numba.njit(cache=True, inline="always")(_in_front)

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from ...camera import Camera
+from ...kernels.jit import kernel
 from ._predict import _in_front, _spheroid_box_px, camera_arrays
 from .sensor import UNDEFINED_RESIDUAL, SensorModel
 
@@ -116,4 +116,4 @@ def box_residuals_fused(
     return out
 
 
-_box_residuals_kernel = numba.njit(cache=True, error_model="numpy")(_box_residuals_kernel)
+_box_residuals_kernel = kernel("bayes", error_model="numpy")(_box_residuals_kernel)

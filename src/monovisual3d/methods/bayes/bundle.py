@@ -55,11 +55,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import OptimizeResult, least_squares
-from scipy.spatial.transform import Rotation
 
 from ...camera import Camera
 from ...errors import InputError
@@ -67,6 +66,9 @@ from ...geometry.sphere import predict_sphere_boxes
 from .likelihood import edge_residuals, pose_sigma_px
 from .refine import MIN_START_RADIUS_M, SPHERE_X_SCALE, Observation, observation_residuals, robust_loss
 from .sensor import UNDEFINED_RESIDUAL, SensorModel
+
+if TYPE_CHECKING:
+    from scipy.optimize import OptimizeResult
 
 
 @dataclass
@@ -120,6 +122,8 @@ def correction_transform(rotvec_optical: NDArray[np.floating], translation_optic
     >>> correction_transform(np.zeros(3), np.array([0.0, 0.0, 0.001]))[:3, 3]
     array([0.   , 0.   , 0.001])
     """
+    from scipy.spatial.transform import Rotation  # on first use: a localisation without pose corrections never needs it
+
     T = np.eye(4)
     T[:3, :3] = Rotation.from_rotvec(np.asarray(rotvec_optical, dtype=float)).as_matrix()
     T[:3, 3] = np.asarray(translation_optical, dtype=float)
@@ -395,6 +399,8 @@ class _BundleProblem:
         self, x: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]]:
         """Objects, shape (N, 4) ``(x, y, z, log r)``, and per seen view its correction ``(R, t)``: (3, 3), (3,)."""
+        from scipy.spatial.transform import Rotation
+
         obj = x[: 4 * self.n_obj].reshape(self.n_obj, 4)
         n_act = self.n_act
         poses = {}
@@ -471,6 +477,8 @@ def _graduated_solve(
     corrections are still 0, box offsets that the poses explain must not be
     taken for outliers by the robust loss), then without, from that solution.
     """
+    from scipy.optimize import least_squares  # on first use: 0.45 s to import, only pose corrections need it
+
     fun, col_owner, n_par = problem.residuals, problem.column_owners(), problem.n_par
     loss = _mixed_loss(problem.model.inward_floor, problem.n_data)
     x0, x_scale = problem.x0(centres0, radii0), problem.x_scale()

@@ -51,6 +51,8 @@ class BayesLocalizer:
     check_input : bool, run :func:`~monovisual3d.session.diagnose.check_session` on the views at each
         :meth:`estimate` (views given twice counted once; the causes among ``last.warnings`` and ``last.quality``), as
         :func:`monovisual3d.localize` does; False where the caller has checked them already
+    warmup : bool, compile (first run) or load the compiled kernels now, with one estimate of the built-in example
+        (:func:`warm_up`), so that the first :meth:`estimate` does not pay for it: a robot before its first view
 
     Attributes
     ----------
@@ -74,8 +76,16 @@ class BayesLocalizer:
     """
 
     def __init__(
-        self, camera: Camera, config: BayesConfig | None = None, *, workspace: Workspace | None = None, check_input: bool = True
+        self,
+        camera: Camera,
+        config: BayesConfig | None = None,
+        *,
+        workspace: Workspace | None = None,
+        check_input: bool = True,
+        warmup: bool = False,
     ) -> None:
+        if warmup:
+            warm_up(config or BayesConfig())
         self.camera = camera
         self.check_input = check_input
         self.config = config or BayesConfig()
@@ -136,6 +146,29 @@ def session_messages(camera: Camera, config: BayesConfig, views: list[View], fou
             f"and max_hypotheses={config.tuning.max_hypotheses:,}; a smaller workspace or a coarser resolution searches exhaustively"
         )
     return messages
+
+
+def warm_up(config: BayesConfig | None = None) -> float:
+    """One estimate of the built-in example session with ``config``, so that the compiled kernels are ready (compiled
+    on a first run, loaded from the on-disk cache later); seconds taken.
+
+    Examples
+    --------
+    >>> warm_up() < 600
+    True
+    """
+    from ...examples import example_session_path
+    from ...session.load import load_session
+
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        session = load_session(example_session_path())
+        loc = BayesLocalizer(session.camera, config)
+        for view in session.views:
+            loc.update(view)
+        loc.estimate()
+    return time.perf_counter() - t0
 
 
 def _check_views(views: list[View], config: BayesConfig, objects: list[DetectedObject]) -> list[str]:

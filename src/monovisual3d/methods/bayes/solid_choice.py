@@ -14,7 +14,6 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.special import gammainc
 
 from ...geometry.fit import fit_parameters, hopeless
 from ...geometry.solids import SOLIDS
@@ -139,6 +138,8 @@ def precise(fit: EllipsoidFit, sizes: bool = False) -> bool:
         dof, chi2 = fit.n_edges - fit.n_parameters, fit.chi2
     if dof < (MIN_PRECISE_SIZE_DOF if sizes else MIN_PRECISE_DOF):
         return False
+    from scipy.special import gammainc  # on first use: 0.1 s to import
+
     return bool(gammainc(0.5 * dof, 0.5 * chi2) < PRECISE_QUANTILE)  # the chi2 distribution function
 
 

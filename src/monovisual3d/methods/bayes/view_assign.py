@@ -25,7 +25,6 @@ import dataclasses
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import linear_sum_assignment
 
 from .aspects import solid_boxes
 from .fits import (
@@ -156,6 +155,8 @@ def _reassigned(problem: Problem, objects: list[Found], v: int, group: list[int]
             continue
         score[r, : len(group)] = sensor_scores(problem, poses, boxes[group], answer[1], answer[0].solid)
         score[r, len(group) + r] = problem.model.miss_term
+    from scipy.optimize import linear_sum_assignment  # on first use: 0.45 s to import
+
     rows, cols = linear_sum_assignment(score, maximize=True)
     new = {members[r]: (group[c] if c < len(group) else -1) for r, c in zip(rows, cols)}
     changed = [i for i in members if associations_list(problem, objects[i])[v] != new[i]]

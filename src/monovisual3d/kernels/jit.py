@@ -1,0 +1,172 @@
+"""How the compiled kernels are built and how their first compilation shows itself.
+
+- :func:`kernel`: ``numba.njit`` with the on-disk cache (``cache=True``) for an entry point, registered in
+  :data:`KERNELS` under its group (the method whose kernels it is), so that the compile-time table
+  (``docs/speed.md``) names every one. numba compiles a kernel on its first call, or loads it from the cache, one
+  kernel at a time: importing a kernel module compiles nothing.
+- :func:`compile_notices`: while it is active, the first compilation in the process says so once on a stream
+  (``compiling kernels, first run only, about N s``), with a status line that counts the kernels on a terminal.
+  The command line turns it on; the library itself prints nothing.
+- :func:`record_compiles`: every compilation in a block, with its time (the compile-time table, ``bench startup``).
+
+numba announces a compilation (``numba:compile``) only when it compiles: a kernel loaded from the cache is silent.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, TextIO
+
+#: The registered entry points: group -> {name: dispatcher}.
+KERNELS: dict[str, dict[str, Any]] = {}
+#: About how long a group's kernels take to compile from an empty cache, seconds, on the 2-core development machine
+#: (``monovisual3d bench startup --compile``; the table in docs/speed.md): what the first-run notice says.
+COMPILE_SECONDS: dict[str, float] = {"bayes": 10.0, "paper": 25.0, "other": 10.0}
+
+_NOTICE: contextvars.ContextVar[TextIO | None] = contextvars.ContextVar("monovisual3d_compile_notice", default=None)
+_RECORDS: contextvars.ContextVar[list[CompileRecord] | None] = contextvars.ContextVar("monovisual3d_compiles", default=None)
+
+
+@dataclass
+class CompileRecord:
+    """One compilation: the kernel (``module.function``), its group, wall and process CPU seconds, whether numba
+    compiled it for a caller (a device function) rather than for a call from Python."""
+
+    name: str
+    group: str
+    wall_s: float = 0.0
+    cpu_s: float = 0.0
+    nested: bool = False
+
+
+def group_of(module: str) -> str:
+    """The group of the kernels of ``module``: ``bayes``, ``paper`` (its engine and the shared projections), or
+    ``other``."""
+    if ".methods.bayes" in module:
+        return "bayes"
+    if ".methods.paper" in module or module.endswith(".kernels.project"):
+        return "paper"
+    return "other"
+
+
+def kernel(group: str, **options: Any) -> Callable[[Callable[..., Any]], Any]:
+    """``numba.njit(cache=True, **options)`` of an entry point, registered in :data:`KERNELS` under ``group``.
+
+    Examples
+    --------
+    >>> def twice(x):  # doctest: +SKIP
+    ...     return 2 * x
+    >>> twice = kernel("toy")(twice)  # doctest: +SKIP
+    """
+    import numba
+
+    listen()
+
+    def wrap(py_func: Callable[..., Any]) -> Any:
+        dispatcher = numba.njit(cache=True, **options)(py_func)
+        KERNELS.setdefault(group, {})[f"{py_func.__module__.rsplit('.', 1)[-1]}.{py_func.__name__}"] = dispatcher
+        return dispatcher
+
+    return wrap
+
+
+@contextlib.contextmanager
+def compile_notices(stream: TextIO) -> Iterator[None]:
+    """Within the block, the first kernel compilation says so on ``stream`` once; on a terminal a status line counts
+    the kernels compiled. Nothing is printed when every kernel loads from the cache."""
+    token = _NOTICE.set(stream)
+    try:
+        yield
+    finally:
+        _NOTICE.reset(token)
+        _STATE.finish()
+
+
+@contextlib.contextmanager
+def record_compiles() -> Iterator[list[CompileRecord]]:
+    """The compilations in the block (those of device functions inside their caller's too), in order of their end."""
+    records: list[CompileRecord] = []
+    token = _RECORDS.set(records)
+    try:
+        listen()
+        yield records
+    finally:
+        _RECORDS.reset(token)
+
+
+@dataclass
+class _NoticeState:
+    """What the notice has said in this process."""
+
+    announced: bool = False
+    done: int = 0
+    start: float = 0.0
+    stream: TextIO | None = None
+    status_line: bool = False
+    depth: int = 0
+    open: list[tuple[float, float]] = field(default_factory=list)
+
+    def begin(self, group: str) -> None:
+        stream = _NOTICE.get()
+        if stream is None or self.announced:
+            return
+        self.announced, self.stream, self.start = True, stream, time.perf_counter()
+        self.status_line = bool(getattr(stream, "isatty", lambda: False)())
+        seconds = COMPILE_SECONDS.get(group, COMPILE_SECONDS["other"])
+        stream.write(
+            f"compiling kernels, first run only, about {seconds:.0f} s (cached afterwards; `monovisual3d warmup` "
+            "compiles them ahead)\n"
+        )
+        stream.flush()
+
+    def progress(self) -> None:
+        self.done += 1
+        if self.stream is not None and self.status_line:
+            self.stream.write(f"\r  {self.done} compiled, {time.perf_counter() - self.start:.0f} s ")
+            self.stream.flush()
+
+    def finish(self) -> None:
+        if self.stream is not None and self.status_line and self.done:
+            self.stream.write("\n")
+            self.stream.flush()
+        self.stream, self.done, self.status_line, self.announced = None, 0, False, False
+
+
+_STATE = _NoticeState()
+_LISTENING = False
+
+
+def listen() -> None:
+    """Register the one listener to numba's compile events (once per process)."""
+    global _LISTENING
+    if _LISTENING:
+        return
+    from numba.core import event
+
+    class _Listener(event.Listener):  # type: ignore[misc]
+        def on_start(self, ev: Any) -> None:
+            py_func = ev.data["dispatcher"].py_func
+            if _STATE.depth == 0:
+                _STATE.begin(group_of(py_func.__module__))
+            _STATE.depth += 1
+            _STATE.open.append((time.perf_counter(), time.process_time()))
+
+        def on_end(self, ev: Any) -> None:
+            py_func = ev.data["dispatcher"].py_func
+            _STATE.depth -= 1
+            wall0, cpu0 = _STATE.open.pop()
+            records = _RECORDS.get()
+            if records is not None:
+                name = f"{py_func.__module__.rsplit('.', 1)[-1]}.{py_func.__name__}"
+                nested = _STATE.depth > 0
+                wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+                records.append(CompileRecord(name, group_of(py_func.__module__), wall, cpu, nested))
+            if _STATE.depth == 0:
+                _STATE.progress()
+
+    event.register("numba:compile", _Listener())
+    _LISTENING = True
