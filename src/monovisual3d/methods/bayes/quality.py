@@ -345,17 +345,28 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
             acc[0] += float(f.z[sel] @ f.z[sel])
             acc[1] += float(np.sum(share[sel]))
             acc[2] += float(np.sum(diag_M[sel]))
-    from scipy.special import gammaincc  # the chi-square survival function: chi2.sf(x, d) = gammaincc(d / 2, x / 2)
-
     views = []
     for v in sorted(view_chi2):
         c, d, e = view_chi2[v]
         consistency = c / e if e > 0 else 1.0
-        p = float(gammaincc(d / 2, consistency * d / 2)) if d > 0 else 1.0
+        p = chi2_sf(consistency * d, d) if d > 0 else 1.0
         views.append(ViewQuality(v, c, d, consistency, p))
     free = tuple(unexplained_boxes(problem, objects, single))
     quality = Quality(tuple(obj_quality), tuple(views), single, fc, fs, int(dof), free, n_boxes)
     return quality, tuple(out)
+
+
+def chi2_sf(x: float, dof: float) -> float:
+    """The chi-square survival function P(X > x) on ``dof`` degrees of freedom (not necessarily whole), by the
+    Wilson-Hilferty cube-root normal approximation: within 0.01 of the exact value from 3 dof on, which is all a
+    reported p needs, and no 0.1 s import of scipy.special on every localisation.
+
+    >>> round(chi2_sf(7.815, 3), 2)
+    0.05
+    """
+    h = 2.0 / (9.0 * dof)
+    z = ((max(x, 0.0) / dof) ** (1.0 / 3.0) - (1.0 - h)) / math.sqrt(h)
+    return 0.5 * math.erfc(z / math.sqrt(2.0))
 
 
 def unexplained_boxes(problem: Problem, objects: tuple[Found, ...], variance_factor: float) -> list[tuple[int, int]]:
