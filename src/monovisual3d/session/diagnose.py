@@ -278,20 +278,17 @@ def refusal_hint(camera: Camera, boxes: Sequence[NDArray[np.float64]]) -> str | 
         as_xywh = np.stack([x1, y1, x1 + x2, y1 + y2], axis=1)
         if np.all((x2 > 0) & (y2 > 0)) and np.mean(_inside(as_xywh, W, H)) >= 0.9:
             return (
-                f"{int(np.sum(reversed_))} of {len(allb)} boxes have x2 <= x1 or y2 <= y1, and all fit the image read as "
-                "x,y,w,h (top-left corner, width, height: COCO's order): convert to x1, y1, x2, y2 = x, y, x + w, y + h"
+                f"{int(np.sum(reversed_))} of {len(allb)} boxes fit only as x,y,w,h (COCO's order): "
+                "convert to x1, y1, x2, y2 = x, y, x + w, y + h"
             )
         return None
     if past_edge_boxes(allb, W, H) is not None:
         swapped = allb[:, [1, 0, 3, 2]]
         if np.all(_inside(swapped, W, H)) and past_edge_boxes(swapped, W, H) is None and np.all(x2 <= H):
-            return (
-                f"every box fits the {W}x{H} image with x and y swapped: boxes written y1, x1, y2, x2 (TensorFlow's order)? "
-                "expected x1, y1, x2, y2"
-            )
+            return "every box fits with x and y swapped: written y1, x1, y2, x2 (TensorFlow's order)? expected x1, y1, x2, y2"
         return (
-            f"boxes run past the right or bottom edge (up to x={x2.max():.0f}, y={y2.max():.0f}), none past the left or "
-            f"top: boxes from a larger image than the {W}x{H} calibration? check the image size (resolution)"
+            f"boxes reach x={x2.max():.0f}, y={y2.max():.0f}, past the right or bottom only: from a larger image than "
+            "the calibration's? check the image size (resolution)"
         )
     return None
 

@@ -237,7 +237,7 @@ def _detection_from_dict(data: Any, where: str, camera: Camera, prefix: str) -> 
         raise InputError(f"{where}.bbox_xyxy: {box.tolist()} has x2 <= x1 or y2 <= y1, expected x1 < x2 and y1 < y2")
     W, H = camera.width, camera.height
     if x2 <= 0 or y2 <= 0 or x1 >= W or y1 >= H:
-        raise InputError(f"{where}.bbox_xyxy: {box.tolist()} lies entirely outside the {W}x{H} image")
+        raise InputError(f"{where}.bbox_xyxy: {_rounded(box)} lies entirely outside the {W}x{H} image")
     clipped = np.array([max(x1, 0.0), max(y1, 0.0), min(x2, float(W)), min(y2, float(H))])
     if not np.array_equal(clipped, box):
         warnings.warn(
