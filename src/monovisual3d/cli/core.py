@@ -163,6 +163,9 @@ def _localize_and_write(session: Path, config: Any, output: Path | None, quiet: 
         console.print(
             f"total {result.timing_s.get('total', float('nan')):.3f} s" + (f"; wrote {plain(output)}" if output else "")
         )
+        calibration = result.quality.get("calibration") or {}
+        if calibration.get("applied"):
+            console.print(calibration["note"], highlight=False)
     elif output is None:
         print(text)
     for line in shown:

@@ -159,6 +159,13 @@ ADVICE = {
     "(import --image-size, --crop)",
     "radial_distortion": "check the distortion coefficients' order (k1, k2, p1, p2, k3) and signs",
 }
+#: What to check, per model, in a rival's few words.
+RIVAL_CHECK = {
+    "hand_eye": "check the hand-eye calibration",
+    "time_offset": "check the poses' time stamps",
+    "image_geometry": "check the image size the detector saw",
+    "radial_distortion": "check the distortion coefficients",
+}
 #: The cause ID each model names.
 CAUSE_OF = {
     "hand_eye": "hand_eye",
@@ -255,7 +262,7 @@ def diagnose(problem: Problem, objects: list[Found]) -> tuple[list[Cause], dict[
         f"{best.chi2_drop:.0f} on {best.dof} degrees of freedom): {ADVICE[best.model]}"
     )
     if rivals:
-        msg += "; as well explained by " + " or ".join(f"{_what(r, b)} ({ADVICE[r.model].split(' or ')[0]})" for r in rivals)
+        msg += "; as well explained by " + " or ".join(f"{_what(r, b)} ({RIVAL_CHECK[r.model]})" for r in rivals)
     details = {
         "model": best.model,
         "theta": [float(x) for x in best.fit.theta],
