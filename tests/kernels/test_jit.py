@@ -58,3 +58,12 @@ def test_bayes_entry_points_are_registered_by_group() -> None:
     assert group_of("monovisual3d.methods.bayes._kernels") == "bayes"
     assert group_of("monovisual3d.methods.paper.engine._dense") == "paper"
     assert group_of("monovisual3d.kernels.project") == "paper"
+
+
+def test_notice_goes_to_stderr_as_it_is_when_compiling(capsys) -> None:  # noqa: ANN001 - pytest fixture
+    """By default the notice goes to ``sys.stderr`` at the time of writing (a progress display that captures stderr
+    prints it above itself)."""
+    listen()
+    with compile_notices():
+        _fresh_function()(1)
+    assert "compiling kernels, first run only" in capsys.readouterr().err

@@ -99,11 +99,11 @@ def rows_to_dicts(rows: list[StartupRow]) -> list[dict[str, Any]]:
 TARGET_WARM_S, TARGET_COLD_S = 0.6, 15.0
 #: Box noise of the benchmark's paper scene (std as a fraction of the box size).
 BOX_NOISE = 0.03
-#: The commands whose import path is timed, as arguments after ``monovisual3d``; ``{dir}`` is the work folder with
-#: the paper scene's session.json and truth.json.
+#: The commands whose import path is timed, as arguments after ``monovisual3d``, in this order (``evaluate`` reads
+#: what ``localize`` wrote); ``{dir}`` is the work folder with the paper scene's session.json and truth.json.
 COMMANDS = {
-    "localize": ["localize", "{dir}/session.json", "-q"],
-    "evaluate": ["evaluate", "{dir}/session.json", "{dir}/truth.json"],
+    "localize": ["localize", "{dir}/session.json", "-q", "-o", "{dir}/result.json"],
+    "evaluate": ["evaluate", "{dir}/result.json", "{dir}/truth.json"],
     "simulate": ["simulate", "-o", "{dir}/sim", "--no-images"],
     "view": ["view", "{dir}/session.json", "-o", "{dir}/view.html"],
     "warmup": ["warmup", "--methods", "bayes"],

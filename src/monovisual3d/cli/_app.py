@@ -242,7 +242,7 @@ def main() -> None:
 
     warnings.showwarning = _show_warning
     try:
-        with compile_notices(sys.stderr):  # a first run says that it compiles the kernels
+        with compile_notices():  # a first run says that it compiles the kernels (on stderr)
             only_command(sys.argv[1:])()
     except KeyboardInterrupt:  # pragma: no cover
         sys.exit(130)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -27,7 +28,7 @@ KERNELS: dict[str, dict[str, Any]] = {}
 #: (``monovisual3d bench startup --compile``; the table in docs/speed.md): what the first-run notice says.
 COMPILE_SECONDS: dict[str, float] = {"bayes": 10.0, "paper": 25.0, "other": 10.0}
 
-_NOTICE: contextvars.ContextVar[TextIO | None] = contextvars.ContextVar("monovisual3d_compile_notice", default=None)
+_NOTICE: contextvars.ContextVar[TextIO | bool] = contextvars.ContextVar("monovisual3d_compile_notice", default=False)
 _RECORDS: contextvars.ContextVar[list[CompileRecord] | None] = contextvars.ContextVar("monovisual3d_compiles", default=None)
 
 
@@ -75,10 +76,11 @@ def kernel(group: str, **options: Any) -> Callable[[Callable[..., Any]], Any]:
 
 
 @contextlib.contextmanager
-def compile_notices(stream: TextIO) -> Iterator[None]:
-    """Within the block, the first kernel compilation says so on ``stream`` once; on a terminal a status line counts
-    the kernels compiled. Nothing is printed when every kernel loads from the cache."""
-    token = _NOTICE.set(stream)
+def compile_notices(stream: TextIO | None = None) -> Iterator[None]:
+    """Within the block, the first kernel compilation says so on ``stream`` once (default: ``sys.stderr`` as it is
+    then, so that a progress display that captures it prints the line above itself); on a terminal a status line
+    counts the kernels compiled. Nothing is printed when every kernel loads from the cache."""
+    token = _NOTICE.set(True if stream is None else stream)
     try:
         yield
     finally:
@@ -111,9 +113,10 @@ class _NoticeState:
     open: list[tuple[float, float]] = field(default_factory=list)
 
     def begin(self, group: str) -> None:
-        stream = _NOTICE.get()
-        if stream is None or self.announced:
+        chosen = _NOTICE.get()
+        if chosen is False or self.announced:
             return
+        stream = sys.stderr if chosen is True else chosen
         self.announced, self.stream, self.start = True, stream, time.perf_counter()
         self.status_line = bool(getattr(stream, "isatty", lambda: False)())
         seconds = COMPILE_SECONDS.get(group, COMPILE_SECONDS["other"])
