@@ -195,11 +195,7 @@ def _object_fits(problem: Problem, objects: tuple[Found, ...]) -> list[_Fit | No
         T_optical_base = np.linalg.inv(poses)
         depth = T_optical_base[:, 2, :3] @ o.position + T_optical_base[:, 2, 3]
         extra = np.asarray(pose_px(problem, depth), dtype=float)
-<<<<<<< ours
         sigma = box_edge_sigma_px(model, pred[0], extra)  # extra: per view, shape (V,) or a scalar
-=======
-        sigma = box_edge_sigma_px(model, pred[0], extra)
->>>>>>> theirs
         z = (boxes - pred[0]) / sigma
         cols = [((pred[1 + 2 * k] - pred[2 + 2 * k]) / steps[k] / sigma).reshape(-1) for k in range(len(steps))]
         J = np.stack(cols, axis=1)
