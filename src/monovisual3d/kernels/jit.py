@@ -26,7 +26,7 @@ from typing import Any, TextIO
 KERNELS: dict[str, dict[str, Any]] = {}
 #: About how long a group's kernels take to compile from an empty cache, seconds, on the 2-core development machine
 #: (``monovisual3d bench startup --compile``; the table in docs/speed.md): what the first-run notice says.
-COMPILE_SECONDS: dict[str, float] = {"bayes": 10.0, "paper": 25.0, "other": 10.0}
+COMPILE_SECONDS: dict[str, float] = {"bayes": 10.0, "paper": 20.0, "other": 10.0}
 
 _NOTICE: contextvars.ContextVar[TextIO | bool] = contextvars.ContextVar("monovisual3d_compile_notice", default=False)
 _RECORDS: contextvars.ContextVar[list[CompileRecord] | None] = contextvars.ContextVar("monovisual3d_compiles", default=None)
