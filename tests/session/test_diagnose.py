@@ -196,3 +196,21 @@ def test_cameras_facing_away_are_named(case) -> None:  # type: ignore[no-untyped
     )
     (cause,) = check_session(away)[1]
     assert cause.cause == "pose_convention" and "facing away" in cause.message
+
+
+def test_localize_counts_duplicates_once_and_says_so() -> None:
+    import monovisual3d as mv
+
+    s = _case("paper", 0, 0.05).session
+    clean = mv.localize(s)
+    assert clean.quality.get("verdict", "ok") == "ok" and not any("duplicate" in w for w in clean.warnings)
+    twice = Session(s.camera, s.views + s.views)
+    with pytest.warns(UserWarning, match="duplicate views"):
+        r = mv.localize(twice)
+    np.testing.assert_allclose(r.positions, clean.positions, atol=1e-9)  # the same answer: each view counted once
+    assert r.quality["verdict"] == "suspect"
+    assert [c["cause"] for c in r.quality["causes"]][:1] == ["duplicate_views"]
+    assert "duplicate" in r.warnings[0]
+    n = len(s.views)
+    for obj, ref in zip(r.objects, clean.objects):
+        assert obj.associations == {**ref.associations, **{v + n: d for v, d in ref.associations.items()}}

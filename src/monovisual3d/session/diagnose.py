@@ -77,6 +77,8 @@ CROP_OFFSET_SHARE = 0.6
 AGREE_MIN = 0.5
 AGREE_MARGIN = 0.3
 
+#: Conventions whose agreements lie within this of the best are named together: the rays cannot tell them apart.
+TIE_MARGIN = 0.1
 #: Boxes with x and y swapped: their rays agree on at least :data:`AGREE_MIN` of boxes, this much more than as given.
 SWAP_MARGIN = 0.2
 
@@ -444,15 +446,18 @@ def pose_convention_causes(session: Session) -> list[Cause]:
     if given is None or given >= 1.0 - AGREE_MARGIN:
         return []
     scores = {name: ray_agreement(session.camera, pose_hypothesis(T, name), boxes) for name in POSE_HYPOTHESES}
-    name, best = max(((k, v) for k, v in scores.items() if v is not None), key=lambda kv: kv[1], default=(None, None))
-    if name is None or best is None or best < AGREE_MIN or best < given + AGREE_MARGIN:
+    ranked = sorted(((v, k) for k, v in scores.items() if v is not None), key=lambda vk: -vk[0])  # stable: list order
+    if not ranked or ranked[0][0] < AGREE_MIN or ranked[0][0] < given + AGREE_MARGIN:
         return []
+    best = ranked[0][0]
+    named = [(v, k) for v, k in ranked if v >= best - TIE_MARGIN]  # conventions the rays cannot tell apart
+    read_as = ", ".join(f"{100 * v:.0f} % read as {k.replace('_', ' ')}" for v, k in named)
     return [
         Cause(
             "pose_convention",
             f"views[*].pose: box-centre rays of different views meet (in front of both cameras, at depths where the "
-            f"box sizes agree) for {100 * best:.0f} % of boxes with the poses read as {name.replace('_', ' ')}, "
-            f"{100 * given:.0f} % as given: {POSE_HYPOTHESES[name]}",
+            f"box sizes agree) for {read_as}, {100 * given:.0f} % as given: "
+            + "; or ".join(POSE_HYPOTHESES[k] for _, k in named),
             "unreliable",
             details={"agreement_given": given, **{f"agreement_{k}": v for k, v in scores.items()}},
         )
