@@ -68,6 +68,9 @@ TAIL = 2.0
 #: Residuals beyond this many robust sigmas (the median absolute residual scaled to a normal's) are clipped there
 #: before the variance factors: a box a leaf cuts by ten sigmas counts as four.
 CLIP_SIGMAS = 4.0
+#: An object's own residuals are clipped at this many robust sigmas for its own variance factor (its bad box is
+#: evidence about it, where the session's scale must not follow one object).
+OBJECT_CLIP_SIGMAS = CLIP_SIGMAS
 #: The normal's median absolute value: a robust sigma is ``median(|z|) / MAD_NORMAL``.
 MAD_NORMAL = 0.6745
 #: Degrees of freedom of the session before the centre and size factors are told apart (fewer: one factor for both;
@@ -323,7 +326,7 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
             continue
         m = moments[id(f)]
         S = fc * m.Pc + fs * m.Ps
-        z = clipped[id(f)]
+        z = np.clip(f.z, -OBJECT_CLIP_SIGMAS * robust, OBJECT_CLIP_SIGMAS * robust)
         obj_dof = len(z) - m.rank
         expected = fc * m.traces[3] + fs * m.traces[4]  # E[r^T r] under the session's noise
         chi2_rel = float(z @ z) * obj_dof / expected if expected > 0 and obj_dof > 0 else 0.0
@@ -414,17 +417,17 @@ def _covariance(fit: _Fit, S: NDArray[np.float64], scale: float) -> tuple[NDArra
         return None, "the boxes do not determine the position (singular normal matrix)"
     if not np.all(np.isfinite(Ainv)) or np.linalg.cond(A) > 1e14:
         return None, "the boxes do not determine the position (the views see it from one place: depth unobservable)"
-    C = (Ainv @ (J.T @ S @ J) @ Ainv)[:3, :3] * scale
+    C = (Ainv @ (J.T @ S @ J) @ Ainv)[:3, :3]
     C = 0.5 * (C + C.T)
     w = np.linalg.eigvalsh(C)
-    if not (np.all(np.isfinite(w)) and w[0] > 0):
+    if not (np.all(np.isfinite(w)) and w[0] > 0 and scale > 0):
         return None, "the boxes do not determine the position (covariance not positive definite)"
-    if math.sqrt(w[-1]) > UNDETERMINED_SHARE * fit.distance:
+    if math.sqrt(w[-1]) > UNDETERMINED_SHARE * fit.distance:  # the geometry's, before the object's own factor
         return None, (
             f"the boxes do not determine the position: its standard deviation ({math.sqrt(w[-1]):.2g} m) exceeds half its "
             f"distance to the cameras ({fit.distance:.2g} m); views from more places determine the depth"
         )
-    return C, None
+    return C * scale, None
 
 
 def causes_of(quality: Quality) -> tuple[Cause, ...]:
