@@ -448,6 +448,7 @@ def pose_convention_causes(session: Session) -> list[Cause]:
     best = ranked[0][0]
     named = [(v, k) for v, k in ranked if v >= best - TIE_MARGIN]  # conventions the rays cannot tell apart
     read_as = ", ".join(f"{100 * v:.0f} % read as {k.replace('_', ' ')}" for v, k in named)
+    read_as = read_as.replace(" % read as", " % of boxes with the poses read as", 1)
     return [
         Cause(
             "pose_convention",
