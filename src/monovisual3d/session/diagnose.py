@@ -265,6 +265,8 @@ def box_stretch(boxes: NDArray[np.float64], W: int, H: int) -> float | None:
 def refusal_hint(camera: Camera, boxes: Sequence[NDArray[np.float64]]) -> str | None:
     """What convention the boxes as written are probably in, where the loader refuses one; None when unclear.
 
+    Short (under 90 characters), for it is appended to the loader's one-line refusal.
+
     Parameters
     ----------
     camera : Camera
@@ -279,19 +281,13 @@ def refusal_hint(camera: Camera, boxes: Sequence[NDArray[np.float64]]) -> str | 
     if np.mean(reversed_) >= 0.5:
         as_xywh = np.stack([x1, y1, x1 + x2, y1 + y2], axis=1)
         if np.all((x2 > 0) & (y2 > 0)) and np.mean(_inside(as_xywh, W, H)) >= 0.9:
-            return (
-                f"{int(np.sum(reversed_))} of {len(allb)} boxes fit only as x,y,w,h (COCO's order): "
-                "convert to x1, y1, x2, y2 = x, y, x + w, y + h"
-            )
+            return f"{int(np.sum(reversed_))} of {len(allb)} boxes so, all inside read as x,y,w,h (COCO): use x, y, x + w, y + h"
         return None
     if past_edge_boxes(allb, W, H) is not None:
         swapped = allb[:, [1, 0, 3, 2]]
         if np.all(_inside(swapped, W, H)) and past_edge_boxes(swapped, W, H) is None and np.all(x2 <= H):
-            return "every box fits with x and y swapped: written y1, x1, y2, x2 (TensorFlow's order)? expected x1, y1, x2, y2"
-        return (
-            f"boxes reach x={x2.max():.0f}, y={y2.max():.0f}, past the right or bottom only: from a larger image than "
-            "the calibration's? check the image size (resolution)"
-        )
+            return "every box fits the image with x and y swapped: boxes written y1, x1, y2, x2?"
+        return f"boxes reach x={x2.max():.0f}, y={y2.max():.0f}, never left or top: from a larger image? check the image size"
     return None
 
 
@@ -452,6 +448,7 @@ def pose_convention_causes(session: Session) -> list[Cause]:
     best = ranked[0][0]
     named = [(v, k) for v, k in ranked if v >= best - TIE_MARGIN]  # conventions the rays cannot tell apart
     read_as = ", ".join(f"{100 * v:.0f} % read as {k.replace('_', ' ')}" for v, k in named)
+    read_as = read_as.replace(" % read as", " % of boxes with the poses read as", 1)
     return [
         Cause(
             "pose_convention",
