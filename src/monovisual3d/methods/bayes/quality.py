@@ -68,9 +68,10 @@ TAIL = 2.0
 #: Residuals beyond this many robust sigmas (the median absolute residual scaled to a normal's) are clipped there
 #: before the variance factors: a box a leaf cuts by ten sigmas counts as four.
 CLIP_SIGMAS = 4.0
-#: An object's own residuals are clipped at this many robust sigmas for its own variance factor (its bad box is
-#: evidence about it, where the session's scale must not follow one object).
-OBJECT_CLIP_SIGMAS = CLIP_SIGMAS
+#: An object's own residuals are clipped at this many robust sigmas for its own variance factor: its box cut by a leaf
+#: or taken from another fruit is evidence about it (where the session's scale must not follow one object), up to
+#: where the fit's robust loss has set an edge aside altogether (why: docs/decisions/bayes-quality.md#object_clip_sigmas).
+OBJECT_CLIP_SIGMAS = 10.0
 #: The normal's median absolute value: a robust sigma is ``median(|z|) / MAD_NORMAL``.
 MAD_NORMAL = 0.6745
 #: Degrees of freedom of the session before the centre and size factors are told apart (fewer: one factor for both;
