@@ -110,19 +110,17 @@ def test_empty_result_says_why_on_the_console_and_strict_exits_1(runner: CliRunn
     assert "warning: no object found" in strict.stderr
 
 
-def test_unassociated_box_is_reported_and_strict_exits_1(runner: CliRunner, tmp_path: Path) -> None:
+def test_a_stray_box_in_one_view_is_no_alarm(runner: CliRunner, tmp_path: Path) -> None:
+    """A false positive in one view cannot be a fruit the method missed (no other view's left-over box meets its ray):
+    no warning, and --strict exits 0; boxes two views leave over that could be one fruit are reported (below)."""
     data = _example()
     data["views"][0]["detections"].append({"bbox_xyxy": [10.0, 10.0, 40.0, 40.0]})  # a false positive in one view
     session = _write(tmp_path / "fp.json", data)
     result = runner.invoke(app, ["localize", str(session)])
     assert result.exit_code == 0, result.output
     assert "│ 0 │" in result.stdout  # the sphere is still found
-    assert "warning: 1 of 4 boxes are associated to no object (view 0: box 1)" in result.stderr
-    assert runner.invoke(app, ["localize", str(session), "--strict"]).exit_code == 1
-    assert runner.invoke(app, ["localize", str(example_session_path()), "--strict"]).exit_code == 0
-    out = tmp_path / "r.json"
-    runner.invoke(app, ["localize", str(session), "-o", str(out), "-q"])
-    assert any("associated to no object" in w for w in json.loads(out.read_text())["warnings"]), "the JSON holds it too"
+    assert "associated to no object" not in result.stderr
+    assert runner.invoke(app, ["localize", str(session), "--strict"]).exit_code == 0
 
 
 @pytest.mark.filterwarnings("ignore:3 views have detections but no object:monovisual3d.errors.InputWarning")
@@ -144,11 +142,14 @@ def test_incomplete_reasons_in_python() -> None:
     session = load_session(example_session_path())
     found = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0, 2: 0})], "bayes")
     assert incomplete_reasons(session, found) == []
-    partial = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0})], "bayes")
-    assert "1 of 3 boxes are associated to no object (view 2: box 0)" in incomplete_reasons(session, partial)[0]
+    # the sphere's boxes of views 1 and 2 left over: their rays meet as one fruit's, a fruit the result misses
+    partial = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0})], "bayes")
+    assert "2 of 3 boxes are associated to no object (view 1: box 0; view 2: box 0)" in incomplete_reasons(session, partial)[0]
     assert "a lower --accept" in incomplete_reasons(session, partial)[0]
+    # one box left over, in one view: a fruit seen once or a false positive, nothing more to localise
+    assert incomplete_reasons(session, Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0})], "bayes")) == []
     # the advice names only options of the method that ran: quadric has no --accept, and needs 3 views per object
-    partial_quadric = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0})], "quadric")
+    partial_quadric = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0})], "quadric")
     (quadric_reason,) = incomplete_reasons(session, partial_quadric)
     assert "--accept" not in quadric_reason and "--min-views" in quadric_reason
     no_associations = Result([DetectedObject(np.zeros(3), 1.0)], "paper")  # a method that does not associate

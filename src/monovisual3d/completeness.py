@@ -55,7 +55,9 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
     list of str, at most one line per case:
         - the result is empty although at least two views have boxes (with the method's own
           warning as the reason when it gave one, else what to try);
-        - some boxes are associated to no object (only for methods that report associations:
+        - some boxes are associated to no object, two of them in different views could be one fruit (their centre
+          rays meet as one fruit's would; else each is a fruit seen once or a false positive, and nothing more could
+          be localised) (only for methods that report associations:
           an object's ``associations`` maps view index -> box index), unless the result's ``quality`` names causes
           (their messages say what to check); where ``quality`` lists its ``unexplained_boxes`` (a box no object holds
           but that lies at an object's predicted box within the session's noise is explained), only those.
@@ -77,7 +79,7 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
         used = {(i, d) for i in with_boxes for d in range(len(session.views[i].detections))} - unexplained
     dropped = {i: [d for d in range(len(session.views[i].detections)) if (i, d) not in used] for i in with_boxes}
     dropped = {i: ds for i, ds in dropped.items() if ds}
-    if not dropped:
+    if not dropped or not _could_be_missed(session, dropped):
         return []
     n_boxes = sum(len(session.views[i].detections) for i in with_boxes)
     n_dropped = sum(len(ds) for ds in dropped.values())
@@ -91,6 +93,22 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
         f"or objects seen in too few views or scoring below the acceptance threshold; "
         f"{UNASSOCIATED_ADVICE.get(result.method, UNASSOCIATED_ADVICE_OTHER)}"
     ]
+
+
+def _could_be_missed(session: Session, dropped: dict[int, list[int]]) -> bool:
+    """Whether two boxes left over, from different views, could be one fruit (their centre rays meet as one fruit's
+    would: :func:`~monovisual3d.session.rays.boxes_meet`). Where none can, each is a fruit seen in one view or a false
+    positive: no method could localise more from these views, and the result is as complete as they allow."""
+    import numpy as np
+
+    from .session.rays import boxes_meet
+
+    views = sorted(dropped)
+    if len(views) < 2:
+        return False
+    T = np.stack([session.views[i].T_base_optical for i in views])
+    boxes = [np.array([session.views[i].detections[d].bbox_xyxy for d in dropped[i]], dtype=float) for i in views]
+    return boxes_meet(session.camera, T, boxes)
 
 
 def strict_failure(reasons: list[str], result: Result) -> bool:

@@ -52,13 +52,7 @@ def ray_agreement(camera: Camera, T_base_optical: NDArray[np.float64], boxes: Se
     """
     T = np.asarray(T_base_optical, dtype=float)
     n = len(T)
-    rays, sizes = [], []
-    for i in range(n):
-        b = np.asarray(boxes[i], dtype=float).reshape(-1, 4)[:MAX_BOXES_PER_VIEW]
-        b = b[(b[:, 2] > b[:, 0]) & (b[:, 3] > b[:, 1])]
-        centre = 0.5 * (b[:, :2] + b[:, 2:])
-        rays.append(camera.rays(centre) @ T[i, :3, :3].T)
-        sizes.append(0.25 * ((b[:, 2] - b[:, 0]) / camera.fx + (b[:, 3] - b[:, 1]) / camera.fy))  # half-size, radians
+    rays, sizes = _centre_rays(camera, T, boxes)
     pairs = [
         (i, i + k)
         for k in range(1, n)
@@ -73,6 +67,41 @@ def ray_agreement(camera: Camera, T_base_optical: NDArray[np.float64], boxes: Se
         agree += int(ok.any(axis=1).sum()) + int(ok.any(axis=0).sum())
         total += ok.shape[0] + ok.shape[1]
     return agree / total if total else None
+
+
+def boxes_meet(camera: Camera, T_base_optical: NDArray[np.float64], boxes: Sequence[NDArray[np.float64]]) -> bool:
+    """Whether any box's centre ray meets a box-centre ray of another view as one fruit would (see
+    :func:`ray_agreement`): could two of these boxes, from different views, be the same fruit?
+
+    Parameters
+    ----------
+    camera : Camera
+    T_base_optical : ndarray, shape (N, 4, 4)
+    boxes : sequence of N arrays, shape (M_i, 4), pixels (a view without boxes: shape (0, 4))
+    """
+    T = np.asarray(T_base_optical, dtype=float)
+    rays, sizes = _centre_rays(camera, T, boxes)
+    n = len(T)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if len(rays[i]) and len(rays[j]) and np.linalg.norm(T[i, :3, 3] - T[j, :3, 3]) >= MIN_PAIR_BASELINE_M:
+                if _rays_meet(T[i, :3, 3], rays[i], sizes[i], T[j, :3, 3], rays[j], sizes[j]).any():
+                    return True
+    return False
+
+
+def _centre_rays(
+    camera: Camera, T: NDArray[np.float64], boxes: Sequence[NDArray[np.float64]]
+) -> tuple[list[NDArray[np.float64]], list[NDArray[np.float64]]]:
+    """Per view, its boxes' centre rays (base frame, unit) and half-sizes (radians), at most MAX_BOXES_PER_VIEW."""
+    rays, sizes = [], []
+    for i in range(len(T)):
+        b = np.asarray(boxes[i], dtype=float).reshape(-1, 4)[:MAX_BOXES_PER_VIEW]
+        b = b[(b[:, 2] > b[:, 0]) & (b[:, 3] > b[:, 1])]
+        centre = 0.5 * (b[:, :2] + b[:, 2:])
+        rays.append(camera.rays(centre) @ T[i, :3, :3].T)
+        sizes.append(0.25 * ((b[:, 2] - b[:, 0]) / camera.fx + (b[:, 3] - b[:, 1]) / camera.fy))  # half-size, radians
+    return rays, sizes
 
 
 def _rays_meet(
