@@ -126,8 +126,8 @@ def merge_reasons(warnings: list[str], reasons: list[str]) -> list[str]:
 
     Examples
     --------
-    >>> merge_reasons(["a", "b"], ["no object found: a", "c"])
-    ['no object found: a', 'b', 'c']
+    >>> merge_reasons(["too few views", "capped"], ["no object found: too few views", "boxes left"])
+    ['no object found: too few views', 'capped', 'boxes left']
     """
     out = list(warnings)
     for reason in reasons:
