@@ -146,6 +146,11 @@ def test_incomplete_reasons_in_python() -> None:
     partial = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0})], "bayes")
     assert "2 of 3 boxes are associated to no object (view 1: box 0; view 2: box 0)" in incomplete_reasons(session, partial)[0]
     assert "a lower --accept" in incomplete_reasons(session, partial)[0]
+    # three boxes left over in one view: more than false positives leave, the views disagree
+    many = _example()
+    many["views"][0]["detections"] += [{"bbox_xyxy": [10.0 + 40 * k, 10.0, 40.0 + 40 * k, 40.0]} for k in range(3)]
+    whole = Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0, 2: 0})], "bayes")
+    assert "3 of 6 boxes are associated to no object (view 0: boxes 1, 2, 3)" in incomplete_reasons(load_session(many), whole)[0]
     # one box left over, in one view: a fruit seen once or a false positive, nothing more to localise
     assert incomplete_reasons(session, Result([DetectedObject(np.zeros(3), 1.0, associations={0: 0, 1: 0})], "bayes")) == []
     # the advice names only options of the method that ran: quadric has no --accept, and needs 3 views per object

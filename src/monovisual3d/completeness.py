@@ -22,6 +22,11 @@ from .session import Session
 
 #: Views with boxes needed before an empty result is worth a word (one view cannot localise anything).
 MIN_VIEWS_WITH_BOXES = 2
+#: Boxes left over in a share at least this (and :data:`MIN_LEFT_OVER` or more) are reported whether or not two could be
+#: one fruit: more than a detector's false positives and fruit seen once at the image's edge leave (a few per cent),
+#: so the views disagree (another image's boxes, a wrong pose).
+LEFT_OVER_SHARE = 0.10
+MIN_LEFT_OVER = 3
 #: Views listed by name in the unassociated-boxes line before "...".
 MAX_VIEWS_LISTED = 6
 #: Start of the line about an empty result, and the words of the line about unassociated boxes
@@ -55,9 +60,10 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
     list of str, at most one line per case:
         - the result is empty although at least two views have boxes (with the method's own
           warning as the reason when it gave one, else what to try);
-        - some boxes are associated to no object, two of them in different views could be one fruit (their centre
-          rays meet as one fruit's would; else each is a fruit seen once or a false positive, and nothing more could
-          be localised) (only for methods that report associations:
+        - some boxes are associated to no object, and either two of them in different views could be one fruit
+          (their centre rays meet as one fruit's would; else each is a fruit seen once or a false positive, and
+          nothing more could be localised) or they are many (:data:`LEFT_OVER_SHARE`) (only for methods that report
+          associations:
           an object's ``associations`` maps view index -> box index), unless the result's ``quality`` names causes
           (their messages say what to check); where ``quality`` lists its ``unexplained_boxes`` (a box no object holds
           but that lies at an object's predicted box within the session's noise is explained), only those.
@@ -79,10 +85,13 @@ def incomplete_reasons(session: Session, result: Result) -> list[str]:
         used = {(i, d) for i in with_boxes for d in range(len(session.views[i].detections))} - unexplained
     dropped = {i: [d for d in range(len(session.views[i].detections)) if (i, d) not in used] for i in with_boxes}
     dropped = {i: ds for i, ds in dropped.items() if ds}
-    if not dropped or not _could_be_missed(session, dropped):
+    if not dropped:
         return []
     n_boxes = sum(len(session.views[i].detections) for i in with_boxes)
     n_dropped = sum(len(ds) for ds in dropped.values())
+    many = n_dropped >= max(MIN_LEFT_OVER, LEFT_OVER_SHARE * n_boxes)
+    if not many and not _could_be_missed(session, dropped):
+        return []
     listed = "; ".join(
         f"view {i}: box{'es' if len(ds) > 1 else ''} {', '.join(map(str, ds))}"
         for i, ds in list(dropped.items())[:MAX_VIEWS_LISTED]
