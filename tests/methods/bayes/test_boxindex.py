@@ -154,6 +154,10 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
         c, k, s = work.best(rows)
         full = np.where(rows[:, None] & work.active[:, None] & (work.n_assoc >= 2), work.total, -np.inf)
         assert (c, k) == np.unravel_index(int(np.argmax(full)), full.shape) and s == full.max()
+        every = np.where(work.active[:, None] & (work.n_assoc >= 2), work.total, -np.inf)  # best(): every active row
+        c, k, s = work.best()
+        if np.isfinite(every.max()):
+            assert (c, k) == np.unravel_index(int(np.argmax(every)), every.shape) and s == every.max()
         work.suppress(rng.random(300) < 0.05)
         changed = np.flatnonzero(rng.random(300) < 0.1)
         work.total[changed] = rng.normal(size=(len(changed), 5))
