@@ -368,3 +368,32 @@ def test_a_flat_tray_seen_from_above_twice_and_from_the_side_once_is_found(yaw, 
     assert len(result.objects) == 1
     assert result.objects[0].shape != "sphere"
     assert np.linalg.norm(result.positions[0] - centre) < 0.012
+
+
+def test_the_skipped_ellipsoid_fit_could_not_have_changed_the_answer(monkeypatch):
+    """Where the shape stage skips the lying ellipsoid's fit of a cut fruit (its best possible score cannot pay for its
+    parameters), the full fit of every model keeps the answer too: on a dense row, every skip checked."""
+    from monovisual3d.bench.scale import OPTIONS, row_session
+    from monovisual3d.methods.bayes import shapes
+    from monovisual3d.methods.bayes.fits import beats, lowest_bic_fit
+
+    skipped, asked = [], []
+    bound = shapes._ellipsoid_cannot_change
+
+    def checked(problem, obj, answer, models, censored, hidden_to):
+        out = bound(problem, obj, answer, models, censored, hidden_to)
+        asked.append(out)
+        if out:
+            new = lowest_bic_fit(problem, obj, models, censored, hidden_to=hidden_to)
+            skipped.append(new is None or (not new[0][0].solid and not beats(problem, obj, new[0], answer, new[1], hidden_to)))
+        return out
+
+    monkeypatch.setattr(shapes, "_ellipsoid_cannot_change", checked)
+    mv.localize(row_session(96, 5, 0)[0], **OPTIONS)
+    assert skipped and all(skipped), (asked, skipped)
+    # a lying object, which the ellipsoid fits and the sphere does not: never skipped
+    from monovisual3d.methods.bayes.fits import lying_shapes, sphere_answer
+
+    problem, lying = _object_at(Ellipsoid.from_rotation([0.6, 0.0, 0.5], LYING, rotation_upright(0.5)), 0.035)
+    assert not bound(problem, lying, sphere_answer(lying), lying_shapes(3), None, None)
+    assert shapes.fit_shape(problem, lying).shape == "ellipsoid"

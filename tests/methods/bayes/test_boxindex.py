@@ -154,6 +154,10 @@ def test_extraction_picks_the_hypothesis_a_full_argmax_picks():
         c, k, s = work.best(rows)
         full = np.where(rows[:, None] & work.active[:, None] & (work.n_assoc >= 2), work.total, -np.inf)
         assert (c, k) == np.unravel_index(int(np.argmax(full)), full.shape) and s == full.max()
+        every = np.where(work.active[:, None] & (work.n_assoc >= 2), work.total, -np.inf)  # best(): every active row
+        c, k, s = work.best()
+        if np.isfinite(every.max()):
+            assert (c, k) == np.unravel_index(int(np.argmax(every)), every.shape) and s == every.max()
         work.suppress(rng.random(300) < 0.05)
         changed = np.flatnonzero(rng.random(300) < 0.1)
         work.total[changed] = rng.normal(size=(len(changed), 5))
@@ -213,3 +217,21 @@ def test_too_many_views_are_refused_before_any_work():
     with pytest.raises(InputError, match=rf"views: {MAX_BAYES_VIEWS + 1} views with boxes, .*limits\.MAX_BAYES_VIEWS"):
         check_work(SimpleNamespace(views=views))
     check_work(SimpleNamespace(views=views[:MAX_BAYES_VIEWS]))
+
+
+def test_extraction_cells_near_a_point_are_those_a_scan_finds():
+    """The extraction's look-up of the cells near a point (a slab of the longest axis, then the second) finds exactly
+    the cells a test of every centre finds, on a grid (ties at the radius) and off it."""
+    from monovisual3d.methods.bayes.extract import _Cells
+
+    rng = np.random.default_rng(3)
+    centres = (np.floor(rng.uniform(0, 1, (5000, 3)) * [120, 25, 70]) + 0.5) * 0.01  # 1 cm cells of a row
+    cells = _Cells.of(centres)
+    for _ in range(300):
+        point = centres[rng.integers(len(centres))] + rng.normal(0, 0.01, 3) * rng.integers(0, 2)
+        radius = float(rng.choice([0.01, 0.02, 0.05, np.sqrt(3) * 0.01]))
+        found = cells.within(point, radius)
+        assert len(np.unique(found)) == len(found)
+        assert np.array_equal(np.sort(found), np.flatnonzero(np.linalg.norm(centres - point, axis=1) <= radius))
+    assert len(cells.within(np.array([np.nan, 0.0, 0.0]), 0.1)) == 0
+    assert len(_Cells.of(np.zeros((0, 3))).within(np.zeros(3), 0.1)) == 0

@@ -165,11 +165,17 @@ class _Work:
         self.eligible[rows] = -np.inf
         self.row_best[rows] = -np.inf
 
-    def best(self, rows: NDArray[np.bool_]) -> tuple[int, int, float]:
-        """The first best eligible hypothesis among ``rows`` (N,) bool, as ``argmax`` over all of them finds it."""
-        c = int(np.argmax(np.where(rows, self.row_best, -np.inf))) if len(rows) else 0
-        if not len(rows) or not rows[c]:
-            return c, 0, -np.inf
+    def best(self, rows: NDArray[np.bool_] | None = None) -> tuple[int, int, float]:
+        """The first best eligible hypothesis among ``rows`` (N,) bool (None: every row), as ``argmax`` over all of them
+        finds it."""
+        if rows is None:  # an inactive row's best is -inf already
+            c = int(np.argmax(self.row_best)) if len(self.row_best) else 0
+            if not len(self.row_best) or self.row_best[c] == -np.inf:
+                return c, 0, -np.inf
+        else:
+            c = int(np.argmax(np.where(rows, self.row_best, -np.inf))) if len(rows) else 0
+            if not len(rows) or not rows[c]:
+                return c, 0, -np.inf
         k = int(np.argmax(self.eligible[c]))
         return c, k, float(self.eligible[c, k])
 
@@ -178,33 +184,42 @@ class _Work:
 class _Cells:
     """The hypothesis cells' centres (N, 3), metres, base frame, sorted along their longest extent: the cells near a
     point are tested within a slab of that axis, not among all cells (an extraction asks once per candidate and
-    object; on a plant row the slab holds a few percent of the cells). Plain numpy: a k-d tree would import
-    ``scipy.spatial`` (0.2-0.4 s of every command's start, issue 56)."""
+    object; on a plant row the slab holds a few percent of the cells), and within the slab first along the second
+    longest extent. Plain numpy: a k-d tree would import ``scipy.spatial`` (0.2-0.4 s of every command's start, issue
+    56)."""
 
     centres: NDArray[np.float64]
     axis: int
     keys: NDArray[np.float64]
     order: NDArray[np.intp]
+    sorted_centres: NDArray[np.float64]
+    second: int
 
     @classmethod
     def of(cls, centres_base: NDArray[np.float64]) -> _Cells:
         centres = centres_base.reshape(-1, 3)
-        axis = int(np.argmax(np.ptp(centres, axis=0))) if len(centres) else 0
+        extent = np.ptp(centres, axis=0) if len(centres) else np.zeros(3)
+        axis = int(np.argmax(extent))
+        second = int(np.argmax(np.where(np.arange(3) == axis, -np.inf, extent)))
         order = np.argsort(centres[:, axis], kind="stable")
-        return cls(centres, axis, centres[order, axis], order)
+        sorted_centres = np.ascontiguousarray(centres[order])
+        return cls(centres, axis, sorted_centres[:, axis].copy(), order, sorted_centres, second)
 
-    def within(self, point: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
-        """Cells (N,) bool whose centre lies within ``radius`` metres of ``point`` (3,): ``norm(c - point) <= radius``
-        exactly, tested on the candidates of the slab ``|c[axis] - point[axis]|`` a hair over ``radius``."""
-        out = np.zeros(len(self.centres), dtype=bool)
+    def within(self, point: NDArray[np.float64], radius: float) -> NDArray[np.intp]:
+        """Indices of the cells whose centre lies within ``radius`` metres of ``point`` (3,): ``norm(c - point) <=
+        radius`` exactly, tested on the candidates of the slab ``|c[axis] - point[axis]|`` a hair over ``radius`` (and
+        as much along the second axis: a coordinate exceeds the norm by at most rounding); in the slab's order, each
+        once. Indices, not an (N,) mask: an extraction asks hundreds of times, and a mask of every cell would cost
+        each ask in proportion to all the cells."""
         if not len(self.centres) or not np.all(np.isfinite(point)):
-            return out
+            return np.zeros(0, dtype=np.intp)
         reach = radius * (1 + 1e-9) + 1e-12
         lo = int(np.searchsorted(self.keys, point[self.axis] - reach, side="left"))
         hi = int(np.searchsorted(self.keys, point[self.axis] + reach, side="right"))
-        idx = self.order[lo:hi]
-        out[idx[np.linalg.norm(self.centres[idx] - point, axis=1) <= radius]] = True
-        return out
+        slab = self.sorted_centres[lo:hi]
+        cand = np.flatnonzero(np.abs(slab[:, self.second] - point[self.second]) <= reach)
+        cand = cand[np.linalg.norm(slab[cand] - point, axis=1) <= radius]
+        return self.order[lo + cand]
 
 
 def _holders(n_assoc: NDArray[np.int32]) -> NDArray[np.intp]:
@@ -270,9 +285,9 @@ class _Rows:
         self.row_of[fine] = rows
 
 
-def _kill(rows: _Rows, work: _Work, fine: NDArray[np.bool_]) -> None:
-    """Suppress the last-level cells ``fine`` (F,) bool: their rows now, and for good those that are not rows yet."""
-    rows.dead |= fine
+def _kill(rows: _Rows, work: _Work, fine: NDArray[np.intp]) -> None:
+    """Suppress the last-level cells ``fine`` (indices): their rows now, and for good those that are not rows yet."""
+    rows.dead[fine] = True
     r = rows.row_of[fine]
     work.suppress(r[r >= 0])
 
@@ -285,26 +300,35 @@ def _candidates(
     best: float,
     cache: dict[tuple[int, int], Found | None],
     cells: _Cells,
-) -> list[tuple[Found | None, NDArray[np.bool_]]]:
-    """The look-ahead: refined candidates near the best grid score, each with the last-level cells it stands for."""
+) -> list[tuple[Found | None, NDArray[np.intp]]]:
+    """The look-ahead: refined candidates near the best grid score, each with the last-level cells (indices) it stands
+    for."""
     cfg, hyp = problem.config, rows.hyp
     floor = cfg.accept - cfg.tuning.prune_slack
-    trial = work.active.copy()
     out = []
-    for _ in range(cfg.tuning.lookahead):
-        c, k, score = work.best(trial)
-        if not np.isfinite(score) or score < max(floor, best - cfg.tuning.lookahead_margin):
-            break
-        key = (c, k)
-        centre, radius = rows.centres[c], float(hyp.radii[k])
-        if key not in cache:  # a cached result stays valid while its boxes are not taken
-            b, u = hyp.bin_semi_up(int(k)), hyp.bin_axis(int(k))
-            _, assoc_h = score_one(problem, taken, centre, radius, rows.cell, b, u)
-            cache[key] = refine_and_check(problem, taken, centre, radius, assoc_h, b, u)
-        near = cells.within(centre, same_place_m(rows.cell, radius))
-        r = rows.row_of[near]
-        trial[r[r >= 0]] = False
-        out.append((cache[key], near))
+    # a candidate's rows are left out of the next one's choice by setting their best to -inf, restored at the end
+    # (not a copy of every row's flag per step: the rows grow with the scene, the candidates' rows do not)
+    hidden: list[tuple[NDArray[np.intp], NDArray[np.float64]]] = []
+    try:
+        for _ in range(cfg.tuning.lookahead):
+            c, k, score = work.best()
+            if not np.isfinite(score) or score < max(floor, best - cfg.tuning.lookahead_margin):
+                break
+            key = (c, k)
+            centre, radius = rows.centres[c], float(hyp.radii[k])
+            if key not in cache:  # a cached result stays valid while its boxes are not taken
+                b, u = hyp.bin_semi_up(int(k)), hyp.bin_axis(int(k))
+                _, assoc_h = score_one(problem, taken, centre, radius, rows.cell, b, u)
+                cache[key] = refine_and_check(problem, taken, centre, radius, assoc_h, b, u)
+            near = cells.within(centre, same_place_m(rows.cell, radius))
+            r = rows.row_of[near]
+            r = r[r >= 0]
+            hidden.append((r, work.row_best[r]))
+            work.row_best[r] = -np.inf
+            out.append((cache[key], near))
+    finally:
+        for r, saved in reversed(hidden):  # last hidden first: a row hidden twice gets its value from before both
+            work.row_best[r] = saved
     return out
 
 

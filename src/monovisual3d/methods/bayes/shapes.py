@@ -51,9 +51,13 @@ Bayesian information criterion.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
+from ...geometry.fit import fit_parameters
+from ...geometry.solids import SOLIDS
 from .aspects import (
     ROUNDNESS_THRESHOLD,
     as_sphere,
@@ -66,7 +70,18 @@ from .aspects import (
     sticks_out,
     strongly_elongated,
 )
-from .fits import Answer, beats, every_shape, lowest_bic_fit, lying_shapes, sphere_answer, upright_shapes, upright_solids
+from .fits import (
+    Answer,
+    beats,
+    boxes_as_seen,
+    every_shape,
+    lowest_bic_fit,
+    lying_shapes,
+    sensor_score,
+    sphere_answer,
+    upright_shapes,
+    upright_solids,
+)
 from .occlusion import occlusion_flags, predicted_views
 from .problem import Problem
 from .refine import Observation, refine_sphere, refine_spheroid
@@ -173,12 +188,46 @@ def _better_fit(
     """``answer`` or the lowest-BIC fit of ``shapes`` (:func:`lowest_bic_fit`): a solid won by its evidence (a flat tray:
     :func:`.solid_choice.solid_if_clear`) is taken unless ``answer`` is a solid already; an ellipsoid model (a lying
     object) only where it :func:`beats` ``answer``."""
+    if _ellipsoid_cannot_change(problem, obj, answer, shapes, censored, hidden_to):
+        return answer[0]
     new = lowest_bic_fit(problem, obj, shapes, censored, hidden_to=hidden_to)
     if new is None:
         return answer[0]
     if new[0][0].solid:
         return answer[0] if answer[0].solid else new[0][0]
     return new[0][0] if beats(problem, obj, new[0], answer, new[1], hidden_to) else answer[0]
+
+
+def _ellipsoid_cannot_change(
+    problem: Problem,
+    obj: Found,
+    answer: Answer,
+    shapes: tuple[str, ...],
+    censored: NDArray[np.bool_] | None,
+    hidden_to: NDArray[np.float64] | None,
+) -> bool:
+    """Whether :func:`_better_fit` keeps ``answer`` whatever the three-axis ellipsoid's fit (the costliest of its
+    models: a dense row's cut fruit pay for it), so that it need not be fitted: the lowest-BIC fit of the other models
+    does not :func:`beats` ``answer``, and no ellipsoid could. Its sensor score is at most every box's best,
+    ``match_bonus`` (each edge's log-likelihood is at most 0, a miss scores less), so it beats ``answer`` only where
+    that ceiling exceeds ``answer``'s score by more than its extra parameters' ``ln(edges) / 2`` nats each; were the
+    ellipsoid the lowest BIC, :func:`_better_fit` would keep ``answer`` then, and were it not, the other models' fit
+    is the one it weighs. Only without solids among ``shapes`` (their choice follows other rules)."""
+    if "ellipsoid" not in shapes or any(m in SOLIDS for m in shapes):
+        return False
+    rest = lowest_bic_fit(problem, obj, tuple(m for m in shapes if m != "ellipsoid"), censored, hidden_to=hidden_to)
+    if rest is None or rest[0][0].solid or beats(problem, obj, rest[0], answer, rest[1], hidden_to):
+        return False
+    poses, boxes = boxes_as_seen(problem, obj, answer, hidden_to)
+    ceiling = len(boxes) * max(problem.model.match_bonus, problem.model.miss_term)
+    gain = ceiling - sensor_score(problem, poses, boxes, answer[1], answer[0].solid)
+    n_params = len(fit_parameters("ellipsoid", free_orientation=problem.config.free_orientation))
+    return gain + ELLIPSOID_BOUND_SLACK_NATS <= 0.5 * (n_params - answer[2]) * math.log(max(rest[1], 1))
+
+
+#: Nats added to the ellipsoid's best possible gain (:func:`_ellipsoid_cannot_change`) against the rounding of a sum of
+#: box scores: a margin, far below any score difference that decides.
+ELLIPSOID_BOUND_SLACK_NATS = 1e-9
 
 
 def occlusion_refit(
