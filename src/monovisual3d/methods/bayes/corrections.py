@@ -52,6 +52,15 @@ MIN_NOISE_SCALE = 0.25
 MAD_TO_SIGMA = 1.4826
 
 
+def _angle_and_skew(rotvec: NDArray[np.floating]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The angles (..., 1, 1) and skew-symmetric cross-product matrices ``[w]x`` (..., 3, 3) of rotation vectors (..., 3)."""
+    w = np.asarray(rotvec, dtype=float)
+    K = np.zeros(w.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
+    return np.linalg.norm(w, axis=-1)[..., None, None], K
+
+
 def rotation_matrices(rotvec: NDArray[np.floating]) -> NDArray[np.float64]:
     """Rotation matrices (..., 3, 3) of rotation vectors (..., 3), radians (Rodrigues; exact at 0).
 
@@ -61,11 +70,7 @@ def rotation_matrices(rotvec: NDArray[np.floating]) -> NDArray[np.float64]:
     >>> np.allclose(R @ [1.0, 0, 0], [0, 1.0, 0])
     True
     """
-    w = np.asarray(rotvec, dtype=float)
-    theta = np.linalg.norm(w, axis=-1)[..., None, None]
-    K = np.zeros(w.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
-    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
+    theta, K = _angle_and_skew(rotvec)
     with np.errstate(invalid="ignore", divide="ignore"):
         small = theta < 1e-8
         a = np.where(small, 1.0 - theta**2 / 6.0, np.sin(theta) / np.where(small, 1.0, theta))
@@ -76,11 +81,7 @@ def rotation_matrices(rotvec: NDArray[np.floating]) -> NDArray[np.float64]:
 def se3_v_matrices(rotvec: NDArray[np.floating]) -> NDArray[np.float64]:
     """The matrices ``V`` (..., 3, 3) of the SE(3) exponential of rotation vectors (..., 3): ``exp`` of the twist
     ``(w, rho)`` is the rotation ``exp([w]x)`` with the translation ``V(w) rho`` (a screw motion, exact for any angle)."""
-    w = np.asarray(rotvec, dtype=float)
-    theta = np.linalg.norm(w, axis=-1)[..., None, None]
-    K = np.zeros(w.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
-    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
+    theta, K = _angle_and_skew(rotvec)
     with np.errstate(invalid="ignore", divide="ignore"):
         small = theta < 1e-6
         t = np.where(small, 1.0, theta)
