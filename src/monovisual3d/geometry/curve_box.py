@@ -58,11 +58,9 @@ def sampled_curve_box(uv: NDArray[np.float64], *, closed: bool) -> NDArray[np.fl
     if n < 3:
         return dense_curve_box(uv)
     base = dense_curve_box(uv)
-    out = np.empty_like(base)
-    for k in range(2):  # u, then v
-        x = uv[..., k]
-        for sign, slot in ((-1.0, k), (1.0, k + 2)):  # the minimum as the maximum of -x
-            out[..., slot] = sign * _parabola_peak(sign * x, closed)
+    coords = np.moveaxis(uv, -1, -2)  # (..., 2, n): u, v
+    signs = np.array([-1.0, -1.0, 1.0, 1.0])[:, None]  # the minimum as the maximum of -x
+    out = signs[:, 0] * _parabola_peak(signs * np.concatenate([coords, coords], axis=-2), closed)  # all four at once
     return np.where(np.isfinite(base), out, base)
 
 

@@ -187,7 +187,7 @@ def cuboid_bbox(
     if s.shape[-1:] != (3,) or np.any(~(s > 0)):
         raise InputError(f"half_sides: got shape {s.shape}, expected (..., 3) positive lengths in metres")
     R = np.asarray(R_base_cuboid, dtype=float)
-    corners = np.einsum("...ij,...kj->...ki", R * s[..., None, :], CUBE_CORNERS)  # (..., 8, 3), offsets in base
+    corners = CUBE_CORNERS @ np.swapaxes(R * s[..., None, :], -1, -2)  # (..., 8, 3), offsets in base
     distorted = camera.distortion_model != "none"
     if distorted:  # the 12 edges, each sampled at n_contour points: (..., 12 n, 3), edge by edge
         t = np.linspace(0.0, 1.0, n_contour)[:, None]
@@ -195,7 +195,7 @@ def cuboid_bbox(
         corners = ((1.0 - t) * a[..., :, None, :] + t * b[..., :, None, :]).reshape(a.shape[:-2] + (-1, 3))
     T = np.asarray(T_base_optical, dtype=float)
     c_base = np.asarray(centre_base, dtype=float)[..., None, :] + corners
-    p_opt = np.einsum("...ji,...kj->...ki", T[..., :3, :3], c_base - T[..., None, :3, 3])
+    p_opt = (c_base - T[..., None, :3, 3]) @ T[..., :3, :3]  # R^T (p - t), row by row
     uv = camera.project(p_opt)
     if distorted:  # each edge a gently curved arc: its box refined, the cuboid's box their union
         edges = sampled_curve_box(uv.reshape(uv.shape[:-2] + (len(CUBE_EDGES), n_contour, 2)), closed=False)
