@@ -14,6 +14,7 @@ from monovisual3d.camera import Camera
 from monovisual3d.errors import InputError
 from monovisual3d.session import Session
 from monovisual3d.session.diagnose import (
+    box_stretch,
     check_session,
     distortion_causes,
     duplicate_views,
@@ -214,3 +215,18 @@ def test_localize_counts_duplicates_once_and_says_so() -> None:
     n = len(s.views)
     for obj, ref in zip(r.objects, clean.objects):
         assert obj.associations == {**ref.associations, **{v + n: d for v, d in ref.associations.items()}}
+
+
+def test_tall_boxes_around_the_principal_point_are_tall_objects_not_a_stretch() -> None:
+    """Containers 1.8 times as tall as wide, centred in a 1280x720 image, have the aspect of boxes stretched to a square
+    detector input; stretched boxes also sit 1.78 times as far down the image, which those do not."""
+    rng = np.random.default_rng(0)
+    W, H, cx, cy = 1280, 720, 640.0, 360.0
+    xc, yc = rng.uniform(400.0, 880.0, 12), rng.uniform(250.0, 470.0, 12)
+    w = rng.uniform(40.0, 80.0, 12)
+    tall = np.stack([xc - w / 2, yc - 0.9 * w, xc + w / 2, yc + 0.9 * w], axis=1)
+    assert box_stretch(tall, W, H, cx, cy) is None
+    round_boxes = np.stack([xc - w / 2, yc - w / 2, xc + w / 2, yc + w / 2], axis=1)
+    stretched = round_boxes * np.array([1.0, W / H, 1.0, W / H])  # a 1280x1280 input's boxes, not scaled back
+    assert box_stretch(stretched, W, H, cx, cy) == pytest.approx(W / H)
+    assert box_stretch(tall, W, H) == pytest.approx(1.8)  # without the principal point: the aspect alone

@@ -175,7 +175,7 @@ def raw_box_causes(camera: Camera, T_base_optical: NDArray[np.float64], boxes: S
             f"boxes normalised to 0..1? expected pixels x1, y1, x2, y2; multiply x by {W} and y by {H}"
         )
     causes = _past_edge_causes(camera, T_base_optical, boxes, allb)
-    stretch = box_stretch(allb, W, H)
+    stretch = box_stretch(allb, W, H, camera.cx, camera.cy)
     if stretch is not None:
         side = max(W, H)
         causes.append(
@@ -243,11 +243,14 @@ def past_edge_boxes(boxes: NDArray[np.float64], W: int, H: int) -> dict[str, flo
     return {"n": n, "max_x": float(boxes[:, 2].max()), "max_y": float(boxes[:, 3].max())}
 
 
-def box_stretch(boxes: NDArray[np.float64], W: int, H: int) -> float | None:
+def box_stretch(boxes: NDArray[np.float64], W: int, H: int, cx: float | None = None, cy: float | None = None) -> float | None:
     """The median box aspect (height / width) when it matches the stretch of the image to a square, else None.
 
     Round fruit give a median aspect near 1; boxes of a ``W x W`` detector input not scaled back to ``W x H`` are
-    stretched by ``W / H`` in height (or ``H / W`` in width).
+    stretched by ``W / H`` in height (or ``H / W`` in width). Tall objects (containers, bottles) can have that aspect
+    too; the stretch also moves every box away from the image's top (left) edge by the same factor, so with the
+    principal point ``cx, cy`` given, the boxes must sit nearer it once shrunk back (the views look at what they
+    detect) than as written: tall boxes around the principal point are taken as tall objects.
     """
     if W == H or len(boxes) < MIN_BOXES:
         return None
@@ -257,9 +260,14 @@ def box_stretch(boxes: NDArray[np.float64], W: int, H: int) -> float | None:
         return None
     aspect = float(np.median(h[ok] / w[ok]))
     expected = W / H  # a square input of side max(W, H) stretches the short side by max/min
-    if abs(np.log(aspect / expected)) < np.log(STRETCH_TOLERANCE) and abs(np.log(aspect)) > np.log(STRETCH_MIN):
-        return aspect
-    return None
+    if not (abs(np.log(aspect / expected)) < np.log(STRETCH_TOLERANCE) and abs(np.log(aspect)) > np.log(STRETCH_MIN)):
+        return None
+    if cx is not None and cy is not None:
+        axis, centre, factor = (1, cy, W / H) if W > H else (0, cx, H / W)  # the stretched axis, its principal point
+        mid = float(np.median(0.5 * (boxes[ok, axis] + boxes[ok, axis + 2])))
+        if abs(mid / factor - centre) >= abs(mid - centre):
+            return None
+    return aspect
 
 
 def refusal_hint(camera: Camera, boxes: Sequence[NDArray[np.float64]]) -> str | None:
