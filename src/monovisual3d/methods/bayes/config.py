@@ -35,6 +35,9 @@ FIT_SEMI_AXIS_RANGE_M = (0.005, 0.16)
 DIVERGED_RADIUS_FACTOR = 2.0
 #: Self-calibrations of ``BayesConfig.calibrate``: none, or one camera-frame (hand-eye) correction shared by all views.
 CALIBRATIONS = ("none", "hand-eye")
+#: Edge noise of ``BayesConfig.edge_noise``: raised to the session's box scatter where it exceeds the sensor model's
+#: (:mod:`.edge_noise`), or as stated (``alpha``).
+EDGE_NOISES = ("auto", "stated")
 #: Compute backends of the ``bayes`` method: the fused numba kernels (default) and the numpy reference.
 BACKENDS = ("numba", "numpy")
 
@@ -206,6 +209,9 @@ class BayesConfig:
     calibrate : str, none or hand-eye: estimate one camera-frame correction (a hand-eye error) shared by all views
         jointly with the fruit, apply it and report it (``quality.calibration``); needs 5 or more views and 6 or more
         fruit seen in two or more
+    edge_noise : str, auto or stated: with auto, where the boxes scatter well beyond the sensor model's edge noise
+        (``alpha``), the session is localised again with ``alpha`` raised to their scatter (reported as
+        ``quality.edge_noise``); stated keeps ``alpha`` as given
     shape : str, object model: sphere, spheroid (two equal semi-axes), ellipsoid (three) or auto (per object by BIC;
         round fruit stay spheres)
     size_range : tuple or str or None, metres, (min, max) object size as a semi-axis length, e.g. "0.01,0.12": it sets
@@ -238,6 +244,7 @@ class BayesConfig:
     pose_sigma_mm: float = 0.0
     pose_sigma_deg: float = 0.0
     calibrate: str = "none"
+    edge_noise: str = "auto"
     shape: str = "auto"
     size_range: tuple[float, float] | str | None = None
     up: tuple[float, float, float] | str = (0.0, 0.0, 1.0)
@@ -278,6 +285,8 @@ class BayesConfig:
                 raise InputError(f"{name}: got {v!r}, expected a finite number >= 0")
         if self.calibrate not in CALIBRATIONS:
             raise InputError(f"calibrate: got {self.calibrate!r}, expected one of {list(CALIBRATIONS)}")
+        if self.edge_noise not in EDGE_NOISES:
+            raise InputError(f"edge_noise: got {self.edge_noise!r}, expected one of {list(EDGE_NOISES)}")
         if not (is_real(self.isolated_margin) and self.isolated_margin >= 0):
             raise InputError(f"isolated_margin: got {self.isolated_margin!r}, expected a number of metres >= 0 (inf: never)")
         if not (is_real(self.accept) and math.isfinite(self.accept)):

@@ -14,6 +14,7 @@ from ...result import DetectedObject, Result
 from ...session import Session, View, Workspace
 from ...session.diagnose import check_session
 from ...verdict import with_causes
+from . import edge_noise
 from .config import BayesConfig
 from .pipeline import Estimate, estimate
 from .problem import build_problem
@@ -108,7 +109,7 @@ class BayesLocalizer:
             checked, input_causes = check_session(Session(self.camera, tuple(self.views), self.workspace))
             views = list(checked.views)
         problem = build_problem(self.camera, self.config, views, self.grid)
-        found = estimate(problem)
+        problem, found = edge_noise.adapt(problem, estimate(problem), estimate)
         if self.config.calibrate == "hand-eye":
             from .calibration import calibrate_hand_eye
 

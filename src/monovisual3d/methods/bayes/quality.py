@@ -356,7 +356,8 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
         p = chi2_sf(consistency * d, d) if d > 0 else 1.0
         views.append(ViewQuality(v, c, d, consistency, p))
     free = tuple(unexplained_boxes(problem, objects, single))
-    quality = Quality(tuple(obj_quality), tuple(views), single, fc, fs, int(dof), free, n_boxes)
+    robust_factor = robust**2 * len(all_z) / dof if dof > 0 else 1.0
+    quality = Quality(tuple(obj_quality), tuple(views), single, fc, fs, robust_factor, int(dof), free, n_boxes)
     return quality, tuple(out)
 
 

@@ -229,6 +229,9 @@ class Quality:
     views : tuple of ViewQuality, the views with an object's box
     variance_factor : float, the session's: robust chi-square over its degrees of freedom (1: the sensor model)
     centre_factor, size_factor : float, the variance factors of the boxes' centre and size parts
+    robust_factor : float, the session's variance factor from the median absolute residual (corrected for the share of
+        the degrees of freedom the fits take): what most edges say, a minority of boxes cut by leaves or taken from
+        another fruit aside
     dof : int, the session's degrees of freedom
     unexplained_boxes : tuple of (view, box), session view index and detection index of each box that no object holds
         and none explains as its own box under the session's noise (:func:`.quality.unexplained_boxes`)
@@ -240,6 +243,7 @@ class Quality:
     variance_factor: float = 1.0
     centre_factor: float = 1.0
     size_factor: float = 1.0
+    robust_factor: float = 1.0
     dof: int = 0
     unexplained_boxes: tuple[tuple[int, int], ...] = ()
     n_boxes: int = 0
@@ -255,6 +259,7 @@ class Quality:
             "variance_factor": self.variance_factor,
             "centre_factor": self.centre_factor,
             "size_factor": self.size_factor,
+            "robust_factor": self.robust_factor,
             "dof": self.dof,
             "objects": [o.to_dict() for o in self.objects],
             "views": [v.to_dict() for v in self.views],
