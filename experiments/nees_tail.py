@@ -24,7 +24,9 @@ from monovisual3d.bench.trust_runs import NEES_95, is_positive_definite
 from monovisual3d.metrics import match
 
 
-def fruit_rows(family: str, seed: int, noise: float, alpha: float | None = None) -> list[dict[str, float | str]]:
+def fruit_rows(
+    family: str, seed: int, noise: float, alpha: float | None = None, edge_noise: str = "auto"
+) -> list[dict[str, float | str]]:
     """One row per object paired with a true fruit within its radius: NEES, fitted shape, smallest semi-axis (mm),
     angular size (radius over distance to the nearest camera), error along the ellipsoid's axes in its sigmas."""
     import warnings
@@ -32,7 +34,7 @@ def fruit_rows(family: str, seed: int, noise: float, alpha: float | None = None)
     case = make_case(family, seed, noise)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = localize(case.session, **({} if alpha is None else {"alpha": alpha}))
+        result = localize(case.session, edge_noise=edge_noise, **({} if alpha is None else {"alpha": alpha}))
     cams = np.array([np.asarray(v.T_base_optical)[:3, 3] for v in case.session.views])
     rows = []
     if not len(result.positions):
@@ -71,12 +73,15 @@ def main() -> None:
     parser.add_argument("--families", default=",".join(FAMILIES))
     parser.add_argument("--noise", type=float, default=0.10)
     parser.add_argument("--alpha", type=float, help="the sensor model's edge noise (localize --alpha; default its own)")
+    parser.add_argument(
+        "--edge-noise", default="auto", choices=("auto", "stated"), help="localize --edge-noise (stated: before it existed)"
+    )
     args = parser.parse_args()
     rows = [
         r
         for seed in range(args.first_seed, args.end_seed)
         for family in args.families.split(",")
-        for r in fruit_rows(family, seed, args.noise, args.alpha)
+        for r in fruit_rows(family, seed, args.noise, args.alpha, args.edge_noise)
     ]
     nees = np.array([r["nees"] for r in rows])
     print(f"box noise {args.noise:g}, seeds {args.first_seed}-{args.end_seed - 1}")

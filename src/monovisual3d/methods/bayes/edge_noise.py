@@ -13,8 +13,11 @@ their fitted solids, over what the sensor model predicts for them). Where the cl
 :data:`ADAPT_ROBUST_FACTOR` (the typical edge scatters beyond the model, not only a minority of boxes cut by leaves or
 taken from a neighbour), on at least :data:`ADAPT_MIN_DOF` degrees of freedom, the detector's edge noise is larger than
 stated, and the session is localised again with ``alpha * sqrt(factor)`` (the clipped factor, capped at
-:data:`MAX_FACTOR`). The second estimate is the answer; the first one's named causes are kept with it (a mistake that
-shows as scatter under the stated noise stays named), and ``quality.edge_noise`` reports what was done.
+:data:`MAX_FACTOR`). The second estimate is the answer, and ``quality.edge_noise`` reports what was done.
+
+Not where a cause is named, by the input checks or by the first estimate (a view that disagrees, inverted poses, an
+image size that is not the calibration's...): the scatter is then the mistake's, not the detector's, and a looser model
+would only blur what the warning names (and spend a second estimate on a session already flagged).
 
 Why these numbers (and the measurements): docs/decisions/bayes-quality.md#the-sessions-edge-noise.
 """
@@ -22,10 +25,11 @@ Why these numbers (and the measurements): docs/decisions/bayes-quality.md#the-se
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any
 
+from ...verdict import Cause
 from .problem import Problem
 
 #: The first estimate's (clipped) variance factor above which the session is localised again with a larger ``alpha``:
@@ -59,14 +63,16 @@ def adapted_alpha(alpha: float, quality: dict[str, Any]) -> float | None:
     return alpha * math.sqrt(min(factor, MAX_FACTOR))
 
 
-def adapt(problem: Problem, first: Any, estimate: Callable[[Problem], Any]) -> tuple[Problem, Any]:
+def adapt(
+    problem: Problem, first: Any, estimate: Callable[[Problem], Any], input_causes: Sequence[Cause] = ()
+) -> tuple[Problem, Any]:
     """The problem and estimate (:class:`.pipeline.Estimate`, which this module does not import: it sits below the
-    pipeline) with the edge noise the boxes show (see the module docstring): ``first`` and
-    ``problem`` unchanged where the config states the noise (``edge_noise='stated'``) or the boxes scatter as
-    stated; else ``estimate`` (:func:`.pipeline.estimate`) run again with ``alpha`` raised, the first estimate's causes
-    kept beside the second's, and ``quality["edge_noise"]`` saying so."""
+    pipeline) with the edge noise the boxes show (see the module docstring): ``first`` and ``problem`` unchanged where
+    the config states the noise (``edge_noise='stated'``), the boxes scatter as stated, or a cause is named (the
+    input checks' ``input_causes`` or the first estimate's); else ``estimate`` (:func:`.pipeline.estimate`) run again
+    with ``alpha`` raised, and ``quality["edge_noise"]`` saying so."""
     config = problem.config
-    if config.edge_noise != "auto" or not first.objects:
+    if config.edge_noise != "auto" or not first.objects or input_causes or first.causes:
         return problem, first
     stated = config.sensor.alpha
     alpha = adapted_alpha(stated, first.quality)
@@ -75,12 +81,10 @@ def adapt(problem: Problem, first: Any, estimate: Callable[[Problem], Any]) -> t
     config = replace(config, sensor=replace(config.sensor, alpha=alpha))
     problem = replace(problem, config=config, model=config.sensor)
     second = estimate(problem)
-    names = {c.cause for c in second.causes}
-    causes = second.causes + tuple(c for c in first.causes if c.cause not in names)
     report = {
         "alpha": alpha,
         "stated_alpha": stated,
         "first_variance_factor": first.quality["variance_factor"],
         "first_estimate_s": sum(first.timing_s.values()),
     }
-    return problem, replace(second, causes=causes, quality={**second.quality, "edge_noise": report})
+    return problem, replace(second, quality={**second.quality, "edge_noise": report})

@@ -109,7 +109,7 @@ class BayesLocalizer:
             checked, input_causes = check_session(Session(self.camera, tuple(self.views), self.workspace))
             views = list(checked.views)
         problem = build_problem(self.camera, self.config, views, self.grid)
-        problem, found = edge_noise.adapt(problem, estimate(problem), estimate)
+        problem, found = edge_noise.adapt(problem, estimate(problem), estimate, input_causes)
         if self.config.calibrate == "hand-eye":
             from .calibration import calibrate_hand_eye
 
