@@ -68,7 +68,7 @@ def test_adapt_runs_again_with_the_raised_alpha() -> None:
     assert out.quality["edge_noise"] == report and out.timing_s == {"search": 2.0}
 
 
-def test_adapt_leaves_the_estimate_where_the_noise_is_as_stated_stated_by_the_user_or_a_mistake_named() -> None:
+def test_adapt_leaves_the_estimate_where_the_noise_is_as_stated_stated_by_the_user_or_already_flagged() -> None:
     def never(problem):  # noqa: ANN001, ANN202
         raise AssertionError("estimated again")
 
@@ -76,7 +76,7 @@ def test_adapt_leaves_the_estimate_where_the_noise_is_as_stated_stated_by_the_us
     for first in (_first(1.2), _first(9.0, (SCATTER,))):
         assert adapt(problem, first, never) == (problem, first)
     first = _first(9.0)
-    assert adapt(problem, first, never, [SCATTER]) == (problem, first)
+    assert adapt(problem, first, never, flagged=True) == (problem, first)
     stated = _problem("stated")
     assert "edge_noise" not in adapt(stated, _first(9.0), never)[1].quality
 

@@ -15,9 +15,11 @@ taken from a neighbour), on at least :data:`ADAPT_MIN_DOF` degrees of freedom, t
 stated, and the session is localised again with ``alpha * sqrt(factor)`` (the clipped factor, capped at
 :data:`MAX_FACTOR`). The second estimate is the answer, and ``quality.edge_noise`` reports what was done.
 
-Not where a cause is named, by the input checks or by the first estimate (a view that disagrees, inverted poses, an
-image size that is not the calibration's...): the scatter is then the mistake's, not the detector's, and a looser model
-would only blur what the warning names (and spend a second estimate on a session already flagged).
+Not where the first estimate is already flagged: a cause named (a view that disagrees, inverted poses, an image size
+that is not the calibration's...), a warning (views whose boxes sit off together), or boxes left that no object explains
+(``--strict``'s completeness check, :func:`monovisual3d.completeness.incomplete_reasons`). The scatter is then the
+mistake's, not the detector's, and a looser model would only blur what the warning says: another view's boxes that
+no object explained under the stated noise are taken into objects under the raised one.
 
 Why these numbers (and the measurements): docs/decisions/bayes-quality.md#the-sessions-edge-noise.
 """
@@ -25,11 +27,10 @@ Why these numbers (and the measurements): docs/decisions/bayes-quality.md#the-se
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-from ...verdict import Cause
 from .problem import Problem
 
 #: The first estimate's (clipped) variance factor above which the session is localised again with a larger ``alpha``:
@@ -63,16 +64,14 @@ def adapted_alpha(alpha: float, quality: dict[str, Any]) -> float | None:
     return alpha * math.sqrt(min(factor, MAX_FACTOR))
 
 
-def adapt(
-    problem: Problem, first: Any, estimate: Callable[[Problem], Any], input_causes: Sequence[Cause] = ()
-) -> tuple[Problem, Any]:
+def adapt(problem: Problem, first: Any, estimate: Callable[[Problem], Any], flagged: bool = False) -> tuple[Problem, Any]:
     """The problem and estimate (:class:`.pipeline.Estimate`, which this module does not import: it sits below the
     pipeline) with the edge noise the boxes show (see the module docstring): ``first`` and ``problem`` unchanged where
-    the config states the noise (``edge_noise='stated'``), the boxes scatter as stated, or a cause is named (the
-    input checks' ``input_causes`` or the first estimate's); else ``estimate`` (:func:`.pipeline.estimate`) run again
-    with ``alpha`` raised, and ``quality["edge_noise"]`` saying so."""
+    the config states the noise (``edge_noise='stated'``), the boxes scatter as stated, or the first estimate is
+    ``flagged`` or names a cause; else ``estimate`` (:func:`.pipeline.estimate`) run again with ``alpha`` raised, and
+    ``quality["edge_noise"]`` saying so."""
     config = problem.config
-    if config.edge_noise != "auto" or not first.objects or input_causes or first.causes:
+    if config.edge_noise != "auto" or not first.objects or flagged or first.causes:
         return problem, first
     stated = config.sensor.alpha
     alpha = adapted_alpha(stated, first.quality)

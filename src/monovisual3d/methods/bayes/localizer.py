@@ -8,6 +8,7 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from ...camera import Camera
+from ...completeness import incomplete_reasons
 from ...errors import InputWarning
 from ...grid import VoxelGrid
 from ...result import DetectedObject, Result
@@ -109,7 +110,11 @@ class BayesLocalizer:
             checked, input_causes = check_session(Session(self.camera, tuple(self.views), self.workspace))
             views = list(checked.views)
         problem = build_problem(self.camera, self.config, views, self.grid)
-        problem, found = edge_noise.adapt(problem, estimate(problem), estimate, input_causes)
+        first = estimate(problem)
+        flagged = bool(input_causes) or (
+            self.config.edge_noise == "auto" and _flagged(Session(self.camera, tuple(views)), self.config, first)
+        )
+        problem, found = edge_noise.adapt(problem, first, estimate, flagged)
         if self.config.calibrate == "hand-eye":
             from .calibration import calibrate_hand_eye
 
@@ -147,6 +152,15 @@ def session_messages(camera: Camera, config: BayesConfig, views: list[View], fou
             f"and max_hypotheses={config.tuning.max_hypotheses:,}; a smaller workspace or a coarser resolution searches exhaustively"
         )
     return messages
+
+
+def _flagged(session: Session, config: BayesConfig, found: Estimate) -> bool:
+    """Whether an estimate says something is wrong before its causes: a warning of :func:`session_messages`, or boxes
+    left that ``--strict``'s completeness check reports (:func:`~monovisual3d.completeness.incomplete_reasons`)."""
+    if session_messages(session.camera, config, list(session.views), found):
+        return True
+    result = Result(objects=list(found.objects), method="bayes", quality=dict(found.quality))
+    return bool(incomplete_reasons(session, result))
 
 
 def warm_up(config: BayesConfig | None = None) -> float:
