@@ -76,7 +76,7 @@ def test_adapt_leaves_the_estimate_where_the_noise_is_as_stated_stated_by_the_us
     for first in (_first(1.2), _first(9.0, (SCATTER,))):
         assert adapt(problem, first, never) == (problem, first)
     first = _first(9.0)
-    assert adapt(problem, first, never, flagged=True) == (problem, first)
+    assert adapt(problem, first, never, flagged=lambda estimate: estimate is first) == (problem, first)
     stated = _problem("stated")
     assert "edge_noise" not in adapt(stated, _first(9.0), never)[1].quality
 

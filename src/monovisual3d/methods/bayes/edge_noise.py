@@ -64,18 +64,20 @@ def adapted_alpha(alpha: float, quality: dict[str, Any]) -> float | None:
     return alpha * math.sqrt(min(factor, MAX_FACTOR))
 
 
-def adapt(problem: Problem, first: Any, estimate: Callable[[Problem], Any], flagged: bool = False) -> tuple[Problem, Any]:
+def adapt(
+    problem: Problem, first: Any, estimate: Callable[[Problem], Any], flagged: Callable[[Any], bool] | None = None
+) -> tuple[Problem, Any]:
     """The problem and estimate (:class:`.pipeline.Estimate`, which this module does not import: it sits below the
     pipeline) with the edge noise the boxes show (see the module docstring): ``first`` and ``problem`` unchanged where
-    the config states the noise (``edge_noise='stated'``), the boxes scatter as stated, or the first estimate is
-    ``flagged`` or names a cause; else ``estimate`` (:func:`.pipeline.estimate`) run again with ``alpha`` raised, and
-    ``quality["edge_noise"]`` saying so."""
+    the config states the noise (``edge_noise='stated'``), the boxes scatter as stated, or the first estimate names a
+    cause or is ``flagged`` (a test of the estimate, asked only where it decides); else ``estimate``
+    (:func:`.pipeline.estimate`) run again with ``alpha`` raised, and ``quality["edge_noise"]`` saying so."""
     config = problem.config
-    if config.edge_noise != "auto" or not first.objects or flagged or first.causes:
+    if config.edge_noise != "auto" or not first.objects or first.causes:
         return problem, first
     stated = config.sensor.alpha
     alpha = adapted_alpha(stated, first.quality)
-    if alpha is None:
+    if alpha is None or (flagged is not None and flagged(first)):
         return problem, first
     config = replace(config, sensor=replace(config.sensor, alpha=alpha))
     problem = replace(problem, config=config, model=config.sensor)

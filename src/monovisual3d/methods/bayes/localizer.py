@@ -110,11 +110,12 @@ class BayesLocalizer:
             checked, input_causes = check_session(Session(self.camera, tuple(self.views), self.workspace))
             views = list(checked.views)
         problem = build_problem(self.camera, self.config, views, self.grid)
-        first = estimate(problem)
-        flagged = bool(input_causes) or (
-            self.config.edge_noise == "auto" and _flagged(Session(self.camera, tuple(views)), self.config, first)
+        # flagged: what the estimate itself shows, so that localize() (whose input checks run before the method) does
+        # the same
+        session = Session(self.camera, tuple(views))
+        problem, found = edge_noise.adapt(
+            problem, estimate(problem), estimate, lambda first: _flagged(session, self.config, first)
         )
-        problem, found = edge_noise.adapt(problem, first, estimate, flagged)
         if self.config.calibrate == "hand-eye":
             from .calibration import calibrate_hand_eye
 
