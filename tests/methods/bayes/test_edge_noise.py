@@ -98,4 +98,5 @@ def test_noisy_detector_session_reports_the_edge_noise_it_used() -> None:
     assert report["stated_alpha"] == 0.05 and 0.08 < report["alpha"] < 0.2
     assert report["first_variance_factor"] == pytest.approx(stated.quality["variance_factor"])
     assert stated.quality["variance_factor"] > ADAPT_FACTOR and "edge_noise" not in stated.quality
+    assert stated.quality["robust_factor"] > ADAPT_ROBUST_FACTOR
     assert auto.quality["variance_factor"] < 2.0
