@@ -22,7 +22,7 @@ from monovisual3d.bench import accuracy
 from monovisual3d.bench.real import default_folder, view_sets
 from monovisual3d.bench.trust_cases import FAMILIES, make_case
 from monovisual3d.io.lfd import read_lfd
-from monovisual3d.methods.bayes.edge_noise import ADAPT_FACTOR, ADAPT_MIN_DOF, ADAPT_ROBUST_FACTOR
+from monovisual3d.methods.bayes.edge_noise import ADAPT_FACTOR, ADAPT_ROBUST_FACTOR, adapted_alpha
 from monovisual3d.session.model import Session
 
 
@@ -33,12 +33,13 @@ def factors(session: Session, **options: object) -> tuple[float, float, int]:
 
 
 def report(label: str, rows: list[tuple[str, float, float, int]]) -> None:
-    """Quantiles of both factors and the sessions the rule selects."""
+    """Quantiles of both factors and the sessions above both thresholds (:func:`adapted_alpha`; the method also leaves
+    out a session its first estimate flags)."""
     if not rows:
         return
     F, R = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])
     q = [0, 0.25, 0.5, 0.75, 1]
-    picked = [r for r in rows if r[1] > ADAPT_FACTOR and r[2] > ADAPT_ROBUST_FACTOR and r[3] >= ADAPT_MIN_DOF]
+    picked = [r for r in rows if adapted_alpha(0.05, {"variance_factor": r[1], "robust_factor": r[2], "dof": r[3]})]
     print(
         f"| {label} | {len(rows)} | {' / '.join(f'{x:.2f}' for x in np.quantile(F, q))} | "
         f"{' / '.join(f'{x:.2f}' for x in np.quantile(R, q))} | {len(picked)} |"
@@ -57,7 +58,7 @@ def main() -> None:
     args = parser.parse_args()
     first, last = (int(x) for x in args.seeds.split("-"))
     warnings.simplefilter("ignore")
-    print("| sessions | count | clipped factor min / 25 % / median / 75 % / max | median-residual factor | selected |")
+    print("| sessions | count | clipped factor min / 25 % / median / 75 % / max | median-residual factor | above both |")
     print("|---|---:|---|---|---:|")
     for noise in (float(x) for x in args.noises.split(",")):
         rows = []

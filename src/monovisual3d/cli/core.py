@@ -166,6 +166,8 @@ def _localize_and_write(session: Path, config: Any, output: Path | None, quiet: 
         calibration = result.quality.get("calibration") or {}
         if calibration.get("applied"):
             console.print(calibration["note"], highlight=False)
+        if result.quality.get("edge_noise"):
+            console.print(result.quality["edge_noise"]["note"], highlight=False)
     elif output is None:
         print(text)
     for line in shown:

@@ -35,6 +35,7 @@ def test_adapted_alpha_scales_by_the_root_of_the_factor_only_beyond_both_thresho
     assert adapted_alpha(0.05, q(9.0, ADAPT_ROBUST_FACTOR)) is None  # the median edge as the model says: a few cut
     assert adapted_alpha(0.05, q(9.0, dof=ADAPT_MIN_DOF - 1)) is None
     assert adapted_alpha(0.05, {}) is None
+    assert adapted_alpha(0.0, q(9.0)) is None  # noise stated as a pixel floor only: nothing to scale
     assert adapted_alpha(0.05, q(float("nan"))) is None
     assert_allclose(adapted_alpha(0.05, q(9.0)), 0.15)
     assert_allclose(adapted_alpha(0.04, q(100.0)), 0.04 * np.sqrt(MAX_FACTOR))
@@ -59,13 +60,22 @@ def test_adapt_runs_again_with_the_raised_alpha() -> None:
 
     def second(problem):  # noqa: ANN001, ANN202 - the pipeline's signature
         seen.append(problem)
-        return Estimate([], quality={"variance_factor": 1.0, "dof": 60}, timing_s={"search": 2.0})
+        return Estimate([obj], quality={"variance_factor": 1.0, "dof": 60}, timing_s={"search": 2.0})
+
+    obj = DetectedObject(position=np.ones(3), score=12.0, radius=0.04)
 
     problem, out = adapt(_problem(), _first(9.0), second)
     assert len(seen) == 1 and seen[0] is problem
     assert_allclose([problem.model.alpha, problem.config.sensor.alpha], [0.15, 0.15])
-    report = {"alpha": pytest.approx(0.15), "stated_alpha": 0.05, "first_variance_factor": 9.0, "first_estimate_s": 1.0}
-    assert out.quality["edge_noise"] == report and out.timing_s == {"search": 2.0}
+    report = out.quality["edge_noise"]
+    assert report.pop("note").startswith("edge noise: the boxes scatter 3.0 times the sensor model's (alpha 0.05)")
+    assert report == {"alpha": pytest.approx(0.15), "stated_alpha": 0.05, "first_variance_factor": 9.0, "first_estimate_s": 1.0}
+    assert out.timing_s == {"search": 2.0}
+
+
+def test_adapt_keeps_the_first_estimate_where_the_second_finds_nothing() -> None:
+    problem, first = _problem(), _first(9.0)
+    assert adapt(problem, first, lambda p: Estimate([], quality={"variance_factor": 1.0, "dof": 0})) == (problem, first)
 
 
 def test_adapt_leaves_the_estimate_where_the_noise_is_as_stated_stated_by_the_user_or_already_flagged() -> None:

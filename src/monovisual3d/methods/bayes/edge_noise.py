@@ -15,8 +15,13 @@ taken from a neighbour), on at least :data:`ADAPT_MIN_DOF` degrees of freedom, t
 stated, and the session is localised again with ``alpha * sqrt(factor)`` (the clipped factor, capped at
 :data:`MAX_FACTOR`). The second estimate is the answer, and ``quality.edge_noise`` reports what was done.
 
-Not where the first estimate is already flagged: a cause named (a view that disagrees, inverted poses, an image size
-that is not the calibration's...), a warning (views whose boxes sit off together), or boxes left that no object explains
+Only the ``alpha * size`` part of the edge noise is raised: where the pixel floor or a stated pose noise dominates (small,
+far boxes), the second estimate's noise still falls short of the boxes'. The second estimate's ``quality`` is under the
+raised noise (its variance factor near 1), and the result's ``config`` keeps the stated ``alpha``.
+
+Not where the first estimate is already flagged: a cause it names (a view that disagrees, an image size that is not the
+calibration's, scatter beyond :data:`.quality.SCATTER_FACTOR`...), a warning (views whose boxes sit off together), or
+boxes left that no object explains
 (``--strict``'s completeness check, :func:`monovisual3d.completeness.incomplete_reasons`). The scatter is then the
 mistake's, not the detector's, and a looser model would only blur what the warning says: another view's boxes that
 no object explained under the stated noise are taken into objects under the raised one.
@@ -32,6 +37,7 @@ from dataclasses import replace
 from typing import Any
 
 from .problem import Problem
+from .quality import SCATTER_FACTOR, SCATTER_MIN_DOF
 
 #: The first estimate's (clipped) variance factor above which the session is localised again with a larger ``alpha``:
 #: edge noise 1.6 times the model's. Under the model the factor is 1 within its chance spread (about 0.2 on 50-100
@@ -40,11 +46,13 @@ ADAPT_FACTOR = 2.5
 #: ...and the median residual's factor (``quality.robust_factor``) above which: the typical edge scatters beyond the
 #: model (1.18 times its noise), not only a minority of edges cut by leaves, which leave the median near 1.
 ADAPT_ROBUST_FACTOR = 1.4
-#: Degrees of freedom the variance factor must rest on (fewer: no evidence about the detector's noise).
-ADAPT_MIN_DOF = 12
+#: Degrees of freedom the variance factor must rest on (fewer: no evidence about the detector's noise): those the
+#: ``scatter`` cause needs.
+ADAPT_MIN_DOF = SCATTER_MIN_DOF
 #: The most the variance factor raises ``alpha`` by is ``sqrt(MAX_FACTOR)``: beyond it (edge noise four times the
-#: model's) the scatter is a mistake to name (``scatter``, :data:`.quality.SCATTER_FACTOR`), not a detector to model.
-MAX_FACTOR = 16.0
+#: model's) the scatter is a mistake to name (the ``scatter`` cause, which then stops the second estimate), not a
+#: detector to model; a guard for a caller of :func:`adapted_alpha` without that cause.
+MAX_FACTOR = SCATTER_FACTOR
 
 
 def adapted_alpha(alpha: float, quality: dict[str, Any]) -> float | None:
@@ -57,6 +65,8 @@ def adapted_alpha(alpha: float, quality: dict[str, Any]) -> float | None:
     True
     """
     factor, robust, dof = quality.get("variance_factor"), quality.get("robust_factor"), quality.get("dof", 0)
+    if alpha <= 0:  # no size-proportional noise stated: nothing to scale
+        return None
     if factor is None or robust is None or not (math.isfinite(factor) and math.isfinite(robust)):
         return None
     if factor <= ADAPT_FACTOR or robust <= ADAPT_ROBUST_FACTOR or dof < ADAPT_MIN_DOF:
@@ -67,11 +77,14 @@ def adapted_alpha(alpha: float, quality: dict[str, Any]) -> float | None:
 def adapt(
     problem: Problem, first: Any, estimate: Callable[[Problem], Any], flagged: Callable[[Any], bool] | None = None
 ) -> tuple[Problem, Any]:
-    """The problem and estimate (:class:`.pipeline.Estimate`, which this module does not import: it sits below the
-    pipeline) with the edge noise the boxes show (see the module docstring): ``first`` and ``problem`` unchanged where
-    the config states the noise (``edge_noise='stated'``), the boxes scatter as stated, or the first estimate names a
-    cause or is ``flagged`` (a test of the estimate, asked only where it decides); else ``estimate``
-    (:func:`.pipeline.estimate`) run again with ``alpha`` raised, and ``quality["edge_noise"]`` saying so."""
+    """The problem and estimate (:class:`.pipeline.Estimate`, not imported here: the front end passes the pipeline in,
+    which keeps the chain of imports short) with the edge noise the boxes show (see the module docstring): ``first``
+    and ``problem`` unchanged where the config states the noise (``edge_noise='stated'``), the boxes scatter as stated,
+    or the first estimate names a cause or is ``flagged`` (a test of the estimate, asked only where it decides); else
+    ``estimate``
+    (:func:`.pipeline.estimate`) run again with ``alpha`` raised, and ``quality["edge_noise"]`` saying so (the first
+    estimate where the second finds no object: the raised noise lowers every score, and an empty answer is not the
+    better one)."""
     config = problem.config
     if config.edge_noise != "auto" or not first.objects or first.causes:
         return problem, first
@@ -79,13 +92,19 @@ def adapt(
     alpha = adapted_alpha(stated, first.quality)
     if alpha is None or (flagged is not None and flagged(first)):
         return problem, first
-    config = replace(config, sensor=replace(config.sensor, alpha=alpha))
+    original, config = problem, replace(config, sensor=replace(config.sensor, alpha=alpha))
     problem = replace(problem, config=config, model=config.sensor)
     second = estimate(problem)
+    if not second.objects:
+        return original, first
     report = {
         "alpha": alpha,
         "stated_alpha": stated,
         "first_variance_factor": first.quality["variance_factor"],
         "first_estimate_s": sum(first.timing_s.values()),
+        "note": (
+            f"edge noise: the boxes scatter {math.sqrt(first.quality['variance_factor']):.1f} times the sensor model's "
+            f"(alpha {stated:g}); localised again with alpha {alpha:.3g} (--edge-noise stated keeps it)"
+        ),
     }
     return problem, replace(second, quality={**second.quality, "edge_noise": report})

@@ -43,7 +43,9 @@ class BayesLocalizer:
 
     Call :meth:`update` as views arrive and :meth:`estimate` whenever estimates
     are needed: it runs :func:`.pipeline.estimate` over all views so far
-    (milliseconds to a fraction of a second).
+    (milliseconds to a fraction of a second; twice that where the boxes scatter well beyond the sensor model and the
+    session is localised again with their noise, :mod:`.edge_noise`, which as views arrive may start or stop and move
+    the estimates by their noise).
 
     Parameters
     ----------
@@ -119,7 +121,10 @@ class BayesLocalizer:
         if self.config.calibrate == "hand-eye":
             from .calibration import calibrate_hand_eye
 
+            raised = found.quality.get("edge_noise")
             found = calibrate_hand_eye(problem, found, estimate)
+            if raised is not None:  # its estimates ran on the raised noise too
+                found = replace(found, quality={**found.quality, "edge_noise": raised})
         calibration = found.diagnostics.get("calibration")
         head = {"verdict": "ok", "causes": [], **found.quality}
         if calibration is not None:

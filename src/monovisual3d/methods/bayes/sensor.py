@@ -31,7 +31,8 @@ class SensorModel:
 
     Attributes
     ----------
-    alpha : float, edge noise as a fraction of the predicted box size
+    alpha : float, edge noise as a fraction of the predicted box size (raised per session where the boxes scatter well
+        beyond it, unless ``edge_noise='stated'``: :mod:`.edge_noise`)
     sigma0_px : float, edge noise floor in pixels (quantisation)
     inward_floor : float, nats: the most an edge inside the prediction (occlusion) can cost
     outward_floor : float, nats: the most an edge outside the prediction can cost
