@@ -63,3 +63,15 @@ def test_main_runs_one_command_in_a_fresh_process(tmp_path: Path) -> None:
     res = subprocess.run(cmd, capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
     assert len(json.loads(out.read_text())["objects"]) == 1
+
+
+def test_warmup_writes_the_package_bytecode() -> None:
+    """Python reads bytecode whatever ``PYTHONDONTWRITEBYTECODE`` says: after a warm-up no process compiles the
+    package's modules from source again."""
+    import importlib.util
+
+    from monovisual3d.api import write_bytecode
+
+    assert write_bytecode()
+    for module in (mv3d.api, _kernels):
+        assert Path(importlib.util.cache_from_source(module.__file__)).is_file(), module.__name__
