@@ -80,6 +80,7 @@ SESSION_COLUMNS: dict[str, str] = {
     "verdict": "string",
     "causes": "string",
     "variance_factor": "float64",
+    "edge_noise_alpha": "float64",
     "n_truth": "Int64",
     "n_true_positives": "Int64",
     "recall": "float64",

@@ -110,8 +110,9 @@ def fruit_rows(session_id: str, result: Result) -> list[dict[str, Any]]:
 
 
 def quality_columns(result: Result) -> dict[str, Any]:
-    """The ``sessions`` row's ``verdict``, ``causes`` (cause IDs, comma separated) and ``variance_factor`` of
-    ``result.quality`` (NA where the method has no quality model)."""
+    """The ``sessions`` row's ``verdict``, ``causes`` (cause IDs, comma separated), ``variance_factor`` and
+    ``edge_noise_alpha`` (the raised edge noise the session was localised with, ``quality.edge_noise.alpha``; NaN where
+    it was not raised) of ``result.quality`` (NA where the method has no quality model)."""
     q = result.quality
     if not q:
         return {}
@@ -119,6 +120,7 @@ def quality_columns(result: Result) -> dict[str, Any]:
         "verdict": q.get("verdict"),
         "causes": ",".join(str(c.get("cause")) for c in q.get("causes", [])),
         "variance_factor": q.get("variance_factor"),
+        "edge_noise_alpha": float((q.get("edge_noise") or {}).get("alpha", math.nan)),
     }
 
 

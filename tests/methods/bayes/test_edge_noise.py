@@ -10,6 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from monovisual3d.api import localize
+from monovisual3d.batch.work import quality_columns
 from monovisual3d.bench.trust_cases import make_case
 from monovisual3d.errors import InputError
 from monovisual3d.methods.bayes import BayesConfig
@@ -110,3 +111,4 @@ def test_noisy_detector_session_reports_the_edge_noise_it_used() -> None:
     assert stated.quality["variance_factor"] > ADAPT_FACTOR and "edge_noise" not in stated.quality
     assert stated.quality["robust_factor"] > ADAPT_ROBUST_FACTOR
     assert auto.quality["variance_factor"] < 2.0
+    assert quality_columns(auto)["edge_noise_alpha"] == report["alpha"]  # batch's sessions table

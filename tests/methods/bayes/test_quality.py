@@ -171,6 +171,7 @@ def test_batch_tables_carry_the_quality_and_the_shape() -> None:
     result = _quiet_localize(make_case("paper", 0, 0.05).session)
     session = quality_columns(result)
     assert session["verdict"] == "ok" and session["causes"] == "" and session["variance_factor"] > 0
+    assert np.isnan(session["edge_noise_alpha"])  # boxes as noisy as the model says: not raised
     rows = fruit_rows("s", result)
     for row, obj in zip(rows, result.objects):
         assert row["shape"] == obj.shape
