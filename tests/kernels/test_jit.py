@@ -5,6 +5,8 @@ from __future__ import annotations
 import io
 
 import numba
+import numpy as np
+import pytest
 
 from monovisual3d.kernels.jit import KERNELS, compile_notices, group_of, listen, record_compiles
 
@@ -67,3 +69,59 @@ def test_notice_goes_to_stderr_as_it_is_when_compiling(capsys) -> None:  # noqa:
     with compile_notices():
         _fresh_function()(1)
     assert "compiling kernels, first run only" in capsys.readouterr().err
+
+
+_CACHED_KERNEL = """
+import numba
+
+
+@numba.njit(cache=True, parallel=True)
+def sum_of_squares(x):
+    s = 0.0
+    for i in numba.prange(x.shape[0]):
+        s += x[i] * x[i]
+    return s
+"""
+
+_DRIVER = """
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from monovisual3d.kernels.jit import load_cached_lazily
+on = load_cached_lazily()
+import numba
+import numpy as np
+import lazy_kernel_module
+loaded = lazy_kernel_module.sum_of_squares(np.arange(1000.0))
+lazy = "numba.np.arraymath" not in sys.modules  # numba's numpy implementations left unregistered
+
+
+@numba.njit
+def compiled_after(a):  # needs those implementations: registered when it compiles
+    return np.sort(a)[0] + np.linalg.norm(a)
+
+
+print(json.dumps({"on": on, "loaded": loaded, "lazy": lazy, "after": compiled_after(np.array([3.0, 4.0, 0.0]))}))
+"""
+
+
+def test_cached_kernels_load_lazily_and_later_compilations_still_work(tmp_path) -> None:  # noqa: ANN001 - pytest
+    """A fresh process loads a cached (parallel) kernel without numba's compile-time registries, gets its answer, and
+    still compiles a kernel that needs them afterwards (issue 56: the start-up of every command)."""
+    import json
+    import subprocess
+    import sys
+
+    (tmp_path / "lazy_kernel_module.py").write_text(_CACHED_KERNEL)
+    driver = tmp_path / "driver.py"
+    driver.write_text(_DRIVER)
+    runs = []
+    for _ in range(2):  # the first compiles and caches, the second loads from the cache
+        out = subprocess.run([sys.executable, str(driver), str(tmp_path)], capture_output=True, text=True, check=True)
+        runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    expected = float(np.sum(np.arange(1000.0) ** 2))
+    for run in runs:
+        assert run["on"] is True
+        assert run["loaded"] == pytest.approx(expected, rel=1e-12)
+        assert run["after"] == pytest.approx(5.0, rel=1e-12)
+    assert runs[0]["lazy"] is False  # compiling registered everything
+    assert runs[1]["lazy"] is True  # the cached load did not

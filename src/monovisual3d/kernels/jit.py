@@ -8,6 +8,9 @@
   (``compiling kernels, first run only, about N s``), with a status line that counts the kernels on a terminal.
   The command line turns it on; the library itself prints nothing.
 - :func:`record_compiles`: every compilation in a block, with its time (the compile-time table, ``bench startup``).
+- :func:`load_cached_lazily`: numba loads a cached kernel without first importing and registering every
+  implementation its compiler knows (numpy's functions, typed containers, random generators); they are registered
+  when something is compiled.
 
 numba announces a compilation (``numba:compile``) only when it compiles: a kernel loaded from the cache is silent.
 """
@@ -17,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -66,6 +70,7 @@ def kernel(group: str, **options: Any) -> Callable[[Callable[..., Any]], Any]:
     import numba
 
     listen()
+    load_cached_lazily()
 
     def wrap(py_func: Callable[..., Any]) -> Any:
         dispatcher = numba.njit(cache=True, **options)(py_func)
@@ -173,3 +178,58 @@ def listen() -> None:
 
     event.register("numba:compile", _Listener())
     _LISTENING = True
+
+
+_LAZY = threading.local()
+_LOADING_LAZILY = False
+
+
+def load_cached_lazily() -> bool:
+    """Let numba load cached kernels without registering its compile-time implementations first (once per process).
+
+    Before it loads a kernel from the on-disk cache, numba refreshes its CPU target, which imports and registers
+    every implementation its compiler knows (``numba.np.arraymath``, ``numba.np.linalg`` with ``scipy.linalg``, typed
+    containers, random generators, ...): about 0.35 s of a command's start on the 2-core development machine, the
+    largest part of a warm ``localize`` that is not the estimate (docs/speed.md). A cached kernel is machine code and
+    needs none of them, only numba's runtime (NRT), which is initialised as before. The first refresh of a cache load
+    is made with the implementations left out; every compilation refreshes the target again and registers them all
+    then (numba registers them incrementally), so that a kernel compiled after a cached one is compiled as usual.
+
+    Returns True when on; False where numba's internals are not those this was written for (``numba.core.caching.Cache``
+    with ``_load_overload`` and ``_guard_against_spurious_io_errors``, ``CPUContext.load_additional_registries``):
+    numba then loads as it always does.
+    """
+    global _LOADING_LAZILY
+    if _LOADING_LAZILY:
+        return True
+    try:
+        from numba.core import caching, cpu
+        from numba.core.runtime import rtsys
+    except ImportError:  # pragma: no cover - another numba layout
+        return False
+    cache, context = caching.Cache, cpu.CPUContext
+    needed = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
+    if not all(hasattr(cache, name) for name in needed) or not hasattr(context, "load_additional_registries"):
+        return False  # pragma: no cover - another numba version
+    register_all = context.load_additional_registries
+
+    def load_additional_registries(self: Any) -> None:
+        if getattr(_LAZY, "loading", False):
+            rtsys.initialize(self)  # what a cached kernel needs: numba's runtime
+            return
+        register_all(self)
+
+    def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
+        _LAZY.loading = True
+        try:
+            target_context.refresh()
+        finally:
+            _LAZY.loading = False
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+        return None  # the guard swallowed an I/O error: numba compiles instead
+
+    context.load_additional_registries = load_additional_registries
+    cache.load_overload = load_overload
+    _LOADING_LAZILY = True
+    return True

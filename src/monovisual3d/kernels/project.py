@@ -14,9 +14,10 @@ import numpy as np
 from numba import njit
 
 from .flags import NJIT_OPTIONS
-from .jit import listen
+from .jit import listen, load_cached_lazily
 
 listen()  # every method's kernels project through here: their first compilation shows itself (:mod:`.jit`)
+load_cached_lazily()  # and cached kernels load without numba's compile-time registries (:mod:`.jit`)
 
 #: Pixel coordinate given to cells behind the camera: no box reaches it.
 FAR_PX = 1e30

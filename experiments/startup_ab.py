@@ -1,0 +1,81 @@
+"""How much of a warm command's start does a change save, measured side by side with the code before it?
+
+Question: ``monovisual3d localize`` on the paper scene (``monovisual3d bench startup``'s case), whole process with the
+kernel cache warm, for two source trees (the commit before a change and after it, each a ``src`` folder: e.g. a
+``git worktree`` of the old commit), run alternately so that both see the same load, median of ``--runs``. Beside
+them, the floor every command that calls a compiled kernel stands on: ``python -c pass``, ``import numba``, and a
+process that imports numba and calls one trivial cached kernel, with and without
+:func:`monovisual3d.kernels.jit.load_cached_lazily`.
+
+Answer (2026-12-07 20:20 UTC, AMD EPYC, 2 cores, idle; the commit before ``load_cached_lazily`` against it): warm
+``localize`` 1.40 -> 0.92 s wall, 1.65 -> 1.06 s CPU; one trivial cached kernel 0.90 s, 0.45 s loaded lazily,
+``import numba`` 0.37 s (docs/speed.md, "Cached kernels without numba's compile-time registries").
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+
+from monovisual3d.bench.startup import paper_scene_session, time_process
+
+_KERNEL = """
+import numba
+
+
+@numba.njit(cache=True)
+def add_one(x):
+    return x + 1
+"""
+
+
+def _floor_cases(folder: str) -> dict[str, tuple[list[str], dict[str, str]]]:
+    """The floor's processes: argv and extra environment."""
+    with open(os.path.join(folder, "trivial_kernel.py"), "w") as f:
+        f.write(_KERNEL)
+    call = "import trivial_kernel; trivial_kernel.add_one(1.0)"  # found through PYTHONPATH
+    lazy = "from monovisual3d.kernels.jit import load_cached_lazily; load_cached_lazily(); " + call
+    return {
+        "python -c pass": ([sys.executable, "-c", "pass"], {}),
+        "import numba": ([sys.executable, "-c", "import numba"], {}),
+        "numba + one cached kernel": ([sys.executable, "-c", call], {}),
+        "numba + one cached kernel, loaded lazily": ([sys.executable, "-c", lazy], {}),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("before", help="the src folder of the code before the change")
+    parser.add_argument("after", help="the src folder of the code after it")
+    parser.add_argument("--runs", type=int, default=9)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as folder:
+        session = paper_scene_session(folder)
+        localize = [sys.executable, "-c", "from monovisual3d.cli import main; main()", "localize", session, "-q"]
+        localize += ["-o", os.path.join(folder, "out.json")]
+        cases = {
+            "localize, before": (localize, {"PYTHONPATH": os.path.abspath(args.before)}),
+            "localize, after": (localize, {"PYTHONPATH": os.path.abspath(args.after)}),
+            **{
+                k: (a, {"PYTHONPATH": os.pathsep.join([os.path.abspath(args.after), folder])})
+                for k, (a, _) in _floor_cases(folder).items()
+            },
+        }
+        times: dict[str, list[tuple[float, float]]] = {k: [] for k in cases}
+        for argv, env in cases.values():  # warm every kernel cache and the page cache
+            time_process(argv, {**os.environ, **env})
+        for _ in range(args.runs):
+            for name, (argv, env) in cases.items():
+                times[name].append(time_process(argv, {**os.environ, **env}))
+    print(f"fresh processes, alternating, median of {args.runs} (wall [min-max], CPU), seconds:")
+    for name, values in times.items():
+        wall = sorted(w for w, _ in values)
+        cpu = statistics.median(c for _, c in values)
+        print(f"  {name:42s} {statistics.median(wall):.3f} [{wall[0]:.3f}-{wall[-1]:.3f}]  {cpu:.3f}")
+
+
+if __name__ == "__main__":
+    main()
