@@ -20,7 +20,7 @@ import statistics
 import sys
 import tempfile
 
-from monovisual3d.bench.startup import paper_scene_session, time_process
+from monovisual3d.bench.startup import busy_core, paper_scene_session, time_process
 
 _KERNEL = """
 import numba
@@ -51,8 +51,9 @@ def main() -> None:
     parser.add_argument("before", help="the src folder of the code before the change")
     parser.add_argument("after", help="the src folder of the code after it")
     parser.add_argument("--runs", type=int, default=9)
+    parser.add_argument("--busy", action="store_true", help="with another process busy on one core")
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as folder:
+    with tempfile.TemporaryDirectory() as folder, busy_core(args.busy):
         session = paper_scene_session(folder)
         localize = [sys.executable, "-c", "from monovisual3d.cli import main; main()", "localize", session, "-q"]
         localize += ["-o", os.path.join(folder, "out.json")]
@@ -70,7 +71,8 @@ def main() -> None:
         for _ in range(args.runs):
             for name, (argv, env) in cases.items():
                 times[name].append(time_process(argv, {**os.environ, **env}))
-    print(f"fresh processes, alternating, median of {args.runs} (wall [min-max], CPU), seconds:")
+    load = "another process busy on one core" if args.busy else "nothing else started"
+    print(f"fresh processes, alternating, median of {args.runs} (wall [min-max], CPU), seconds; {load}:")
     for name, values in times.items():
         wall = sorted(w for w, _ in values)
         cpu = statistics.median(c for _, c in values)
