@@ -83,16 +83,27 @@ def sum_of_squares(x):
     return s
 """
 
+_OTHER_KERNEL = """
+import numba
+
+
+@numba.vectorize(["float64(float64, float64)"], cache=True)
+def scaled(x, s):
+    return x * s + 1.0
+"""
+
 _DRIVER = """
 import json, sys
 sys.path.insert(0, sys.argv[1])
 from monovisual3d.kernels.jit import load_cached_lazily
-on = load_cached_lazily()
+on = load_cached_lazily(("lazy_kernel_module",))
 import numba
 import numpy as np
 import lazy_kernel_module
 loaded = lazy_kernel_module.sum_of_squares(np.arange(1000.0))
 lazy = "numba.np.arraymath" not in sys.modules  # numba's numpy implementations left unregistered
+import other_kernel_module  # a user's cached ufunc, not listed: loaded as numba always loads it
+ufunc = other_kernel_module.scaled(np.array([1.0, 2.0]), 0.5).tolist()
 
 
 @numba.njit
@@ -100,18 +111,21 @@ def compiled_after(a):  # needs those implementations: registered when it compil
     return np.sort(a)[0] + np.linalg.norm(a)
 
 
-print(json.dumps({"on": on, "loaded": loaded, "lazy": lazy, "after": compiled_after(np.array([3.0, 4.0, 0.0]))}))
+after = compiled_after(np.array([3.0, 4.0, 0.0]))
+print(json.dumps({"on": on, "loaded": loaded, "lazy": lazy, "ufunc": ufunc, "after": after}))
 """
 
 
 def test_cached_kernels_load_lazily_and_later_compilations_still_work(tmp_path) -> None:  # noqa: ANN001 - pytest
-    """A fresh process loads a cached (parallel) kernel without numba's compile-time registries, gets its answer, and
-    still compiles a kernel that needs them afterwards (issue 56: the start-up of every command)."""
+    """A fresh process loads a listed module's cached (parallel) kernel without numba's compile-time registries, gets
+    its answer, loads another module's cached ``@vectorize`` as numba always does (its wrapper is generated without a
+    compilation's refresh), and still compiles a kernel that needs the registries afterwards (issue 56)."""
     import json
     import subprocess
     import sys
 
     (tmp_path / "lazy_kernel_module.py").write_text(_CACHED_KERNEL)
+    (tmp_path / "other_kernel_module.py").write_text(_OTHER_KERNEL)
     driver = tmp_path / "driver.py"
     driver.write_text(_DRIVER)
     runs = []
@@ -123,5 +137,6 @@ def test_cached_kernels_load_lazily_and_later_compilations_still_work(tmp_path) 
         assert run["on"] is True
         assert run["loaded"] == pytest.approx(expected, rel=1e-12)
         assert run["after"] == pytest.approx(5.0, rel=1e-12)
+        assert run["ufunc"] == pytest.approx([1.5, 2.0], rel=1e-12)
     assert runs[0]["lazy"] is False  # compiling registered everything
     assert runs[1]["lazy"] is True  # the cached load did not

@@ -8,9 +8,9 @@
   (``compiling kernels, first run only, about N s``), with a status line that counts the kernels on a terminal.
   The command line turns it on; the library itself prints nothing.
 - :func:`record_compiles`: every compilation in a block, with its time (the compile-time table, ``bench startup``).
-- :func:`load_cached_lazily`: numba loads a cached kernel without first importing and registering every
-  implementation its compiler knows (numpy's functions, typed containers, random generators); they are registered
-  when something is compiled.
+- :func:`load_cached_lazily`: numba loads this package's cached kernels without first importing and registering
+  every implementation its compiler knows (numpy's functions, typed containers, random generators); they are
+  registered when something is compiled.
 
 numba announces a compilation (``numba:compile``) only when it compiles: a kernel loaded from the cache is silent.
 """
@@ -182,36 +182,55 @@ def listen() -> None:
 
 _LAZY = threading.local()
 _LOADING_LAZILY = False
+#: Modules (prefixes of ``__module__``) whose cached kernels :func:`load_cached_lazily` loads lazily.
+_LAZY_MODULES: set[str] = set()
+#: numba versions whose cache loading :func:`load_cached_lazily` was written for (from, up to but not including):
+#: ``Cache.load_overload`` a refresh of the target followed by ``_load_overload``, and the CPU target's
+#: ``load_additional_registries`` starting with the runtime's initialisation (tested with 0.68.1; 0.59.1 reads the same).
+LAZY_NUMBA_VERSIONS = ((0, 59), (0, 69))
 
 
-def load_cached_lazily() -> bool:
-    """Let numba load cached kernels without registering its compile-time implementations first (once per process).
+def load_cached_lazily(modules: tuple[str, ...] = ("monovisual3d",)) -> bool:
+    """Let numba load the cached kernels of ``modules`` without registering its compile-time implementations first.
 
     Before it loads a kernel from the on-disk cache, numba refreshes its CPU target, which imports and registers
     every implementation its compiler knows (``numba.np.arraymath``, ``numba.np.linalg`` with ``scipy.linalg``, typed
-    containers, random generators, ...): about 0.35 s of a command's start on the 2-core development machine, the
-    largest part of a warm ``localize`` that is not the estimate (docs/speed.md). A cached kernel is machine code and
-    needs none of them, only numba's runtime (NRT), which is initialised as before. The first refresh of a cache load
-    is made with the implementations left out; every compilation refreshes the target again and registers them all
-    then (numba registers them incrementally), so that a kernel compiled after a cached one is compiled as usual.
+    containers, random generators, ...): about 0.4 s of a command's start on the 2-core development machine, the
+    largest part of a warm ``localize`` that is not the estimate (docs/speed.md). A cached ``njit`` kernel is machine
+    code that runs with numba's runtime (NRT) alone. For the kernels of ``modules`` (this package's, by default),
+    every refresh of a cache load initialises that runtime and leaves the rest out; a later compilation refreshes the
+    target again and registers everything then (numba registers implementations incrementally), so a kernel compiled
+    after a cached one compiles as usual. Kernels of other modules (a user's own ``@vectorize``, whose ufunc wrapper
+    numba generates after the cache load without a compilation's refresh) load as numba always loads them: the
+    change to numba's ``Cache.load_overload`` is process-wide, its effect is not.
 
-    Returns True when on; False where numba's internals are not those this was written for (``numba.core.caching.Cache``
-    with ``_load_overload`` and ``_guard_against_spurious_io_errors``, ``CPUContext.load_additional_registries``):
-    numba then loads as it always does.
+    Parameters
+    ----------
+    modules : tuple of str, module names (or their packages) whose cached kernels load lazily; calls add to the set
+
+    Returns
+    -------
+    bool : True when on; False outside :data:`LAZY_NUMBA_VERSIONS` or where numba's cache has not the internals this
+    relies on (``Cache._load_overload``, ``Cache._guard_against_spurious_io_errors``): numba then loads as always.
     """
     global _LOADING_LAZILY
     if _LOADING_LAZILY:
+        _LAZY_MODULES.update(modules)
         return True
     try:
+        import numba
         from numba.core import caching, cpu
         from numba.core.runtime import rtsys
     except ImportError:  # pragma: no cover - another numba layout
         return False
+    version = tuple(int(p) for p in numba.__version__.split(".")[:2] if p.isdigit())
     cache, context = caching.Cache, cpu.CPUContext
     needed = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
-    if not all(hasattr(cache, name) for name in needed) or not hasattr(context, "load_additional_registries"):
+    if not LAZY_NUMBA_VERSIONS[0] <= version < LAZY_NUMBA_VERSIONS[1]:
         return False  # pragma: no cover - another numba version
-    register_all = context.load_additional_registries
+    if not all(hasattr(cache, name) for name in needed) or not hasattr(context, "load_additional_registries"):
+        return False  # pragma: no cover - another numba layout
+    register_all, load = context.load_additional_registries, cache.load_overload
 
     def load_additional_registries(self: Any) -> None:
         if getattr(_LAZY, "loading", False):
@@ -220,6 +239,9 @@ def load_cached_lazily() -> bool:
         register_all(self)
 
     def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
+        module = str(getattr(getattr(self, "_py_func", None), "__module__", ""))
+        if not any(module == m or module.startswith(m + ".") for m in _LAZY_MODULES):
+            return load(self, sig, target_context)
         _LAZY.loading = True
         try:
             target_context.refresh()
@@ -229,6 +251,7 @@ def load_cached_lazily() -> bool:
             return self._load_overload(sig, target_context)
         return None  # the guard swallowed an I/O error: numba compiles instead
 
+    _LAZY_MODULES.update(modules)
     context.load_additional_registries = load_additional_registries
     cache.load_overload = load_overload
     _LOADING_LAZILY = True
