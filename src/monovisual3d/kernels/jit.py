@@ -214,23 +214,38 @@ def load_cached_lazily(modules: tuple[str, ...] = ("monovisual3d",)) -> bool:
     relies on (``Cache._load_overload``, ``Cache._guard_against_spurious_io_errors``): numba then loads as always.
     """
     global _LOADING_LAZILY
-    if _LOADING_LAZILY:
-        _LAZY_MODULES.update(modules)
-        return True
+    if not _LOADING_LAZILY:
+        if not _numba_fits():
+            return False
+        _install_lazy_loads()
+        _LOADING_LAZILY = True
+    _LAZY_MODULES.update(modules)
+    return True
+
+
+def _numba_fits() -> bool:
+    """Whether the installed numba is one whose cache loading :func:`load_cached_lazily` was written for."""
     try:
         import numba
         from numba.core import caching, cpu
-        from numba.core.runtime import rtsys
     except ImportError:  # pragma: no cover - another numba layout
         return False
     version = tuple(int(p) for p in numba.__version__.split(".")[:2] if p.isdigit())
-    cache, context = caching.Cache, cpu.CPUContext
     needed = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
-    if not LAZY_NUMBA_VERSIONS[0] <= version < LAZY_NUMBA_VERSIONS[1]:
-        return False  # pragma: no cover - another numba version
-    if not all(hasattr(cache, name) for name in needed) or not hasattr(context, "load_additional_registries"):
-        return False  # pragma: no cover - another numba layout
-    register_all, load = context.load_additional_registries, cache.load_overload
+    return (
+        LAZY_NUMBA_VERSIONS[0] <= version < LAZY_NUMBA_VERSIONS[1]
+        and all(hasattr(caching.Cache, name) for name in needed)
+        and hasattr(cpu.CPUContext, "load_additional_registries")
+    )
+
+
+def _install_lazy_loads() -> None:
+    """Wrap numba's ``Cache.load_overload`` and ``CPUContext.load_additional_registries`` (see
+    :func:`load_cached_lazily`)."""
+    from numba.core import caching, cpu
+    from numba.core.runtime import rtsys
+
+    register_all, load = cpu.CPUContext.load_additional_registries, caching.Cache.load_overload
 
     def load_additional_registries(self: Any) -> None:
         if getattr(_LAZY, "loading", False):
@@ -251,8 +266,5 @@ def load_cached_lazily(modules: tuple[str, ...] = ("monovisual3d",)) -> bool:
             return self._load_overload(sig, target_context)
         return None  # the guard swallowed an I/O error: numba compiles instead
 
-    _LAZY_MODULES.update(modules)
-    context.load_additional_registries = load_additional_registries
-    cache.load_overload = load_overload
-    _LOADING_LAZILY = True
-    return True
+    cpu.CPUContext.load_additional_registries = load_additional_registries
+    caching.Cache.load_overload = load_overload

@@ -101,6 +101,18 @@ def test_calibrate_hand_eye_with_too_few_views_says_why_and_runs_as_usual():
     np.testing.assert_allclose(result.positions, _localize(bad)[0].positions)
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_calibrate_hand_eye_applies_nothing_to_correct_poses(seed):
+    """On correct poses the joint fit still finds a small correction from the noise; applied, it would move the fruit
+    off: it is reported and not applied, and the fruit are those of a run without calibration."""
+    clean, _, _, _ = _sessions(seed)
+    result, said = _localize(clean, calibrate="hand-eye")
+    cal = result.quality["calibration"]
+    assert not cal["applied"] and "rotation_deg" in cal
+    assert any("no hand-eye error beyond the noise" in w for w in said)
+    np.testing.assert_allclose(result.positions, _localize(clean)[0].positions)
+
+
 def test_calibrate_is_checked_by_name():
     with pytest.raises(mv.InputError, match="calibrate: got 'eye'"):
         BayesConfig(calibrate="eye")

@@ -7,9 +7,9 @@ corrected (``T_base_optical_reported @ E^-1``) and the method runs again on them
 anew (association, shape and covariance) from corrected poses. A second round estimates what is left of ``E`` from the
 new objects, and applies it too where it is not negligible (:data:`NEGLIGIBLE_DEG`, :data:`NEGLIGIBLE_M`).
 
-It needs :data:`MIN_VIEWS` views and :data:`MIN_FRUIT` fruit seen in two views or more, and a correction the views
-determine (its angle and length known within :data:`UNRELIABLE_DEG`, :data:`UNRELIABLE_M`); otherwise the method runs as
-usual and says why. What the views cannot tell apart from a motion of the whole scene (on an arc of views about one
+It needs :data:`MIN_VIEWS` views and :data:`MIN_FRUIT` fruit seen in two views or more, a correction the views
+determine (its angle and length known within :data:`UNRELIABLE_DEG`, :data:`UNRELIABLE_M`) and one that differs from
+none beyond the noise (:data:`NO_ERROR_P`); otherwise the method runs as usual and says why. What the views cannot tell apart from a motion of the whole scene (on an arc of views about one
 axis: a rotation about that axis with a sideways shift) stays at zero, held by the fit's weak prior; the reported
 uncertainty (from the covariance of the joint fit) says how well each part is known.
 """
@@ -42,6 +42,11 @@ UNDETERMINED_DEG, UNDETERMINED_M = 0.5, 0.005
 #: further from the truth than the error it corrects (views from directions too alike: a turn of the camera and a
 #: sideways shift then look the same; why: docs/decisions/bayes-corrections.md#unreliable_deg).
 UNRELIABLE_DEG, UNRELIABLE_M = 0.75, 0.0075
+#: A first correction is applied only where it differs from none beyond the noise: its six parameters' squared
+#: Mahalanobis distance from zero (under the joint fit's covariance) above the chi-square quantile of this upper tail.
+#: On correct poses the fit still finds a small correction from the noise (0.27-0.41 degrees from 10 views at 2 % box
+#: noise), which applied makes the fruit 1.5-3 times as far off (why: docs/decisions/bayes-corrections.md#no_error_p).
+NO_ERROR_P = 1e-3
 
 
 def corrected_problem(problem: Problem, T_corrected_reported: np.ndarray) -> Problem:
@@ -86,6 +91,14 @@ def calibrate_hand_eye(problem: Problem, first: Estimate, estimate: Callable[[Pr
                 f"({report['note'].split(': ', 1)[1]}); localised without it: add views from more different directions"
             )
             return _with_report(first, {**report, "applied": False, "reason": reason})
+        if not round_ and not _beyond_noise(fit):
+            report = _report(np.asarray(s["T_corrected_reported"]), fit)
+            reason = (
+                f"calibrate='hand-eye': the views show no hand-eye error beyond the noise "
+                f"({report['note'].split(': ', 1)[1]}; distance from none {_distance(fit):.1f}, under the "
+                f"{_quantile():.1f} a real error would pass); localised without a correction"
+            )
+            return _with_report(first, {**report, "applied": False, "reason": reason})
         if round_ and s["rotation_deg"] < NEGLIGIBLE_DEG and s["translation_mm"] < 1e3 * NEGLIGIBLE_M:
             break
         T = np.asarray(s["T_corrected_reported"]) @ T
@@ -101,6 +114,27 @@ def _reliable(fit: Any) -> bool:
     common viewing direction, stays at zero under the prior and moves no fruit)."""
     s = hand_eye_summary(fit)
     return s["rotation_std_deg"] <= UNRELIABLE_DEG and s["translation_std_mm"] <= 1e3 * UNRELIABLE_M
+
+
+def _distance(fit: Any) -> float:
+    """The squared Mahalanobis distance of a hand-eye fit's six parameters from zero (no correction)."""
+    theta, cov = np.asarray(fit.theta, dtype=float), np.asarray(fit.theta_cov, dtype=float)
+    try:
+        return float(theta @ np.linalg.solve(cov, theta))
+    except np.linalg.LinAlgError:
+        return float("inf")  # pragma: no cover - a singular covariance: let the reliability test decide
+
+
+def _quantile() -> float:
+    """The chi-square quantile (6 degrees of freedom) of :data:`NO_ERROR_P`."""
+    from scipy.special import chdtri  # chi2.isf(p, dof), on first use
+
+    return float(chdtri(6, NO_ERROR_P))
+
+
+def _beyond_noise(fit: Any) -> bool:
+    """Whether a hand-eye fit's correction differs from none beyond the noise (:data:`NO_ERROR_P`)."""
+    return _distance(fit) > _quantile()
 
 
 def _report(T: np.ndarray, last: Any) -> dict[str, Any]:
