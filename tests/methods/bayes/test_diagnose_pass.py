@@ -108,7 +108,7 @@ def test_calibrate_hand_eye_applies_nothing_to_correct_poses(seed):
     clean, _, _, _ = _sessions(seed)
     result, said = _localize(clean, calibrate="hand-eye")
     cal = result.quality["calibration"]
-    assert not cal["applied"] and "rotation_deg" in cal
+    assert not cal["applied"] and "rotation_deg" in cal and cal["note"].startswith("hand-eye correction not applied")
     assert any("no hand-eye error beyond the noise" in w for w in said)
     np.testing.assert_allclose(result.positions, _localize(clean)[0].positions)
 

@@ -85,20 +85,12 @@ def calibrate_hand_eye(problem: Problem, first: Estimate, estimate: Callable[[Pr
             fit = fit_correction(bb, "hand_eye")
         s = hand_eye_summary(fit)
         if not round_ and not _reliable(fit):
-            report = _report(np.asarray(s["T_corrected_reported"]), fit)
-            reason = (
-                f"calibrate='hand-eye': the views determine the hand-eye correction too poorly to apply it "
-                f"({report['note'].split(': ', 1)[1]}); localised without it: add views from more different directions"
-            )
-            return _with_report(first, {**report, "applied": False, "reason": reason})
+            why = "the views determine the hand-eye correction too poorly to apply it"
+            return _declined(first, s, fit, why, "add views from more different directions")
         if not round_ and not _beyond_noise(fit):
-            report = _report(np.asarray(s["T_corrected_reported"]), fit)
-            reason = (
-                f"calibrate='hand-eye': the views show no hand-eye error beyond the noise "
-                f"({report['note'].split(': ', 1)[1]}; distance from none {_distance(fit):.1f}, under the "
-                f"{_quantile():.1f} a real error would pass); localised without a correction"
-            )
-            return _with_report(first, {**report, "applied": False, "reason": reason})
+            why = "the views show no hand-eye error beyond the noise"
+            extra = f" (distance from none {_distance(fit):.1f}, under {_quantile():.1f}, the chi-square quantile of NO_ERROR_P)"
+            return _declined(first, s, fit, why, "", extra)
         if round_ and s["rotation_deg"] < NEGLIGIBLE_DEG and s["translation_mm"] < 1e3 * NEGLIGIBLE_M:
             break
         T = np.asarray(s["T_corrected_reported"]) @ T
@@ -116,13 +108,27 @@ def _reliable(fit: Any) -> bool:
     return s["rotation_std_deg"] <= UNRELIABLE_DEG and s["translation_std_mm"] <= 1e3 * UNRELIABLE_M
 
 
+def _declined(first: Estimate, s: dict[str, Any], fit: Any, why: str, advice: str, extra: str = "") -> Estimate:
+    """``first`` with the report of a correction estimated and not applied, and the reason in words."""
+    report = _report(np.asarray(s["T_corrected_reported"]), fit)
+    found = report["note"].split(": ", 1)[1]
+    reason = f"calibrate='hand-eye': {why}: {found}{extra}; localised without it" + (f": {advice}" if advice else "")
+    return _with_report(
+        first, {**report, "applied": False, "note": f"hand-eye correction not applied: {found}", "reason": reason}
+    )
+
+
 def _distance(fit: Any) -> float:
-    """The squared Mahalanobis distance of a hand-eye fit's six parameters from zero (no correction)."""
+    """The squared Mahalanobis distance of a hand-eye fit's six parameters from zero (no correction); infinite where
+    the covariance is not finite or singular (:func:`_reliable`, asked first, refuses those: a correction it let
+    pass is then applied)."""
     theta, cov = np.asarray(fit.theta, dtype=float), np.asarray(fit.theta_cov, dtype=float)
+    if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(cov))):
+        return float("inf")
     try:
         return float(theta @ np.linalg.solve(cov, theta))
-    except np.linalg.LinAlgError:
-        return float("inf")  # pragma: no cover - a singular covariance: let the reliability test decide
+    except np.linalg.LinAlgError:  # pragma: no cover - a singular covariance
+        return float("inf")
 
 
 def _quantile() -> float:
