@@ -1,15 +1,15 @@
 """Does ``--calibrate hand-eye`` undo a 2 degree / 1 cm hand-eye error, and how well can the views determine it?
 
 Question: 7 random fruit seen from a hemisphere of 10 or 6 views, a ring of 6 (20 degrees) or an arc of 6 (60 degrees),
-at 2 and 5 % box noise, the poses reported with a hand-eye error of 2 degrees and 1 cm about random axes
-(``monovisual3d.sim.mistakes.hand_eye_offset``): the mean fruit error clean, with the error, and with ``calibrate=
-"hand-eye"``; whether the correction was applied; how far the applied correction is from the truth (angle, shift);
-and the joint fit's own 1-sigma of the correction's angle (``quality.calibration.rotation_std_deg``: the covariance of
-the joint fit's Gauss-Newton covariance, with its noise scale estimated from the residuals); and the clean session
-localised with
-``calibrate="hand-eye"`` (is a correction applied where there is none?). With ``--draws N``: is the joint fit's
-covariance honest (the rms error of each rotation component over many draws of the box noise, against its 1-sigma)? Issue 53 asks for errors within 1.5 mm of
-the clean run and a correction within 0.3 degrees / 3 mm on 5 or more views and 6 or more fruit.
+at 2 and 5 % box noise, the poses reported with a hand-eye error (default 2 degrees and 1 cm about random axes,
+``monovisual3d.sim.mistakes.hand_eye_offset``; ``--error DEG,MM``): the mean fruit error clean, with the error, and with
+``calibrate="hand-eye"``; whether the correction was applied; how far the applied correction is from the truth (angle,
+shift); the joint fit's own 1-sigma of the correction's angle along its axis (``quality.calibration.rotation_std_deg``,
+from the fit's Gauss-Newton covariance with its noise scale estimated from the residuals); the correct poses localised
+with ``calibrate="hand-eye"`` (is a correction applied where there is none?); and the first fit's distance from no
+correction. With ``--draws N``: is the joint fit's covariance honest (each rotation component's rms error over many
+draws of the box noise, against its 1-sigma)? Issue 53 asks for errors within 1.5 mm of the clean run and a correction
+within 0.3 degrees / 3 mm on 5 or more views and 6 or more fruit.
 
 Answer (2026-12-07, seeds 0-3): see docs/trust.md, "--calibrate hand-eye".
 """

@@ -9,9 +9,10 @@ new objects, and applies it too where it is not negligible (:data:`NEGLIGIBLE_DE
 
 It needs :data:`MIN_VIEWS` views and :data:`MIN_FRUIT` fruit seen in two views or more, a correction the views
 determine (its angle and length known within :data:`UNRELIABLE_DEG`, :data:`UNRELIABLE_M`) and one that differs from
-none beyond the noise (:data:`NO_ERROR_P`); otherwise the method runs as usual and says why. What the views cannot tell apart from a motion of the whole scene (on an arc of views about one
-axis: a rotation about that axis with a sideways shift) stays at zero, held by the fit's weak prior; the reported
-uncertainty (from the covariance of the joint fit) says how well each part is known.
+none beyond the noise (:data:`NO_ERROR_P`); otherwise the method runs as usual and says why. What the views cannot
+tell apart from a motion of the whole scene (on an arc of views about one axis: a rotation about that axis with a
+sideways shift) stays at zero, held by the fit's weak prior; the reported uncertainty (from the covariance of the
+joint fit) says how well each part is known.
 """
 
 from __future__ import annotations
@@ -89,7 +90,7 @@ def calibrate_hand_eye(problem: Problem, first: Estimate, estimate: Callable[[Pr
             return _declined(first, s, fit, why, "add views from more different directions")
         if not round_ and not _beyond_noise(fit):
             why = "the views show no hand-eye error beyond the noise"
-            extra = f" (distance from none {_distance(fit):.1f}, under {_quantile():.1f}, the chi-square quantile of NO_ERROR_P)"
+            extra = f" (distance from none {_distance(fit):.1f}, under {_quantile():.1f}: the chi-square quantile of NO_ERROR_P)"
             return _declined(first, s, fit, why, "", extra)
         if round_ and s["rotation_deg"] < NEGLIGIBLE_DEG and s["translation_mm"] < 1e3 * NEGLIGIBLE_M:
             break
