@@ -6,6 +6,9 @@ the truth (3 when calibrated, issue 53 asks 2.2-4.0) and the share beyond the 95
 most 10 % asked), and what share of the sessions gets any warning or a verdict that is not ``ok`` (at most 10 %)?
 Each session is localised as ``localize --strict`` would (``monovisual3d.bench.trust_runs.run_session``).
 
+With ``--seed-pairs``, the same per sample of two consecutive seeds (the size of one ``bench trust`` run): the range of
+the mean NEES and the largest share beyond, and how many samples fall outside the issue's targets.
+
 With ``--save``, the positions of every session are written as JSON; ``--compare`` reads such a file and prints the
 largest difference of the positions (a change that must not move the estimates: 0).
 
@@ -30,6 +33,7 @@ def main() -> None:
     parser.add_argument("end_seed", type=int, help="one past the last seed")
     parser.add_argument("--families", default="paper,greenhouse,arc")
     parser.add_argument("--noises", default="0.02,0.05,0.10")
+    parser.add_argument("--seed-pairs", action="store_true", help="also the spread over samples of two consecutive seeds")
     parser.add_argument("--save", help="write the positions of every session here (JSON)")
     parser.add_argument("--compare", help="a --save file of another run: print the largest position difference")
     args = parser.parse_args()
@@ -57,6 +61,8 @@ def main() -> None:
             f"{missing} | "
             f"{alarms:.0%} |"
         )
+    if args.seed_pairs:
+        print_seed_pairs(records, noises, range(args.first_seed, args.end_seed - 1, 2))
     for r in records:
         if r["alarm"]:
             print(f"alarm: {r['family']} seed {r['seed']} noise {r['noise']:g}: {r['verdict']} {r['messages'][:1]}")
@@ -72,6 +78,29 @@ def main() -> None:
             if theirs is not None:
                 worst = max(worst, float(np.abs(theirs - ours).max(initial=0.0)) if theirs.shape == ours.shape else np.inf)
         print(f"largest position difference against {args.compare}: {worst:.3g} m")
+
+
+def print_seed_pairs(records: list[dict], noises: list[float], starts: range) -> None:
+    """Per box noise, over the samples of seeds ``(s, s + 1)``: the range of the mean NEES, the largest share beyond
+    the 95 % ellipsoid, and the samples with a mean outside 2.2-4.0 or more than 10 % beyond."""
+    print(
+        "| box noise | two-seed samples | mean NEES: least - most | beyond 95 %: most | mean outside 2.2-4.0 | over 10 % beyond |"
+    )
+    print("|---:|---:|---|---:|---:|---:|")
+    for noise in noises:
+        means, beyond = [], []
+        for s in starts:
+            nees = np.array(
+                [v for r in records if r["noise"] == noise and r["seed"] in (s, s + 1) for v in r["nees"] if v is not None]
+            )
+            if len(nees):
+                means.append(nees.mean())
+                beyond.append(np.mean(nees > NEES_95))
+        outside = sum(not 2.2 <= m <= 4.0 for m in means)
+        print(
+            f"| {noise:g} | {len(means)} | {min(means):.2f} - {max(means):.2f} | {max(beyond):.1%} | {outside} | "
+            f"{sum(b > 0.10 for b in beyond)} |"
+        )
 
 
 if __name__ == "__main__":

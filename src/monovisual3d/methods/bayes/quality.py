@@ -26,11 +26,10 @@ Covariance
     is the sandwich ``A^-1 B A^-1`` with ``A = J^T J`` and ``B = J^T S J`` (``J``: the numeric Jacobian of the
     normalised residuals w.r.t. the solid's parameters, ``S``: the session's edge covariance), whose centre block is the
     position's (marginal over the size and yaw). Each object scales it by its own variance factor, shrunk toward the
-    session's with :data:`PRIOR_DOF` degrees of freedom of prior (:func:`object_factor`) and never below it (an
-    object's residuals smaller than the session's, on a few degrees of freedom, are chance: its boxes come from the same
-    detector; larger ones may be its own trouble, a wrong or cut box), and by ``1 + TAIL / dof`` (dof: those the factor
-    rests on, the object's and the prior's, or the session's where it is the session's): a variance estimated from few
-    degrees of freedom makes the error's distribution heavier-tailed (a Student-t's).
+    session's with :data:`PRIOR_DOF` degrees of freedom of prior (:func:`object_factor`; both ways: an object whose
+    boxes sit closer to its fit than the session's is, on the evidence, better measured), and by ``1 + TAIL / dof``
+    (dof: those the factor rests on, the object's and the prior's): a variance estimated from few degrees of freedom
+    makes the error's distribution heavier-tailed (a Student-t's).
     A covariance that is not positive definite, or whose spread exceeds the object's distance to the cameras (every view
     from one place: depth along the line of sight is not determined), is reported as None with the reason.
 
@@ -333,10 +332,7 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
         chi2_rel = float(z @ z) * obj_dof / expected if expected > 0 and obj_dof > 0 else 0.0
         prior = min(PRIOR_DOF, max(dof - obj_dof, 0))
         k = object_factor(chi2_rel, obj_dof, prior) if prior + obj_dof > 0 else 1.0
-        # never below the session's (smaller residuals on few dof are chance; the detector's noise is the session's);
-        # the tail follows what the factor rests on: its own residuals and the prior, or the whole session
-        k, ground = (k, prior + obj_dof) if k > 1.0 else (1.0, dof)
-        tail = 1.0 + TAIL / max(ground, 1.0)
+        tail = 1.0 + TAIL / max(prior + obj_dof, 1.0)  # the degrees of freedom the factor rests on
         cov, reason = _covariance(f, S, k * tail)
         factor = k * (fc * m.traces[3] + fs * m.traces[4]) / max(m.traces[3] + m.traces[4], 1e-300)
         obj_quality.append(ObjectQuality(float(f.z @ f.z), int(len(f.z) - m.rank), float(factor), reason))
