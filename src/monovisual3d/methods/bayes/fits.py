@@ -98,13 +98,21 @@ def beats(
 ) -> bool:
     """Whether the answer ``new`` is preferred to ``old`` by the Bayesian information criterion of the sensor model
     on ``obj``'s boxes: its log-likelihood ratio must exceed ``old``'s by more than ``ln(n_edges) / 2`` nats per
-    extra parameter (fewer parameters lower the bar). The criterion of
+    extra parameter (fewer parameters lower the bar; :func:`evidence_margin` positive). The criterion of
     :func:`monovisual3d.geometry.fit.fit_shape_by_bic`, with the ``bayes`` sensor model (a cut box is occlusion
     there, at most ``inward_floor`` per edge) in place of Gaussian edges; the edges nearer objects hide no further
     than ``hidden_to`` scored as :func:`boxes_as_seen` says."""
+    return evidence_margin(problem, obj, new, old, n_edges, hidden_to) > 0.0
+
+
+def evidence_margin(
+    problem: Problem, obj: Found, new: Answer, old: Answer, n_edges: int, hidden_to: NDArray[np.float64] | None = None
+) -> float:
+    """Nats by which ``new``'s log-likelihood ratio on ``obj``'s boxes exceeds ``old``'s beyond the BIC penalty of its
+    extra parameters (:func:`beats`): the log of the Bayes factor for ``new`` that the BIC approximates."""
     gain = sensor_score(problem, *boxes_as_seen(problem, obj, new, hidden_to), new[1], new[0].solid)
     gain -= sensor_score(problem, *boxes_as_seen(problem, obj, old, hidden_to), old[1], old[0].solid)
-    return gain > 0.5 * (new[2] - old[2]) * math.log(max(n_edges, 1))
+    return gain - 0.5 * (new[2] - old[2]) * math.log(max(n_edges, 1))
 
 
 def boxes_as_seen(
