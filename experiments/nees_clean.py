@@ -96,6 +96,9 @@ def print_seed_pairs(records: list[dict], noises: list[float], starts: range) ->
             if len(nees):
                 means.append(nees.mean())
                 beyond.append(np.mean(nees > NEES_95))
+        if not means:
+            print(f"| {noise:g} | 0 | no two-seed sample | - | - | - |")
+            continue
         outside = sum(not 2.2 <= m <= 4.0 for m in means)
         print(
             f"| {noise:g} | {len(means)} | {min(means):.2f} - {max(means):.2f} | {max(beyond):.1%} | {outside} | "

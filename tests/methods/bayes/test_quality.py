@@ -12,11 +12,13 @@ import pytest
 from typer.testing import CliRunner
 
 from monovisual3d.api import localize
-from monovisual3d.bench.trust_cases import make_case
+from monovisual3d.bench.trust_cases import TrustCase, make_case
 from monovisual3d.bench.trust_runs import is_positive_definite
 from monovisual3d.errors import InputWarning
 from monovisual3d.methods.bayes import BayesConfig, BayesLocalizer
-from monovisual3d.methods.bayes.quality import Quality, causes_of, cut_sphere_spreads, object_factor
+from monovisual3d.methods.bayes.problem import Problem
+from monovisual3d.methods.bayes.quality import Quality, assess, causes_of, cut_spheres, object_factor
+from monovisual3d.methods.bayes.state import Found, State
 from monovisual3d.metrics import match
 from monovisual3d.sim.noise import NoiseModel
 from monovisual3d.sim.scenes import default_camera, paper_scene, scene_target
@@ -101,10 +103,10 @@ def test_positions_are_the_fits_only_the_covariance_changes() -> None:
         assert a.associations == b.associations
 
 
-def _state_before_quality(case):  # noqa: ANN001, ANN202 - a trust case; (problem, state) as the quality pass sees them
+def _state_before_quality(case: TrustCase) -> tuple[Problem, State]:
+    """The problem and the state as the quality pass receives them (every pass before it run on ``case``'s views)."""
     from monovisual3d.methods.bayes import pipeline
     from monovisual3d.methods.bayes.problem import build_problem
-    from monovisual3d.methods.bayes.state import State
 
     config = BayesConfig()
     loc = BayesLocalizer(case.session.camera, config)
@@ -123,22 +125,35 @@ def test_a_leaf_cut_sphere_fitted_flat_is_covered_by_the_cut_spheres_spread() ->
     covariance alone (NEES 180) does not cover that, the spread toward the cut sphere's reading of its boxes does."""
     case = make_case("greenhouse", 28, 0.02)
     problem, state = _state_before_quality(case)
-    spreads = cut_sphere_spreads(problem, state.objects)
-    for o, spread in zip(state.objects, spreads):
-        if o.shape not in ("spheroid", "ellipsoid"):
-            assert spread is None
-        elif spread is not None:
-            assert np.all(np.linalg.eigvalsh(spread) > -1e-18)  # w d d^T: positive semi-definite
-    result = _quiet_localize(case.session)
-    flat = [i for i, o in enumerate(result.objects) if o.shape == "spheroid"]
-    assert flat, "the leaf-cut fruit is no longer fitted as a spheroid: pick another case"
-    ei, ti = match(result.positions, case.centres)
-    pairs = dict(zip(ei, ti))
-    for i in flat:
-        err = result.positions[i] - case.centres[pairs[i]]
-        C = result.objects[i].covariance
-        assert is_positive_definite(C)
-        assert float(err @ np.linalg.solve(C, err)) < NEES_95, np.linalg.norm(err)
+    others = cut_spheres(problem, state.objects)
+    assert [o.shape for o, c in zip(state.objects, others) if c is not None] == ["spheroid"]
+    quality, objects = assess(problem, state.objects)
+    (i,) = [i for i, c in enumerate(others) if c is not None]
+    other, obj = others[i], objects[i]
+    ei, ti = match(np.array([o.position for o in objects]), case.centres)
+    err = obj.position - case.centres[dict(zip(ei, ti))[i]]
+    assert 0.01 < np.linalg.norm(err) < 0.03  # the flat fit is off; the sphere the leaves cut is the truth
+    assert np.linalg.norm(obj.position + other.offset - case.centres[dict(zip(ei, ti))[i]]) < 0.003
+    assert 0.0 < other.weight < 0.5  # the flattened model explains the boxes better: the sphere is the less likely
+    C = np.asarray(obj.covariance)
+    assert is_positive_definite(C)
+    assert float(err @ np.linalg.solve(C - other.spread, err)) > NEES_95  # the fitted model's covariance alone
+    assert float(err @ np.linalg.solve(C, err)) < NEES_95
+
+
+def test_a_sphere_gets_no_cut_sphere_and_the_margin_decides_as_beats() -> None:
+    from monovisual3d.methods.bayes.fits import as_answer, beats, evidence_margin, sphere_answer
+
+    case = make_case("paper", 0, 0.02)
+    problem, state = _state_before_quality(case)
+    assert all(c is None for c in cut_spheres(problem, state.objects))  # every object a sphere
+    o = state.objects[0]
+    bigger = Found(o.position, o.score, 1.2 * float(o.radius), associations=o.associations)
+    a, b = as_answer(problem, o), sphere_answer(bigger)
+    n = 4 * len(o.associations)
+    margin = evidence_margin(problem, o, a, b, n)
+    assert margin == pytest.approx(-evidence_margin(problem, o, b, a, n))  # same parameter count: antisymmetric
+    assert margin > 0 and beats(problem, o, a, b, n) and not beats(problem, o, b, a, n)
 
 
 def test_object_factor_shrinks_toward_the_session() -> None:

@@ -30,7 +30,7 @@ Covariance
     boxes sit closer to its fit than the session's is, on the evidence, better measured), and by ``1 + TAIL / dof``
     (dof: those the factor rests on, the object's and the prior's): a variance estimated from few degrees of freedom
     makes the error's distribution heavier-tailed (a Student-t's). An object fitted as a spheroid or an ellipsoid
-    adds the spread toward the other reading of its boxes, a sphere that leaves cut (:func:`cut_sphere_spreads`): the
+    adds the spread toward the other reading of its boxes, a sphere whose boxes leaves cut (:func:`cut_spheres`): the
     two explain a box shortened on one side alike, and the fitted model's own covariance says nothing of the choice.
     A covariance that is not positive definite, or whose spread exceeds the object's distance to the cameras (every view
     from one place: depth along the line of sight is not determined), is reported as None with the reason.
@@ -57,7 +57,7 @@ from .aspects import object_boxes, solid_boxes
 from .fits import as_answer, evidence_margin, sphere_answer
 from .occlusion import occlusion_flags
 from .problem import Problem
-from .refine import refine_sphere
+from .refine import MIN_VIEWS_ONE_SIDED, refine_sphere
 from .scoring import pose_px
 from .sensor import box_edge_sigma_px, censored_edges
 from .state import Found, ObjectQuality, Quality, State, ViewQuality
@@ -96,9 +96,6 @@ UNDETERMINED_SHARE = 0.5
 SCATTER_FACTOR = 16.0
 #: Degrees of freedom the session's variance factor must rest on before ``scatter`` fires (few boxes: no evidence).
 SCATTER_MIN_DOF = 12
-#: Views an object fitted as a spheroid or an ellipsoid needs before a cut sphere is weighed against it
-#: (:func:`cut_sphere_spreads`): the shape stage's one-sided refit needs as many (``shapes.MIN_VIEWS_ONE_SIDED``).
-CUT_SPHERE_MIN_VIEWS = 3
 #: Largest argument given to ``math.exp`` (a margin of 700 nats is certainty; beyond, exp overflows).
 MAX_EXP = 700.0
 #: ``unexplained_boxes`` fires when at least this share of the boxes is held by no object...
@@ -329,8 +326,8 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
 
     obj_quality, out = [], []
     view_chi2: dict[int, list[float]] = {}
-    spreads = cut_sphere_spreads(problem, objects)
-    for o, f, spread in zip(objects, fits, spreads):
+    others = cut_spheres(problem, objects)
+    for o, f, other in zip(objects, fits, others):
         if f is None:
             obj_quality.append(ObjectQuality(0.0, 0, single, "no box edge to fit"))
             out.append(replace(o, covariance=None))
@@ -345,8 +342,8 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
         k = object_factor(chi2_rel, obj_dof, prior) if prior + obj_dof > 0 else 1.0
         tail = 1.0 + TAIL / max(prior + obj_dof, 1.0)  # the degrees of freedom the factor rests on
         cov, reason = _covariance(f, S, k * tail)
-        if cov is not None and spread is not None:
-            cov = cov + spread
+        if cov is not None and other is not None:
+            cov = cov + other.spread
         factor = k * (fc * m.traces[3] + fs * m.traces[4]) / max(m.traces[3] + m.traces[4], 1e-300)
         obj_quality.append(ObjectQuality(float(f.z @ f.z), int(len(f.z) - m.rank), float(factor), reason))
         out.append(replace(o, covariance=cov))
@@ -370,31 +367,63 @@ def assess(problem: Problem, objects: tuple[Found, ...]) -> tuple[Quality, tuple
     return quality, tuple(out)
 
 
-def cut_sphere_spreads(problem: Problem, objects: tuple[Found, ...]) -> list[NDArray[np.float64] | None]:
-    """Per object fitted as a spheroid or an ellipsoid (not a solid), the spread (3, 3), m^2, that the other reading of
-    its boxes adds to its position's covariance: a sphere whose boxes are cut (a leaf, only ever shrinking a box; the
-    shape stage's one-sided loss, an edge inside the prediction a possible cut), ``d`` away, weighted by its posterior
-    probability against the object's model (:func:`.fits.evidence_margin` ``m`` on the object's boxes, equal prior
-    odds): ``w d d^T``, ``w = 1 / (1 + exp(m))``. None for the others, and where the sphere's refit fails or the object
-    has fewer than :data:`CUT_SPHERE_MIN_VIEWS` views (why: docs/decisions/bayes-quality.md#a-cut-spheres-spread)."""
+@dataclass(frozen=True)
+class CutSphere:
+    """The other reading of an object fitted as a spheroid or an ellipsoid: a sphere whose boxes leaves cut.
+
+    Attributes
+    ----------
+    weight : float, the sphere's posterior probability against the object's model (0-1)
+    offset : ndarray, shape (3,), metres, base frame: the sphere's centre less the object's position
+    """
+
+    weight: float
+    offset: NDArray[np.float64]
+
+    @property
+    def spread(self) -> NDArray[np.float64]:
+        """``weight * offset offset^T`` (3, 3), m^2: what the reading adds to the position's covariance."""
+        return self.weight * np.outer(self.offset, self.offset)
+
+
+def cut_spheres(problem: Problem, objects: tuple[Found, ...]) -> list[CutSphere | None]:
+    """Per object that the shape stage (``shape="auto"``) fitted as a spheroid or an ellipsoid (not a solid), the
+    :class:`CutSphere` that explains its boxes the other way: a leaf only ever shortens a box, from one side, and a
+    flattened model shortens it from both.
+
+    The sphere is refitted from the object's position with the shape stage's one-sided loss (an edge inside its
+    prediction a possible cut; :func:`.refine.refine_sphere` with ``floors``, the edges nearer objects cut censored by
+    :func:`.occlusion.occlusion_flags` with every object as the sphere of its volume-equivalent radius), and weighed
+    against the object's model by :func:`.fits.evidence_margin` ``m`` on every edge of the object's boxes (the shape
+    stage counts the edges its fit used and lets hidden ones move), equal prior odds: ``weight = 1 / (1 + exp(m))``.
+    The boxes alone are weighed, masks or not. None for the other objects, and where the one-sided refit does not apply
+    (``tuning.one_sided_refit`` off, fewer than :data:`.refine.MIN_VIEWS_ONE_SIDED` views, an object refined jointly with the poses), the refit fails
+    or leaves ``BayesConfig.fit_radius_range``, or the margin is not finite
+    (why: docs/decisions/bayes-quality.md#a-cut-spheres-spread)."""
+    cfg = problem.config
+    out: list[CutSphere | None] = [None] * len(objects)
     todo = [i for i, o in enumerate(objects) if o.shape in ("spheroid", "ellipsoid") and o.solid is None]
-    out: list[NDArray[np.float64] | None] = [None] * len(objects)
-    if not todo:
+    if not todo or cfg.shape != "auto" or not cfg.tuning.one_sided_refit:
         return out
-    flags = occlusion_flags(problem, list(objects))
-    floors = (problem.config.tuning.cut_inward_floor, problem.model.outward_floor)
+    spheres = [  # each object as the sphere of its volume-equivalent radius (the search's elongation not carried over)
+        Found(o.position, o.score, o.radius, o.covariance, o.associations, o.n_cells, pose_corrected=o.pose_corrected)
+        for o in objects
+    ]
+    flags = occlusion_flags(problem, spheres)
+    floors = (cfg.tuning.cut_inward_floor, problem.model.outward_floor)
+    lo, hi = cfg.fit_radius_range
     for i in todo:
         o, f = objects[i], flags[i]
-        if f is None or len(f[0]) < CUT_SPHERE_MIN_VIEWS:
+        if f is None or len(f[0]) < MIN_VIEWS_ONE_SIDED:
             continue
-        fit = refine_sphere(problem.camera, f[0], o.position, float(o.radius), problem.model, use_masks=False, floors=floors)  # type: ignore[arg-type]
-        if not (fit.success and np.all(np.isfinite(fit.centre)) and np.isfinite(fit.radius)):
+        radius = float(o.radius)  # type: ignore[arg-type]  # a fitted shape's volume-equivalent radius
+        fit = refine_sphere(problem.camera, f[0], o.position, radius, problem.model, use_masks=False, floors=floors)
+        if not (fit.success and np.all(np.isfinite(fit.centre)) and lo <= fit.radius <= hi):
             continue
         sphere = Found(np.asarray(fit.centre, dtype=float), o.score, float(fit.radius), associations=o.associations)
         margin = evidence_margin(problem, o, as_answer(problem, o), sphere_answer(sphere), 4 * len(o.associations))
-        w = 1.0 / (1.0 + math.exp(min(margin, MAX_EXP)))
-        d = sphere.position - o.position
-        out[i] = w * np.outer(d, d)
+        if math.isfinite(margin):
+            out[i] = CutSphere(1.0 / (1.0 + math.exp(min(margin, MAX_EXP))), sphere.position - o.position)
     return out
 
 

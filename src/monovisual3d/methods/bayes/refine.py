@@ -27,6 +27,12 @@ from .likelihood import edge_residuals
 from .masks import mask_residuals, mask_residuals_rays
 from .sensor import UNDEFINED_RESIDUAL, SensorModel, box_edge_sigma_px, censored_edges, inward_edge_offsets
 
+#: Views a sphere needs for a one-sided refit (:func:`refine_sphere` with ``floors``: an edge inside the prediction a
+#: possible cut; ``shapes.one_sided_refit``, ``quality.cut_spheres``): from two, its 8 edges barely determine its 4
+#: parameters, and an edge cannot be told a cut from noise by the others; letting inward edges go there moves the depth
+#: (why: docs/decisions/bayes-occlusion.md#min_views_one_sided).
+MIN_VIEWS_ONE_SIDED = 3
+
 
 @dataclass
 class Observation:

@@ -84,7 +84,7 @@ from .fits import (
 )
 from .occlusion import occlusion_flags, predicted_views
 from .problem import Problem
-from .refine import Observation, refine_sphere, refine_spheroid
+from .refine import MIN_VIEWS_ONE_SIDED, Observation, refine_sphere, refine_spheroid
 from .scoring import spheroid_axis
 from .state import Found, State
 
@@ -101,10 +101,6 @@ LARGE_RADIUS_M = 0.06
 # only shrinks a box, so an edge inside the prediction may be a cut and costs less than one outside; a low floor lets a
 # cut edge go, at the price of weighing inward noise edges less where nothing is occluded
 # (why: docs/decisions/bayes-occlusion.md#cut_inward_floor).
-#: Views a sphere needs for :func:`one_sided_refit`: from two, its 8 edges barely determine its 4 parameters, and an
-#: edge cannot be told a cut from noise by the others; letting inward edges go there moves the depth
-#: (why: docs/decisions/bayes-occlusion.md#min_views_one_sided).
-MIN_VIEWS_ONE_SIDED = 3
 
 
 def fit_shape(
