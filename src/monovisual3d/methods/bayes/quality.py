@@ -397,8 +397,8 @@ def cut_spheres(problem: Problem, objects: tuple[Found, ...]) -> list[CutSphere 
     against the object's model by :func:`.fits.evidence_margin` ``m`` on every edge of the object's boxes (the shape
     stage counts the edges its fit used and lets hidden ones move), equal prior odds: ``weight = 1 / (1 + exp(m))``.
     The boxes alone are weighed, masks or not. None for the other objects, and where the one-sided refit does not apply
-    (``tuning.one_sided_refit`` off, fewer than :data:`.refine.MIN_VIEWS_ONE_SIDED` views, an object refined jointly with the poses), the refit fails
-    or leaves ``BayesConfig.fit_radius_range``, or the margin is not finite
+    (``tuning.one_sided_refit`` off, fewer than :data:`.refine.MIN_VIEWS_ONE_SIDED` views, an object refined jointly
+    with the poses), the refit fails or leaves ``BayesConfig.fit_radius_range``, or the margin is not finite
     (why: docs/decisions/bayes-quality.md#a-cut-spheres-spread)."""
     cfg = problem.config
     out: list[CutSphere | None] = [None] * len(objects)
