@@ -178,8 +178,6 @@ def _localize_and_write(session: Path, config: Any, output: Path | None, quiet: 
 
 def _run_localize(session: Session, config: Any, quiet: bool) -> Result:
     """Run the method (with a transient progress bar unless ``quiet``); its warnings are kept for after the table."""
-    from rich.progress import Progress
-
     from ..api import localize as localize_fn
 
     with warnings.catch_warnings(record=True) as caught:
@@ -187,6 +185,8 @@ def _run_localize(session: Session, config: Any, quiet: bool) -> Result:
         if quiet:
             result = localize_fn(session, config=config)
         else:
+            from rich.progress import Progress
+
             with Progress(console=console, transient=True) as bar:
                 task = bar.add_task("filtering views", total=None)
 

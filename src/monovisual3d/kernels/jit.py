@@ -186,7 +186,8 @@ _LOADING_LAZILY = False
 _LAZY_MODULES: set[str] = set()
 #: numba versions whose cache loading :func:`load_cached_lazily` was written for (from, up to but not including):
 #: ``Cache.load_overload`` a refresh of the target followed by ``_load_overload``, and the CPU target's
-#: ``load_additional_registries`` starting with the runtime's initialisation (tested with 0.68.1; 0.59.1 reads the same).
+#: ``load_additional_registries`` starting with the runtime's initialisation, the target's refresh refreshing the typing
+#: context's, which starts with its own ``load_additional_registries`` (tested with 0.68.1; 0.59.1 reads the same).
 LAZY_NUMBA_VERSIONS = ((0, 59), (0, 69))
 
 
@@ -197,8 +198,10 @@ def load_cached_lazily(modules: tuple[str, ...] = ("monovisual3d",)) -> bool:
     every implementation its compiler knows (``numba.np.arraymath``, ``numba.np.linalg`` with ``scipy.linalg``, typed
     containers, random generators, ...): about 0.4 s of a command's start on the 2-core development machine, the
     largest part of a warm ``localize`` that is not the estimate (docs/speed.md). A cached ``njit`` kernel is machine
-    code that runs with numba's runtime (NRT) alone. For the kernels of ``modules`` (this package's, by default),
-    every refresh of a cache load initialises that runtime and leaves the rest out; a later compilation refreshes the
+    code that runs with numba's runtime (NRT) alone, and it is typed already. For the kernels of ``modules`` (this
+    package's, by default), every refresh of a cache load initialises that runtime and leaves the rest out, the typing
+    declarations too (numba's typing context imports ``cffi`` and its C parser, and numpy's declarations, for them: a
+    further 0.1 s); a later compilation refreshes the
     target again and registers everything then (numba registers implementations incrementally), so a kernel compiled
     after a cached one compiles as usual. Kernels of other modules (a user's own ``@vectorize``, whose ufunc wrapper
     numba generates after the cache load without a compilation's refresh) load as numba always loads them: the
@@ -231,27 +234,36 @@ def _numba_fits() -> bool:
     except ImportError:  # pragma: no cover - another numba layout
         return False
     version = tuple(int(p) for p in numba.__version__.split(".")[:2] if p.isdigit())
+    from numba.core.typing import context as typing_context
+
     needed = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
     return (
         LAZY_NUMBA_VERSIONS[0] <= version < LAZY_NUMBA_VERSIONS[1]
         and all(hasattr(caching.Cache, name) for name in needed)
         and hasattr(cpu.CPUContext, "load_additional_registries")
+        and hasattr(typing_context.Context, "load_additional_registries")
     )
 
 
 def _install_lazy_loads() -> None:
-    """Wrap numba's ``Cache.load_overload`` and ``CPUContext.load_additional_registries`` (see
-    :func:`load_cached_lazily`)."""
+    """Wrap numba's ``Cache.load_overload`` and the ``load_additional_registries`` of its CPU target and typing
+    contexts (see :func:`load_cached_lazily`)."""
     from numba.core import caching, cpu
     from numba.core.runtime import rtsys
+    from numba.core.typing import context as typing_context
 
     register_all, load = cpu.CPUContext.load_additional_registries, caching.Cache.load_overload
+    declare_all = typing_context.Context.load_additional_registries
 
     def load_additional_registries(self: Any) -> None:
         if getattr(_LAZY, "loading", False):
             rtsys.initialize(self)  # what a cached kernel needs: numba's runtime
             return
         register_all(self)
+
+    def load_additional_declarations(self: Any) -> None:
+        if not getattr(_LAZY, "loading", False):  # a cached kernel is typed already: its declarations wait too
+            declare_all(self)
 
     def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
         module = str(getattr(getattr(self, "_py_func", None), "__module__", ""))
@@ -267,4 +279,5 @@ def _install_lazy_loads() -> None:
         return None  # the guard swallowed an I/O error: numba compiles instead
 
     cpu.CPUContext.load_additional_registries = load_additional_registries
+    typing_context.Context.load_additional_registries = load_additional_declarations
     caching.Cache.load_overload = load_overload
