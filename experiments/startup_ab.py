@@ -7,17 +7,17 @@ them, the floor every command that calls a compiled kernel stands on: ``python -
 process that imports numba and calls one trivial cached kernel, with and without
 :func:`monovisual3d.kernels.jit.load_cached_lazily`.
 
-Answer (2026-12-07 20:20 UTC, AMD EPYC, 2 cores, idle; the commit before ``load_cached_lazily`` against it): warm
-``localize`` 1.40 -> 0.92 s wall, 1.65 -> 1.06 s CPU; one trivial cached kernel 0.90 s, 0.45 s loaded lazily,
-``import numba`` 0.37 s (docs/speed.md, "Cached kernels without numba's compile-time registries"). 2026-12-08 00:25
-UTC, the typing declarations left out of cache loads too, typer held below 0.29 and one command's module imported
-(``--before-path`` with typer 0.29 for the commit before): 1.08 -> 0.78 s wall, 1.22 -> 0.93 s CPU; one trivial cached
-kernel loaded lazily 0.40 s, ``import numba`` 0.34 s.
+Answer (2026-12-08 00:45 UTC, AMD EPYC, 2 cores, idle; the commit before the typing declarations were left out of
+cache loads, typer held below 0.29 and one command's module imported, with typer 0.29 through ``--before-path``):
+warm ``localize`` 0.85 -> 0.67 s wall, 0.99 -> 0.81 s CPU; ``import numba`` 0.30 s, one trivial cached kernel 0.74 s,
+0.34 s loaded lazily (docs/speed.md). Both trees are byte-compiled first: before that, a fresh worktree under
+``PYTHONDONTWRITEBYTECODE`` recompiled every module on each run, which inflated the earlier "before" figures.
 """
 
 from __future__ import annotations
 
 import argparse
+import compileall
 import os
 import statistics
 import sys
@@ -81,6 +81,8 @@ def main() -> None:
                 for k, (a, _) in _floor_cases(folder).items()
             },
         }
+        for tree in (args.before, args.after):  # bytecode for both: where Python writes none (PYTHONDONTWRITEBYTECODE,
+            compileall.compile_dir(tree, quiet=2)  # a fresh worktree), a tree without it recompiles every module
         times: dict[str, list[tuple[float, float]]] = {k: [] for k in cases}
         for argv, env in cases.values():  # warm every kernel cache and the page cache
             time_process(argv, {**os.environ, **env})

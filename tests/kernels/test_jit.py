@@ -118,9 +118,10 @@ print(json.dumps({"on": on, "loaded": loaded, "lazy": lazy, "typing_lazy": typin
 
 
 def test_cached_kernels_load_lazily_and_later_compilations_still_work(tmp_path) -> None:  # noqa: ANN001 - pytest
-    """A fresh process loads a listed module's cached (parallel) kernel without numba's compile-time registries, gets
-    its answer (nor their typing declarations: the kernel is typed already), loads another module's cached ``@vectorize`` as numba always does (its wrapper is generated without a
-    compilation's refresh), and still compiles a kernel that needs the registries afterwards (issue 56)."""
+    """A fresh process loads a listed module's cached (parallel) kernel without numba's compile-time registries nor
+    its typing declarations (the kernel is typed already), gets its answer, loads another module's cached
+    ``@vectorize`` as numba always does (its wrapper is generated without a compilation's refresh), and still compiles
+    a kernel that needs the registries afterwards (issue 56)."""
     import json
     import subprocess
     import sys

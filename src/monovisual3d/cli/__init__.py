@@ -4,9 +4,9 @@ The CLI only parses arguments and calls the library. User errors end with
 exit code 2 and a one-line message; warnings are printed as one line each.
 
 Each command lives in one module of this package, which registers it on the application when imported.
-:func:`main` imports only the module of the command its command line names (the others' imports are 0.04 s of
-every command's start, issue 56); ``app`` (``from monovisual3d.cli import app``) is the application with every
-command registered.
+:func:`main` imports only the module of the command its command line names, with what that module imports itself
+(the others' imports are 0.04 s of every command's start, issue 56); ``app`` (``from monovisual3d.cli import app``)
+is the application with every command registered.
 """
 
 from __future__ import annotations
@@ -34,9 +34,9 @@ MODULES = (
     "view",
     "warmup",
 )
-#: The module that registers each top-level command. A command line that names one of these imports that module
-#: alone; any other (``--help``, the ``bench`` and ``ros2`` groups, whose commands several modules register, a
-#: plug-in's command) imports every module.
+#: The module that registers each top-level command or group. A command line that names one of these imports that
+#: module (and what it imports); any other (``--help``, the ``bench`` group, whose commands several modules register,
+#: a plug-in's command) imports every module.
 COMMAND_MODULES = {
     "demo": "experiments",
     "reproduce": "experiments",
@@ -51,6 +51,7 @@ COMMAND_MODULES = {
     "next-view": "active",
     "batch": "batch",
     "warmup": "warmup",
+    "ros2": "ros2",
 }
 
 __all__ = ["COMMAND_MODULES", "MODULES", "app", "load_commands", "main"]

@@ -200,11 +200,13 @@ def load_cached_lazily(modules: tuple[str, ...] = ("monovisual3d",)) -> bool:
     largest part of a warm ``localize`` that is not the estimate (docs/speed.md). A cached ``njit`` kernel is machine
     code that runs with numba's runtime (NRT) alone, and it is typed already. For the kernels of ``modules`` (this
     package's, by default), every refresh of a cache load initialises that runtime and leaves the rest out, the typing
-    declarations too (numba's typing context imports ``cffi`` and its C parser, and numpy's declarations, for them: a
-    further 0.1 s); a later compilation refreshes the
-    target again and registers everything then (numba registers implementations incrementally), so a kernel compiled
-    after a cached one compiles as usual. Kernels of other modules (a user's own ``@vectorize``, whose ufunc wrapper
-    numba generates after the cache load without a compilation's refresh) load as numba always loads them: the
+    context's declarations too (installing them imports ``cffi`` with its C parser and builds every overload template:
+    a further 0.03 s here); a later compilation refreshes the target again and registers everything then (numba
+    registers implementations incrementally), so a kernel compiled after a cached one compiles, though not always with
+    numba's usual order of typing templates: where two match the same expression (a record field named like an array
+    method, ``a.max``), the one installed first wins. Kernels of other modules (a user's own ``@vectorize``, whose
+    ufunc wrapper numba generates after the cache load without a compilation's refresh) load as numba always loads
+    them: the
     change to numba's ``Cache.load_overload`` is process-wide, its effect is not.
 
     Parameters
