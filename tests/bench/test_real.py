@@ -47,6 +47,20 @@ def test_per_object_pools_each_objects_errors_over_the_runs() -> None:
     assert real.per_object([]) == []
 
 
+def test_nees_per_object_pairs_within_the_gate_and_needs_a_covariance() -> None:
+    """Each true object's NEES from the estimate paired with it: 1 mm off along x with a 1 mm sigma is 1; an estimate
+    beyond the gate or without a covariance gives NaN."""
+    from types import SimpleNamespace
+
+    truth = np.array([[0.0, 0.0, 0.5], [0.2, 0.0, 0.5], [0.4, 0.0, 0.5]])
+    positions = truth + np.array([[0.001, 0.0, 0.0], [0.0, 0.0, 0.0], [0.05, 0.0, 0.0]])
+    covs = [1e-6 * np.eye(3), None, 1e-6 * np.eye(3)]
+    result = SimpleNamespace(positions=positions, objects=[SimpleNamespace(covariance=c) for c in covs])
+    nees = real.nees_per_object(result, truth, np.full(3, 0.02))
+    assert nees[0] == pytest.approx(1.0)
+    assert np.isnan(nees[1]) and np.isnan(nees[2])  # no covariance; 50 mm off, beyond the 20 mm gate
+
+
 def test_view_sets_are_all_views_then_every_subset() -> None:
     sets = real.view_sets(8, 3)
     assert sets[0] == tuple(range(8)) and len(sets) == 1 + 56 and len(set(sets)) == 57
@@ -63,8 +77,11 @@ def test_runs_on_a_written_set(folder: Path) -> None:
     assert all(0.0 <= o["mean_mm"] <= o["p90_mm"] + 1e-9 for o in q["per_object_subsets"])
     b = res["results"]["bayes"]
     assert b["all"]["missed"] == 0 and b["all"]["mean_mm"] < 10.0
+    assert b["subsets"]["nees_objects"] > 0 and 0.0 <= b["subsets"]["beyond_95"] <= 1.0
+    assert b["subsets"]["nees_median"] > 0.0
     md = real.format_markdown(res)
     assert "| quadric (tracks) |" in md and "| bayes |" in md and "| LfD, given association" in md
+    assert "Covariance of the objects found within the gate" in md and "bayes " in md.split("Covariance")[-1]
     assert json.loads(real.to_json(res))["machine"]["cores"] >= 1
 
 

@@ -37,6 +37,7 @@ from ..io.lfd import read_lfd
 from ..metrics import MIN_GATE_M, match
 from ..session import Session
 from .timing import machine_metadata
+from .trust_runs import NEES_95
 
 #: Where the shared Aldoma set lies, relative to the repository root (and to the working directory).
 ALDOMA_RELATIVE = Path("..") / "shared" / "data" / "aldoma"
@@ -132,12 +133,26 @@ def measure(
     distances, missed, extra = score(result.positions, centres, gates)
     return {
         "errors": [float(x) for x in distances],
+        "nees": nees_per_object(result, centres, gates),
         "missed": missed,
         "extra": extra,
         "n_truth": len(centres),
         "runtime_s": runtime,
         "warnings": len(result.warnings) or len(caught),
     }
+
+
+def nees_per_object(result: Any, truth: np.ndarray, gates: np.ndarray) -> list[float]:
+    """Per true object, the NEES of the estimate paired with it (``e^T C^-1 e``, ``e`` the error, ``C`` the estimate's
+    covariance); NaN where no estimate is paired within the gate (m) or it has no covariance."""
+    out = [float("nan")] * len(truth)
+    positions = np.asarray(result.positions, dtype=float).reshape(-1, 3)
+    for e, t in zip(*match(positions, truth)):
+        cov = result.objects[e].covariance
+        err = positions[e] - truth[t]
+        if cov is not None and np.linalg.norm(err) <= gates[t]:
+            out[t] = float(err @ np.linalg.solve(np.asarray(cov, dtype=float), err))
+    return out
 
 
 def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
@@ -157,7 +172,17 @@ def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
         "extra": int(sum(r["extra"] for r in runs)),
         "runs_with_warnings": int(sum(1 for r in runs if r["warnings"])),
         "runtime_s": float(np.median([r["runtime_s"] for r in runs])) if runs else float("nan"),
+        **_nees_summary([x for r in runs for x in r.get("nees", []) if np.isfinite(x)]),
     }
+
+
+def _nees_summary(nees: list[float]) -> dict[str, Any]:
+    """The NEES of the objects found within the gate: how many, the median (2.37 where the covariance is calibrated:
+    a chi-square's on 3 degrees of freedom) and the share beyond the 95 % ellipsoid (5 % calibrated)."""
+    if not nees:
+        return {"nees_objects": 0, "nees_median": float("nan"), "beyond_95": float("nan")}
+    a = np.array(nees)
+    return {"nees_objects": len(a), "nees_median": float(np.median(a)), "beyond_95": float(np.mean(a > NEES_95))}
 
 
 def run_real(
@@ -276,6 +301,17 @@ def format_markdown(results: dict[str, Any]) -> str:
         f"| LfD, given association (published code; quoted) | {f(lfd['all']['mean_mm'])} | - | - | "
         f"{f(lfd['subsets']['mean_mm'])} | - | {f(lfd['subsets']['p90_mm'])} | - | - | - |"
     )
+    covered = [
+        f"{name} {r['subsets']['nees_median']:.1f}, {r['subsets']['beyond_95']:.0%}"
+        for name, r in results["results"].items()
+        if r["subsets"].get("nees_objects")
+    ]
+    if covered:
+        lines += [
+            "",
+            f"Covariance of the objects found within the gate, {k}-view subsets: median NEES, share beyond the 95 % "
+            f"ellipsoid (calibrated: 2.37, 5 %): {'; '.join(covered)}",
+        ]
     return "\n".join(lines) + "\n"
 
 

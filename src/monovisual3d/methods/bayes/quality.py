@@ -54,12 +54,12 @@ from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
 from ...geometry.orientation import rotation_from_quaternion_xyzw
 from ...verdict import Cause
 from .aspects import object_boxes, solid_boxes
-from .fits import as_answer, evidence_margin, sphere_answer
+from .fits import Answer, as_answer, evidence_margin, sphere_answer
 from .occlusion import occlusion_flags
 from .problem import Problem
 from .refine import MIN_VIEWS_ONE_SIDED, refine_sphere
 from .scoring import pose_px
-from .sensor import box_edge_sigma_px, censored_edges
+from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
 from .state import Found, ObjectQuality, Quality, State, ViewQuality
 
 #: Degrees of freedom of the prior an object's variance factor is shrunk with toward the session's: an object's own
@@ -98,6 +98,12 @@ SCATTER_FACTOR = 16.0
 SCATTER_MIN_DOF = 12
 #: Largest argument given to ``math.exp`` (a margin of 700 nats is certainty; beyond, exp overflows).
 MAX_EXP = 700.0
+#: Cosine of the largest angle between two box sides' outward directions in the base frame for them to face one
+#: occluder (:func:`shared_cut_nats`): 60 degrees, half the widest step between views an object is still seen from alike.
+SHARED_CUT_COS = 0.5
+#: Each box side's outward direction in the optical frame, in ``bbox_xyxy`` order: x1 left (-x), y1 up (-y), x2 right
+#: (+x), y2 down (+y).
+SIDE_DIRECTIONS_OPTICAL = np.array([[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 #: ``unexplained_boxes`` fires when at least this share of the boxes is held by no object...
 UNEXPLAINED_SHARE = 1.0 / 3.0
 #: ...and at least this many.
@@ -375,10 +381,12 @@ class CutSphere:
     ----------
     weight : float, the sphere's posterior probability against the object's model (0-1)
     offset : ndarray, shape (3,), metres, base frame: the sphere's centre less the object's position
+    radius : float, metres: the sphere's radius
     """
 
     weight: float
     offset: NDArray[np.float64]
+    radius: float
 
     @property
     def spread(self) -> NDArray[np.float64]:
@@ -395,7 +403,8 @@ def cut_spheres(problem: Problem, objects: tuple[Found, ...]) -> list[CutSphere 
     prediction a possible cut; :func:`.refine.refine_sphere` with ``floors``, the edges nearer objects cut censored by
     :func:`.occlusion.occlusion_flags` with every object as the sphere of its volume-equivalent radius), and weighed
     against the object's model by :func:`.fits.evidence_margin` ``m`` on every edge of the object's boxes (the shape
-    stage counts the edges its fit used and lets hidden ones move), equal prior odds: ``weight = 1 / (1 + exp(m))``.
+    stage counts the edges its fit used and lets hidden ones move), each reading's cuts of one side counted once
+    (:func:`shared_cut_nats`), equal prior odds: ``weight = 1 / (1 + exp(m))``.
     The boxes alone are weighed, masks or not. None for the other objects, and where the one-sided refit does not apply
     (``tuning.one_sided_refit`` off, fewer than :data:`.refine.MIN_VIEWS_ONE_SIDED` views, an object refined jointly
     with the poses), the refit fails or leaves ``BayesConfig.fit_radius_range``, or the margin is not finite
@@ -421,10 +430,41 @@ def cut_spheres(problem: Problem, objects: tuple[Found, ...]) -> list[CutSphere 
         if not (fit.success and np.all(np.isfinite(fit.centre)) and lo <= fit.radius <= hi):
             continue
         sphere = Found(np.asarray(fit.centre, dtype=float), o.score, float(fit.radius), associations=o.associations)
-        margin = evidence_margin(problem, o, as_answer(problem, o), sphere_answer(sphere), 4 * len(o.associations))
+        model, other = as_answer(problem, o), sphere_answer(sphere)
+        margin = evidence_margin(problem, o, model, other, 4 * len(o.associations))
+        margin += shared_cut_nats(problem, o, model) - shared_cut_nats(problem, o, other)
         if math.isfinite(margin):
-            out[i] = CutSphere(1.0 / (1.0 + math.exp(min(margin, MAX_EXP))), sphere.position - o.position)
+            out[i] = CutSphere(1.0 / (1.0 + math.exp(min(margin, MAX_EXP))), sphere.position - o.position, float(fit.radius))
     return out
+
+
+def shared_cut_nats(problem: Problem, obj: Found, answer: Answer) -> float:
+    """Nats the sensor model charges ``answer`` more than once for one occluder: of ``obj``'s box edges that the
+    answer's prediction explains as cut (inside it by more than where the edge noise meets ``inward_floor``: each
+    costs that floor), those whose sides face the same way in the base frame (outward directions within
+    :data:`SHARED_CUT_COS`) are one occlusion, and all but one of their floors are returned.
+
+    The sensor model scores each view's cut as its own event. A leaf above a fruit cuts the top of its box in every
+    view of an arc: one occluder seen from several places, so its cost is one surprise, not one per view; scored per
+    view, a sphere cut so in five views pays five floors against a flattened model that shortens every box without a
+    cut (why: docs/decisions/bayes-quality.md#one-occluder-one-cost).
+    """
+    poses, boxes = object_boxes(problem, obj)
+    cam, model = problem.camera, problem.model
+    pred = solid_boxes(cam, poses, answer[1], answer[0].solid)
+    T_optical_base = np.linalg.inv(poses)
+    depth = T_optical_base[:, 2, :3] @ answer[1].centre_base + T_optical_base[:, 2, 3]
+    sigma = box_edge_sigma_px(model, pred, np.asarray(pose_px(problem, depth), dtype=float))
+    inward = inward_edge_offsets(pred, boxes)
+    inward = np.where(censored_edges(boxes, cam.width, cam.height, model.border_px), np.minimum(inward, 0.0), inward)
+    views, sides = np.nonzero(inward / sigma > math.sqrt(2.0 * model.inward_floor))
+    directions = np.einsum("kij,kj->ki", poses[views, :3, :3], SIDE_DIRECTIONS_OPTICAL[sides])
+    left, repeated = list(range(len(directions))), 0
+    while left:
+        same = [j for j in left if directions[j] @ directions[left[0]] >= SHARED_CUT_COS]
+        repeated += len(same) - 1
+        left = [j for j in left if j not in same]
+    return repeated * model.inward_floor
 
 
 def chi2_sf(x: float, dof: float) -> float:
