@@ -302,7 +302,7 @@ def format_markdown(results: dict[str, Any]) -> str:
         f"{f(lfd['subsets']['mean_mm'])} | - | {f(lfd['subsets']['p90_mm'])} | - | - | - |"
     )
     covered = [
-        f"{name} {r['subsets']['nees_median']:.1f}, {r['subsets']['beyond_95']:.0%}"
+        f"{name} {r['subsets']['nees_median']:.1f}, {r['subsets']['beyond_95']:.0%} ({r['subsets']['nees_objects']} objects)"
         for name, r in results["results"].items()
         if r["subsets"].get("nees_objects")
     ]

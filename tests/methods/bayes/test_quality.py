@@ -17,7 +17,15 @@ from monovisual3d.bench.trust_runs import is_positive_definite
 from monovisual3d.errors import InputWarning
 from monovisual3d.methods.bayes import BayesConfig, BayesLocalizer
 from monovisual3d.methods.bayes.problem import Problem
-from monovisual3d.methods.bayes.quality import Quality, assess, causes_of, cut_spheres, object_factor, shared_cut_nats
+from monovisual3d.methods.bayes.quality import (
+    Quality,
+    assess,
+    causes_of,
+    cut_spheres,
+    object_factor,
+    repeated_cuts,
+    shared_cut_nats,
+)
 from monovisual3d.methods.bayes.state import Found, State
 from monovisual3d.metrics import match
 from monovisual3d.sim.noise import NoiseModel
@@ -142,7 +150,7 @@ def test_a_leaf_cut_sphere_fitted_flat_is_covered_by_the_cut_spheres_spread() ->
 
 
 def test_one_occluder_cutting_a_side_in_every_view_costs_once() -> None:
-    """A greenhouse fruit (a sphere, 29.9 mm) whose boxes a leaf cuts on the same side in all five views is fitted
+    """A greenhouse fruit (a sphere, 29.9 mm) whose boxes a leaf cuts at the bottom in all five views is fitted
     as an oblate spheroid 9 mm off. Scored per view, the sphere the leaf cuts paid one ``inward_floor`` per view and
     its reading weighed 0.01: the covariance said 1-5 mm (NEES 88). Counted as one occluder it is the likelier
     reading, and the spread toward it covers the error."""
@@ -171,6 +179,54 @@ def test_one_occluder_cutting_a_side_in_every_view_costs_once() -> None:
     C = np.asarray(objects[i].covariance)
     assert float(err @ np.linalg.solve(C - other.spread, err)) > NEES_95
     assert float(err @ np.linalg.solve(C, err)) < NEES_95
+
+
+def _yaw(deg: float) -> np.ndarray:
+    """A camera rotation turned by ``deg`` about the base frame's z axis (optical to base)."""
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _pitch(deg: float) -> np.ndarray:
+    """A camera rotation turned by ``deg`` about its own x axis (optical to base)."""
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _cuts(*sides_per_view: tuple[int, ...]) -> np.ndarray:
+    """A (K, 4) cut mask: the given ``bbox_xyxy`` sides of each view cut (0 left, 1 top, 2 right, 3 bottom)."""
+    cut = np.zeros((len(sides_per_view), 4), dtype=bool)
+    for v, sides in enumerate(sides_per_view):
+        cut[v, list(sides)] = True
+    return cut
+
+
+@pytest.mark.parametrize(
+    ("cut", "rotations", "expected"),
+    [
+        (_cuts((3,), (3,), (3,)), [_yaw(0), _yaw(20), _yaw(40)], 2),  # a bottom cut in three views of an arc: one occluder
+        (_cuts((0,), (0,)), [_yaw(0), _yaw(20)], 1),  # a left side 20 degrees apart
+        (_cuts((0,), (0,)), [_yaw(0), _yaw(90)], 0),  # a left side 90 degrees apart faces elsewhere: two occluders
+        (_cuts((0,), (2,)), [_yaw(0), _yaw(180)], 0),  # facing the same way, but other image sides: not one
+        (_cuts((3,), (3,)), [_pitch(0), _pitch(40)], 0),  # the bottom seen from level and from 40 degrees above
+        (_cuts((1, 3), (1, 3), (1,)), [_yaw(0), _yaw(10), _yaw(20)], 2),  # two occluders: the larger group counts
+        (_cuts((3,)), [_yaw(0)], 0),
+        (_cuts(), [], 0),
+    ],
+)
+def test_repeated_cuts_counts_one_occluders_cuts_seen_again(cut: np.ndarray, rotations: list, expected: int) -> None:
+    R = np.array(rotations) if rotations else np.zeros((0, 3, 3))
+    assert repeated_cuts(cut, R) == expected
+
+
+def test_repeated_cuts_does_not_depend_on_the_views_order() -> None:
+    """Left sides at 0, 20 and 40 degrees: 0 and 40 are too far apart for each other's cone, 20 is near both, and
+    from 20 all three are one occluder's, whichever view comes first (a greedy grouping from the first view found
+    two groups where 0 came first)."""
+    left = np.zeros((3, 4), dtype=bool)
+    left[:, 0] = True
+    for order in ([0, 20, 40], [20, 0, 40], [40, 0, 20]):
+        assert repeated_cuts(left, np.array([_yaw(d) for d in order])) == 2
 
 
 def test_a_sphere_gets_no_cut_sphere_and_the_margin_decides_as_beats() -> None:

@@ -54,7 +54,7 @@ from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
 from ...geometry.orientation import rotation_from_quaternion_xyzw
 from ...verdict import Cause
 from .aspects import object_boxes, solid_boxes
-from .fits import Answer, as_answer, evidence_margin, sphere_answer
+from .fits import Answer, as_answer, evidence_margin, sensor_scores, sphere_answer
 from .occlusion import occlusion_flags
 from .problem import Problem
 from .refine import MIN_VIEWS_ONE_SIDED, refine_sphere
@@ -98,9 +98,11 @@ SCATTER_FACTOR = 16.0
 SCATTER_MIN_DOF = 12
 #: Largest argument given to ``math.exp`` (a margin of 700 nats is certainty; beyond, exp overflows).
 MAX_EXP = 700.0
-#: Cosine of the largest angle between two box sides' outward directions in the base frame for them to face one
-#: occluder (:func:`shared_cut_nats`): 60 degrees, half the widest step between views an object is still seen from alike.
-SHARED_CUT_COS = 0.5
+#: Cosine of the largest angle between the outward directions, in the base frame, of one box side (the same image side)
+#: in two views for their cuts to be one occluder's (:func:`repeated_cuts`): 25 degrees, neighbouring views of an arc
+#: (10-30 degrees apart), not the far side of a ring of views. A 60-degree cone grouped one view's bottom edge with
+#: two others' right edges on the real Aldoma set's tilted views (why: docs/decisions/bayes-quality.md#one-occluder-one-cost).
+SHARED_CUT_COS = math.cos(math.radians(25.0))
 #: Each box side's outward direction in the optical frame, in ``bbox_xyxy`` order: x1 left (-x), y1 up (-y), x2 right
 #: (+x), y2 down (+y).
 SIDE_DIRECTIONS_OPTICAL = np.array([[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -439,15 +441,15 @@ def cut_spheres(problem: Problem, objects: tuple[Found, ...]) -> list[CutSphere 
 
 
 def shared_cut_nats(problem: Problem, obj: Found, answer: Answer) -> float:
-    """Nats the sensor model charges ``answer`` more than once for one occluder: of ``obj``'s box edges that the
-    answer's prediction explains as cut (inside it by more than where the edge noise meets ``inward_floor``: each
-    costs that floor), those whose sides face the same way in the base frame (outward directions within
-    :data:`SHARED_CUT_COS`) are one occlusion, and all but one of their floors are returned.
+    """Nats the sensor model charges ``answer`` more than once for one occluder: :func:`repeated_cuts` of ``obj``'s
+    box edges that the answer's prediction explains as cut (inside it by more than where the edge noise meets
+    ``inward_floor``: each costs that floor), times the floor. Boxes the sensor model scores as a miss at worst
+    (``miss_term``) paid no floor and are left out.
 
-    The sensor model scores each view's cut as its own event. A leaf above a fruit cuts the top of its box in every
-    view of an arc: one occluder seen from several places, so its cost is one surprise, not one per view; scored per
-    view, a sphere cut so in five views pays five floors against a flattened model that shortens every box without a
-    cut (why: docs/decisions/bayes-quality.md#one-occluder-one-cost).
+    The sensor model scores each view's cut as its own event. A leaf below a fruit cuts the bottom of its box in
+    every view of an arc: one occluder seen from several places, so its cost is one surprise, not one per view; scored
+    per view, a sphere cut so in five views pays five floors against a flattened model that shortens every box without
+    a cut (why: docs/decisions/bayes-quality.md#one-occluder-one-cost).
     """
     poses, boxes = object_boxes(problem, obj)
     cam, model = problem.camera, problem.model
@@ -457,14 +459,38 @@ def shared_cut_nats(problem: Problem, obj: Found, answer: Answer) -> float:
     sigma = box_edge_sigma_px(model, pred, np.asarray(pose_px(problem, depth), dtype=float))
     inward = inward_edge_offsets(pred, boxes)
     inward = np.where(censored_edges(boxes, cam.width, cam.height, model.border_px), np.minimum(inward, 0.0), inward)
-    views, sides = np.nonzero(inward / sigma > math.sqrt(2.0 * model.inward_floor))
-    directions = np.einsum("kij,kj->ki", poses[views, :3, :3], SIDE_DIRECTIONS_OPTICAL[sides])
-    left, repeated = list(range(len(directions))), 0
-    while left:
-        same = [j for j in left if directions[j] @ directions[left[0]] >= SHARED_CUT_COS]
-        repeated += len(same) - 1
-        left = [j for j in left if j not in same]
-    return repeated * model.inward_floor
+    charged = sensor_scores(problem, poses, boxes, answer[1], answer[0].solid) > model.miss_term
+    cut = (inward / sigma > math.sqrt(2.0 * model.inward_floor)) & charged[:, None]
+    return repeated_cuts(cut, poses[:, :3, :3]) * model.inward_floor
+
+
+def repeated_cuts(cut: NDArray[np.bool_], R_base_optical: NDArray[np.float64]) -> int:
+    """How many cut edges are one occluder's seen again: of the largest set of views whose box is cut on the same image
+    side, that side facing the same way in the base frame (outward directions within :data:`SHARED_CUT_COS` of one
+    of them), all views but one. One occluder per object; a second side cut too is another occluder, paid in full.
+
+    Parameters
+    ----------
+    cut : ndarray, shape (K, 4), bool: the edges (``bbox_xyxy`` order) of each view's box that are cut
+    R_base_optical : ndarray, shape (K, 3, 3): each view's camera rotation, optical to base frame
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> def yaw(deg):  # a camera turned about the base frame's z axis
+    ...     c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    ...     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    >>> bottom = np.array([[False, False, False, True]] * 3)
+    >>> repeated_cuts(bottom, np.array([yaw(0), yaw(20), yaw(40)]))  # 20 degrees apart: one occluder
+    2
+    """
+    views, sides = np.nonzero(cut)
+    directions = np.einsum("kij,kj->ki", R_base_optical[views], SIDE_DIRECTIONS_OPTICAL[sides])
+    largest = 0
+    for i in range(len(views)):  # every cut edge as the occluder's reference: the largest group, whatever the order
+        same = (sides == sides[i]) & (directions @ directions[i] >= SHARED_CUT_COS)
+        largest = max(largest, len(set(views[same].tolist())))
+    return max(largest - 1, 0)
 
 
 def chi2_sf(x: float, dof: float) -> float:
