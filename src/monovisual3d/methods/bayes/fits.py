@@ -75,11 +75,21 @@ def sensor_scores(
     solid ``solid`` with its semi-axes, :func:`solid_boxes`): the ``bayes`` sensor model's box scores (occlusion and
     truncation included), a miss (``SensorModel.miss_term``: the box not explained) at worst, shape (K,)."""
     cam, model = problem.camera, problem.model
-    pred = solid_boxes(cam, poses, e, solid)
+    pred, extra_sigma_px = predicted_boxes(problem, poses, e, solid)
+    s = box_scores(pred, boxes, model, cam.width, cam.height, extra_sigma_px)
+    return np.maximum(np.nan_to_num(np.asarray(s, dtype=float), nan=-np.inf), model.miss_term)
+
+
+def predicted_boxes(
+    problem: Problem, poses: NDArray[np.float64], e: Ellipsoid, solid: str | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The boxes (K, 4), pixels, the ellipsoid ``e`` (the solid ``solid``) has seen from ``poses`` (K, 4, 4,
+    ``T_base_optical``), and the edge noise (K,), pixels, the stated pose uncertainty adds at its depth in each view
+    (0 where poses are exact): what :func:`sensor_scores` scores the observed boxes against."""
+    pred = solid_boxes(problem.camera, poses, e, solid)
     T_optical_base = np.linalg.inv(poses)
     depth = T_optical_base[:, 2, :3] @ e.centre_base + T_optical_base[:, 2, 3]
-    s = box_scores(pred, boxes, model, cam.width, cam.height, np.asarray(pose_px(problem, depth), dtype=float))
-    return np.maximum(np.nan_to_num(np.asarray(s, dtype=float), nan=-np.inf), model.miss_term)
+    return pred, np.asarray(pose_px(problem, depth), dtype=float)
 
 
 def sensor_score(

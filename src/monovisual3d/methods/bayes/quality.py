@@ -54,7 +54,7 @@ from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
 from ...geometry.orientation import rotation_from_quaternion_xyzw
 from ...verdict import Cause
 from .aspects import object_boxes, solid_boxes
-from .fits import Answer, as_answer, evidence_margin, sensor_scores, sphere_answer
+from .fits import Answer, as_answer, evidence_margin, predicted_boxes, sensor_scores, sphere_answer
 from .occlusion import occlusion_flags
 from .problem import Problem
 from .refine import MIN_VIEWS_ONE_SIDED, refine_sphere
@@ -453,10 +453,8 @@ def shared_cut_nats(problem: Problem, obj: Found, answer: Answer) -> float:
     """
     poses, boxes = object_boxes(problem, obj)
     cam, model = problem.camera, problem.model
-    pred = solid_boxes(cam, poses, answer[1], answer[0].solid)
-    T_optical_base = np.linalg.inv(poses)
-    depth = T_optical_base[:, 2, :3] @ answer[1].centre_base + T_optical_base[:, 2, 3]
-    sigma = box_edge_sigma_px(model, pred, np.asarray(pose_px(problem, depth), dtype=float))
+    pred, extra_sigma_px = predicted_boxes(problem, poses, answer[1], answer[0].solid)
+    sigma = box_edge_sigma_px(model, pred, extra_sigma_px)
     inward = inward_edge_offsets(pred, boxes)
     inward = np.where(censored_edges(boxes, cam.width, cam.height, model.border_px), np.minimum(inward, 0.0), inward)
     charged = sensor_scores(problem, poses, boxes, answer[1], answer[0].solid) > model.miss_term
