@@ -54,12 +54,13 @@ from ...geometry.ellipsoid import Ellipsoid, ellipsoid_bbox
 from ...geometry.orientation import rotation_from_quaternion_xyzw
 from ...verdict import Cause
 from .aspects import object_boxes, solid_boxes
-from .fits import Answer, as_answer, evidence_margin, predicted_boxes, sensor_scores, sphere_answer
+from .fits import Answer, as_answer, evidence_margin, predicted_boxes, sphere_answer
+from .likelihood import box_scores, edge_residuals
 from .occlusion import occlusion_flags
 from .problem import Problem
 from .refine import MIN_VIEWS_ONE_SIDED, refine_sphere
 from .scoring import pose_px
-from .sensor import box_edge_sigma_px, censored_edges, inward_edge_offsets
+from .sensor import box_edge_sigma_px, censored_edges
 from .state import Found, ObjectQuality, Quality, State, ViewQuality
 
 #: Degrees of freedom of the prior an object's variance factor is shrunk with toward the session's: an object's own
@@ -454,11 +455,9 @@ def shared_cut_nats(problem: Problem, obj: Found, answer: Answer) -> float:
     poses, boxes = object_boxes(problem, obj)
     cam, model = problem.camera, problem.model
     pred, extra_sigma_px = predicted_boxes(problem, poses, answer[1], answer[0].solid)
-    sigma = box_edge_sigma_px(model, pred, extra_sigma_px)
-    inward = inward_edge_offsets(pred, boxes)
-    inward = np.where(censored_edges(boxes, cam.width, cam.height, model.border_px), np.minimum(inward, 0.0), inward)
-    charged = sensor_scores(problem, poses, boxes, answer[1], answer[0].solid) > model.miss_term
-    cut = (inward / sigma > math.sqrt(2.0 * model.inward_floor)) & charged[:, None]
+    charged = box_scores(pred, boxes, model, cam.width, cam.height, extra_sigma_px) > model.miss_term
+    z = edge_residuals(pred, boxes, model, cam.width, cam.height, extra_sigma_px)
+    cut = (z > math.sqrt(2.0 * model.inward_floor)) & charged[:, None]
     return repeated_cuts(cut, poses[:, :3, :3]) * model.inward_floor
 
 
