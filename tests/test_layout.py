@@ -461,7 +461,7 @@ def test_localize_path_loads_no_unused_scipy() -> None:
 
 def test_a_command_line_naming_a_command_imports_that_commands_module_alone(tmp_path: Path) -> None:
     """``monovisual3d localize`` on a JSON session imports the module of ``localize`` and none of the other commands',
-    nor rich's progress bar (``-q``): their imports are 0.04 s of each command's start (issue 56)."""
+    nor rich (``-q`` prints nothing): their imports are 0.06 s of each command's start (issue 56)."""
     from monovisual3d.examples import example_session_path
 
     argv = ["monovisual3d", "localize", str(example_session_path()), "-q", "-o", str(tmp_path / "out.json")]
@@ -475,7 +475,7 @@ def test_a_command_line_naming_a_command_imports_that_commands_module_alone(tmp_
         "monovisual3d.cli.options",
         "monovisual3d.cli.panels",
     }
-    assert "rich.progress" not in loaded
+    assert not {m for m in loaded if m.split(".")[0] == "rich"}  # rich waits for something to print: -q prints nothing
 
 
 def test_each_listed_command_is_registered_by_its_listed_module() -> None:

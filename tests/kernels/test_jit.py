@@ -103,6 +103,9 @@ import lazy_kernel_module
 loaded = lazy_kernel_module.sum_of_squares(np.arange(1000.0))
 lazy = "numba.np.arraymath" not in sys.modules  # numba's numpy implementations left unregistered
 typing_lazy = "numba.core.typing.cffi_utils" not in sys.modules  # and the typing declarations (cffi, numpy, ...)
+from numba.core.registry import cpu_target
+from numba.core.typing import templates
+builtins_lazy = templates.builtin_registry not in cpu_target.typing_context._registries  # and the builtin templates
 import other_kernel_module  # a user's cached ufunc, not listed: loaded as numba always loads it
 ufunc = other_kernel_module.scaled(np.array([1.0, 2.0]), 0.5).tolist()
 
@@ -113,7 +116,7 @@ def compiled_after(a):  # needs those implementations: registered when it compil
 
 
 after = compiled_after(np.array([3.0, 4.0, 0.0]))
-print(json.dumps({"on": on, "loaded": loaded, "lazy": lazy, "typing_lazy": typing_lazy, "ufunc": ufunc, "after": after}))
+print(json.dumps({"on": on, "loaded": loaded, "lazy": lazy, "typing_lazy": typing_lazy, "builtins_lazy": builtins_lazy, "ufunc": ufunc, "after": after}))
 """
 
 
@@ -141,6 +144,6 @@ def test_cached_kernels_load_lazily_and_later_compilations_still_work(tmp_path) 
         assert run["after"] == pytest.approx(5.0, rel=1e-12)
         assert run["ufunc"] == pytest.approx([1.5, 2.0], rel=1e-12)
     assert runs[0]["lazy"] is False  # compiling registered everything
-    assert runs[0]["typing_lazy"] is False
+    assert runs[0]["typing_lazy"] is False and runs[0]["builtins_lazy"] is False
     assert runs[1]["lazy"] is True  # the cached load did not
-    assert runs[1]["typing_lazy"] is True
+    assert runs[1]["typing_lazy"] is True and runs[1]["builtins_lazy"] is True

@@ -11,15 +11,16 @@ import sys
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import typer
 import typer.core
-from rich.console import Console
-from rich.markup import escape
 
 from ..budget import TimeLimitExceeded, memory_limit, time_limit
 from ..errors import InputError, MissingExtra, one_line
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 #: The order ``monovisual3d --help`` lists the commands in: a newcomer's path first (try it, run it on a session,
 #: check and see the result, bring one's own data), then the rest; commands not named here follow in their order.
@@ -77,11 +78,39 @@ def _root(
     """Localise fruit in 3D from 2D detections of a monocular camera at known poses."""
 
 
-# soft_wrap: a line is never cut by rich, so piped output keeps "5.5 mm" whole (see :func:`_fit_consoles` for tables)
-console = Console(soft_wrap=True)
-err_console = Console(stderr=True, soft_wrap=True)
 #: Width given to tables when the output is not a terminal (a file or a pipe): wide enough that no cell wraps.
 PIPE_WIDTH = 400
+
+
+class LazyConsole:
+    """A rich ``Console`` made on first use: importing rich is 0.02-0.03 s of a command's start (issue 56), and a
+    ``localize -q`` that succeeds prints nothing. Attributes are the console's; :attr:`rich` is the console itself,
+    for what takes one (``Progress(console=console.rich)``).
+
+    soft_wrap: a line is never cut by rich, so piped output keeps "5.5 mm" whole (see :func:`_fit_consoles` for
+    tables).
+    """
+
+    def __init__(self, stderr: bool = False) -> None:
+        self._stderr = stderr
+        self._console: Console | None = None
+
+    @property
+    def rich(self) -> Console:
+        """The console (made and fitted to its output on first use)."""
+        if self._console is None:
+            from rich.console import Console
+
+            self._console = Console(stderr=self._stderr, soft_wrap=True)
+            _fit(self._console)
+        return self._console
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.rich, name)
+
+
+console = LazyConsole()
+err_console = LazyConsole(stderr=True)
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -98,6 +127,8 @@ def plain(value: object) -> str:
     >>> print(plain("runs/[bold]/session.json"))
     runs/\\[bold]/session.json
     """
+    from rich.markup import escape
+
     return escape(str(value))
 
 
@@ -106,12 +137,19 @@ def print_warning(message: str) -> None:
     err_console.print(f"[yellow]warning:[/] {plain(one_line(message))}", highlight=False)
 
 
+def _fit(c: Console) -> None:
+    """A wide console when the output is not a terminal (tables and lines stay whole when piped); the terminal's own
+    width otherwise."""
+    c.width = None  # type: ignore[assignment]  # back to auto-detection, then decide
+    if not c.is_terminal:
+        c.width = max(c.width, PIPE_WIDTH)
+
+
 def _fit_consoles() -> None:
-    """Wide consoles when the output is not a terminal (tables and lines stay whole when piped); the terminal's own width otherwise."""
+    """Fit the consoles made so far to their output as it is now (one made later is fitted then)."""
     for c in (console, err_console):
-        c.width = None  # type: ignore[assignment]  # back to auto-detection, then decide
-        if not c.is_terminal:
-            c.width = max(c.width, PIPE_WIDTH)
+        if c._console is not None:
+            _fit(c._console)
 
 
 def handle_errors(fn: F) -> F:
@@ -238,6 +276,7 @@ def only_command(argv: list[str]) -> typer.Typer:
 
 def main() -> None:
     """Console-script entry point."""
+    from ..kernels.bytecode import cache_imported_bytecode
     from ..kernels.jit import compile_notices
 
     warnings.showwarning = _show_warning
@@ -246,3 +285,5 @@ def main() -> None:
             only_command(sys.argv[1:])()
     except KeyboardInterrupt:  # pragma: no cover
         sys.exit(130)
+    finally:  # where Python writes no bytecode, the next command would compile this package's modules again
+        cache_imported_bytecode()

@@ -31,7 +31,7 @@ def accuracy(
     from ..bench.accuracy import format_markdown, run_accuracy, save
 
     check_output(output)
-    with spread_flags(workers, scheduler), Progress(console=console, transient=True) as bar:
+    with spread_flags(workers, scheduler), Progress(console=console.rich, transient=True) as bar:
         task = bar.add_task("accuracy benchmark", total=None)
         results = run_accuracy(
             quick=quick,

@@ -229,7 +229,7 @@ def _run_with_progress(
 
     with (
         spread_flags(workers, scheduler),
-        Progress(console=console, transient=True, disable=not console.is_terminal) as bar,
+        Progress(console=console.rich, transient=True, disable=not console.is_terminal) as bar,
     ):
         task = bar.add_task("active benchmark", total=None)
 

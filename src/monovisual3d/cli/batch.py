@@ -140,7 +140,7 @@ def _run_with_bar(inputs: list[str], output: Path, kwargs: dict[str, Any], optio
         TextColumn("ETA"),
         TimeRemainingColumn(),
     )
-    bar = Progress(*columns, console=console, transient=False)
+    bar = Progress(*columns, console=console.rich, transient=False)
     task = bar.add_task("batch", total=None, rate=0.0, failed=0)
 
     def progress(p: BatchProgress) -> None:

@@ -164,7 +164,7 @@ def real(
     from ._app import check_output, write_output
 
     check_output(output, folder)
-    with spread_flags(workers, scheduler), Progress(console=console, transient=True) as bar:
+    with spread_flags(workers, scheduler), Progress(console=console.rich, transient=True) as bar:
         task = bar.add_task("real-data benchmark", total=None)
         results = run_real(
             folder,
@@ -320,7 +320,7 @@ def trust(
     from ._app import check_output
 
     check_output(output)
-    with spread_flags(workers, scheduler), Progress(console=console, transient=True) as bar:
+    with spread_flags(workers, scheduler), Progress(console=console.rich, transient=True) as bar:
         task = bar.add_task("trust benchmark", total=None)
         results = run_trust(
             seeds=tuple(_ints(seeds, "--seeds")) if seeds else None,

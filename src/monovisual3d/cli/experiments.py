@@ -109,7 +109,7 @@ def reproduce(
             BarColumn(),
             MofNCompleteColumn(),
             TimeElapsedColumn(),
-            console=console,
+            console=console.rich,
             transient=True,
         ) as bar,
     ):

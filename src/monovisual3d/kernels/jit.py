@@ -187,7 +187,7 @@ _LAZY_MODULES: set[str] = set()
 #: numba versions whose cache loading :func:`load_cached_lazily` was written for (from, up to but not including):
 #: ``Cache.load_overload`` a refresh of the target followed by ``_load_overload``, and the CPU target's
 #: ``load_additional_registries`` starting with the runtime's initialisation, the target's refresh refreshing the typing
-#: context's, which starts with its own ``load_additional_registries`` (tested with 0.68.1; 0.59.1 reads the same).
+#: context's (its ``load_additional_registries``, then its builtin templates; tested with 0.68.1; 0.59.1 reads the same).
 LAZY_NUMBA_VERSIONS = ((0, 59), (0, 69))
 
 
@@ -200,8 +200,8 @@ def load_cached_lazily(modules: tuple[str, ...] = ("monovisual3d",)) -> bool:
     largest part of a warm ``localize`` that is not the estimate (docs/speed.md). A cached ``njit`` kernel is machine
     code that runs with numba's runtime (NRT) alone, and it is typed already. For the kernels of ``modules`` (this
     package's, by default), every refresh of a cache load initialises that runtime and leaves the rest out, the typing
-    context's declarations too (installing them imports ``cffi`` with its C parser and builds every overload template:
-    a further 0.03 s here); a later compilation refreshes the target again and registers everything then (numba
+    context's refresh too (its declarations import ``cffi`` with its C parser and build every overload template, a
+    further 0.03 s here; its builtin templates 0.016 s); a later compilation refreshes the target again and registers everything then (numba
     registers implementations incrementally), so a kernel compiled after a cached one compiles, though not always with
     numba's usual order of typing templates: where two match the same expression (a record field named like an array
     method, ``a.max``), the one installed first wins. Kernels of other modules (a user's own ``@vectorize``, whose
@@ -243,19 +243,19 @@ def _numba_fits() -> bool:
         LAZY_NUMBA_VERSIONS[0] <= version < LAZY_NUMBA_VERSIONS[1]
         and all(hasattr(caching.Cache, name) for name in needed)
         and hasattr(cpu.CPUContext, "load_additional_registries")
-        and hasattr(typing_context.Context, "load_additional_registries")
+        and hasattr(typing_context.BaseContext, "refresh")
     )
 
 
 def _install_lazy_loads() -> None:
-    """Wrap numba's ``Cache.load_overload`` and the ``load_additional_registries`` of its CPU target and typing
-    contexts (see :func:`load_cached_lazily`)."""
+    """Wrap numba's ``Cache.load_overload``, the ``load_additional_registries`` of its CPU target and the typing
+    context's ``refresh`` (see :func:`load_cached_lazily`)."""
     from numba.core import caching, cpu
     from numba.core.runtime import rtsys
     from numba.core.typing import context as typing_context
 
     register_all, load = cpu.CPUContext.load_additional_registries, caching.Cache.load_overload
-    declare_all = typing_context.Context.load_additional_registries
+    refresh_typing = typing_context.BaseContext.refresh
 
     def load_additional_registries(self: Any) -> None:
         if getattr(_LAZY, "loading", False):
@@ -263,9 +263,9 @@ def _install_lazy_loads() -> None:
             return
         register_all(self)
 
-    def load_additional_declarations(self: Any) -> None:
-        if not getattr(_LAZY, "loading", False):  # a cached kernel is typed already: its declarations wait too
-            declare_all(self)
+    def refresh_typing_unless_loading(self: Any) -> None:
+        if not getattr(_LAZY, "loading", False):  # a cached kernel is typed already: the typing context's refresh
+            refresh_typing(self)  # (its declarations and its builtin templates) waits for a compilation
 
     def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
         module = str(getattr(getattr(self, "_py_func", None), "__module__", ""))
@@ -281,5 +281,5 @@ def _install_lazy_loads() -> None:
         return None  # the guard swallowed an I/O error: numba compiles instead
 
     cpu.CPUContext.load_additional_registries = load_additional_registries
-    typing_context.Context.load_additional_registries = load_additional_declarations
+    typing_context.BaseContext.refresh = refresh_typing_unless_loading
     caching.Cache.load_overload = load_overload
