@@ -358,3 +358,20 @@ def test_method_options_show_their_defaults(runner: CliRunner) -> None:
     assert "manipulator reach R" in out and "[default: 0.6]" in out
     assert "memory budget of the call [default: 2GiB]" in out
     assert "--shape <str> bayes method: object model" in out  # the Python type is the option's, not in the text
+
+
+def test_a_fresh_process_piping_its_table_does_not_wrap_it(tmp_path: Path) -> None:
+    """The console is made on first print (rich is imported then): made mid-command in a fresh process, it is still
+    as wide as :data:`monovisual3d.cli._app.PIPE_WIDTH` when its output is a pipe, whatever the terminal says."""
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "result.json"
+    cmd = [sys.executable, "-m", "monovisual3d.cli", "localize", str(example_session_path()), "-o", str(out)]
+    res = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "COLUMNS": "30"})
+    assert res.returncode == 0, res.stderr
+    obj = json.loads(out.read_text())["objects"][0]
+    x, y, z = (f"{1000 * v:.1f}" for v in obj["position"])
+    row = [line for line in res.stdout.splitlines() if f" {x} " in line]
+    assert len(row) == 1 and f" {y} " in row[0] and f" {z} " in row[0] and f"{obj['score']:.3g}" in row[0], res.stdout

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import py_compile
 import sys
 from pathlib import Path
 
@@ -50,6 +51,35 @@ def test_a_changed_source_makes_its_bytecode_stale(tmp_path: Path) -> None:
     assert not bytecode.bytecode_is_current(source)
 
 
+def test_the_modification_time_alone_makes_bytecode_stale(tmp_path: Path) -> None:
+    source = _module(tmp_path, "probe_mtime", "X = 1\n")
+    bytecode.compile_sources([source])
+    stat = source.stat()
+    os.utime(source, ns=(stat.st_atime_ns, stat.st_mtime_ns + 5 * 10**9))  # an edit of the same size, 5 s later
+    assert not bytecode.bytecode_is_current(source)
+
+
+def test_hash_based_bytecode_is_checked_as_python_checks_it(tmp_path: Path) -> None:
+    source = _module(tmp_path, "probe_hash", "X = 1\n")
+    checked, unchecked = py_compile.PycInvalidationMode.CHECKED_HASH, py_compile.PycInvalidationMode.UNCHECKED_HASH
+    py_compile.compile(str(source), doraise=True, invalidation_mode=checked)
+    assert bytecode.bytecode_is_current(source)
+    source.write_text("X = 3\n")  # the same size: only the hash tells
+    assert not bytecode.bytecode_is_current(source)
+    assert bytecode.compile_sources(bytecode.stale_sources([source])) == 1 and bytecode.bytecode_is_current(source)
+    py_compile.compile(str(source), doraise=True, invalidation_mode=unchecked)
+    source.write_text("X = 4\n")
+    assert bytecode.bytecode_is_current(source)  # Python never checks it either
+
+
+def test_a_pycache_prefix_tree_is_made_on_writing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    source = _module(tmp_path, "probe_prefix", "X = 1\n")
+    monkeypatch.setattr(sys, "pycache_prefix", str(tmp_path / "prefix"))
+    assert bytecode.compile_sources([source]) == 1
+    cached = Path(importlib.util.cache_from_source(str(source)))
+    assert cached.is_relative_to(tmp_path / "prefix") and cached.is_file() and bytecode.bytecode_is_current(source)
+
+
 def test_unwritable_folders_and_broken_sources_are_left_alone(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     broken = _module(tmp_path, "probe_broken", "def (:\n")
     assert bytecode.compile_sources([broken]) == 0  # importing it says why; the bytecode writer does not raise
@@ -72,6 +102,15 @@ def test_imported_modules_are_cached_only_where_python_writes_none(tmp_path: Pat
     assert str(source) in compiled[0]
     package = Path(bytecode.__file__).parent.parent
     assert all(p == str(source) or Path(p).is_relative_to(package) for p in compiled[0])
+    monkeypatch.setenv(bytecode.WRITE_ENV, "0")  # the user's opt-out
+    assert bytecode.cache_imported_bytecode() == 0 and len(compiled) == 1
+    monkeypatch.delenv(bytecode.WRITE_ENV)
+
+    def broken(sources: object) -> int:
+        raise RuntimeError("a file system that misbehaves")
+
+    monkeypatch.setattr(bytecode, "compile_sources", broken)
+    assert bytecode.cache_imported_bytecode() == 0  # a cache never fails the command that ran
 
 
 def test_every_command_caches_the_bytecode_it_imported(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -106,7 +106,15 @@ class LazyConsole:
         return self._console
 
     def __getattr__(self, name: str) -> Any:
+        if name.startswith("__") or name in ("_stderr", "_console"):  # copy, pickle: not the console's
+            raise AttributeError(name)
         return getattr(self.rich, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in ("_stderr", "_console"):
+            object.__setattr__(self, name, value)
+        else:  # console.width = ...: the console's
+            setattr(self.rich, name, value)
 
 
 console = LazyConsole()

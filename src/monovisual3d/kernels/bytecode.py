@@ -12,7 +12,8 @@ setting; it only does not write it.
 - :func:`cache_imported_bytecode`: what the command line does at the end of each command: where Python writes no
   bytecode, write that of this package's modules the command imported (once: afterwards they are current, and the
   check reads a 16-byte header per module). ``monovisual3d warmup`` writes the whole package's
-  (:func:`monovisual3d.api.write_bytecode`).
+  (:func:`monovisual3d.api.write_bytecode`). ``MONOVISUAL3D_WRITE_BYTECODE=0`` turns the command line's off (a
+  source tree mounted into a container, whose ``__pycache__`` folders must stay the host's).
 """
 
 from __future__ import annotations
@@ -24,27 +25,39 @@ import sys
 from collections.abc import Iterable
 from pathlib import Path
 
-#: The header of a timestamp-based bytecode file: magic number, flags, source modification time, source size.
+#: The header of a bytecode file (PEP 552): magic number, flags, then the source's modification time and size
+#: (flags 0) or its hash (flags 3: checked, 1: unchecked).
 _HEADER_BYTES = 16
+_CHECKED_HASH, _UNCHECKED_HASH = 3, 1
+#: Set to ``0`` to keep the command line from writing bytecode where Python writes none (a source tree mounted into a
+#: container, whose ``__pycache__`` folders must stay the host's).
+WRITE_ENV = "MONOVISUAL3D_WRITE_BYTECODE"
 
 
 def bytecode_is_current(source: str | os.PathLike[str]) -> bool:
     """Whether the bytecode Python would read for ``source`` exists and matches it, as the import system checks it.
 
     A timestamp-based file matches when its recorded modification time (whole seconds) and size are the source's; a
-    hash-based one (``SOURCE_DATE_EPOCH`` builds) is taken as current: whoever wrote it chose how it is checked.
+    checked hash-based one (``SOURCE_DATE_EPOCH`` builds) when its recorded hash is the source's; an unchecked one is
+    never checked by Python, so it is current.
     """
     source = os.fspath(source)
     try:
         stat = os.stat(source)
         with open(importlib.util.cache_from_source(source), "rb") as f:
             header = f.read(_HEADER_BYTES)
+        if len(header) < _HEADER_BYTES or header[:4] != importlib.util.MAGIC_NUMBER:
+            return False
+        flags = int.from_bytes(header[4:8], "little")
+        if flags == _UNCHECKED_HASH:
+            return True
+        if flags == _CHECKED_HASH:
+            with open(source, "rb") as f:
+                return header[8:16] == importlib.util.source_hash(f.read())
     except (OSError, ValueError, NotImplementedError):
         return False
-    if len(header) < _HEADER_BYTES or header[:4] != importlib.util.MAGIC_NUMBER:
+    if flags != 0:  # no flags Python knows
         return False
-    if int.from_bytes(header[4:8], "little") != 0:  # hash-based
-        return True
     mtime, size = int.from_bytes(header[8:12], "little"), int.from_bytes(header[12:16], "little")
     return mtime == (int(stat.st_mtime) & 0xFFFFFFFF) and size == (stat.st_size & 0xFFFFFFFF)
 
@@ -55,8 +68,18 @@ def stale_sources(sources: Iterable[str | os.PathLike[str]]) -> list[str]:
 
 
 def _writable(source: str) -> bool:
-    folder = os.path.dirname(importlib.util.cache_from_source(source))
-    return os.access(folder if os.path.isdir(folder) else os.path.dirname(folder), os.W_OK)
+    """Whether the bytecode file of ``source`` can be written: its folder, or the nearest one above it that exists
+    (``__pycache__`` or a ``PYTHONPYCACHEPREFIX`` tree is made on writing)."""
+    try:
+        folder = os.path.dirname(os.path.abspath(importlib.util.cache_from_source(source)))
+    except (OSError, ValueError, NotImplementedError):
+        return False
+    while not os.path.isdir(folder):
+        parent = os.path.dirname(folder)
+        if parent == folder:
+            return False
+        folder = parent
+    return os.access(folder, os.W_OK)
 
 
 def compile_sources(sources: Iterable[str | os.PathLike[str]]) -> int:
@@ -81,9 +104,13 @@ def package_sources() -> list[Path]:
 
 def cache_imported_bytecode() -> int:
     """Where Python writes no bytecode (``sys.dont_write_bytecode``), write that of this package's imported modules
-    that have none current; the number written (0 where Python writes it itself)."""
-    if not sys.dont_write_bytecode:
+    that have none current; the number written (0 where Python writes it itself, or where :data:`WRITE_ENV` is
+    ``0``). A cache: nothing that goes wrong here stops the command that ran."""
+    if not sys.dont_write_bytecode or os.environ.get(WRITE_ENV, "1").strip() == "0":
         return 0
     package = __name__.split(".")[0]
     ours = [m for name, m in list(sys.modules.items()) if name == package or name.startswith(package + ".")]
-    return compile_sources(stale_sources(str(getattr(m, "__file__", None) or "") for m in ours))
+    try:
+        return compile_sources(stale_sources(str(getattr(m, "__file__", None) or "") for m in ours))
+    except Exception:  # noqa: BLE001 - a bytecode cache never turns a finished command into a traceback
+        return 0
